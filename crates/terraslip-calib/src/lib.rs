@@ -1,0 +1,1 @@
+//! terraslip-calib (to be built).

@@ -1,0 +1,307 @@
+//! ICR kinematics of a skid-steering robot.
+//!
+//! Body frame REP-103: x forward, y left. A tread's ICR is the point of the
+//! body plane where that tread's ground contact has zero velocity; the body's
+//! ICR is where the chassis has zero velocity. All three lie on one line
+//! parallel to x (Martinez et al.), so five numbers describe the slip:
+//!
+//! * `y_l`  left tread ICR lateral offset, m (positive, usually a bit more than W/2)
+//! * `y_r`  right tread ICR lateral offset, m (negative)
+//! * `x_c`  longitudinal offset shared by the three ICRs, m
+//! * `alpha_l`, `alpha_r` dimensionless scale of the measured tread speeds
+//!   (effective rolling radius / nominal; 1.0 = nominal)
+//!
+//! With `v_l = alpha_l * V_l`, `v_r = alpha_r * V_r` (lv2019 eq. 3, Mandow eq. 6-7
+//! rewritten in REP-103):
+//!
+//! ```text
+//! v_x   = (v_r*y_l - v_l*y_r) / (y_l - y_r)
+//! v_y   = x_c*(v_l - v_r)     / (y_l - y_r)
+//! omega = (v_r - v_l)         / (y_l - y_r)
+//! ```
+//!
+//! The ideal no-slip differential drive is `y_l = W/2, y_r = -W/2, x_c = 0,
+//! alpha = 1`.
+//!
+//! Mandow et al. use a lateral axis that points right and call the lateral
+//! ICR coordinates `x_ICRl = -y_l`, `x_ICRr = -y_r` and the longitudinal one
+//! `y_ICRv = x_c`. [`IcrParams::from_mandow`] converts.
+
+/// Smallest spread `y_l - y_r` (m) the model will divide by. Below this the
+/// ICR model is singular (the treads' ICRs coincide); real robots sit at
+/// 0.3-2 m.
+pub const MIN_SPREAD: f64 = 1e-3;
+
+/// Errors in kinematic parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum KinematicsError {
+    /// A parameter is NaN or infinite.
+    NonFinite,
+    /// `y_l - y_r` is below [`MIN_SPREAD`]: the model is singular.
+    SpreadTooSmall { spread: f64 },
+    /// An `alpha` factor is not strictly positive.
+    NonPositiveAlpha { alpha: f64 },
+}
+
+impl core::fmt::Display for KinematicsError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::NonFinite => write!(f, "ICR parameter is not finite"),
+            Self::SpreadTooSmall { spread } => write!(
+                f,
+                "ICR spread y_l - y_r = {spread} m is below the minimum {MIN_SPREAD} m"
+            ),
+            Self::NonPositiveAlpha { alpha } => {
+                write!(f, "tread speed factor alpha = {alpha} must be > 0")
+            }
+        }
+    }
+}
+
+#[cfg(feature = "std")]
+impl std::error::Error for KinematicsError {}
+
+/// Planar body twist in the body frame (REP-103): `v_x` forward m/s,
+/// `v_y` left m/s, `omega` yaw rate rad/s (counter-clockwise positive).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct Twist {
+    pub v_x: f64,
+    pub v_y: f64,
+    pub omega: f64,
+}
+
+/// ICR kinematic parameters of one robot on one terrain (body frame, metres).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct IcrParams {
+    /// Left tread ICR lateral coordinate, m (positive = left of centre).
+    pub y_l: f64,
+    /// Right tread ICR lateral coordinate, m (negative = right of centre).
+    pub y_r: f64,
+    /// Longitudinal ICR coordinate shared by body and treads, m.
+    pub x_c: f64,
+    /// Left measured-speed scale factor (1 = nominal).
+    #[cfg_attr(feature = "serde", serde(default = "one"))]
+    pub alpha_l: f64,
+    /// Right measured-speed scale factor (1 = nominal).
+    #[cfg_attr(feature = "serde", serde(default = "one"))]
+    pub alpha_r: f64,
+}
+
+#[cfg(feature = "serde")]
+fn one() -> f64 {
+    1.0
+}
+
+impl IcrParams {
+    /// The ideal no-slip differential drive of track width `track_width` (m).
+    pub const fn no_slip(track_width: f64) -> Self {
+        Self {
+            y_l: 0.5 * track_width,
+            y_r: -0.5 * track_width,
+            x_c: 0.0,
+            alpha_l: 1.0,
+            alpha_r: 1.0,
+        }
+    }
+
+    /// Parameters with unit speed factors.
+    pub const fn new(y_l: f64, y_r: f64, x_c: f64) -> Self {
+        Self {
+            y_l,
+            y_r,
+            x_c,
+            alpha_l: 1.0,
+            alpha_r: 1.0,
+        }
+    }
+
+    /// From Mandow et al.'s notation (lateral axis pointing right):
+    /// `x_ICRl`, `x_ICRr`, `y_ICRv`, `alpha_l`, `alpha_r`.
+    pub const fn from_mandow(
+        x_icr_l: f64,
+        x_icr_r: f64,
+        y_icr_v: f64,
+        alpha_l: f64,
+        alpha_r: f64,
+    ) -> Self {
+        Self {
+            y_l: -x_icr_l,
+            y_r: -x_icr_r,
+            x_c: y_icr_v,
+            alpha_l,
+            alpha_r,
+        }
+    }
+
+    /// Checks that the parameters describe a usable (non-singular) model.
+    pub fn validate(&self) -> Result<(), KinematicsError> {
+        let all = [self.y_l, self.y_r, self.x_c, self.alpha_l, self.alpha_r];
+        if all.iter().any(|v| !v.is_finite()) {
+            return Err(KinematicsError::NonFinite);
+        }
+        let spread = self.spread();
+        if spread < MIN_SPREAD {
+            return Err(KinematicsError::SpreadTooSmall { spread });
+        }
+        for alpha in [self.alpha_l, self.alpha_r] {
+            if alpha <= 0.0 {
+                return Err(KinematicsError::NonPositiveAlpha { alpha });
+            }
+        }
+        Ok(())
+    }
+
+    /// `y_l - y_r`, m: the effective track width the robot turns with.
+    pub fn spread(&self) -> f64 {
+        self.y_l - self.y_r
+    }
+
+    /// Spread clamped to [`MIN_SPREAD`] so the model never divides by ~0.
+    pub fn guarded_spread(&self) -> f64 {
+        let d = self.spread();
+        if d.is_finite() && d > MIN_SPREAD {
+            d
+        } else {
+            MIN_SPREAD
+        }
+    }
+
+    /// Body twist from measured tread speeds `v_left`, `v_right` (m/s).
+    ///
+    /// Uses [`Self::guarded_spread`], so it is finite for any finite input;
+    /// call [`Self::validate`] first if a singular model must be an error.
+    pub fn twist(&self, v_left: f64, v_right: f64) -> Twist {
+        let v_l = self.alpha_l * v_left;
+        let v_r = self.alpha_r * v_right;
+        let d = self.guarded_spread();
+        Twist {
+            v_x: (v_r * self.y_l - v_l * self.y_r) / d,
+            v_y: self.x_c * (v_l - v_r) / d,
+            omega: (v_r - v_l) / d,
+        }
+    }
+
+    /// Measured tread speeds `(v_left, v_right)` (m/s) that produce forward
+    /// speed `v_x` and yaw rate `omega` (Mandow eqs. 16-17): for controllers.
+    /// The lateral speed is not free: it follows as `-x_c * omega`.
+    pub fn tread_speeds(&self, v_x: f64, omega: f64) -> (f64, f64) {
+        let v_l = v_x - omega * self.y_l;
+        let v_r = v_x - omega * self.y_r;
+        (v_l / self.alpha_l, v_r / self.alpha_r)
+    }
+
+    /// Steering efficiency `chi = W / (y_l - y_r)` (Mandow eq. 9): 1 for an
+    /// ideal differential drive, smaller the more the treads slip in turns.
+    pub fn steering_efficiency(&self, track_width: f64) -> f64 {
+        track_width / self.guarded_spread()
+    }
+
+    /// Eccentricity (Mandow eq. 10) in Mandow's sign convention (lateral axis
+    /// right): `e = -(y_l + y_r) / (y_l - y_r)`. Zero for a symmetric robot;
+    /// positive when the ICRs are shifted to the right.
+    pub fn eccentricity(&self) -> f64 {
+        -(self.y_l + self.y_r) / self.guarded_spread()
+    }
+
+    /// The ROS `diff_drive_controller` `wheel_separation_multiplier` that
+    /// makes a no-slip model turn like these ICRs (for symmetric ICRs).
+    pub fn wheel_separation_multiplier(&self, track_width: f64) -> f64 {
+        self.guarded_spread() / track_width
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_abs_diff_eq;
+    use proptest::prelude::*;
+
+    #[test]
+    fn no_slip_is_differential_drive() {
+        let p = IcrParams::no_slip(0.5);
+        let t = p.twist(1.0, 1.5);
+        assert_abs_diff_eq!(t.v_x, 1.25, epsilon = 1e-12);
+        assert_abs_diff_eq!(t.v_y, 0.0, epsilon = 1e-12);
+        assert_abs_diff_eq!(t.omega, 1.0, epsilon = 1e-12);
+        assert_abs_diff_eq!(p.steering_efficiency(0.5), 1.0, epsilon = 1e-12);
+        assert_abs_diff_eq!(p.eccentricity(), 0.0, epsilon = 1e-12);
+    }
+
+    #[test]
+    fn icr_definitions_hold() {
+        // Each tread's ground contact at its ICR must be at rest.
+        let p = IcrParams {
+            y_l: 0.31,
+            y_r: -0.27,
+            x_c: 0.04,
+            alpha_l: 0.97,
+            alpha_r: 1.02,
+        };
+        let (vl, vr) = (0.4, 0.9);
+        let t = p.twist(vl, vr);
+        // velocity of body point (x, y): (v_x - omega*y, v_y + omega*x)
+        assert_abs_diff_eq!(
+            t.v_x - t.omega * p.y_l - p.alpha_l * vl,
+            0.0,
+            epsilon = 1e-12
+        );
+        assert_abs_diff_eq!(
+            t.v_x - t.omega * p.y_r - p.alpha_r * vr,
+            0.0,
+            epsilon = 1e-12
+        );
+        assert_abs_diff_eq!(t.v_y + t.omega * p.x_c, 0.0, epsilon = 1e-12);
+    }
+
+    #[test]
+    fn validate_rejects_singular_models() {
+        assert_eq!(
+            IcrParams::new(0.1, 0.1, 0.0).validate(),
+            Err(KinematicsError::SpreadTooSmall { spread: 0.0 })
+        );
+        assert_eq!(
+            IcrParams::new(f64::NAN, -0.2, 0.0).validate(),
+            Err(KinematicsError::NonFinite)
+        );
+        let mut p = IcrParams::no_slip(0.4);
+        p.alpha_r = 0.0;
+        assert_eq!(
+            p.validate(),
+            Err(KinematicsError::NonPositiveAlpha { alpha: 0.0 })
+        );
+        // Even a singular model gives a finite twist.
+        let t = IcrParams::new(0.1, 0.1, 0.0).twist(1.0, 2.0);
+        assert!(t.v_x.is_finite() && t.omega.is_finite());
+    }
+
+    #[test]
+    fn mandow_conversion_matches_paper_signs() {
+        // Mandow Table I (P3-AT, asphalt): x_ICRl < 0 on the left.
+        let p = IcrParams::from_mandow(-0.2955, 0.2889, -0.0086, 0.9712, 0.9788);
+        assert!(p.y_l > 0.0 && p.y_r < 0.0);
+        assert_abs_diff_eq!(p.x_c, -0.0086);
+        // Eccentricity in Mandow's convention: (x_r + x_l)/(x_r - x_l).
+        assert_abs_diff_eq!(
+            p.eccentricity(),
+            (0.2889 - 0.2955) / (0.2889 + 0.2955),
+            epsilon = 1e-12
+        );
+    }
+
+    proptest! {
+        #[test]
+        fn tread_speeds_invert_twist(
+            y_l in 0.1f64..1.5, y_r in -1.5f64..-0.1, x_c in -0.3f64..0.3,
+            a_l in 0.7f64..1.3, a_r in 0.7f64..1.3, vx in -3.0f64..3.0, w in -3.0f64..3.0,
+        ) {
+            let p = IcrParams { y_l, y_r, x_c, alpha_l: a_l, alpha_r: a_r };
+            let (vl, vr) = p.tread_speeds(vx, w);
+            let t = p.twist(vl, vr);
+            prop_assert!((t.v_x - vx).abs() < 1e-9);
+            prop_assert!((t.omega - w).abs() < 1e-9);
+            prop_assert!((t.v_y + x_c * w).abs() < 1e-9);
+        }
+    }
+}

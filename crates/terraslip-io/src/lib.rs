@@ -1,0 +1,23 @@
+//! The drive-log directory format, version 1 (`shared/spec/log-format.md`).
+//!
+//! A log is a directory of CSV files sharing one clock. [`DriveLog::read`]
+//! loads and validates one, reporting bad input with file, line and reason;
+//! [`DriveLog::write`] writes one atomically file by file.
+//!
+//! Frames: world ENU metres, yaw radians counter-clockwise from east (wrapped
+//! to (-pi, pi] on read); body REP-103.
+
+pub mod atomic;
+pub mod params;
+mod read;
+mod types;
+mod write;
+
+pub use atomic::{write_atomic, AtomicFile};
+pub use params::{ParamEntry, ParamsFile};
+pub use read::{
+    read_csv_table, read_images, read_imu, read_meta, read_pose, read_terrain, read_truth,
+    read_wheels, CsvTable,
+};
+pub use types::*;
+pub use write::write_csv;

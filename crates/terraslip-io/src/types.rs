@@ -1,0 +1,187 @@
+use std::path::{Path, PathBuf};
+
+/// One encoder sample: measured tread surface speeds, m/s.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WheelSample {
+    pub t: f64,
+    pub v_left: f64,
+    pub v_right: f64,
+}
+
+/// One absolute pose observation. Any of the fields may be missing.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PoseObs {
+    pub t: f64,
+    /// m, ENU
+    pub east: Option<f64>,
+    /// m, ENU
+    pub north: Option<f64>,
+    /// rad, counter-clockwise from east, wrapped to (-pi, pi]
+    pub yaw: Option<f64>,
+    /// 1-sigma horizontal position error, m
+    pub std_xy: Option<f64>,
+    /// 1-sigma yaw error, rad
+    pub std_yaw: Option<f64>,
+}
+
+/// One IMU sample, m/s^2 and rad/s, body frame, gravity included.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ImuSample {
+    pub t: f64,
+    pub accel_z: f64,
+    pub accel_x: Option<f64>,
+    pub accel_y: Option<f64>,
+    pub gyro_x: Option<f64>,
+    pub gyro_y: Option<f64>,
+    pub gyro_z: Option<f64>,
+}
+
+/// A ground-camera frame. `path` is as written in `images.csv` (relative to
+/// the log directory); use [`DriveLog::image_path`] to resolve it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ImageRef {
+    pub t: f64,
+    pub path: PathBuf,
+}
+
+/// A terrain label that holds from `t` until the next label.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TerrainLabel {
+    pub t: f64,
+    pub terrain: String,
+}
+
+/// Ground truth (simulation, scoring).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct TruthSample {
+    pub t: f64,
+    pub east: f64,
+    pub north: f64,
+    pub yaw: f64,
+    pub y_l: f64,
+    pub y_r: f64,
+    pub x_c: f64,
+}
+
+/// `meta.toml`: robot description; all keys optional.
+#[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+pub struct Meta {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub robot: Option<String>,
+    /// distance between tread centre lines, m
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub track_width: Option<f64>,
+    /// m
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wheel_radius: Option<f64>,
+    /// m
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub length: Option<f64>,
+    /// encoder ticks per wheel revolution (terraslip extension)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ticks_per_rev: Option<f64>,
+}
+
+/// A whole drive log in memory. Every vector is sorted by `t`.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct DriveLog {
+    /// The directory it was read from (empty for an in-memory log).
+    pub dir: PathBuf,
+    pub wheels: Vec<WheelSample>,
+    pub pose: Vec<PoseObs>,
+    pub imu: Vec<ImuSample>,
+    pub images: Vec<ImageRef>,
+    pub terrain: Vec<TerrainLabel>,
+    pub truth: Vec<TruthSample>,
+    pub meta: Meta,
+    /// Things that were odd but usable (duplicate timestamps, empty pose
+    /// rows...), each naming file, line and what was done about it.
+    pub warnings: Vec<String>,
+}
+
+impl DriveLog {
+    /// Absolute path of an image referenced from `images.csv`.
+    pub fn image_path(&self, image: &ImageRef) -> PathBuf {
+        if image.path.is_absolute() {
+            image.path.clone()
+        } else {
+            self.dir.join(&image.path)
+        }
+    }
+
+    /// The terrain label in force at time `t` (the last label at or before
+    /// `t`; the first label before the first row).
+    pub fn terrain_at(&self, t: f64) -> Option<&str> {
+        terrain_at(&self.terrain, t)
+    }
+
+    /// Distinct terrain names in order of first appearance.
+    pub fn terrain_names(&self) -> Vec<String> {
+        let mut names: Vec<String> = Vec::new();
+        for l in &self.terrain {
+            if !names.contains(&l.terrain) {
+                names.push(l.terrain.clone());
+            }
+        }
+        names
+    }
+
+    /// Name of the log (its directory's last component).
+    pub fn name(&self) -> String {
+        self.dir
+            .file_name()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "log".to_string())
+    }
+
+    /// Duration covered by `wheels.csv`, s.
+    pub fn duration(&self) -> f64 {
+        match (self.wheels.first(), self.wheels.last()) {
+            (Some(a), Some(b)) => b.t - a.t,
+            _ => 0.0,
+        }
+    }
+}
+
+/// The label in force at `t` in a sorted label list.
+pub fn terrain_at(labels: &[TerrainLabel], t: f64) -> Option<&str> {
+    let idx = labels.partition_point(|l| l.t <= t);
+    let i = idx.saturating_sub(1);
+    labels.get(i).map(|l| l.terrain.as_str())
+}
+
+/// Error reading or writing a log. Every variant names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum LogError {
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{path}:{line}: {reason}")]
+    Parse {
+        path: PathBuf,
+        line: u64,
+        reason: String,
+    },
+    #[error("{path}: missing required column `{column}` (header has: {header})")]
+    MissingColumn {
+        path: PathBuf,
+        column: String,
+        header: String,
+    },
+    #[error("{path}: required file is missing")]
+    MissingFile { path: PathBuf },
+    #[error("{path}: {reason}")]
+    Invalid { path: PathBuf, reason: String },
+}
+
+impl LogError {
+    pub(crate) fn io(path: &Path, source: std::io::Error) -> Self {
+        Self::Io {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+}

@@ -1,0 +1,1 @@
+//! terraslip-report (to be built).

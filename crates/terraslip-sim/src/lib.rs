@@ -1,0 +1,1 @@
+//! terraslip-sim (to be built).

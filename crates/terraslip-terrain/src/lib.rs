@@ -1,0 +1,1 @@
+//! terraslip-terrain (to be built).

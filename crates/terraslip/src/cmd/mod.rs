@@ -1,0 +1,5 @@
+pub mod calibrate;
+pub mod demo;
+pub mod estimate;
+pub mod simulate;
+pub mod terrain;

@@ -13,5 +13,6 @@
 
 pub mod angle;
 pub mod kinematics;
+pub mod terrain_belief;
 
 pub use kinematics::{IcrParams, KinematicsError, Twist};

@@ -547,6 +547,11 @@ impl Filter {
         };
         let mut use_ = [false; 3];
         let mut reanchor = [false; 3];
+        // The adaptive variant widens its gates as far as it has raised its
+        // ICR noise: a run of large innovations after a slip change is the
+        // model being wrong, not the sensor, and must be learned from. A
+        // single multipath jump does not move the average far enough.
+        let widen = self.adapt_scale();
         if pos.is_some() {
             let Spp = S_full.fixed_view::<2, 2>(0, 0).into_owned();
             let nup = nu.fixed_rows::<2>(0).into_owned();
@@ -555,7 +560,7 @@ impl Filter {
                 .map(|c| nup.dot(&c.solve(&nup)))
                 .ok_or(FilterError::SingularInnovation)?;
             report.nis += nis;
-            if self.cfg.gate_position > 0.0 && nis > self.cfg.gate_position {
+            if self.cfg.gate_position > 0.0 && nis > self.cfg.gate_position * widen {
                 self.rejected_pos += 1;
                 if self.rejected_pos > self.cfg.max_rejections {
                     reanchor[0] = true;
@@ -575,7 +580,7 @@ impl Filter {
         if yaw.is_some() {
             let nis = nu[2] * nu[2] / S_full[(2, 2)];
             report.nis += nis;
-            if self.cfg.gate_yaw > 0.0 && nis > self.cfg.gate_yaw {
+            if self.cfg.gate_yaw > 0.0 && nis > self.cfg.gate_yaw * widen {
                 self.rejected_yaw += 1;
                 if self.rejected_yaw > self.cfg.max_rejections {
                     reanchor[2] = true;

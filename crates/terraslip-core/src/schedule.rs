@@ -207,9 +207,18 @@ impl NoiseSchedule {
 /// Raises the variances of `cov` (in `(d, c, x_c)` coordinates) to at least
 /// the floor, keeping it symmetric positive-definite.
 fn floor_cov(cov: &Matrix3<f64>, floor: &IcrStd) -> Matrix3<f64> {
-    // Adding the floor (rather than max-ing entries) keeps it SPD for sure.
+    // A filter that lost definiteness (the papers' IEKF can) may hand over
+    // an indefinite block: clip its eigenvalues at zero, then add the floor,
+    // which is positive-definite, so the sum is too.
     let sym = 0.5 * (cov + cov.transpose());
-    sym + floor.to_icr_cov()
+    let psd = if sym.iter().all(|v| v.is_finite()) {
+        let mut eig = sym.symmetric_eigen();
+        eig.eigenvalues.apply(|v| *v = v.max(0.0));
+        eig.recompose()
+    } else {
+        Matrix3::zeros()
+    };
+    0.5 * (psd + psd.transpose()) + floor.to_icr_cov()
 }
 
 #[cfg(test)]
@@ -308,6 +317,15 @@ mod tests {
         let p = f.covariance();
         let var_d = p[(3, 3)] + p[(4, 4)] - 2.0 * p[(3, 4)];
         assert!(var_d >= 0.004f64.powi(2));
+    }
+
+    #[test]
+    fn indefinite_block_is_stored_positive_definite() {
+        let bad = Matrix3::new(1e-4, 2e-4, 0.0, 2e-4, 1e-4, 0.0, 0.0, 0.0, -1e-5);
+        let f = floor_cov(&bad, &ScheduleConfig::default().recall_floor);
+        assert!(f.cholesky().is_some());
+        let nan = Matrix3::from_element(f64::NAN);
+        assert!(floor_cov(&nan, &ScheduleConfig::default().recall_floor).cholesky().is_some());
     }
 
     #[test]

@@ -274,10 +274,23 @@ pub fn run_with(
     let (e0, n0) = first_pos.unwrap_or((0.0, 0.0));
     let y0 = first_yaw.unwrap_or(0.0);
     let x0: State = model::state(e0, n0, y0, &icr0);
+    // The first fix seeds the state at the first wheels time: widen the
+    // uncertainty by how far the robot can have moved and turned before it.
+    let t_fix = pose.first().map_or(log.wheels[0].t, |p| p.t);
+    let (mut travel, mut turn) = (0.0, 0.0);
+    for w in log.wheels.windows(2).take_while(|w| w[1].t <= t_fix) {
+        let dt = w[1].t - w[0].t;
+        travel += w[1].v_left.abs().max(w[1].v_right.abs()) * dt;
+        turn += (w[1].v_right - w[1].v_left).abs() / (cfg.band.min_spread * track_width) * dt;
+    }
     let mut P0 = Mat6::zeros();
-    let pos_var = if first_pos.is_some() { std_xy0 * std_xy0 } else { 1e-6 };
+    let pos_var = if first_pos.is_some() {
+        std_xy0 * std_xy0 + travel * travel
+    } else {
+        1e-6
+    };
     let yaw_var = if first_yaw.is_some() {
-        std_yaw0 * std_yaw0
+        std_yaw0 * std_yaw0 + turn * turn
     } else if first_pos.is_some() {
         cfg.init.std_yaw_unknown.powi(2)
     } else {

@@ -70,7 +70,8 @@ fn multipath_jump_is_rejected() {
     log.pose[k].east = Some(e + 30.0);
     let t = log.pose[k].t;
     let run = pipeline::run(&log, &EstimatorConfig::default(), &TerrainEvidence::None, None).unwrap();
-    assert_eq!(run.stats.position_gated, 1, "{:?}", run.stats);
+    let gated: Vec<f64> = run.rows.iter().filter(|r| r.gated).map(|r| r.t).collect();
+    assert_eq!(run.stats.position_gated, 1, "{:?} gated at {gated:?}, jump at {t}", run.stats);
     let row = run.rows.iter().find(|r| r.t >= t).unwrap();
     assert!(row.gated);
     let truth = metrics::truth_at(&log.truth, row.t).unwrap();

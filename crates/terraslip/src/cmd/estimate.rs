@@ -237,7 +237,7 @@ fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) -> ser
 }
 
 /// CSV header of estimate.csv: log-format.md's columns, then extras.
-pub const HEADER: &str = "t,east,north,yaw,y_l,y_r,x_c,std_east,std_north,std_yaw,std_y_l,std_y_r,std_x_c,terrain,std_spread,fused,gated,nis,q_scale";
+pub const HEADER: &str = "t,east,north,yaw,y_l,y_r,x_c,std_east,std_north,std_yaw,std_y_l,std_y_r,std_x_c,terrain,alpha_l,alpha_r,std_alpha_l,std_alpha_r,std_spread,fused,gated,nis,q_scale";
 
 /// Writes both files; neither appears unless both are complete.
 fn write_outputs(out: &Path, est: &EstimateRun, summary: &serde_json::Value) -> Result<()> {
@@ -250,7 +250,7 @@ fn write_outputs(out: &Path, est: &EstimateRun, summary: &serde_json::Value) -> 
     for r in &est.rows {
         let _ = write!(
             buf,
-            "{},{:.4},{:.4},{:.6},{:.6},{:.6},{:.6},{:.4},{:.4},{:.6},{:.6},{:.6},{:.6},{},{:.6},{},{},{:.3},{:.3}",
+            "{},{:.4},{:.4},{:.6},{:.6},{:.6},{:.6},{:.4},{:.4},{:.6},{:.6},{:.6},{:.6},{},{:.5},{:.5},{:.5},{:.5},{:.6},{},{},{:.3},{:.3}",
             r.t,
             r.east,
             r.north,
@@ -265,6 +265,10 @@ fn write_outputs(out: &Path, est: &EstimateRun, summary: &serde_json::Value) -> 
             r.std[4],
             r.std[5],
             est.terrain_name(r).unwrap_or(""),
+            r.alpha_l,
+            r.alpha_r,
+            r.std[6],
+            r.std[7],
             r.std_spread,
             r.fused as u8,
             r.gated as u8,

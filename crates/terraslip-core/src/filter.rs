@@ -34,8 +34,8 @@ use crate::kinematics::IcrParams;
 
 use crate::angle;
 use crate::model::{
-    self, MatN, SlipCov, State, TreadInput, ALPHA_L, ALPHA_R, EAST, K, N, NORTH, SLIP, X_C, YAW, Y_L,
-    Y_R,
+    self, MatN, SlipCov, State, TreadInput, ALPHA_L, ALPHA_R, EAST, K, N, NORTH, SLIP, X_C, YAW,
+    Y_L, Y_R,
 };
 
 /// Largest innovation window of the IEKF variant.
@@ -122,9 +122,15 @@ impl IcrNoise {
     }
 
     fn is_valid(&self) -> bool {
-        [self.spread, self.centre, self.x_c, self.alpha, self.alpha_diff]
-            .iter()
-            .all(|v| v.is_finite() && *v >= 0.0)
+        [
+            self.spread,
+            self.centre,
+            self.x_c,
+            self.alpha,
+            self.alpha_diff,
+        ]
+        .iter()
+        .all(|v| v.is_finite() && *v >= 0.0)
     }
 }
 
@@ -197,6 +203,13 @@ pub struct FilterConfig {
     pub learn_icr: bool,
     /// Learn the tread speed factors (false: consider states, as above).
     pub learn_alpha: bool,
+    /// Position fixes with a larger std (m) do not correct the slip
+    /// parameters, only the pose. GNSS-grade errors are correlated over tens
+    /// of seconds; fused as if white they would drag the weakly observable
+    /// parameters (common speed factor, x_c, asymmetry) wherever the error
+    /// wanders. The heading still teaches the spread and the factor
+    /// difference. `f64::INFINITY` = always learn from position.
+    pub slip_from_position_max_std: f64,
     /// Chi-square gate on the 2-dof position innovation (0 = no gate).
     pub gate_position: f64,
     /// Chi-square gate on the 1-dof heading innovation (0 = no gate).
@@ -234,6 +247,7 @@ impl FilterConfig {
             },
             learn_icr: true,
             learn_alpha: true,
+            slip_from_position_max_std: 0.25,
             gate_position: 13.8,
             gate_yaw: 10.8,
             max_rejections: 10,
@@ -255,6 +269,9 @@ pub enum FilterError {
     SingularInnovation,
     /// The step would produce a non-finite state or covariance.
     NonFinite,
+    /// The paper's IEKF update would leave a negative variance; the update
+    /// is refused (the filter is unchanged).
+    LostDefiniteness,
 }
 
 impl core::fmt::Display for FilterError {
@@ -265,6 +282,7 @@ impl core::fmt::Display for FilterError {
                 write!(f, "innovation covariance is not positive-definite")
             }
             Self::NonFinite => write!(f, "filter step would produce non-finite values"),
+            Self::LostDefiniteness => write!(f, "update would leave a negative variance"),
         }
     }
 }
@@ -439,7 +457,9 @@ impl Filter {
     /// alpha_l, alpha_r)`.
     pub fn reset_icr(&mut self, icr: Option<&IcrParams>, cov: &SlipCov) -> Result<(), FilterError> {
         if !finite_mat(cov) || cov.cholesky().is_none() {
-            return Err(FilterError::BadInput("slip covariance not positive-definite"));
+            return Err(FilterError::BadInput(
+                "slip covariance not positive-definite",
+            ));
         }
         if let Some(p) = icr {
             let v = [p.y_l, p.y_r, p.x_c, p.alpha_l, p.alpha_r];
@@ -713,17 +733,21 @@ impl Filter {
         // Slip is unobservable at rest: keep the slip parameters out of it.
         // Parameters not learned are "consider" states: counted, not corrected.
         // Any gain is valid in the Joseph form, so zeroing rows keeps P SPD.
-        for r in SLIP..N {
+        let slip_from_position = r[0].sqrt() <= self.cfg.slip_from_position_max_std;
+        for row in SLIP..N {
             let learn = !self.still
-                && if r >= ALPHA_L {
+                && if row >= ALPHA_L {
                     self.cfg.learn_alpha
                 } else {
                     self.cfg.learn_icr
                 };
             if !learn {
                 for c in 0..3 {
-                    G[(r, c)] = 0.0;
+                    G[(row, c)] = 0.0;
                 }
+            } else if !slip_from_position {
+                G[(row, 0)] = 0.0;
+                G[(row, 1)] = 0.0;
             }
         }
         let mut x = self.x + G * nu_m;
@@ -739,6 +763,9 @@ impl Filter {
         };
         if !finite_mat(&x) || !finite_mat(&P) {
             return Err(FilterError::NonFinite);
+        }
+        if (0..N).any(|i| P[(i, i)] < 0.0) {
+            return Err(FilterError::LostDefiniteness);
         }
         self.cfg.band.project(&mut x);
         self.x = x;
@@ -879,7 +906,14 @@ mod tests {
                 } else {
                     (0.6, 0.3)
                 };
-                s = model::predict(&s, TreadInput { v_left: vl, v_right: vr }, dt);
+                s = model::predict(
+                    &s,
+                    TreadInput {
+                        v_left: vl,
+                        v_right: vr,
+                    },
+                    dt,
+                );
                 f.predict(vl, vr, dt).unwrap();
                 if k % 50 == 49 {
                     f.update(
@@ -928,7 +962,8 @@ mod tests {
     fn band_keeps_spread_above_floor() {
         let mut f = start(Variant::Ekf);
         let cov = SlipCov::from_diagonal_element(1e-4);
-        f.reset_icr(Some(&IcrParams::new(0.01, -0.01, 5.0)), &cov).unwrap();
+        f.reset_icr(Some(&IcrParams::new(0.01, -0.01, 5.0)), &cov)
+            .unwrap();
         let s = f.state();
         assert!(s[Y_L] - s[Y_R] >= 0.8 * 0.5 - 1e-12);
         assert!(s[X_C] <= 0.25 + 1e-12);
@@ -986,10 +1021,15 @@ mod tests {
             f.predict(0.3, 0.3, 0.02).unwrap();
             let s = *f.state();
             let eps = 1e-4 * (k as f64 + 1.0);
-            let _ = f.update(k as f64, &fix(s[0] + eps, s[1] - eps, s[2] + 1e-5));
-            if f.covariance().cholesky().is_none() {
+            let r = f.update(k as f64, &fix(s[0] + eps, s[1] - eps, s[2] + 1e-5));
+            if f.covariance().cholesky().is_none()
+                || r == Err(FilterError::LostDefiniteness)
+                || r == Err(FilterError::SingularInnovation)
+            {
                 lost = true;
             }
+            // Whatever happens, the state stays finite.
+            assert!(f.state().iter().all(|v| v.is_finite()));
         }
         assert!(
             lost,

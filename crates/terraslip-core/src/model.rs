@@ -195,7 +195,14 @@ mod tests {
             core::f64::consts::FRAC_PI_2,
             &IcrParams::no_slip(0.5),
         );
-        let s2 = predict(&s, TreadInput { v_left: 1.0, v_right: 1.0 }, 0.5);
+        let s2 = predict(
+            &s,
+            TreadInput {
+                v_left: 1.0,
+                v_right: 1.0,
+            },
+            0.5,
+        );
         assert!((s2[EAST] - 1.0).abs() < 1e-12);
         assert!((s2[NORTH] - 2.5).abs() < 1e-12);
         assert!((s2[YAW] - s[YAW]).abs() < 1e-12);
@@ -205,7 +212,14 @@ mod tests {
     fn unequal_alphas_turn_a_straight_command() {
         let mut icr = IcrParams::no_slip(0.5);
         icr.alpha_l = 0.98;
-        let s = predict(&state(0.0, 0.0, 0.0, &icr), TreadInput { v_left: 1.0, v_right: 1.0 }, 1.0);
+        let s = predict(
+            &state(0.0, 0.0, 0.0, &icr),
+            TreadInput {
+                v_left: 1.0,
+                v_right: 1.0,
+            },
+            1.0,
+        );
         assert!((s[YAW] - 0.02 / 0.5).abs() < 1e-12);
         assert!((s[EAST] - 0.99).abs() < 1e-12);
     }
@@ -214,7 +228,14 @@ mod tests {
     fn turning_left_increases_yaw_and_x_c_drifts_sideways() {
         let icr = IcrParams::new(0.3, -0.3, 0.1);
         let s = state(0.0, 0.0, 0.0, &icr);
-        let s2 = predict(&s, TreadInput { v_left: -0.6, v_right: 0.6 }, 0.1);
+        let s2 = predict(
+            &s,
+            TreadInput {
+                v_left: -0.6,
+                v_right: 0.6,
+            },
+            0.1,
+        );
         // omega = 1.2/0.6 = 2 rad/s; v_y = -x_c*omega = -0.2 m/s
         assert!((s2[YAW] - 0.2).abs() < 1e-12);
         assert!((s2[NORTH] + 0.02).abs() < 1e-12);

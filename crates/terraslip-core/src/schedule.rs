@@ -12,7 +12,6 @@
 //!
 //! Terrains are indices `0..MAX_TERRAINS` (the pipeline maps names).
 
-
 use crate::filter::{Filter, FilterError, IcrNoise};
 use crate::kinematics::IcrParams;
 use crate::model::{self, SlipCov, K, SLIP};
@@ -342,7 +341,9 @@ mod tests {
         let f = floor_cov(&bad, &ScheduleConfig::default().recall_floor);
         assert!(f.cholesky().is_some());
         let nan = SlipCov::from_element(f64::NAN);
-        assert!(floor_cov(&nan, &ScheduleConfig::default().recall_floor).cholesky().is_some());
+        assert!(floor_cov(&nan, &ScheduleConfig::default().recall_floor)
+            .cholesky()
+            .is_some());
     }
 
     #[test]
@@ -356,6 +357,10 @@ mod tests {
         s.on_terrain(&mut f, 1).unwrap();
         assert!(!s.remembers(0));
         // Out of range seeds are ignored, not a panic.
-        s.seed(99, &IcrParams::new(0.3, -0.3, 0.0), ScheduleConfig::default().recall_floor);
+        s.seed(
+            99,
+            &IcrParams::new(0.3, -0.3, 0.0),
+            ScheduleConfig::default().recall_floor,
+        );
     }
 }

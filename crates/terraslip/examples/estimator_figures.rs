@@ -51,7 +51,9 @@ fn main() -> anyhow::Result<()> {
                 let log = &sim.log;
                 let ev = TerrainEvidence::Labels(log.terrain.clone());
                 let outage = metrics::find_position_outage(&log.pose, 20.0);
-                let run = pipeline::run_with(log, &cfg, &ev, None, RunOptions::default(), &mut |_, _| {})?;
+                // Pure dead reckoning through the outage: the compass goes too.
+                let opts = RunOptions { outage };
+                let run = pipeline::run_with(log, &cfg, &ev, None, opts, &mut |_, _| {})?;
                 let card = metrics::scorecard(&run, &log.truth, &log.terrain, outage, 20.0);
                 if std::env::var("VERBOSE").is_ok() {
                     for r in &card.reconvergence {
@@ -91,7 +93,11 @@ fn main() -> anyhow::Result<()> {
             println!(
                 "| {pname} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {drift_s} |",
                 worst(&first),
-                if any_revisit { worst(&revisit) } else { "-".into() },
+                if any_revisit {
+                    worst(&revisit)
+                } else {
+                    "-".into()
+                },
                 100.0 * (d / n).sqrt(),
                 100.0 * (yl / n).sqrt(),
                 100.0 * (yr / n).sqrt(),

@@ -64,7 +64,13 @@ impl SlipStd {
     }
 
     fn entries(&self) -> [f64; 5] {
-        [self.spread, self.centre, self.x_c, self.alpha, self.alpha_diff]
+        [
+            self.spread,
+            self.centre,
+            self.x_c,
+            self.alpha,
+            self.alpha_diff,
+        ]
     }
 }
 
@@ -81,6 +87,10 @@ pub struct FilterSection {
     /// Learn the tread speed factors alpha_l, alpha_r (false = the papers'
     /// six-state model: the factors stay at their initial values).
     pub learn_alpha: bool,
+    /// Position fixes with a larger std (m) correct only the pose, not the
+    /// slip parameters: GNSS errors correlated over tens of seconds would
+    /// drag the weakly observable ones (RTK-grade fixes still teach them).
+    pub slip_from_position_max_std: f64,
     /// Position random walk, m^2/s.
     pub q_pos: f64,
     /// Extra position noise per squared speed, m^2/s per (m/s)^2.
@@ -206,6 +216,7 @@ impl Default for FilterSection {
             iekf_window: 10,
             learn_icr: true,
             learn_alpha: true,
+            slip_from_position_max_std: 0.25,
             q_pos: 1e-4,
             q_pos_per_speed2: 1e-3,
             q_yaw: 1e-6,
@@ -354,6 +365,10 @@ impl EstimatorConfig {
             ("filter.gate_position", f.gate_position),
             ("filter.gate_yaw", f.gate_yaw),
             ("filter.still_speed", f.still_speed),
+            (
+                "filter.slip_from_position_max_std",
+                f.slip_from_position_max_std,
+            ),
         ];
         let pos = [
             ("filter.adapt_time_constant", f.adapt_time_constant),
@@ -403,18 +418,21 @@ impl EstimatorConfig {
                 terraslip_core::filter::MAX_WINDOW
             )));
         }
-        if !(self.band.min_alpha > 0.0 && self.band.min_alpha < 1.0 && self.band.max_alpha > 1.0)
-        {
+        if !(self.band.min_alpha > 0.0 && self.band.min_alpha < 1.0 && self.band.max_alpha > 1.0) {
             return Err(ConfigError(
                 "band.min_alpha must be in (0, 1) and band.max_alpha > 1".into(),
             ));
         }
         if self.band.min_spread >= self.band.max_spread {
-            return Err(ConfigError("band.min_spread must be < band.max_spread".into()));
+            return Err(ConfigError(
+                "band.min_spread must be < band.max_spread".into(),
+            ));
         }
         let b = &self.belief;
         if !(0.0..=1.0).contains(&b.stay_prob) || !(0.0..=1.0).contains(&b.stay_prob_on_jump) {
-            return Err(ConfigError("belief stay probabilities must be in [0, 1]".into()));
+            return Err(ConfigError(
+                "belief stay probabilities must be in [0, 1]".into(),
+            ));
         }
         if !self.schedule.memory_min_dwell.is_finite() || self.schedule.memory_min_dwell < 0.0 {
             return Err(ConfigError("schedule.memory_min_dwell must be >= 0".into()));
@@ -448,6 +466,7 @@ impl EstimatorConfig {
             q_icr,
             learn_icr: f.learn_icr,
             learn_alpha: f.learn_alpha,
+            slip_from_position_max_std: f.slip_from_position_max_std,
             gate_position: f.gate_position,
             gate_yaw: f.gate_yaw,
             max_rejections: f.max_rejections,
@@ -509,6 +528,7 @@ impl EstimatorConfig {
             // The papers' six-state model: fixed speed factors (at 1, with
             // no uncertainty of their own), a vague ICR prior, no memory.
             c.filter.learn_alpha = false;
+            c.filter.slip_from_position_max_std = 1e9;
             c.init.std_alpha = 1e-6;
             c.init.std_alpha_diff = 1e-6;
             c.init.std_centre = 0.1;

@@ -99,12 +99,19 @@ pub fn drive(spec: &SynthSpec) -> DriveLog {
             let icr = icr_at(t);
             for _ in 0..sub {
                 let st = model::state(s[0], s[1], s[2], &icr);
-                let u = TreadInput { v_left: vl, v_right: vr };
+                let u = TreadInput {
+                    v_left: vl,
+                    v_right: vr,
+                };
                 s = model::predict(&st, u, dt / sub as f64);
             }
         }
         let icr = icr_at(t);
-        log.wheels.push(WheelSample { t, v_left: vl, v_right: vr });
+        log.wheels.push(WheelSample {
+            t,
+            v_left: vl,
+            v_right: vr,
+        });
         log.truth.push(TruthSample {
             t,
             east: s[0],
@@ -119,7 +126,9 @@ pub fn drive(spec: &SynthSpec) -> DriveLog {
                 t,
                 east: Some(s[0] + spec.std_xy * noise.gauss()),
                 north: Some(s[1] + spec.std_xy * noise.gauss()),
-                yaw: Some(terraslip_core::angle::wrap(s[2] + spec.std_yaw * noise.gauss())),
+                yaw: Some(terraslip_core::angle::wrap(
+                    s[2] + spec.std_yaw * noise.gauss(),
+                )),
                 std_xy: Some(spec.std_xy),
                 std_yaw: Some(spec.std_yaw),
             });
@@ -128,7 +137,10 @@ pub fn drive(spec: &SynthSpec) -> DriveLog {
     log.terrain = spec
         .terrains
         .iter()
-        .map(|(t, name, _)| TerrainLabel { t: *t, terrain: name.clone() })
+        .map(|(t, name, _)| TerrainLabel {
+            t: *t,
+            terrain: name.clone(),
+        })
         .collect();
     log
 }

@@ -331,15 +331,28 @@ impl Default for EstimatorConfig {
     }
 }
 
+/// One line: "line N: message" from a TOML error.
+pub fn toml_error(text: &str, e: &toml::de::Error) -> ConfigError {
+    let msg = e.message().trim().replace('\n', " ");
+    match e.span() {
+        Some(span) => {
+            let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
+            ConfigError(format!("line {line}: {msg}"))
+        }
+        None => ConfigError(msg),
+    }
+}
+
 /// A configuration that makes no sense (negative noise, empty band, ...).
 #[derive(Debug, thiserror::Error)]
 #[error("invalid estimator configuration: {0}")]
 pub struct ConfigError(pub String);
 
 impl EstimatorConfig {
-    /// Parses TOML text (unknown keys are errors).
+    /// Parses TOML text (unknown keys are errors, reported as one line
+    /// with the line number in `text`).
     pub fn from_toml(text: &str) -> Result<Self, ConfigError> {
-        let cfg: Self = toml::from_str(text).map_err(|e| ConfigError(e.to_string()))?;
+        let cfg: Self = toml::from_str(text).map_err(|e| toml_error(text, &e))?;
         cfg.validate()?;
         Ok(cfg)
     }

@@ -86,10 +86,15 @@ fn load_config(args: &Args) -> Result<EstimatorConfig> {
     if let Some(path) = &args.config {
         let text = std::fs::read_to_string(path)
             .with_context(|| format!("{}: cannot read", path.display()))?;
+        // Checked alone first, so errors point at the user's own lines.
+        toml::from_str::<EstimatorConfig>(&text)
+            .map_err(|e| terraslip::config::toml_error(&text, &e))
+            .with_context(|| format!("{}", path.display()))?;
         // A preset is the base; the file's keys override it.
         let base = toml::Value::try_from(&cfg).context("serialising the base configuration")?;
-        let over: toml::Value =
-            toml::from_str(&text).with_context(|| format!("{}", path.display()))?;
+        let over: toml::Value = toml::from_str(&text)
+            .map_err(|e| terraslip::config::toml_error(&text, &e))
+            .with_context(|| format!("{}", path.display()))?;
         let merged = merge(base, over);
         cfg = EstimatorConfig::from_toml(&toml::to_string(&merged).unwrap_or_default())
             .with_context(|| format!("{}", path.display()))?;

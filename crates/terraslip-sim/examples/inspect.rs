@@ -71,9 +71,25 @@ fn main() {
         run.log.imu.len(),
         run.frames.len()
     );
+    if std::env::var("TRACE").is_ok() {
+        for s in tr.iter().step_by(100) {
+            println!(
+                "{:6.1} {:>8} e {:7.2} n {:7.2} r {:5.1} vx {:5.2} w {:6.3}",
+                s.t,
+                run.terrains[s.terrain].name,
+                s.east,
+                s.north,
+                s.east.hypot(s.north),
+                s.twist.v_x,
+                s.twist.omega
+            );
+        }
+    }
     if let Some(out) = args.get(3) {
         let t0 = std::time::Instant::now();
         run.write(out).expect("write");
         println!("written to {out} in {:?}", t0.elapsed());
     }
 }
+#[allow(dead_code)]
+fn unused() {}

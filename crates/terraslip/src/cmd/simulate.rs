@@ -6,24 +6,27 @@ use anyhow::{bail, Context};
 use indicatif::{ProgressBar, ProgressStyle};
 use terraslip_sim::{builtin_names, simulate, Scenario};
 
-/// Write a simulated drive log with ground truth.
-///
-/// The truth follows the ICR kinematic model with per-terrain ICRs that vary
-/// a few percent with speed and turn rate; sensors (encoders, GNSS, compass,
-/// accelerometer, ground camera) each sample at their own rate with their own
-/// imperfections. The log directory holds the files of log-format.md plus
-/// truth.csv, terrain.csv, meta.toml and the scenario it came from.
-///
-/// Examples:
-///   terraslip simulate --list
-///   terraslip simulate papers --out logs/papers --seed 7
-///   terraslip simulate papers-rtk --out logs/papers-rtk --no-camera
-///   terraslip simulate my-field.toml --out logs/field
-///
-/// Scenario files are TOML; docs/simulator.md documents every key, and
-/// `terraslip simulate NAME --print-scenario` prints a built-in as a template.
+const DETAILS: &str = "\
+The truth follows the ICR kinematic model with per-terrain ICRs that vary a
+few percent with speed and turn rate, and tread speed factors alpha != 1,
+integrated in 1 ms steps. Sensors (quantised encoders, GNSS with white and
+Gauss-Markov error, outages and multipath jumps, a biased compass, a 200 Hz
+accelerometer whose vibration depends on terrain and speed, a ground camera)
+each sample at their own rate. The log directory holds the files of
+log-format.md plus truth.csv (with alphas and body twist), terrain.csv,
+meta.toml, images/ and the scenario.toml it came from.
+
+Examples:
+  terraslip simulate --list
+  terraslip simulate papers --out logs/papers --seed 7
+  terraslip simulate papers-rtk --out logs/papers-rtk --no-camera
+  terraslip simulate papers --print-scenario > my-field.toml   # edit, then:
+  terraslip simulate my-field.toml --out logs/field
+
+Scenario files are TOML; docs/simulator.md documents every key.";
+
 #[derive(clap::Args, Debug)]
-#[command(verbatim_doc_comment)]
+#[command(after_long_help = DETAILS)]
 pub struct Args {
     /// Built-in scenario name (see --list) or path of a scenario TOML file.
     #[arg(required_unless_present = "list")]

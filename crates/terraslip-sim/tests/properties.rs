@@ -448,7 +448,7 @@ rate = 0.0
     .unwrap();
     let at = |t: f64| run.truth_at(t).unwrap();
     assert!((at(8.0).twist.v_x - 0.5).abs() < 0.02);
-    // alpha_l != alpha_r: even a straight command drifts a little.
+    // Wheel lag and slew limits leave no turn on a straight command.
     assert!(at(8.0).twist.omega.abs() < 0.01);
     // A spin: turning on the spot, slower than commanded (chi < 1).
     let spin = at(18.0);

@@ -86,10 +86,15 @@ fn load_config(args: &Args) -> Result<EstimatorConfig> {
     if let Some(path) = &args.config {
         let text = std::fs::read_to_string(path)
             .with_context(|| format!("{}: cannot read", path.display()))?;
+        // Checked alone first, so errors point at the user's own lines.
+        toml::from_str::<EstimatorConfig>(&text)
+            .map_err(|e| terraslip::config::toml_error(&text, &e))
+            .with_context(|| format!("{}", path.display()))?;
         // A preset is the base; the file's keys override it.
         let base = toml::Value::try_from(&cfg).context("serialising the base configuration")?;
-        let over: toml::Value =
-            toml::from_str(&text).with_context(|| format!("{}", path.display()))?;
+        let over: toml::Value = toml::from_str(&text)
+            .map_err(|e| terraslip::config::toml_error(&text, &e))
+            .with_context(|| format!("{}", path.display()))?;
         let merged = merge(base, over);
         cfg = EstimatorConfig::from_toml(&toml::to_string(&merged).unwrap_or_default())
             .with_context(|| format!("{}", path.display()))?;
@@ -244,7 +249,7 @@ fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) -> ser
 }
 
 /// CSV header of estimate.csv: log-format.md's columns, then extras.
-pub const HEADER: &str = "t,east,north,yaw,y_l,y_r,x_c,std_east,std_north,std_yaw,std_y_l,std_y_r,std_x_c,terrain,std_spread,fused,gated,nis,q_scale";
+pub const HEADER: &str = "t,east,north,yaw,y_l,y_r,x_c,std_east,std_north,std_yaw,std_y_l,std_y_r,std_x_c,terrain,alpha_l,alpha_r,std_alpha_l,std_alpha_r,std_spread,fused,gated,nis,q_scale";
 
 /// Writes both files; neither appears unless both are complete.
 fn write_outputs(out: &Path, est: &EstimateRun, summary: &serde_json::Value) -> Result<()> {
@@ -257,7 +262,7 @@ fn write_outputs(out: &Path, est: &EstimateRun, summary: &serde_json::Value) -> 
     for r in &est.rows {
         let _ = write!(
             buf,
-            "{},{:.4},{:.4},{:.6},{:.6},{:.6},{:.6},{:.4},{:.4},{:.6},{:.6},{:.6},{:.6},{},{:.6},{},{},{:.3},{:.3}",
+            "{},{:.4},{:.4},{:.6},{:.6},{:.6},{:.6},{:.4},{:.4},{:.6},{:.6},{:.6},{:.6},{},{:.5},{:.5},{:.5},{:.5},{:.6},{},{},{:.3},{:.3}",
             r.t,
             r.east,
             r.north,
@@ -272,6 +277,10 @@ fn write_outputs(out: &Path, est: &EstimateRun, summary: &serde_json::Value) -> 
             r.std[4],
             r.std[5],
             est.terrain_name(r).unwrap_or(""),
+            r.alpha_l,
+            r.alpha_r,
+            r.std[6],
+            r.std[7],
             r.std_spread,
             r.fused as u8,
             r.gated as u8,

@@ -44,6 +44,9 @@ fn main() {
         let mn = d.iter().cloned().fold(f64::MAX, f64::min);
         let mx = d.iter().cloned().fold(f64::MIN, f64::max);
         let p = ter.icr(&sc.robot);
+        let mean = d.iter().sum::<f64>() / d.len() as f64;
+        let sd = (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / d.len() as f64).sqrt();
+        println!("{:>9}: spread mean {mean:.4} m, std about the mean {:.2} cm (a constant estimate's floor)", ter.name, 100.0 * sd);
         println!(
             "{:>9}: nominal y_l {:.4} y_r {:.4} x_c {:.4} alpha {:.3}/{:.3}  spread {:.4}..{:.4}",
             ter.name, p.y_l, p.y_r, p.x_c, p.alpha_l, p.alpha_r, mn, mx
@@ -71,6 +74,20 @@ fn main() {
         run.log.imu.len(),
         run.frames.len()
     );
+    if std::env::var("TRACE").is_ok() {
+        for s in tr.iter().step_by(100) {
+            println!(
+                "{:6.1} {:>8} e {:7.2} n {:7.2} r {:5.1} vx {:5.2} w {:6.3}",
+                s.t,
+                run.terrains[s.terrain].name,
+                s.east,
+                s.north,
+                s.east.hypot(s.north),
+                s.twist.v_x,
+                s.twist.omega
+            );
+        }
+    }
     if let Some(out) = args.get(3) {
         let t0 = std::time::Instant::now();
         run.write(out).expect("write");

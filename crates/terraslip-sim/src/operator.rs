@@ -44,6 +44,8 @@ pub(crate) struct Operator {
     rng: StdRng,
     active: Option<Active>,
     next_programmed: usize,
+    /// The last improvised manoeuvre went straight or stopped.
+    last_was_straight: bool,
     /// Robot track width, m: turn rates for the homing arcs.
     track_width: f64,
 }
@@ -55,6 +57,7 @@ impl Operator {
             rng,
             active: None,
             next_programmed: 0,
+            last_was_straight: true,
             track_width,
         }
     }
@@ -86,7 +89,7 @@ impl Operator {
             if err.abs() > 0.35 {
                 // Turn home on a moderate arc; slip makes the real turn
                 // slower than commanded, so over-steer the duration a bit.
-                let radius = 3.0_f64.max(self.track_width * 4.0);
+                let radius = 2.0_f64.max(self.track_width * 4.0);
                 let rate = speed / radius;
                 return ManoeuvreSpec {
                     kind: ManoeuvreKind::Arc,
@@ -107,7 +110,15 @@ impl Operator {
             };
         }
         let m = &self.cfg.mix;
-        let weights = [m.straight, m.arc, m.spin, m.s_curve, m.stop];
+        // An operator rarely goes straight twice in a row: after a straight
+        // run or a stop comes a turn (unless the mix has no turns at all).
+        let turns = m.arc + m.spin + m.s_curve;
+        let calm = if self.last_was_straight && turns > 0.0 {
+            0.0
+        } else {
+            1.0
+        };
+        let weights = [calm * m.straight, m.arc, m.spin, m.s_curve, calm * m.stop];
         let total: f64 = weights.iter().sum();
         let mut pick = self.rng.gen::<f64>() * total;
         let mut kind = ManoeuvreKind::Stop;
@@ -128,7 +139,7 @@ impl Operator {
         let mut duration = self.rng.gen_range(d0..=d1).max(0.5);
         let speed = self.rng.gen_range(self.cfg.speed[0]..=self.cfg.speed[1]);
         let sign = if self.rng.gen::<bool>() { 1.0 } else { -1.0 };
-        let radius = sign * self.cfg.radii[self.rng.gen_range(0..self.cfg.radii.len())];
+        let mut radius = sign * self.cfg.radii[self.rng.gen_range(0..self.cfg.radii.len())];
         let (rate, period) = match kind {
             ManoeuvreKind::Spin => {
                 let r = self
@@ -139,6 +150,8 @@ impl Operator {
                 (sign * r, 0.0)
             }
             ManoeuvreKind::SCurve => {
+                // Wide S-curves are hardly curves: swing at 4 m or tighter.
+                radius = radius.clamp(-4.0, 4.0);
                 let p = self.rng.gen_range(6.0..=14.0);
                 // Whole periods, so an S-curve ends heading the way it began.
                 duration = (duration / p).ceil().max(1.0) * p;
@@ -150,10 +163,11 @@ impl Operator {
             }
             _ => (0.0, 0.0),
         };
+        self.last_was_straight = matches!(kind, ManoeuvreKind::Straight | ManoeuvreKind::Stop);
         // Tight arcs at full speed would exceed the tread speed limit; the
         // operator slows down for them as a person would.
         let speed = if kind == ManoeuvreKind::Arc || kind == ManoeuvreKind::SCurve {
-            speed.min(radius.abs() * 0.6).max(0.15)
+            speed.min(radius.abs() * 0.8).max(0.15)
         } else {
             speed
         };

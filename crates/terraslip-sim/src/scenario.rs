@@ -217,8 +217,8 @@ impl Default for Drive {
     fn default() -> Self {
         Self {
             speed: [0.3, 1.0],
-            radii: vec![1.5, 3.0, 6.0, 12.0],
-            spin_rate: [0.4, 1.0],
+            radii: vec![1.0, 2.0, 4.0, 8.0],
+            spin_rate: [0.5, 1.5],
             mix: Mix::default(),
             duration: [4.0, 12.0],
             area_radius: 35.0,

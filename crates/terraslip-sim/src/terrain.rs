@@ -9,7 +9,10 @@
 //! the lateral scrub of a turn most (low chi, Mandow: asphalt 0.69-0.76,
 //! concrete 0.70-0.75), soft or slippery ground less or more depending on
 //! sinkage; the rolling factors alpha drop below 1 where the tread sinks or
-//! spins.
+//! spins. The catalogue's alphas are the same on both sides: the terrain
+//! acts on both treads alike, and a left/right difference (tyre pressure,
+//! wear) belongs to the robot, so a scenario sets it per robot (the P3-AT
+//! scenarios use Mandow's measured pairs).
 
 use serde::{Deserialize, Serialize};
 use terraslip_core::kinematics::IcrParams;
@@ -196,13 +199,13 @@ pub fn catalogue(name: &str) -> Option<Terrain> {
     #[rustfmt::skip]
     let e = match name {
         //                chi   ecc    x_c     alpha          rough  f_res  zeta  joints        impacts
-        "asphalt"  => entry(0.70,  0.02, -0.010, (0.995, 0.993), 0.25, 30.0, 0.30, (0.0, 0.0),  0.2, Asphalt),
-        "concrete" => entry(0.73, -0.01, -0.012, (0.996, 0.995), 0.12, 36.0, 0.30, (3.0, 1.0),  0.0, Concrete),
-        "soil"     => entry(0.62,  0.03,  0.015, (0.970, 0.972), 0.80, 14.0, 0.25, (0.0, 0.0),  0.6, Soil),
-        "grass"    => entry(0.80, -0.02,  0.020, (0.982, 0.978), 0.45,  9.0, 0.45, (0.0, 0.0),  0.1, Grass),
+        "asphalt"  => entry(0.70,  0.02, -0.010, (0.994, 0.994), 0.25, 30.0, 0.30, (0.0, 0.0),  0.2, Asphalt),
+        "concrete" => entry(0.73, -0.01, -0.012, (0.995, 0.995), 0.12, 36.0, 0.30, (3.0, 1.0),  0.0, Concrete),
+        "soil"     => entry(0.62,  0.03,  0.015, (0.970, 0.970), 0.80, 14.0, 0.25, (0.0, 0.0),  0.6, Soil),
+        "grass"    => entry(0.80, -0.02,  0.020, (0.980, 0.980), 0.45,  9.0, 0.45, (0.0, 0.0),  0.1, Grass),
         "paving"   => entry(0.75,  0.01, -0.005, (0.990, 0.990), 0.30, 24.0, 0.30, (0.20, 1.6), 0.0, Paving),
-        "gravel"   => entry(0.66,  0.00,  0.010, (0.955, 0.960), 1.10, 21.0, 0.20, (0.0, 0.0),  6.0, Gravel),
-        "sand"     => entry(0.55,  0.03,  0.030, (0.935, 0.940), 0.30,  6.0, 0.50, (0.0, 0.0),  0.0, Sand),
+        "gravel"   => entry(0.66,  0.00,  0.010, (0.955, 0.955), 1.10, 21.0, 0.20, (0.0, 0.0),  6.0, Gravel),
+        "sand"     => entry(0.55,  0.03,  0.030, (0.935, 0.935), 0.30,  6.0, 0.50, (0.0, 0.0),  0.0, Sand),
         _ => return None,
     };
     let (chi, ecc, x_c, (a_l, a_r), rough, f, z, (js, jk), imp, tex) = e;

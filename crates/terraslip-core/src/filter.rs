@@ -196,6 +196,15 @@ pub struct FilterConfig {
     pub q_yaw: f64,
     /// Extra yaw noise per squared yaw rate, s.
     pub q_yaw_per_rate2: f64,
+    /// Time constant (s) of the low-pass on the tread speeds used for the
+    /// slip-parameter columns of the Jacobian (0 = raw speeds).
+    pub slip_input_time_constant: f64,
+    /// Encoder resolution on the tread, m per tick (0 = not quantised).
+    /// Each step's tread increments are off by up to a tick; as noise
+    /// this adds `tick^2 / (3 d^2)` to the yaw variance per step, so the
+    /// filter does not read a one-tick flicker as a turn (nor, by
+    /// correlation, as a change of spread).
+    pub encoder_tick: f64,
     /// Slip-parameter random walk (the noise schedule may scale it).
     pub q_icr: IcrNoise,
     /// Learn the ICRs `y_l, y_r, x_c` (false: they are "consider" states,
@@ -238,6 +247,8 @@ impl FilterConfig {
             q_pos_per_speed2: 1e-3,
             q_yaw: 1e-6,
             q_yaw_per_rate2: 1e-4,
+            encoder_tick: 0.0,
+            slip_input_time_constant: 0.2,
             q_icr: IcrNoise {
                 spread: 1e-5,
                 centre: 1e-7,
@@ -337,6 +348,8 @@ pub struct Filter {
     cfg: FilterConfig,
     /// Slip process noise per second (learned parameters only).
     q_slip: SlipCov,
+    /// Low-passed tread speeds for the slip Jacobian.
+    u_smooth: Option<TreadInput>,
     /// Factor the noise schedule applies to the ICR noise.
     schedule_scale: f64,
     /// Heading NIS average of the adaptive variant.
@@ -376,7 +389,10 @@ impl Filter {
                 return Err(FilterError::BadInput("IEKF window must be 1..=64"));
             }
         }
-        if !cfg.q_icr.is_valid() || !(cfg.band.min_spread > crate::kinematics::MIN_SPREAD) {
+        if !cfg.q_icr.is_valid()
+            || !(cfg.band.min_spread > crate::kinematics::MIN_SPREAD)
+            || !(cfg.encoder_tick.is_finite() && cfg.encoder_tick >= 0.0)
+        {
             return Err(FilterError::BadInput("ICR noise or band invalid"));
         }
         let mut x = x0;
@@ -394,6 +410,7 @@ impl Filter {
             P: 0.5 * (P0 + P0.transpose()),
             cfg,
             q_slip: q.to_slip_cov(),
+            u_smooth: None,
             schedule_scale: 1.0,
             nis_avg: 1.0,
             last_fix_t: None,
@@ -506,7 +523,24 @@ impl Filter {
             return Ok(());
         }
         let u = TreadInput { v_left, v_right };
-        let (x, F) = model::predict_with_jacobian(&self.x, u, dt);
+        // Smoothed tread speeds for the slip columns: a one-tick flicker of
+        // the encoders is not a turn, and must not correlate the spread
+        // with the heading (it does sum to the right heading change, so
+        // the prediction itself uses the raw speeds).
+        let a = if self.cfg.slip_input_time_constant > 0.0 {
+            (dt / self.cfg.slip_input_time_constant).min(1.0)
+        } else {
+            1.0
+        };
+        match self.u_smooth.as_mut() {
+            Some(s) => {
+                s.v_left += a * (v_left - s.v_left);
+                s.v_right += a * (v_right - s.v_right);
+            }
+            None => self.u_smooth = Some(u),
+        }
+        let u_slip = self.u_smooth.unwrap_or(u);
+        let (x, F) = model::predict_with_jacobian(&self.x, u, u_slip, dt);
 
         // F = I + (a few off-diagonal terms), so F P F' is formed from the
         // non-identity rows only: three times fewer flops than a full product.
@@ -541,6 +575,12 @@ impl Filter {
         P[(EAST, EAST)] += dt * (self.cfg.q_pos + self.cfg.q_pos_per_speed2 * v * v);
         P[(NORTH, NORTH)] += dt * (self.cfg.q_pos + self.cfg.q_pos_per_speed2 * v * v);
         P[(YAW, YAW)] += dt * (self.cfg.q_yaw + self.cfg.q_yaw_per_rate2 * omega * omega);
+        if self.cfg.encoder_tick > 0.0 {
+            let t2 = self.cfg.encoder_tick * self.cfg.encoder_tick;
+            P[(YAW, YAW)] += t2 / (3.0 * d * d);
+            P[(EAST, EAST)] += t2 / 12.0;
+            P[(NORTH, NORTH)] += t2 / 12.0;
+        }
         if !self.still {
             let k = dt * self.icr_noise_scale();
             let mut blk = P.fixed_view_mut::<K, K>(SLIP, SLIP);

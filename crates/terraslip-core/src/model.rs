@@ -125,12 +125,20 @@ pub fn predict(s: &State, u: TreadInput, dt: f64) -> State {
 /// Where the spread is floored (`y_l - y_r <= MIN_SPREAD`) this is the
 /// Jacobian of the unfloored formula: the filter never operates there.
 pub fn jacobian(s: &State, u: TreadInput, dt: f64) -> MatN {
-    predict_with_jacobian(s, u, dt).1
+    predict_with_jacobian(s, u, u, dt).1
 }
 
 /// [`predict`] and [`jacobian`] together, sharing the trigonometry (the
-/// filter's hot path).
-pub fn predict_with_jacobian(s: &State, u: TreadInput, dt: f64) -> (State, MatN) {
+/// filter's hot path). The slip-parameter columns of the Jacobian are
+/// evaluated at `u_slip` (the filter passes smoothed tread speeds there:
+/// see [`crate::filter::FilterConfig::slip_input_time_constant`]); with
+/// `u_slip == u` this is exactly [`jacobian`].
+pub fn predict_with_jacobian(
+    s: &State,
+    u: TreadInput,
+    u_slip: TreadInput,
+    dt: f64,
+) -> (State, MatN) {
     let d = spread(s);
     let inv_d = 1.0 / d;
     let inv_d2 = inv_d * inv_d;
@@ -149,6 +157,8 @@ pub fn predict_with_jacobian(s: &State, u: TreadInput, dt: f64) -> (State, MatN)
 
     // Partial derivatives of the twist (v_x, v_y, omega) by each slip
     // parameter; (alpha_l, alpha_r) act through v_l = alpha_l V_l, v_r = alpha_r V_r.
+    let u = u_slip;
+    let dv = s[ALPHA_L] * u.v_left - s[ALPHA_R] * u.v_right;
     let cols = [
         (Y_L, y_r * dv * inv_d2, -x_c * dv * inv_d2, dv * inv_d2),
         (Y_R, -y_l * dv * inv_d2, x_c * dv * inv_d2, -dv * inv_d2),

@@ -389,10 +389,11 @@ impl Filter {
                 return Err(FilterError::BadInput("IEKF window must be 1..=64"));
             }
         }
-        if !cfg.q_icr.is_valid()
-            || !(cfg.band.min_spread > crate::kinematics::MIN_SPREAD)
-            || !(cfg.encoder_tick.is_finite() && cfg.encoder_tick >= 0.0)
-        {
+        let spread_ok = cfg.band.min_spread.is_finite()
+            && cfg.band.min_spread > crate::kinematics::MIN_SPREAD
+            && cfg.band.max_spread > cfg.band.min_spread;
+        let tick_ok = cfg.encoder_tick.is_finite() && cfg.encoder_tick >= 0.0;
+        if !cfg.q_icr.is_valid() || !spread_ok || !tick_ok {
             return Err(FilterError::BadInput("ICR noise or band invalid"));
         }
         let mut x = x0;
@@ -773,7 +774,7 @@ impl Filter {
         // Slip is unobservable at rest: keep the slip parameters out of it.
         // Parameters not learned are "consider" states: counted, not corrected.
         // Any gain is valid in the Joseph form, so zeroing rows keeps P SPD.
-        let slip_from_position = r[0].sqrt() <= self.cfg.slip_from_position_max_std;
+        let slip_from_position = libm::sqrt(r[0]) <= self.cfg.slip_from_position_max_std;
         for row in SLIP..N {
             let learn = !self.still
                 && if row >= ALPHA_L {

@@ -10,7 +10,7 @@ use terraslip_core::schedule::{IcrStd, ScheduleConfig};
 use terraslip_core::terrain_belief::BeliefConfig;
 
 /// Everything `estimate` needs besides the log.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct EstimatorConfig {
     /// Gain rule and process noise of the filter.
@@ -322,19 +322,6 @@ impl Default for BeliefSection {
             stay_prob: b.stay_prob,
             stay_prob_on_jump: b.stay_prob_on_jump,
             vote_lambda: b.vote_lambda,
-        }
-    }
-}
-
-impl Default for EstimatorConfig {
-    fn default() -> Self {
-        Self {
-            filter: FilterSection::default(),
-            init: InitSection::default(),
-            measurement: MeasurementSection::default(),
-            band: BandSection::default(),
-            schedule: ScheduleSection::default(),
-            belief: BeliefSection::default(),
         }
     }
 }

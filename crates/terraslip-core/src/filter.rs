@@ -350,6 +350,8 @@ pub struct Filter {
     cfg: FilterConfig,
     /// Slip process noise per second (learned parameters only).
     q_slip: SlipCov,
+    /// Its spread part alone (what the adaptation scales).
+    q_spread: SlipCov,
     /// Low-passed tread speeds for the slip Jacobian.
     u_smooth: Option<TreadInput>,
     /// Factor the noise schedule applies to the ICR noise.
@@ -413,6 +415,14 @@ impl Filter {
             P: 0.5 * (P0 + P0.transpose()),
             cfg,
             q_slip: q.to_slip_cov(),
+            q_spread: IcrNoise {
+                spread: q.spread,
+                centre: 0.0,
+                x_c: 0.0,
+                alpha: 0.0,
+                alpha_diff: 0.0,
+            }
+            .to_slip_cov(),
             u_smooth: None,
             schedule_scale: 1.0,
             nis_avg: 1.0,
@@ -461,7 +471,8 @@ impl Filter {
         self.still
     }
 
-    /// The factor currently applied to the ICR process noise (schedule x adaptation).
+    /// The factor currently applied to the spread process noise (schedule x
+    /// adaptation; the other slip parameters get the schedule's factor only).
     pub fn icr_noise_scale(&self) -> f64 {
         self.schedule_scale * self.adapt_scale()
     }
@@ -569,9 +580,12 @@ impl Filter {
             P[(NORTH, NORTH)] += t2 / 12.0;
         }
         if !self.still {
-            let k = dt * self.icr_noise_scale();
+            // The adaptation raises only the spread noise: the heading
+            // innovation sees the spread; raising the others would let the
+            // directions no sensor sees (alpha/d together, x_c) wander.
+            let k = dt * self.schedule_scale;
             let mut blk = P.fixed_view_mut::<K, K>(SLIP, SLIP);
-            blk += self.q_slip * k;
+            blk += self.q_slip * k + self.q_spread * (k * (self.adapt_scale() - 1.0));
         }
         if !finite_mat(&x) || (0..N).any(|i| !P[(i, i)].is_finite()) {
             return Err(FilterError::NonFinite);

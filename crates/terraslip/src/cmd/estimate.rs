@@ -23,7 +23,7 @@ use terraslip_io::{AtomicFile, DriveLog, ParamsFile};
 ///   terraslip estimate drive/ --out est/ --filter iekf --json
 ///   terraslip estimate --print-config > estimator.toml
 #[derive(clap::Args, Debug)]
-#[command(verbatim_doc_comment)]
+#[command(after_help = AFTER_HELP)]
 pub struct Args {
     /// Log directory to read.
     #[arg(required_unless_present = "print_config")]
@@ -62,6 +62,20 @@ pub struct Args {
     #[arg(long)]
     pub json: bool,
 }
+
+const AFTER_HELP: &str = "\
+Writes DIR/estimate.csv (one row per wheels row: t, east, north, yaw, y_l, y_r,
+x_c, their standard deviations, terrain, then alpha_l, alpha_r, std_spread,
+fused, gated, nis, q_scale; metres, radians, REP-103 frames) and
+DIR/summary.json (rows, duration_s, final icr, terrain changes, counters,
+warnings). Both appear only when complete.
+
+Examples:
+  terraslip estimate drive/ --out est/
+  terraslip estimate drive/ --out est/ --terrain-labels --init params.json
+  terraslip estimate drive/ --out est/ --preset ta-iekf --json
+  terraslip estimate drive/ --out est/ --outage 300,330   # dead reckoning test
+  terraslip estimate --print-config > estimator.toml      # every constant, documented in docs/estimator.md";
 
 fn parse_window(s: &str) -> Result<(f64, f64), String> {
     let (a, b) = s

@@ -524,6 +524,19 @@ impl Filter {
         Ok(())
     }
 
+    /// Adds uncertainty to the pose: `var_xy` (m^2) to east and north,
+    /// `var_yaw` (rad^2) to yaw, e.g. after a gap in the tread speeds during
+    /// which the robot may have moved. Non-finite or negative values are ignored.
+    pub fn inflate_pose(&mut self, var_xy: f64, var_yaw: f64) {
+        if var_xy.is_finite() && var_xy > 0.0 {
+            self.P[(EAST, EAST)] += var_xy;
+            self.P[(NORTH, NORTH)] += var_xy;
+        }
+        if var_yaw.is_finite() && var_yaw > 0.0 {
+            self.P[(YAW, YAW)] += var_yaw;
+        }
+    }
+
     /// Propagates over `dt` seconds with measured tread speeds (m/s).
     pub fn predict(&mut self, v_left: f64, v_right: f64, dt: f64) -> Result<(), FilterError> {
         if !(v_left.is_finite() && v_right.is_finite()) {

@@ -120,6 +120,9 @@ pub struct FilterSection {
     pub max_rejections: u32,
     /// Tread speed below which the robot stands still (no ICR learning), m/s.
     pub still_speed: f64,
+    /// A gap between wheels rows longer than this (s) is not integrated with
+    /// held speeds: the pose uncertainty grows instead, and a warning is given.
+    pub max_wheel_gap: f64,
     /// Time constant of the heading-NIS average (adaptive variant), s.
     pub adapt_time_constant: f64,
     /// Largest factor the adaptive variant applies to the ICR noise.
@@ -237,6 +240,7 @@ impl Default for FilterSection {
             gate_yaw: 10.8,
             max_rejections: 10,
             still_speed: 0.02,
+            max_wheel_gap: 1.0,
             adapt_time_constant: 5.0,
             adapt_max_scale: 50.0,
             jump_threshold: 4.0,
@@ -380,6 +384,7 @@ impl EstimatorConfig {
         ];
         let pos = [
             ("filter.adapt_time_constant", f.adapt_time_constant),
+            ("filter.max_wheel_gap", f.max_wheel_gap),
             ("filter.adapt_max_scale", f.adapt_max_scale),
             ("filter.jump_threshold", f.jump_threshold),
             ("init.default_track_width", self.init.default_track_width),

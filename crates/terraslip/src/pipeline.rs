@@ -362,6 +362,12 @@ pub fn run_with(
     // Fixes before the first wheels row are fused at the start.
     let total = log.wheels.len();
     let mut moved = false;
+    let mut gaps = 0usize;
+    let max_speed = log
+        .wheels
+        .iter()
+        .map(|w| w.v_left.abs().max(w.v_right.abs()))
+        .fold(0.0f64, f64::max);
 
     let fuse = |filter: &mut Filter,
                 schedule: &mut NoiseSchedule,
@@ -458,11 +464,34 @@ pub fn run_with(
         // Predict to each fix in (t_prev, w.t], fuse it, then to w.t. The
         // row's speeds are the mean over the interval that ends at w.t.
         let mut t_cur = t_prev;
+        let (mut vl, mut vr) = (w.v_left, w.v_right);
+        // Nothing is known about the motion in a gap: held speeds are not
+        // integrated over it; before each step inside it the pose
+        // uncertainty grows by as far as the fastest tread could have gone.
+        let gap = i > 0 && w.t - t_prev > cfg.filter.max_wheel_gap;
+        if gap {
+            (vl, vr) = (0.0, 0.0);
+            gaps += 1;
+            if gaps == 1 {
+                warnings.push(format!(
+                    "{dir}/wheels.csv: {:.1} s without tread speeds before t = {}; pose uncertainty widened instead of integrating",
+                    w.t - t_prev,
+                    w.t
+                ));
+            }
+        }
+        let widen = |filter: &mut Filter, dt: f64| {
+            if gap {
+                let reach = max_speed * dt;
+                filter.inflate_pose(reach * reach, std::f64::consts::PI.powi(2));
+            }
+        };
         while pi < pose.len() && pose[pi].t <= w.t {
             let p = pose[pi];
             if i > 0 && p.t > t_cur {
+                widen(&mut filter, p.t - t_cur);
                 filter
-                    .predict(w.v_left, w.v_right, p.t - t_cur)
+                    .predict(vl, vr, p.t - t_cur)
                     .map_err(|e| filter_err(w.t, e))?;
                 schedule.on_predict(&filter, p.t - t_cur);
                 stats.predictions += 1;
@@ -478,8 +507,9 @@ pub fn run_with(
             pi += 1;
         }
         if i > 0 && w.t > t_cur {
+            widen(&mut filter, w.t - t_cur);
             filter
-                .predict(w.v_left, w.v_right, w.t - t_cur)
+                .predict(vl, vr, w.t - t_cur)
                 .map_err(|e| filter_err(w.t, e))?;
             schedule.on_predict(&filter, w.t - t_cur);
             stats.predictions += 1;

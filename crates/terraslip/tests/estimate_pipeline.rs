@@ -161,3 +161,34 @@ fn iekf_runs_and_reports_instead_of_nan() {
     .unwrap();
     assert!(all_finite(&run));
 }
+
+#[test]
+fn wheel_gap_is_not_integrated_with_held_speeds() {
+    let mut log = drive(&SynthSpec {
+        duration: 60.0,
+        ..Default::default()
+    });
+    // Remove 20 s of wheels rows: the robot keeps moving in the truth.
+    log.wheels.retain(|w| !(20.0..40.0).contains(&w.t));
+    let run = pipeline::run(
+        &log,
+        &EstimatorConfig::default(),
+        &TerrainEvidence::None,
+        None,
+    )
+    .unwrap();
+    assert!(
+        run.warnings
+            .iter()
+            .any(|w| w.contains("without tread speeds")),
+        "{:?}",
+        run.warnings
+    );
+    assert!(all_finite(&run));
+    // The first fix after the gap is taken (not gated) and the pose is back.
+    let row = run.rows.iter().find(|r| r.t >= 41.0).unwrap();
+    let truth = metrics::truth_at(&log.truth, row.t).unwrap();
+    let err = ((row.east - truth.east).powi(2) + (row.north - truth.north).powi(2)).sqrt();
+    assert!(err < 0.5, "position error after the gap {err}");
+    assert_eq!(run.stats.position_gated, 0, "{:?}", run.stats);
+}

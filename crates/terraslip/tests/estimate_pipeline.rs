@@ -25,6 +25,25 @@ fn all_finite(run: &terraslip::EstimateRun) -> bool {
     })
 }
 
+/// The default estimator without terrain evidence.
+fn run_plain(log: &terraslip_io::DriveLog) -> terraslip::EstimateRun {
+    pipeline::run(
+        log,
+        &EstimatorConfig::default(),
+        &TerrainEvidence::None,
+        None,
+    )
+    .unwrap()
+}
+
+fn assert_warns(run: &terraslip::EstimateRun, needle: &str) {
+    assert!(
+        run.warnings.iter().any(|w| w.contains(needle)),
+        "{:?}",
+        run.warnings
+    );
+}
+
 #[test]
 fn default_learns_and_recalls_terrains() {
     let log = drive(&SynthSpec::default());
@@ -99,13 +118,7 @@ fn multipath_jump_is_rejected() {
     let e = log.pose[k].east.unwrap();
     log.pose[k].east = Some(e + 30.0);
     let t = log.pose[k].t;
-    let run = pipeline::run(
-        &log,
-        &EstimatorConfig::default(),
-        &TerrainEvidence::None,
-        None,
-    )
-    .unwrap();
+    let run = run_plain(&log);
     let gated: Vec<f64> = run.rows.iter().filter(|r| r.gated).map(|r| r.t).collect();
     assert_eq!(
         run.stats.position_gated, 1,
@@ -128,18 +141,8 @@ fn standing_still_log_warns_and_keeps_initial_icrs() {
         w.v_left = 0.0;
         w.v_right = 0.0;
     }
-    let run = pipeline::run(
-        &log,
-        &EstimatorConfig::default(),
-        &TerrainEvidence::None,
-        None,
-    )
-    .unwrap();
-    assert!(
-        run.warnings.iter().any(|w| w.contains("never moves")),
-        "{:?}",
-        run.warnings
-    );
+    let run = run_plain(&log);
+    assert_warns(&run, "never moves");
     assert!((run.final_icr.y_l - 0.25).abs() < 1e-9 && (run.final_icr.y_r + 0.25).abs() < 1e-9);
     assert!(all_finite(&run));
 }
@@ -170,20 +173,8 @@ fn wheel_gap_is_not_integrated_with_held_speeds() {
     });
     // Remove 20 s of wheels rows: the robot keeps moving in the truth.
     log.wheels.retain(|w| !(20.0..40.0).contains(&w.t));
-    let run = pipeline::run(
-        &log,
-        &EstimatorConfig::default(),
-        &TerrainEvidence::None,
-        None,
-    )
-    .unwrap();
-    assert!(
-        run.warnings
-            .iter()
-            .any(|w| w.contains("without tread speeds")),
-        "{:?}",
-        run.warnings
-    );
+    let run = run_plain(&log);
+    assert_warns(&run, "without tread speeds");
     assert!(all_finite(&run));
     // The first fix after the gap is taken (not gated) and the pose is back.
     let row = run.rows.iter().find(|r| r.t >= 41.0).unwrap();

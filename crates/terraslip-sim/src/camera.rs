@@ -253,8 +253,8 @@ mod tests {
     fn mean_rgb(img: &RgbImage) -> [f64; 3] {
         let mut m = [0.0; 3];
         for p in img.pixels() {
-            for k in 0..3 {
-                m[k] += p.0[k] as f64;
+            for (acc, v) in m.iter_mut().zip(p.0) {
+                *acc += v as f64;
             }
         }
         m.map(|v| v / (img.width() * img.height()) as f64)

@@ -74,7 +74,7 @@ fn demo_writes_table_plots_and_report_for_every_variant() {
     assert_eq!(vars.len(), VARIANTS.len());
     for v in vars {
         let d = v["rms_m"]["d"].as_f64().unwrap();
-        assert!(d.is_finite() && d >= 0.0 && d < 1.0, "{v}");
+        assert!((0.0..1.0).contains(&d), "{v}");
         assert_eq!(v["reconvergence_s"].as_array().unwrap().len(), 2);
         assert!(v["outage_drift"]["percent"].as_f64().unwrap() >= 0.0);
     }

@@ -360,7 +360,8 @@ fn write_outputs(
         let c = outcomes.iter().position(|x| x.name == o.name).unwrap_or(0) % 7 + 1;
         let mut panels = Vec::new();
         type Pick = fn(&terraslip::pipeline::EstimateRow) -> (f64, f64);
-        let parts: [(&str, fn(&TruthSample) -> f64, Pick); 3] = [
+        type Part = (&'static str, fn(&TruthSample) -> f64, Pick);
+        let parts: [Part; 3] = [
             ("y_l [m] (left tread ICR)", |s| s.y_l, |r| (r.y_l, r.std[3])),
             (
                 "y_r [m] (right tread ICR)",

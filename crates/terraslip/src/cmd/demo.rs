@@ -5,7 +5,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use terraslip::config::EstimatorConfig;
 use terraslip::metrics::{self, Scorecard};
@@ -14,7 +14,7 @@ use terraslip_io::{write_atomic, DriveLog, TerrainLabel, TruthSample};
 use terraslip_report::{html_page, markdown_table, Figure, LinePlot, Section, Series, SeriesStyle};
 use terraslip_sim::{simulate, Scenario, SimRun};
 
-use super::simulate::{replace_dir, staging_dir};
+use super::simulate::{check_target, replace_dir, staging_dir};
 
 const DETAILS: &str = "\
 Simulates the drive of lv2019 §IV (soil -> grass -> asphalt, 1 Hz GNSS with
@@ -79,7 +79,7 @@ const SETTLE: f64 = 20.0;
 
 pub fn run(args: Args) -> Result<()> {
     let started = std::time::Instant::now();
-    check_demo_target(&args.out)?;
+    check_target(&args.out, "summary.json", "an earlier demo")?;
     let mut scenario = Scenario::resolve(&args.scenario)?;
     // The demo compares estimators; camera frames would only cost time.
     scenario.camera.rate = 0.0;
@@ -144,30 +144,6 @@ pub fn run(args: Args) -> Result<()> {
         started.elapsed().as_secs_f64(),
         args.out.join("report.html").display()
     );
-    Ok(())
-}
-
-/// Like the simulate command's check, but what may be replaced is a demo.
-fn check_demo_target(out: &Path) -> Result<()> {
-    if !out.exists() {
-        return Ok(());
-    }
-    if !out.is_dir() {
-        bail!(
-            "{}: exists and is not a directory; refusing to overwrite it",
-            out.display()
-        );
-    }
-    let empty = std::fs::read_dir(out)
-        .with_context(|| format!("{}", out.display()))?
-        .next()
-        .is_none();
-    if !empty && !out.join("summary.json").is_file() {
-        bail!(
-            "{}: directory is not empty and holds no earlier demo (no summary.json); refusing to overwrite it",
-            out.display()
-        );
-    }
     Ok(())
 }
 

@@ -107,20 +107,19 @@ pub fn texture(tex: Texture, e: f64, n: f64) -> [f64; 3] {
             }
         }
         Texture::Grass => {
-            // Blades: noise stretched along a direction that wanders slowly.
-            let a = 1.5 * fbm(e * 1.5, n * 1.5, 2, 41);
-            let (sa, ca) = a.sin_cos();
-            let (x, y) = (ca * e + sa * n, -sa * e + ca * n);
-            let blade = 0.6 * value_noise(x * 120.0, y * 10.0, 42)
-                + 0.4 * value_noise(x * 260.0, y * 25.0, 45);
             let dry = fbm(e * 1.5, n * 1.5, 3, 43);
-            let gap = fbm(e * 6.0, n * 6.0, 3, 44) < 0.25;
-            if gap {
-                let k = 0.7 + 0.3 * blade;
+            if fbm(e * 6.0, n * 6.0, 3, 44) < 0.25 {
+                // A bare patch.
+                let k = 0.7 + 0.3 * value_noise(e * 200.0, n * 200.0, 46);
                 return [0.35 * k, 0.27 * k, 0.18 * k];
             }
-            let k = 0.45 + 0.75 * blade;
-            [(0.12 + 0.25 * dry) * k, (0.32 + 0.15 * dry) * k, 0.08 * k]
+            // Blades lean with the wind and the mower: the direction wanders slowly.
+            let lean = 2.5 * fbm(e * 2.0, n * 2.0, 2, 41);
+            match blade(e, n, lean) {
+                Some(k) => [(0.12 + 0.25 * dry) * k, (0.34 + 0.15 * dry) * k, 0.07 * k],
+                // Shadowed ground between the blades.
+                None => [0.08, 0.17, 0.04],
+            }
         }
         Texture::Paving => {
             let (bw, bh, joint) = (0.20, 0.10, 0.008);
@@ -165,6 +164,42 @@ pub fn texture(tex: Texture, e: f64, n: f64) -> [f64; 3] {
             [0.80 * k, 0.70 * k, 0.52 * k]
         }
     }
+}
+
+/// Grass blades: thin strokes scattered on a 6 mm grid around direction
+/// `lean` (rad). The brightness (0.4..1.2) of the blade on top at (`e`, `n`)
+/// m, or `None` between blades.
+fn blade(e: f64, n: f64, lean: f64) -> Option<f64> {
+    const CELL: f64 = 0.006;
+    const HALF_LEN: f64 = 0.02;
+    const HALF_WIDTH: f64 = 0.0016;
+    let (x, y) = (e / CELL, n / CELL);
+    let (cx, cy) = (x.floor() as i64, y.floor() as i64);
+    let mut best: Option<(f64, f64)> = None; // (height, brightness)
+    for dy in -2..=2 {
+        for dx in -2..=2 {
+            let (gx, gy) = (cx + dx, cy + dy);
+            let px = (gx as f64 + hash(gx, gy, 47)) * CELL;
+            let py = (gy as f64 + hash(gx, gy, 48)) * CELL;
+            let a = lean + 0.8 * (hash(gx, gy, 49) - 0.5);
+            let (sa, ca) = a.sin_cos();
+            let (rx, ry) = (e - px, n - py);
+            let along = (rx * ca + ry * sa).clamp(-HALF_LEN, HALF_LEN);
+            let dist = (rx - along * ca).hypot(ry - along * sa);
+            // Blades taper towards the tip.
+            let width = HALF_WIDTH * (1.0 - 0.6 * (along / HALF_LEN).abs());
+            if dist < width {
+                let height = hash(gx, gy, 50);
+                if best.map_or(true, |b| height > b.0) {
+                    // Lit along the middle, darker at the edges and the base.
+                    let shade = 1.0 - 0.5 * dist / width;
+                    let tip = 0.75 + 0.25 * (along / HALF_LEN);
+                    best = Some((height, (0.5 + 0.7 * hash(gx, gy, 51)) * shade * tip));
+                }
+            }
+        }
+    }
+    best.map(|b| b.1)
 }
 
 /// A uniform value in [0, 1) from a lattice point and a salt.

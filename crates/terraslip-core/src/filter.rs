@@ -41,7 +41,7 @@ use crate::model::{
 /// Largest innovation window of the IEKF variant.
 pub const MAX_WINDOW: usize = 64;
 
-type Mat3x6 = SMatrix<f64, 3, N>;
+type Mat3xN = SMatrix<f64, 3, N>;
 type MatNx3 = SMatrix<f64, N, 3>;
 
 /// Which gain rule the filter uses. See the module documentation.
@@ -196,6 +196,15 @@ pub struct FilterConfig {
     pub q_yaw: f64,
     /// Extra yaw noise per squared yaw rate, s.
     pub q_yaw_per_rate2: f64,
+    /// Time constant (s) of the low-pass on the tread speeds used for the
+    /// slip-parameter columns of the Jacobian (0 = raw speeds).
+    pub slip_input_time_constant: f64,
+    /// Encoder resolution on the tread, m per tick (0 = not quantised).
+    /// Each step's tread increments are off by up to a tick; as noise
+    /// this adds `tick^2 / (3 d^2)` to the yaw variance per step, so the
+    /// filter does not read a one-tick flicker as a turn (nor, by
+    /// correlation, as a change of spread).
+    pub encoder_tick: f64,
     /// Slip-parameter random walk (the noise schedule may scale it).
     pub q_icr: IcrNoise,
     /// Learn the ICRs `y_l, y_r, x_c` (false: they are "consider" states,
@@ -238,6 +247,8 @@ impl FilterConfig {
             q_pos_per_speed2: 1e-3,
             q_yaw: 1e-6,
             q_yaw_per_rate2: 1e-4,
+            encoder_tick: 0.0,
+            slip_input_time_constant: 0.2,
             q_icr: IcrNoise {
                 spread: 1e-5,
                 centre: 1e-7,
@@ -335,6 +346,10 @@ pub struct Filter {
     x: State,
     P: MatN,
     cfg: FilterConfig,
+    /// Slip process noise per second (learned parameters only).
+    q_slip: SlipCov,
+    /// Low-passed tread speeds for the slip Jacobian.
+    u_smooth: Option<TreadInput>,
     /// Factor the noise schedule applies to the ICR noise.
     schedule_scale: f64,
     /// Heading NIS average of the adaptive variant.
@@ -374,16 +389,29 @@ impl Filter {
                 return Err(FilterError::BadInput("IEKF window must be 1..=64"));
             }
         }
-        if !cfg.q_icr.is_valid() || !(cfg.band.min_spread > crate::kinematics::MIN_SPREAD) {
+        let spread_ok = cfg.band.min_spread.is_finite()
+            && cfg.band.min_spread > crate::kinematics::MIN_SPREAD
+            && cfg.band.max_spread > cfg.band.min_spread;
+        let tick_ok = cfg.encoder_tick.is_finite() && cfg.encoder_tick >= 0.0;
+        if !cfg.q_icr.is_valid() || !spread_ok || !tick_ok {
             return Err(FilterError::BadInput("ICR noise or band invalid"));
         }
         let mut x = x0;
         x[YAW] = angle::wrap(x[YAW]);
         cfg.band.project(&mut x);
+        let mut q = cfg.q_icr;
+        if !cfg.learn_icr {
+            (q.spread, q.centre, q.x_c) = (0.0, 0.0, 0.0);
+        }
+        if !cfg.learn_alpha {
+            (q.alpha, q.alpha_diff) = (0.0, 0.0);
+        }
         Ok(Self {
             x,
             P: 0.5 * (P0 + P0.transpose()),
             cfg,
+            q_slip: q.to_slip_cov(),
+            u_smooth: None,
             schedule_scale: 1.0,
             nis_avg: 1.0,
             last_fix_t: None,
@@ -496,8 +524,24 @@ impl Filter {
             return Ok(());
         }
         let u = TreadInput { v_left, v_right };
-        let F = model::jacobian(&self.x, u, dt);
-        let x = model::predict(&self.x, u, dt);
+        // Smoothed tread speeds for the slip columns: a one-tick flicker of
+        // the encoders is not a turn, and must not correlate the spread
+        // with the heading (it does sum to the right heading change, so
+        // the prediction itself uses the raw speeds).
+        let a = if self.cfg.slip_input_time_constant > 0.0 {
+            (dt / self.cfg.slip_input_time_constant).min(1.0)
+        } else {
+            1.0
+        };
+        match self.u_smooth.as_mut() {
+            Some(s) => {
+                s.v_left += a * (v_left - s.v_left);
+                s.v_right += a * (v_right - s.v_right);
+            }
+            None => self.u_smooth = Some(u),
+        }
+        let u_slip = self.u_smooth.unwrap_or(u);
+        let (x, F) = model::predict_with_jacobian(&self.x, u, u_slip, dt);
 
         // F = I + (a few off-diagonal terms), so F P F' is formed from the
         // non-identity rows only: three times fewer flops than a full product.
@@ -532,19 +576,18 @@ impl Filter {
         P[(EAST, EAST)] += dt * (self.cfg.q_pos + self.cfg.q_pos_per_speed2 * v * v);
         P[(NORTH, NORTH)] += dt * (self.cfg.q_pos + self.cfg.q_pos_per_speed2 * v * v);
         P[(YAW, YAW)] += dt * (self.cfg.q_yaw + self.cfg.q_yaw_per_rate2 * omega * omega);
-        if !self.still {
-            let mut q = self.cfg.q_icr;
-            if !self.cfg.learn_icr {
-                (q.spread, q.centre, q.x_c) = (0.0, 0.0, 0.0);
-            }
-            if !self.cfg.learn_alpha {
-                (q.alpha, q.alpha_diff) = (0.0, 0.0);
-            }
-            let q = q.scaled(dt * self.icr_noise_scale()).to_slip_cov();
-            let mut blk = P.fixed_view_mut::<K, K>(SLIP, SLIP);
-            blk += q;
+        if self.cfg.encoder_tick > 0.0 {
+            let t2 = self.cfg.encoder_tick * self.cfg.encoder_tick;
+            P[(YAW, YAW)] += t2 / (3.0 * d * d);
+            P[(EAST, EAST)] += t2 / 12.0;
+            P[(NORTH, NORTH)] += t2 / 12.0;
         }
-        if !finite_mat(&x) || !finite_mat(&P) {
+        if !self.still {
+            let k = dt * self.icr_noise_scale();
+            let mut blk = P.fixed_view_mut::<K, K>(SLIP, SLIP);
+            blk += self.q_slip * k;
+        }
+        if !finite_mat(&x) || (0..N).any(|i| !P[(i, i)].is_finite()) {
             return Err(FilterError::NonFinite);
         }
         self.x = x;
@@ -697,21 +740,20 @@ impl Filter {
     ) -> Result<(), FilterError> {
         // Rows not measured get H = 0, nu = 0 and a unit, uncorrelated S
         // entry: this is exactly the reduced-dimension update, in 3x3.
-        let mut H = Mat3x6::zeros();
+        // H = [I3 | 0] with those rows zeroed, so H P is the first three
+        // rows of P (zeroed likewise): no product with H is ever formed.
         let mut nu_m = *nu;
         let mut S = *S_full;
-        let mut R = Matrix3::<f64>::zeros();
+        let mut HP: Mat3xN = self.P.fixed_rows::<3>(0).into_owned();
         for i in 0..3 {
-            if use_[i] {
-                H[(i, i)] = 1.0;
-                R[(i, i)] = r[i];
-            } else {
+            if !use_[i] {
                 nu_m[i] = 0.0;
                 for j in 0..3 {
                     S[(i, j)] = 0.0;
                     S[(j, i)] = 0.0;
                 }
                 S[(i, i)] = 1.0;
+                HP.row_mut(i).fill(0.0);
             }
         }
 
@@ -727,13 +769,12 @@ impl Filter {
             _ => S,
         };
         let chol = gain_S.cholesky().ok_or(FilterError::SingularInnovation)?;
-        let PHt: MatNx3 = self.P * H.transpose();
         // G = P H' S^-1  <=>  S G' = H P (the Kalman gain)
-        let mut G: MatNx3 = chol.solve(&PHt.transpose()).transpose();
+        let mut G: MatNx3 = chol.solve(&HP).transpose();
         // Slip is unobservable at rest: keep the slip parameters out of it.
         // Parameters not learned are "consider" states: counted, not corrected.
         // Any gain is valid in the Joseph form, so zeroing rows keeps P SPD.
-        let slip_from_position = r[0].sqrt() <= self.cfg.slip_from_position_max_std;
+        let slip_from_position = libm::sqrt(r[0]) <= self.cfg.slip_from_position_max_std;
         for row in SLIP..N {
             let learn = !self.still
                 && if row >= ALPHA_L {
@@ -752,16 +793,33 @@ impl Filter {
         }
         let mut x = self.x + G * nu_m;
         x[YAW] = angle::wrap(x[YAW]);
-        let IKH = MatN::identity() - G * H;
         let P = match self.cfg.variant {
-            // lv2019 eq. 15, as written.
-            Variant::Iekf { .. } => IKH * self.P,
+            // lv2019 eq. 15, as written: (I - G H) P.
+            Variant::Iekf { .. } => self.P - G * HP,
             _ => {
-                let P = IKH * self.P * IKH.transpose() + G * R * G.transpose();
-                0.5 * (P + P.transpose())
+                // Joseph form (I - GH) P (I - GH)' + G R G', expanded to
+                // P - G HP - (G HP)' + G (H P H' + R) G': exact for any gain
+                // (also the rows zeroed above) and four times cheaper. S is
+                // H P H' + R on the measured rows; the others meet zero columns of G.
+                let GS: MatNx3 = G * S;
+                let mut P = self.P;
+                for i in 0..N {
+                    for j in i..N {
+                        let mut acc = self.P[(i, j)];
+                        for k in 0..3 {
+                            acc -= G[(i, k)] * HP[(k, j)] + G[(j, k)] * HP[(k, i)]
+                                - GS[(i, k)] * G[(j, k)];
+                        }
+                        P[(i, j)] = acc;
+                        P[(j, i)] = acc;
+                    }
+                }
+                P
             }
         };
-        if !finite_mat(&x) || !finite_mat(&P) {
+        // Non-finite entries reach the diagonal within a step; checking it
+        // (and the state) is enough and cheap.
+        if !finite_mat(&x) || (0..N).any(|i| !P[(i, i)].is_finite()) {
             return Err(FilterError::NonFinite);
         }
         if (0..N).any(|i| P[(i, i)] < 0.0) {

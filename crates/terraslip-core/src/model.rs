@@ -125,46 +125,66 @@ pub fn predict(s: &State, u: TreadInput, dt: f64) -> State {
 /// Where the spread is floored (`y_l - y_r <= MIN_SPREAD`) this is the
 /// Jacobian of the unfloored formula: the filter never operates there.
 pub fn jacobian(s: &State, u: TreadInput, dt: f64) -> MatN {
+    predict_with_jacobian(s, u, u, dt).1
+}
+
+/// [`predict`] and [`jacobian`] together, sharing the trigonometry (the
+/// filter's hot path). The slip-parameter columns of the Jacobian are
+/// evaluated at `u_slip` (the filter passes smoothed tread speeds there:
+/// see [`crate::filter::FilterConfig::slip_input_time_constant`]); with
+/// `u_slip == u` this is exactly [`jacobian`].
+pub fn predict_with_jacobian(
+    s: &State,
+    u: TreadInput,
+    u_slip: TreadInput,
+    dt: f64,
+) -> (State, MatN) {
     let d = spread(s);
-    let d2 = d * d;
+    let inv_d = 1.0 / d;
+    let inv_d2 = inv_d * inv_d;
     let (y_l, y_r, x_c) = (s[Y_L], s[Y_R], s[X_C]);
     let (v_l, v_r) = (s[ALPHA_L] * u.v_left, s[ALPHA_R] * u.v_right);
     let dv = v_l - v_r;
-    let v_x = (v_r * y_l - v_l * y_r) / d;
-    let v_y = x_c * dv / d;
-    // Partial derivatives of the twist by (y_l, y_r, x_c) ...
-    let vx_yl = y_r * dv / d2;
-    let vx_yr = -y_l * dv / d2;
-    let vy_yl = -x_c * dv / d2;
-    let vy_yr = x_c * dv / d2;
-    let vy_xc = dv / d;
-    let w_yl = dv / d2;
-    let w_yr = -dv / d2;
-    // ... and by (alpha_l, alpha_r) through v_l = alpha_l V_l, v_r = alpha_r V_r.
-    let vx_al = -y_r / d * u.v_left;
-    let vx_ar = y_l / d * u.v_right;
-    let vy_al = x_c / d * u.v_left;
-    let vy_ar = -x_c / d * u.v_right;
-    let w_al = -u.v_left / d;
-    let w_ar = u.v_right / d;
+    let v_x = (v_r * y_l - v_l * y_r) * inv_d;
+    let v_y = x_c * dv * inv_d;
+    let omega = -dv * inv_d;
     let (sn, cs) = (libm::sin(s[YAW]), libm::cos(s[YAW]));
 
+    let mut out = *s;
+    out[EAST] += dt * (v_x * cs - v_y * sn);
+    out[NORTH] += dt * (v_x * sn + v_y * cs);
+    out[YAW] = angle::wrap(s[YAW] + dt * omega);
+
+    // Partial derivatives of the twist (v_x, v_y, omega) by each slip
+    // parameter; (alpha_l, alpha_r) act through v_l = alpha_l V_l, v_r = alpha_r V_r.
+    let u = u_slip;
+    let dv = s[ALPHA_L] * u.v_left - s[ALPHA_R] * u.v_right;
+    let cols = [
+        (Y_L, y_r * dv * inv_d2, -x_c * dv * inv_d2, dv * inv_d2),
+        (Y_R, -y_l * dv * inv_d2, x_c * dv * inv_d2, -dv * inv_d2),
+        (X_C, 0.0, dv * inv_d, 0.0),
+        (
+            ALPHA_L,
+            -y_r * inv_d * u.v_left,
+            x_c * inv_d * u.v_left,
+            -u.v_left * inv_d,
+        ),
+        (
+            ALPHA_R,
+            y_l * inv_d * u.v_right,
+            -x_c * inv_d * u.v_right,
+            u.v_right * inv_d,
+        ),
+    ];
     let mut f = MatN::identity();
     f[(EAST, YAW)] = dt * (-v_x * sn - v_y * cs);
     f[(NORTH, YAW)] = dt * (v_x * cs - v_y * sn);
-    let cols = [
-        (Y_L, vx_yl, vy_yl, w_yl),
-        (Y_R, vx_yr, vy_yr, w_yr),
-        (X_C, 0.0, vy_xc, 0.0),
-        (ALPHA_L, vx_al, vy_al, w_al),
-        (ALPHA_R, vx_ar, vy_ar, w_ar),
-    ];
     for (j, dvx, dvy, dw) in cols {
         f[(EAST, j)] = dt * (dvx * cs - dvy * sn);
         f[(NORTH, j)] = dt * (dvx * sn + dvy * cs);
         f[(YAW, j)] = dt * dw;
     }
-    f
+    (out, f)
 }
 
 #[cfg(test)]

@@ -10,7 +10,7 @@ use terraslip_core::schedule::{IcrStd, ScheduleConfig};
 use terraslip_core::terrain_belief::BeliefConfig;
 
 /// Everything `estimate` needs besides the log.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct EstimatorConfig {
     /// Gain rule and process noise of the filter.
@@ -99,6 +99,9 @@ pub struct FilterSection {
     pub q_yaw: f64,
     /// Extra yaw noise per squared yaw rate, rad^2/s per (rad/s)^2.
     pub q_yaw_per_rate2: f64,
+    /// Low-pass time constant of the tread speeds that correlate the slip
+    /// parameters with the pose (s; 0 = raw): encoder flicker is no turn.
+    pub slip_input_time_constant: f64,
     /// ICR random walk of the spread d = y_l - y_r, m^2/s.
     pub q_spread: f64,
     /// ICR random walk of the centre (y_l + y_r)/2, m^2/s.
@@ -157,6 +160,9 @@ pub struct MeasurementSection {
     pub std_xy: f64,
     /// Heading std when `pose.csv` has no `std_yaw`, rad.
     pub std_yaw: f64,
+    /// Encoder resolution on the tread, m per tick; 0 = from meta.toml
+    /// (2 pi wheel_radius / ticks_per_rev), or unquantised if that is unknown.
+    pub encoder_tick: f64,
 }
 
 /// `[band]`: multiples of the track width W.
@@ -221,6 +227,7 @@ impl Default for FilterSection {
             q_pos_per_speed2: 1e-3,
             q_yaw: 1e-6,
             q_yaw_per_rate2: 1e-4,
+            slip_input_time_constant: 0.2,
             q_spread: 1e-5,
             q_centre: 1e-7,
             q_x_c: 1e-7,
@@ -264,6 +271,7 @@ impl Default for MeasurementSection {
         Self {
             std_xy: 2.0,
             std_yaw: 1f64.to_radians(),
+            encoder_tick: 0.0,
         }
     }
 }
@@ -314,19 +322,6 @@ impl Default for BeliefSection {
             stay_prob: b.stay_prob,
             stay_prob_on_jump: b.stay_prob_on_jump,
             vote_lambda: b.vote_lambda,
-        }
-    }
-}
-
-impl Default for EstimatorConfig {
-    fn default() -> Self {
-        Self {
-            filter: FilterSection::default(),
-            init: InitSection::default(),
-            measurement: MeasurementSection::default(),
-            band: BandSection::default(),
-            schedule: ScheduleSection::default(),
-            belief: BeliefSection::default(),
         }
     }
 }
@@ -476,6 +471,8 @@ impl EstimatorConfig {
             q_pos_per_speed2: f.q_pos_per_speed2,
             q_yaw: f.q_yaw,
             q_yaw_per_rate2: f.q_yaw_per_rate2,
+            encoder_tick: self.measurement.encoder_tick,
+            slip_input_time_constant: f.slip_input_time_constant,
             q_icr,
             learn_icr: f.learn_icr,
             learn_alpha: f.learn_alpha,

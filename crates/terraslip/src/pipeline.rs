@@ -314,7 +314,14 @@ pub fn run_with(
     P0[(YAW, YAW)] = yaw_var;
     P0.fixed_view_mut::<K, K>(SLIP, SLIP).copy_from(&icr_cov);
 
-    let fcfg = cfg.filter_config(track_width);
+    let mut fcfg = cfg.filter_config(track_width);
+    if fcfg.encoder_tick == 0.0 {
+        if let (Some(r), Some(n)) = (log.meta.wheel_radius, log.meta.ticks_per_rev) {
+            if r.is_finite() && r > 0.0 && n.is_finite() && n >= 1.0 {
+                fcfg.encoder_tick = 2.0 * std::f64::consts::PI * r / n;
+            }
+        }
+    }
     let filter_err = |t: f64, source: FilterError| PipelineError::Filter {
         dir: dir.clone(),
         t,

@@ -504,7 +504,7 @@ fn write_outputs(
     )?;
 
     let intro = format!(
-        "Scenario `{}` (seed {}): {} {:.0} s, terrains {}. Every variant ran over the same log with the \
+        "Scenario `{}` (seed {}): {} ({:.0} s; terrains {}). Every variant ran over the same log with the \
          log's terrain labels as evidence; during the outage {} every pose fix (GNSS and compass) was dropped, \
          so the drift is pure dead reckoning on the ICRs each variant had learned. Steady-state RMS counts \
          rows at least {SETTLE:.0} s after each terrain change. Re-convergence: seconds after a change until the \
@@ -535,7 +535,21 @@ fn write_outputs(
             format!("{n}: y_l, y_r, x_c with 2σ bands against the truth."),
         ));
     }
-    figures.push(("trajectory.svg".into(), "The drive: truth, GNSS fixes (2 m error, correlated over ~30 s, the odd 30 m multipath jump) and the terraslip estimate.".into()));
+    let g = &sim.scenario.gnss;
+    figures.push((
+        "trajectory.svg".into(),
+        format!(
+            "The drive: truth, GNSS fixes ({:.2} m error per axis, {:.0} % of its variance correlated over {:.0} s{}) and the terraslip estimate.",
+            g.total_std(),
+            100.0 * g.markov_std.powi(2) / g.total_std().powi(2).max(1e-12),
+            g.markov_tau,
+            if g.multipath_rate > 0.0 || !g.jumps.is_empty() {
+                format!(", the odd {:.0} m multipath jump", g.multipath_jump)
+            } else {
+                String::new()
+            }
+        ),
+    ));
     if outage.is_some() {
         figures.push(("outage.svg".into(), "Dead reckoning through the outage: each variant's path, aligned to the truth where the outage begins.".into()));
     }

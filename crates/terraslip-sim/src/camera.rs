@@ -280,7 +280,7 @@ fn blade(e: f64, n: f64, grid: Option<&BladeGrid>) -> Option<f64> {
             let dist = (rx - along * b.ca).hypot(ry - along * b.sa);
             // Blades taper towards the tip.
             let width = BLADE_HALF_WIDTH * (1.0 - 0.6 * (along / BLADE_HALF_LEN).abs());
-            if dist < width && best.map_or(true, |(h, _)| b.height > h) {
+            if dist < width && !matches!(best, Some((h, _)) if b.height <= h) {
                 // Lit along the middle, darker at the edges and the base.
                 let shade = 1.0 - 0.5 * dist / width;
                 let tip = 0.75 + 0.25 * (along / BLADE_HALF_LEN);

@@ -519,7 +519,9 @@ impl Scenario {
     /// A name or a path: a built-in if one has that name, else a TOML file.
     pub fn resolve(name_or_path: &str) -> Result<Self, SimError> {
         let p = Path::new(name_or_path);
-        if p.extension().is_some_and(|e| e == "toml") || p.exists() {
+        // A directory of that name (say, a log written earlier with
+        // `--out papers`) does not shadow the built-in.
+        if p.extension().is_some_and(|e| e == "toml") || p.is_file() {
             Self::from_toml_file(p)
         } else {
             Self::builtin(name_or_path)

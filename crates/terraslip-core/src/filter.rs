@@ -28,6 +28,8 @@
 //! rejections (so a real jump, e.g. after an outage, is accepted eventually),
 //! no ICR learning while standing still, and a physical band on the ICRs.
 
+use core::ops::AddAssign;
+
 use nalgebra::{Matrix3, SMatrix, Vector3};
 
 use crate::kinematics::IcrParams;
@@ -543,32 +545,16 @@ impl Filter {
         let u_slip = self.u_smooth.unwrap_or(u);
         let (x, F) = model::predict_with_jacobian(&self.x, u, u_slip, dt);
 
-        // F = I + (a few off-diagonal terms), so F P F' is formed from the
-        // non-identity rows only: three times fewer flops than a full product.
-        let mut FP = self.P;
-        for r in [EAST, NORTH, YAW] {
-            for c in 0..N {
-                let mut acc = self.P[(r, c)];
-                for k in YAW..N {
-                    if k != r {
-                        acc += F[(r, k)] * self.P[(k, c)];
-                    }
-                }
-                FP[(r, c)] = acc;
-            }
-        }
-        let mut P = FP;
-        for c in [EAST, NORTH, YAW] {
-            for r in 0..N {
-                let mut acc = FP[(r, c)];
-                for k in YAW..N {
-                    if k != c {
-                        acc += FP[(r, k)] * F[(c, k)];
-                    }
-                }
-                P[(r, c)] = acc;
-            }
-        }
+        // F = I + E with E non-zero only in rows east, north, yaw and
+        // columns yaw.. (a 3x6 block B): F P F' = P1 + P1 E' with
+        // P1 = P + E P. Two 3x6-by-6x8 products instead of two 8x8x8.
+        let mut B: SMatrix<f64, 3, 6> = F.fixed_view::<3, 6>(0, YAW).into_owned();
+        B[(YAW, 0)] -= 1.0;
+        let EP: Mat3xN = B * self.P.fixed_view::<6, N>(YAW, 0);
+        let mut P = self.P;
+        P.fixed_rows_mut::<3>(0).add_assign(&EP);
+        let PEt: MatNx3 = P.fixed_view::<N, 6>(0, YAW) * B.transpose();
+        P.fixed_columns_mut::<3>(0).add_assign(&PEt);
 
         let d = (x[Y_L] - x[Y_R]).max(crate::kinematics::MIN_SPREAD);
         let omega = (v_right - v_left) / d;
@@ -801,20 +787,10 @@ impl Filter {
                 // P - G HP - (G HP)' + G (H P H' + R) G': exact for any gain
                 // (also the rows zeroed above) and four times cheaper. S is
                 // H P H' + R on the measured rows; the others meet zero columns of G.
-                let GS: MatNx3 = G * S;
-                let mut P = self.P;
-                for i in 0..N {
-                    for j in i..N {
-                        let mut acc = self.P[(i, j)];
-                        for k in 0..3 {
-                            acc -= G[(i, k)] * HP[(k, j)] + G[(j, k)] * HP[(k, i)]
-                                - GS[(i, k)] * G[(j, k)];
-                        }
-                        P[(i, j)] = acc;
-                        P[(j, i)] = acc;
-                    }
-                }
-                P
+                let GHP: MatN = G * HP;
+                let GSGt: MatN = (G * S) * G.transpose();
+                let P = self.P - GHP - GHP.transpose() + GSGt;
+                0.5 * (P + P.transpose())
             }
         };
         // Non-finite entries reach the diagonal within a step; checking it

@@ -77,6 +77,10 @@ pub struct CalibConfig {
     pub segment: SegmentConfig,
     /// Weight between metres and radians in eq. 13, m/rad: a heading error
     /// of 1 rad costs as much as a position error of `yaw_weight` m.
+    /// Mandow et al. use 1. The default 0.5 is about the sideways shift a
+    /// heading error causes at the end of a 1 s segment driven at 1 m/s
+    /// (`d * dphi / 2`); on the Warthog drives it predicted held-out
+    /// positions better than 1 (see docs/benchmarks-calib.md).
     pub yaw_weight: f64,
     /// `None` runs every method and keeps the best.
     pub method: Option<Method>,
@@ -98,7 +102,7 @@ impl Default for CalibConfig {
     fn default() -> Self {
         Self {
             segment: SegmentConfig::default(),
-            yaw_weight: 1.0,
+            yaw_weight: 0.5,
             method: None,
             lm: LmConfig::default(),
             ga: GaSettings::default(),
@@ -327,12 +331,16 @@ pub fn calibrate(
         }
         warnings.extend(log.warnings.iter().cloned());
     }
+    let mut scfg = cfg.segment.clone();
+    scfg.gate_track_width = scfg
+        .gate_track_width
+        .or_else(|| logs.iter().find_map(|l| l.meta.track_width));
     progress(Progress::Stage("aligning wheel and pose streams"));
     let mut offsets = Vec::with_capacity(logs.len());
     for log in logs {
         let o = match cfg.time_offset {
             TimeOffset::Fixed(o) => o,
-            TimeOffset::Auto { max, step } => match estimate_offset(log, &cfg.segment, max, step) {
+            TimeOffset::Auto { max, step } => match estimate_offset(log, &scfg, max, step) {
                 Some((o, _)) => o,
                 None => {
                     warnings.push(format!(
@@ -346,10 +354,6 @@ pub fn calibrate(
         offsets.push(o);
     }
     let refs: Vec<&DriveLog> = logs.iter().collect();
-    let mut scfg = cfg.segment.clone();
-    scfg.gate_track_width = scfg
-        .gate_track_width
-        .or_else(|| logs.iter().find_map(|l| l.meta.track_width));
     let all = Segments::build(&refs, &offsets, &scfg);
     // Group by terrain; logs without labels go to the pooled set.
     let mut names: Vec<Option<String>> = Vec::new();

@@ -2,10 +2,16 @@
 //!
 //! Hand-written (5 unknowns: the normal equations are a 5x5 Cholesky), with
 //! Marquardt's diagonal damping, started from the no-slip model. An outer
-//! iteratively-reweighted loop (IRLS) gives each segment the Cauchy weight
-//! `1 / (1 + (s/(c sigma))^2)` of its residual norm `s`, with `sigma` a
-//! median-based scale, and drops segments beyond `outlier_sigmas * sigma`
-//! (relocalisation jumps, wheel spin that no kinematic model explains).
+//! iteratively-reweighted loop (IRLS) drops segments beyond
+//! `outlier_sigmas * sigma`, with `sigma` a median-based scale (relocalisation
+//! jumps, wheel spin that no kinematic model explains), and, with a finite
+//! `cauchy_c`, gives the others the Cauchy weight `1 / (1 + (s/(c sigma))^2)`
+//! of their residual norm `s`.
+//!
+//! Default: trimmed least squares (`cauchy_c` infinite, drop beyond 5 sigma).
+//! On the Warthog drives, split in time, it predicted the held-out half
+//! better than Cauchy weighting (c = 2.385), which also discounts the hard
+//! but genuine segments (fast turns) that the validation scores.
 #![allow(non_snake_case)]
 
 use nalgebra::{SMatrix, SVector};
@@ -29,7 +35,8 @@ pub struct LmConfig {
     pub max_iterations: usize,
     /// Reweighting rounds (1 = plain least squares).
     pub irls_rounds: usize,
-    /// Cauchy scale in units of the robust sigma (2.385: 95 % efficiency).
+    /// Cauchy scale in units of the robust sigma (2.385: 95 % efficiency);
+    /// infinite = every inlier weighs 1 (trimmed least squares).
     pub cauchy_c: f64,
     /// Segments whose residual norm exceeds this many sigmas get weight 0.
     pub outlier_sigmas: f64,
@@ -43,8 +50,8 @@ impl Default for LmConfig {
         Self {
             max_iterations: 50,
             irls_rounds: 8,
-            cauchy_c: 2.385,
-            outlier_sigmas: 4.0,
+            cauchy_c: f64::INFINITY,
+            outlier_sigmas: 5.0,
             free: [true; 5],
         }
     }

@@ -63,7 +63,11 @@ pub fn cost(p: &IcrParams, segs: &Segments, weights: &[f64], yaw_weight: f64) ->
 /// Cauchy loss of a squared residual norm `s2` with scale `c` (m):
 /// `c^2 ln(1 + s2/c^2)`. Grows like `s2` near zero and only logarithmically
 /// for outliers, so a relocalisation jump cannot dominate the fit.
+/// An infinite `c` gives plain least squares, `s2`.
 pub fn cauchy(s2: f64, c: f64) -> f64 {
+    if !c.is_finite() {
+        return s2;
+    }
     let c2 = c * c;
     c2 * (s2 / c2).ln_1p()
 }

@@ -67,14 +67,6 @@ pub struct SegmentConfig {
     /// Only poses with `t_min <= t <= t_max` (pose clock, s) are used.
     pub t_min: f64,
     pub t_max: f64,
-    /// Half-width (s) of the local quadratic regression that smooths the
-    /// pose track before increments are taken; 0 uses the raw poses.
-    /// Lidar poses are sharp in space but their stamps jitter by a good
-    /// fraction of the 0.1-0.25 s update period: at 3 m/s that is tens of
-    /// centimetres along the track in every 1 s increment. A local fit over
-    /// a few neighbours averages the jitter out; applied alike to every model
-    /// being scored, it favours none.
-    pub pose_smoothing: f64,
     /// Drop segments whose reference cannot be a motion the treads made
     /// (see [`plausible`]): a localiser that stalls and then catches up, or
     /// relocalises, yields pose increments no wheel model can match.
@@ -92,7 +84,6 @@ impl Default for SegmentConfig {
             stationary_travel: 0.02,
             t_min: f64::NEG_INFINITY,
             t_max: f64::INFINITY,
-            pose_smoothing: 0.0,
             reference_gate: true,
             gate_track_width: None,
         }
@@ -158,90 +149,6 @@ pub fn clean_poses(pose: &[PoseObs], stats: &mut SegmentStats) -> Vec<(f64, f64,
     out
 }
 
-/// Local quadratic regression of east, north and unwrapped yaw against
-/// time over `[t - h, t + h]`, evaluated at each pose's own time. Falls back
-/// to a local line, then to the raw pose, when too few neighbours exist.
-pub fn smooth_poses(p: &[(f64, f64, f64, f64)], h: f64) -> Vec<(f64, f64, f64, f64)> {
-    let mut yaw = Vec::with_capacity(p.len());
-    let mut acc = 0.0;
-    for (i, q) in p.iter().enumerate() {
-        if i == 0 {
-            acc = q.3;
-        } else {
-            acc += angle::wrap(q.3 - p[i - 1].3);
-        }
-        yaw.push(acc);
-    }
-    let (mut lo, mut hi) = (0usize, 0usize);
-    let mut out = Vec::with_capacity(p.len());
-    for (i, q) in p.iter().enumerate() {
-        while p[lo].0 < q.0 - h {
-            lo += 1;
-        }
-        while hi < p.len() && p[hi].0 <= q.0 + h {
-            hi += 1;
-        }
-        let n = hi - lo;
-        let fit = |val: &dyn Fn(usize) -> f64| -> Option<f64> {
-            // Normal equations of y = a + b u + c u^2, u = t - t_i.
-            let deg = if n >= 5 {
-                3
-            } else if n >= 3 {
-                2
-            } else {
-                return None;
-            };
-            let mut m = [[0.0f64; 3]; 3];
-            let mut r = [0.0f64; 3];
-            for k in lo..hi {
-                let u = p[k].0 - q.0;
-                let b = [1.0, u, u * u];
-                for a in 0..deg {
-                    r[a] += b[a] * val(k);
-                    for c in 0..deg {
-                        m[a][c] += b[a] * b[c];
-                    }
-                }
-            }
-            solve(&mut m, &mut r, deg).map(|x| x[0])
-        };
-        match (fit(&|k| p[k].1), fit(&|k| p[k].2), fit(&|k| yaw[k])) {
-            (Some(e), Some(nn), Some(y)) => out.push((q.0, e, nn, angle::wrap(y))),
-            _ => out.push(*q),
-        }
-        let _ = i;
-    }
-    out
-}
-
-/// Gaussian elimination with partial pivoting on the leading `n` x `n` block.
-fn solve(m: &mut [[f64; 3]; 3], r: &mut [f64; 3], n: usize) -> Option<[f64; 3]> {
-    for c in 0..n {
-        let piv = (c..n).max_by(|&a, &b| m[a][c].abs().total_cmp(&m[b][c].abs()))?;
-        if m[piv][c].abs() < 1e-12 {
-            return None;
-        }
-        m.swap(c, piv);
-        r.swap(c, piv);
-        for row in c + 1..n {
-            let f = m[row][c] / m[c][c];
-            for k in c..n {
-                m[row][k] -= f * m[c][k];
-            }
-            r[row] -= f * r[c];
-        }
-    }
-    let mut x = [0.0; 3];
-    for c in (0..n).rev() {
-        let mut s = r[c];
-        for k in c + 1..n {
-            s -= m[c][k] * x[k];
-        }
-        x[c] = s / m[c][c];
-    }
-    Some(x)
-}
-
 /// Whether a segment's reference increment is a motion its treads can have
 /// produced, with margins wide enough for any terrain (ice included) and
 /// without any calibrated parameter, so it treats every model alike:
@@ -253,11 +160,11 @@ fn solve(m: &mut [[f64; 3]; 3], r: &mut [f64; 3], n: usize) -> Option<[f64; 3]> 
 /// * it turns at most 1.5x the no-slip yaw (skid steering only turns less), + 0.3 rad.
 pub fn plausible(seg: &Segment, steps: &[Step], cfg: &SegmentConfig) -> bool {
     let r = seg.reference;
+    let moved = r.dx.hypot(r.dy);
     let fast: f64 = steps
         .iter()
         .map(|s| s.v_left.abs().max(s.v_right.abs()) * s.dt)
         .sum();
-    let moved = r.dx.hypot(r.dy);
     if moved > 1.4 * fast + 0.3 {
         return false;
     }
@@ -317,10 +224,7 @@ impl Segments {
         cfg: &SegmentConfig,
     ) {
         let mut stats = SegmentStats::default();
-        let mut poses = clean_poses(&log.pose, &mut stats);
-        if cfg.pose_smoothing > 0.0 {
-            poses = smooth_poses(&poses, cfg.pose_smoothing);
-        }
+        let poses = clean_poses(&log.pose, &mut stats);
         let w = &log.wheels;
         if w.len() < 2 || poses.len() < 2 {
             self.stats.add(&stats);

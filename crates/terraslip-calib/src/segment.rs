@@ -48,9 +48,6 @@ pub struct Segment {
     /// `int (v_r - v_l) dt`, m, and `int (v_r + v_l)/2 dt`, m (quick calibration).
     pub int_diff: f64,
     pub int_mean: f64,
-    /// Largest |v_r + v_l| / 2 and |v_r - v_l| / 2 over the segment, m/s.
-    pub max_mean_speed: f64,
-    pub max_half_diff: f64,
 }
 
 /// Segmentation settings.
@@ -293,8 +290,6 @@ impl Segments {
                 tread_travel: 0.0,
                 int_diff: 0.0,
                 int_mean: 0.0,
-                max_mean_speed: 0.0,
-                max_half_diff: 0.0,
             };
             let mut prev = wheel_at(w, knots[0], &mut hint);
             for p in knots.windows(2) {
@@ -310,8 +305,6 @@ impl Segments {
                 seg.tread_travel += (vl.abs() + vr.abs()) * dt;
                 seg.int_diff += (vr - vl) * dt;
                 seg.int_mean += 0.5 * (vr + vl) * dt;
-                seg.max_mean_speed = seg.max_mean_speed.max(0.5 * (vr + vl).abs());
-                seg.max_half_diff = seg.max_half_diff.max(0.5 * (vr - vl).abs());
                 self.steps.push(Step {
                     dt,
                     v_left: vl,

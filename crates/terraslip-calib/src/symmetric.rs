@@ -26,24 +26,23 @@ pub enum SymmetricMissing {
     Straights,
 }
 
-/// A segment is a spin when the mean tread speed stays under 15 % of the
-/// half difference, and it turned at least 0.2 rad; straight when the
-/// half difference stays under 5 % of the mean speed and it turned under 0.05 rad.
+/// A segment is a spin when its mean tread travel `int (V_r + V_l)/2` is
+/// under 15 % of its half differential travel `int (V_r - V_l)/2` and it
+/// turned at least 0.2 rad; straight when the half differential travel is
+/// under 5 % of the mean travel, it moved over 5 cm and turned under 0.05 rad.
 pub fn fit(segs: &Segments, active: &[bool]) -> Result<SymmetricFit, SymmetricMissing> {
     let (mut a_num, mut a_den, mut n_straight) = (0.0, 0.0, 0usize);
     let (mut x_num, mut x_den, mut n_spin) = (0.0, 0.0, 0usize);
     for (s, _) in segs.segments.iter().zip(active).filter(|(_, &a)| a) {
         let r = s.reference;
-        if s.max_half_diff < 0.05 * s.max_mean_speed
-            && r.dyaw.abs() < 0.05
-            && s.int_mean.abs() > 0.05
-        {
+        let half_diff = 0.5 * s.int_diff.abs();
+        if half_diff < 0.05 * s.int_mean.abs() && r.dyaw.abs() < 0.05 && s.int_mean.abs() > 0.05 {
             // d = alpha * int_mean (signed: reversing counts too)
             a_num += r.dx * s.int_mean;
             a_den += s.int_mean * s.int_mean;
             n_straight += 1;
         }
-        if s.max_mean_speed < 0.15 * s.max_half_diff && r.dyaw.abs() > 0.2 {
+        if s.int_mean.abs() < 0.15 * half_diff && r.dyaw.abs() > 0.2 {
             // phi = alpha * int_diff / (2 x_ICR)  =>  (2 phi) * k = int_diff, k = x_ICR/alpha
             x_num += 2.0 * r.dyaw * s.int_diff;
             x_den += 4.0 * r.dyaw * r.dyaw;

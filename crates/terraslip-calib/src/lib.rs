@@ -27,6 +27,7 @@ pub mod model;
 pub mod offset;
 pub mod segment;
 pub mod symmetric;
+pub mod synthetic;
 pub mod validate;
 
 use std::path::PathBuf;

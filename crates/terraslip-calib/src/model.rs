@@ -101,3 +101,34 @@ pub fn from_vec(v: &[f64; 5]) -> IcrParams {
         alpha_r: v[4],
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn constant_twist_integrates_to_the_exact_arc() {
+        // v = 1 m/s, omega = 0.5 rad/s for 2 s: a circle of radius 2 m.
+        let p = IcrParams::no_slip(0.5);
+        let (vl, vr) = p.tread_speeds(1.0, 0.5);
+        let steps: Vec<Step> = (0..7)
+            .map(|k| Step {
+                dt: if k == 6 { 0.2 } else { 0.3 },
+                v_left: vl,
+                v_right: vr,
+            })
+            .collect();
+        let inc = integrate(&p, &steps);
+        let (r, th) = (2.0f64, 1.0f64);
+        assert!((inc.dx - r * th.sin()).abs() < 1e-12);
+        assert!((inc.dy - r * (1.0 - th.cos())).abs() < 1e-12);
+        assert!((inc.dyaw - th).abs() < 1e-12);
+    }
+
+    #[test]
+    fn cauchy_grows_slower_than_squares_and_infinite_scale_is_plain() {
+        assert!((cauchy(1e-6, 1.0) - 1e-6).abs() < 1e-11);
+        assert!(cauchy(100.0, 1.0) < 5.0);
+        assert_eq!(cauchy(3.0, f64::INFINITY), 3.0);
+    }
+}

@@ -355,3 +355,103 @@ impl Segments {
         self.segments.is_empty()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use terraslip_io::TerrainLabel;
+
+    fn straight_log(speed: f64, duration: f64) -> DriveLog {
+        let mut log = DriveLog::default();
+        for k in 0..=(duration * 20.0) as usize {
+            let t = k as f64 * 0.05;
+            log.wheels.push(WheelSample {
+                t,
+                v_left: speed,
+                v_right: speed,
+            });
+            if k % 2 == 0 {
+                log.pose.push(PoseObs {
+                    t,
+                    east: Some(0.0),
+                    north: Some(speed * t),
+                    yaw: Some(std::f64::consts::FRAC_PI_2),
+                    ..Default::default()
+                });
+            }
+        }
+        log
+    }
+
+    #[test]
+    fn increments_are_in_the_frame_of_the_segment_start() {
+        // Heading north, moving north 1 m: 1 m forward, nothing sideways.
+        let inc = relative((5.0, 5.0, std::f64::consts::FRAC_PI_2), (5.0, 6.0, 3.0));
+        assert!((inc.dx - 1.0).abs() < 1e-12 && inc.dy.abs() < 1e-12);
+        assert!((inc.dyaw - angle::wrap(3.0 - std::f64::consts::FRAC_PI_2)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn segments_chain_at_least_min_duration_apart() {
+        let log = straight_log(1.0, 20.0);
+        let s = Segments::build(&[&log], &[0.0], &SegmentConfig::default());
+        assert_eq!(s.len(), 20);
+        for w in s.segments.windows(2) {
+            assert_eq!(w[0].t1, w[1].t0);
+        }
+        for seg in &s.segments {
+            assert!(seg.t1 - seg.t0 >= 1.0 - 1e-9);
+            assert!((seg.reference.dx - (seg.t1 - seg.t0)).abs() < 1e-9);
+            let steps = s.steps_of(seg);
+            let dt: f64 = steps.iter().map(|x| x.dt).sum();
+            assert!((dt - (seg.t1 - seg.t0)).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn stationary_stale_and_implausible_segments_are_counted_not_used() {
+        let mut log = straight_log(0.0, 10.0);
+        // Standing still, with a millimetre of reference noise.
+        for (k, p) in log.pose.iter_mut().enumerate() {
+            p.east = Some(0.001 * (k % 2) as f64);
+        }
+        let s = Segments::build(&[&log], &[0.0], &SegmentConfig::default());
+        assert_eq!(s.len(), 0);
+        assert_eq!(s.stats.stationary, 10);
+        assert_eq!(s.stats.stale_poses, 0);
+        for p in log.pose.iter_mut() {
+            p.east = Some(0.0);
+        }
+        // The treads drive 1 m/s but the pose never moves: a stalled localiser.
+        for w in log.wheels.iter_mut() {
+            w.v_left = 1.0;
+            w.v_right = 1.0;
+        }
+        let s = Segments::build(&[&log], &[0.0], &SegmentConfig::default());
+        assert_eq!(s.len(), 0);
+        assert!(s.stats.stale_poses > 0);
+        let mut log = straight_log(1.0, 10.0);
+        // A 5 m jump cannot come from treads at 1 m/s.
+        log.pose[50].north = log.pose[50].north.map(|n| n + 5.0);
+        let s = Segments::build(&[&log], &[0.0], &SegmentConfig::default());
+        assert!(s.stats.implausible >= 1);
+    }
+
+    #[test]
+    fn segments_across_a_terrain_change_are_skipped() {
+        let mut log = straight_log(1.0, 10.0);
+        log.terrain = vec![
+            TerrainLabel {
+                t: 0.0,
+                terrain: "a".into(),
+            },
+            TerrainLabel {
+                t: 4.5,
+                terrain: "b".into(),
+            },
+        ];
+        let s = Segments::build(&[&log], &[0.0], &SegmentConfig::default());
+        assert_eq!(s.stats.terrain_change, 1);
+        assert!(s.segments.iter().any(|x| x.terrain.as_deref() == Some("b")));
+    }
+}

@@ -39,8 +39,8 @@ impl GaConfig {
     /// 0.3 w to 3 w either side, x_c within a track width, alpha 0.5-1.5.
     pub fn for_track_width(w: f64) -> Self {
         Self {
-            population: 64,
-            generations: 120,
+            population: 48,
+            generations: 100,
             seed: 1,
             bounds: [
                 (0.3 * w, 3.0 * w),

@@ -64,10 +64,10 @@ pub struct Args {
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// GA population size.
-    #[arg(long, default_value_t = 64)]
+    #[arg(long, default_value_t = 48)]
     population: usize,
     /// GA generations.
-    #[arg(long, default_value_t = 120)]
+    #[arg(long, default_value_t = 100)]
     generations: usize,
     /// GA bits per gene (the paper: 8); real-coded if not given.
     #[arg(long)]

@@ -9,7 +9,10 @@ use terraslip_calib::{calibrate, CalibConfig, Method, TimeOffset};
 
 fn bench(c: &mut Criterion) {
     // 600 s at 100 Hz wheels, 5 Hz poses: 60 000 wheel samples, ~600 segments.
-    let log = drive(&[("asphalt", mandow_table1())], &SynthConfig::p3at(600.0, 1));
+    let log = drive(
+        &[("asphalt", mandow_table1())],
+        &SynthConfig::p3at(600.0, 1),
+    );
     let logs = [log];
     let mut g = c.benchmark_group("calibrate_600s_drive");
     g.sample_size(10);

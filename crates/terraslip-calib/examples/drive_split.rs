@@ -41,6 +41,7 @@ fn main() {
         cfg.time_offset = TimeOffset::Fixed(0.0);
     }
     cfg.segment.reference_gate = !flag("--no-gate");
+    cfg.segment.drop_mistimed = !flag("--no-gate");
     let mut paths: Vec<_> = match std::fs::read_dir(&dir) {
         Ok(d) => d.filter_map(|e| e.ok()).map(|e| e.path()).collect(),
         Err(e) => {
@@ -75,6 +76,7 @@ fn main() {
             let pf = cal.params_file();
             let mut v = ValidateConfig::default();
             v.segment.reference_gate = cfg.segment.reference_gate;
+            v.segment.drop_mistimed = cfg.segment.drop_mistimed;
             (v.segment.t_min, v.segment.t_max) = test;
             if flag("--no-offset") {
                 v.time_offset = OffsetChoice::Fixed(0.0);
@@ -122,6 +124,7 @@ fn main() {
         for log in &logs {
             let mut v = ValidateConfig::default();
             v.segment.reference_gate = cfg.segment.reference_gate;
+            v.segment.drop_mistimed = cfg.segment.drop_mistimed;
             (v.segment.t_min, v.segment.t_max) = halves(log).1;
             // The latency belongs to the drive, not to the parameters.
             v.time_offset = if flag("--no-offset") {

@@ -257,6 +257,8 @@ impl SetCalibration {
         x.insert("segments_dropped".into(), json!(self.dropped.len()));
         x.insert("segments_stationary".into(), json!(self.stats.stationary));
         x.insert("stale_poses".into(), json!(self.stats.stale_poses));
+        x.insert("mistimed_poses".into(), json!(self.stats.mistimed_poses));
+        x.insert("implausible_segments".into(), json!(self.stats.implausible));
         let dropped: Vec<Value> = self
             .dropped
             .iter()
@@ -421,7 +423,7 @@ pub fn calibrate(
 fn unidentified_by_std(std: &[f64; 5], spread: f64, free: &[bool; 5]) -> Vec<&'static str> {
     let limits = [0.25 * spread, 0.25 * spread, 0.25 * spread, 0.1, 0.1];
     (0..5)
-        .filter(|&k| free[k] && !(std[k] <= limits[k]))
+        .filter(|&k| free[k] && (std[k].is_nan() || std[k] > limits[k]))
         .map(|k| PARAM_NAMES[k])
         .collect()
 }

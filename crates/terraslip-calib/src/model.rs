@@ -23,7 +23,11 @@ pub fn integrate(p: &IcrParams, steps: &[Step]) -> Increment {
         let h2 = half * half;
         let (sh, ch, sinc) = if half.abs() < 0.05 {
             let sinc = 1.0 - h2 / 6.0 * (1.0 - h2 / 20.0 * (1.0 - h2 / 42.0));
-            (half * sinc, 1.0 - h2 / 2.0 * (1.0 - h2 / 12.0 * (1.0 - h2 / 30.0)), sinc)
+            (
+                half * sinc,
+                1.0 - h2 / 2.0 * (1.0 - h2 / 12.0 * (1.0 - h2 / 30.0)),
+                sinc,
+            )
         } else {
             let (sh, ch) = half.sin_cos();
             (sh, ch, sh / half)

@@ -68,6 +68,8 @@ pub struct SegmentConfig {
     /// (see [`plausible`]): a localiser that stalls and then catches up, or
     /// relocalises, yields pose increments no wheel model can match.
     pub reference_gate: bool,
+    /// Drop single poses whose timestamp is off (see [`drop_mistimed`]).
+    pub drop_mistimed: bool,
     /// Track width (m) used by the gate's yaw bound; 1 m if unknown.
     pub gate_track_width: Option<f64>,
 }
@@ -82,6 +84,7 @@ impl Default for SegmentConfig {
             t_min: f64::NEG_INFINITY,
             t_max: f64::INFINITY,
             reference_gate: true,
+            drop_mistimed: true,
             gate_track_width: None,
         }
     }
@@ -94,6 +97,8 @@ pub struct SegmentStats {
     pub incomplete_poses: usize,
     /// Pose rows that repeat the previous pose exactly (a held, stale pose).
     pub stale_poses: usize,
+    /// Poses dropped as mistimed (see [`drop_mistimed`]).
+    pub mistimed_poses: usize,
     /// Segments with (almost) no tread motion.
     pub stationary: usize,
     /// Segments longer than `max_duration` or not covered by wheel samples.
@@ -109,6 +114,7 @@ impl SegmentStats {
     fn add(&mut self, o: &SegmentStats) {
         self.incomplete_poses += o.incomplete_poses;
         self.stale_poses += o.stale_poses;
+        self.mistimed_poses += o.mistimed_poses;
         self.stationary += o.stationary;
         self.gaps += o.gaps;
         self.terrain_change += o.terrain_change;
@@ -144,6 +150,82 @@ pub fn clean_poses(pose: &[PoseObs], stats: &mut SegmentStats) -> Vec<(f64, f64,
         out.push((p.t, e, n, y));
     }
     out
+}
+
+/// Removes poses whose timestamp does not match when they were true: a
+/// localiser that stalls and catches up stamps an old pose late. Over
+/// consecutive poses `a, b, c` with the treads driving at least 0.1 m
+/// forward or back in each interval, the ratio of pose distance to tread
+/// travel is compared on `a->b`, `b->c` and `a->c`; if one half is under
+/// half the overall ratio and the other over 1.5 times it, `b` is suspect,
+/// and dropped if it is more lopsided than its suspect neighbours.
+/// The ratios are relative to the local one, so whatever the slip of the
+/// terrain (alpha), no calibrated parameter enters.
+pub fn drop_mistimed(
+    poses: &[(f64, f64, f64, f64)],
+    w: &[WheelSample],
+    time_offset: f64,
+) -> Vec<(f64, f64, f64, f64)> {
+    if poses.len() < 3 || w.len() < 2 {
+        return poses.to_vec();
+    }
+    // Cumulative signed forward tread travel at each wheel sample.
+    let mut cum = Vec::with_capacity(w.len());
+    let mut d = 0.0;
+    cum.push(0.0);
+    for p in w.windows(2) {
+        d += 0.25 * (p[0].v_left + p[0].v_right + p[1].v_left + p[1].v_right) * (p[1].t - p[0].t);
+        cum.push(d);
+    }
+    let travel_at = |t: f64| {
+        let t = t - time_offset;
+        let i = w.partition_point(|s| s.t <= t);
+        if i == 0 {
+            return cum[0];
+        }
+        if i >= w.len() {
+            return cum[w.len() - 1];
+        }
+        let (a, b) = (&w[i - 1], &w[i]);
+        let s = if b.t > a.t {
+            (t - a.t) / (b.t - a.t)
+        } else {
+            0.0
+        };
+        cum[i - 1] + s * (cum[i] - cum[i - 1])
+    };
+    // Score of each inner pose: how lopsided the two ratios are, when they
+    // are lopsided enough to call it mistimed (0 otherwise).
+    let dist = |p: (f64, f64, f64, f64), q: (f64, f64, f64, f64)| (q.1 - p.1).hypot(q.2 - p.2);
+    let mut score = vec![0.0f64; poses.len()];
+    for i in 1..poses.len() - 1 {
+        let (a, b, c) = (poses[i - 1], poses[i], poses[i + 1]);
+        let (wa, wc) = (
+            (travel_at(b.0) - travel_at(a.0)).abs(),
+            (travel_at(c.0) - travel_at(b.0)).abs(),
+        );
+        if wa < 0.1 || wc < 0.1 {
+            continue;
+        }
+        let r = dist(a, c) / (wa + wc);
+        let (r1, r2) = (dist(a, b) / wa, dist(b, c) / wc);
+        if (r1 < 0.5 * r && r2 > 1.5 * r) || (r1 > 1.5 * r && r2 < 0.5 * r) {
+            score[i] = r1.max(r2) / r1.min(r2).max(1e-9);
+        }
+    }
+    // A late pose also makes its neighbours look lopsided, less so: drop
+    // only the most lopsided of adjacent suspects.
+    poses
+        .iter()
+        .enumerate()
+        .filter(|&(i, _)| {
+            let s = score[i];
+            let prev = if i > 0 { score[i - 1] } else { 0.0 };
+            let next = score.get(i + 1).copied().unwrap_or(0.0);
+            !(s > 0.0 && s >= prev && s >= next)
+        })
+        .map(|(_, p)| *p)
+        .collect()
 }
 
 /// Whether a segment's reference increment is a motion its treads can have
@@ -221,8 +303,20 @@ impl Segments {
         cfg: &SegmentConfig,
     ) {
         let mut stats = SegmentStats::default();
-        let poses = clean_poses(&log.pose, &mut stats);
+        let mut poses = clean_poses(&log.pose, &mut stats);
         let w = &log.wheels;
+        if cfg.drop_mistimed {
+            let n0 = poses.len();
+            // A stall over several poses needs several passes.
+            for _ in 0..4 {
+                let n = poses.len();
+                poses = drop_mistimed(&poses, w, time_offset);
+                if poses.len() == n {
+                    break;
+                }
+            }
+            stats.mistimed_poses += n0 - poses.len();
+        }
         if w.len() < 2 || poses.len() < 2 {
             self.stats.add(&stats);
             return;
@@ -435,6 +529,26 @@ mod tests {
         log.pose[50].north = log.pose[50].north.map(|n| n + 5.0);
         let s = Segments::build(&[&log], &[0.0], &SegmentConfig::default());
         assert!(s.stats.implausible >= 1);
+    }
+
+    #[test]
+    fn a_late_stamped_pose_is_dropped_and_a_clean_track_kept() {
+        let log = straight_log(2.0, 10.0);
+        let poses = clean_poses(&log.pose, &mut SegmentStats::default());
+        assert_eq!(drop_mistimed(&poses, &log.wheels, 0.0).len(), poses.len());
+        // Pose 20 (t = 2 s, poses 0.1 s apart) really shows where the
+        // robot was at 1.92 s.
+        let mut late = poses.clone();
+        late[20].2 -= 2.0 * 0.08;
+        let kept = drop_mistimed(&late, &log.wheels, 0.0);
+        assert_eq!(kept.len(), poses.len() - 1);
+        assert!(kept.iter().all(|p| p.0 != 2.0));
+        // Whatever the slip: the same track at 60 % of the tread speed.
+        let slow: Vec<_> = late.iter().map(|p| (p.0, p.1, 0.6 * p.2, p.3)).collect();
+        assert_eq!(
+            drop_mistimed(&slow, &log.wheels, 0.0).len(),
+            poses.len() - 1
+        );
     }
 
     #[test]

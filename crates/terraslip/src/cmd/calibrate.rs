@@ -111,7 +111,8 @@ struct SegmentArgs {
     #[arg(long, value_name = "S")]
     t_max: Option<f64>,
     /// Keep segments whose reference the treads cannot have produced
-    /// (stalled or jumping poses); they are dropped by default.
+    /// (stalled or jumping poses) and poses stamped at the wrong time; both
+    /// are dropped by default, alike for every model scored.
     #[arg(long)]
     no_gate: bool,
 }
@@ -125,6 +126,7 @@ impl SegmentArgs {
             min_duration: self.min_segment,
             max_duration: (3.0f64).max(3.0 * self.min_segment),
             reference_gate: !self.no_gate,
+            drop_mistimed: !self.no_gate,
             ..Default::default()
         };
         if let Some(t) = self.t_min {
@@ -297,12 +299,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     for s in &cal.sets {
         let name = s.terrain.as_deref().unwrap_or("all terrains");
         eprintln!(
-            "[{name}] {} segments used, {} dropped as outliers (sigma {:.3} m), {} stationary, {} implausible references; time offset {}",
+            "[{name}] {} segments used, {} dropped as outliers (sigma {:.3} m), {} stationary, {} implausible references; {} held and {} mistimed poses dropped; time offset {}",
             s.segments_used,
             s.dropped.len(),
             s.sigma,
             s.stats.stationary,
             s.stats.implausible,
+            s.stats.stale_poses,
+            s.stats.mistimed_poses,
             s.time_offsets
                 .iter()
                 .map(|(n, o)| format!("{n}: {o:+.3} s"))
@@ -396,10 +400,12 @@ fn run_validate(a: ValidateArgs) -> anyhow::Result<()> {
     let v = validate(&logs, &params, &cfg).context("validation failed")?;
     let ratio = |n: f64, c: f64| if c > 0.0 { n / c } else { f64::INFINITY };
     eprintln!(
-        "{} segments ({} stationary skipped, {} implausible references dropped, {} without parameters); time offset {}",
+        "{} segments ({} stationary skipped, {} implausible references dropped, {} held and {} mistimed poses dropped, {} without parameters); time offset {}",
         v.segments.len(),
         v.stats.stationary,
         v.stats.implausible,
+        v.stats.stale_poses,
+        v.stats.mistimed_poses,
         v.no_params,
         v.offsets
             .iter()
@@ -453,6 +459,8 @@ fn run_validate(a: ValidateArgs) -> anyhow::Result<()> {
             "time_offsets_s": v.offsets,
             "stationary_skipped": v.stats.stationary,
             "implausible_dropped": v.stats.implausible,
+            "mistimed_poses_dropped": v.stats.mistimed_poses,
+            "held_poses_dropped": v.stats.stale_poses,
             "terrains": per,
         });
         println!("{j}");

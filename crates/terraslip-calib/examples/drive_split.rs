@@ -3,7 +3,7 @@
 //! then cross-terrain (calibrated on the first half of row, scored on the
 //! second half of column).
 //!
-//! `cargo run --release -p terraslip-calib --example drive_split -- DATA_DIR [lm|ga|symmetric|all] [--yaw-weight W] [--no-offset] [--no-gate] [--cauchy C]`
+//! `cargo run --release -p terraslip-calib --example drive_split -- DATA_DIR [lm|ga|symmetric|all] [--yaw-weight W] [--no-offset] [--no-gate] [--plain] [--cauchy C]`
 
 use terraslip_calib::*;
 use terraslip_io::DriveLog;
@@ -36,6 +36,10 @@ fn main() {
     }
     if let Some(c) = value("--cauchy") {
         cfg.lm.cauchy_c = c;
+    }
+    if flag("--plain") {
+        // Plain least squares: no reweighting, no outlier dropping.
+        cfg.lm.irls_rounds = 1;
     }
     if flag("--no-offset") {
         cfg.time_offset = TimeOffset::Fixed(0.0);

@@ -150,6 +150,8 @@ pub struct SetCalibration {
     pub fits: Vec<MethodFit>,
     pub segments_used: usize,
     pub dropped: Vec<DroppedSegment>,
+    /// Segmentation counts of the logs that contributed to this set (the
+    /// whole log, all its terrains).
     pub stats: SegmentStats,
     /// Robust per-component residual scale, m.
     pub sigma: f64,
@@ -394,11 +396,19 @@ pub fn calibrate(
             Err(e) => return Err(e),
         };
         set.terrain = name;
-        set.stats = all.stats;
-        set.time_offsets = logs
+        // Counts and offsets of the logs that drove on this terrain.
+        let mut used_logs: Vec<usize> = segs.segments.iter().map(|s| s.log).collect();
+        used_logs.dedup();
+        used_logs.sort_unstable();
+        used_logs.dedup();
+        for &i in &used_logs {
+            if let Some(st) = all.per_log.get(i) {
+                set.stats.add(st);
+            }
+        }
+        set.time_offsets = used_logs
             .iter()
-            .zip(&offsets)
-            .map(|(l, &o)| (l.name(), o))
+            .map(|&i| (logs[i].name(), offsets[i]))
             .collect();
         set.track_width = track_width;
         set.wheel_radius = wheel_radius;

@@ -111,7 +111,7 @@ pub struct SegmentStats {
 }
 
 impl SegmentStats {
-    fn add(&mut self, o: &SegmentStats) {
+    pub fn add(&mut self, o: &SegmentStats) {
         self.incomplete_poses += o.incomplete_poses;
         self.stale_poses += o.stale_poses;
         self.mistimed_poses += o.mistimed_poses;
@@ -127,7 +127,10 @@ impl SegmentStats {
 pub struct Segments {
     pub segments: Vec<Segment>,
     pub steps: Vec<Step>,
+    /// Totals over all logs.
     pub stats: SegmentStats,
+    /// The same, per log (index as given to [`Segments::push_log`]).
+    pub per_log: Vec<SegmentStats>,
 }
 
 /// Poses with east, north and yaw present, with exact repeats of the
@@ -318,7 +321,7 @@ impl Segments {
             stats.mistimed_poses += n0 - poses.len();
         }
         if w.len() < 2 || poses.len() < 2 {
-            self.stats.add(&stats);
+            self.record(log_index, &stats);
             return;
         }
         let (w_first, w_last) = (w[0].t + time_offset, w[w.len() - 1].t + time_offset);
@@ -419,7 +422,15 @@ impl Segments {
             seg.steps = first_step..self.steps.len();
             self.segments.push(seg);
         }
-        self.stats.add(&stats);
+        self.record(log_index, &stats);
+    }
+
+    fn record(&mut self, log_index: usize, stats: &SegmentStats) {
+        self.stats.add(stats);
+        if self.per_log.len() <= log_index {
+            self.per_log.resize(log_index + 1, SegmentStats::default());
+        }
+        self.per_log[log_index].add(stats);
     }
 
     /// Builds segments from several logs, each with its own time offset.

@@ -335,10 +335,7 @@ pub fn calibrate(
         }
         warnings.extend(log.warnings.iter().cloned());
     }
-    let mut scfg = cfg.segment.clone();
-    scfg.gate_track_width = scfg
-        .gate_track_width
-        .or_else(|| logs.iter().find_map(|l| l.meta.track_width));
+    let scfg = cfg.segment.for_logs(logs);
     progress(Progress::Stage("aligning wheel and pose streams"));
     let mut offsets = Vec::with_capacity(logs.len());
     for log in logs {

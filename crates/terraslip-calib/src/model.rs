@@ -1,6 +1,6 @@
 //! Predicted increments and the fitness of a parameter set (Mandow eq. 13).
 
-use terraslip_core::{angle, IcrParams};
+use terraslip_core::{angle, IcrParams, Twist};
 
 use crate::segment::{Increment, Segment, Segments, Step};
 
@@ -17,8 +17,15 @@ use crate::segment::{Increment, Segment, Segments, Step};
 pub fn integrate(p: &IcrParams, steps: &[Step]) -> Increment {
     let (mut x, mut y, mut th) = (0.0f64, 0.0f64, 0.0f64);
     let (mut c, mut s) = (1.0f64, 0.0f64);
+    // IcrParams::twist is linear in the tread speeds: take its coefficients
+    // once instead of dividing by the spread at every step.
+    let (l, r) = (p.twist(1.0, 0.0), p.twist(0.0, 1.0));
     for st in steps {
-        let tw = p.twist(st.v_left, st.v_right);
+        let tw = Twist {
+            v_x: l.v_x * st.v_left + r.v_x * st.v_right,
+            v_y: l.v_y * st.v_left + r.v_y * st.v_right,
+            omega: l.omega * st.v_left + r.omega * st.v_right,
+        };
         let half = 0.5 * tw.omega * st.dt;
         let h2 = half * half;
         let (sh, ch, sinc) = if half.abs() < 0.05 {

@@ -8,7 +8,7 @@
 //! is regressed on `int (v_r - v_l) dt` and the forward displacement on
 //! `int (v_r + v_l)/2 dt` (both relations are linear whatever the ICRs are,
 //! for symmetric ICRs); the offset with the smallest normalised residual
-//! wins, refined by a parabola through its neighbours.
+//! wins (coarse-to-fine grid), refined by a parabola through its neighbours.
 
 use terraslip_io::DriveLog;
 
@@ -40,8 +40,9 @@ pub fn alignment_score(log: &DriveLog, offset: f64, cfg: &SegmentConfig) -> Opti
     Some(yaw + fwd)
 }
 
-/// Offset (s) in `[-max_offset, max_offset]` that best aligns the streams,
-/// searched on a `step` grid, with the score curve for reporting.
+/// Offset (s) in `[-max_offset, max_offset]` that best aligns the streams:
+/// a coarse grid of 5 `step`s, then a `step` grid around its best point,
+/// refined by a parabola; with the scores evaluated, for reporting.
 pub fn estimate_offset(
     log: &DriveLog,
     cfg: &SegmentConfig,
@@ -49,21 +50,30 @@ pub fn estimate_offset(
     step: f64,
 ) -> Option<(f64, Vec<(f64, f64)>)> {
     let step = step.max(1e-3);
-    let n = (max_offset / step).round() as i64;
-    let curve: Vec<(f64, f64)> = (-n..=n)
+    let coarse = 5.0 * step;
+    let n = (max_offset / coarse).round() as i64;
+    let mut curve: Vec<(f64, f64)> = (-n..=n)
         .filter_map(|k| {
-            let t = k as f64 * step;
+            let t = k as f64 * coarse;
             alignment_score(log, t, cfg).map(|s| (t, s))
         })
         .collect();
-    let best = (0..curve.len()).min_by(|&a, &b| curve[a].1.total_cmp(&curve[b].1))?;
-    let mut off = curve[best].0;
-    if best > 0 && best + 1 < curve.len() {
-        let (a, b, c) = (curve[best - 1].1, curve[best].1, curve[best + 1].1);
+    let centre = curve.iter().min_by(|a, b| a.1.total_cmp(&b.1))?.0;
+    let fine: Vec<(f64, f64)> = (-5..=5)
+        .map(|k| centre + k as f64 * step)
+        .filter(|t| t.abs() <= max_offset + 1e-9)
+        .filter_map(|t| alignment_score(log, t, cfg).map(|s| (t, s)))
+        .collect();
+    let best = (0..fine.len()).min_by(|&a, &b| fine[a].1.total_cmp(&fine[b].1))?;
+    let mut off = fine[best].0;
+    if best > 0 && best + 1 < fine.len() {
+        let (a, b, c) = (fine[best - 1].1, fine[best].1, fine[best + 1].1);
         let den = a - 2.0 * b + c;
         if den > 0.0 {
             off += 0.5 * step * (a - c) / den;
         }
     }
+    curve.extend(fine);
+    curve.sort_by(|a, b| a.0.total_cmp(&b.0));
     Some((off, curve))
 }

@@ -90,6 +90,18 @@ impl Default for SegmentConfig {
     }
 }
 
+impl SegmentConfig {
+    /// This configuration with the gate's track width taken from the first
+    /// log's `meta.toml` when not set.
+    pub fn for_logs(&self, logs: &[DriveLog]) -> Self {
+        let mut c = self.clone();
+        c.gate_track_width = c
+            .gate_track_width
+            .or_else(|| logs.iter().find_map(|l| l.meta.track_width));
+        c
+    }
+}
+
 /// Why pose rows or segments were not used, counted.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct SegmentStats {

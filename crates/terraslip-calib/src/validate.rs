@@ -123,6 +123,7 @@ pub fn validate(
     if logs.is_empty() {
         return Err(CalibError::NoLogs);
     }
+    let scfg = cfg.segment.for_logs(logs);
     let mut offsets = Vec::new();
     for log in logs {
         if log.pose.is_empty() {
@@ -138,16 +139,12 @@ pub fn validate(
         offsets.push(match cfg.time_offset {
             OffsetChoice::Fixed(o) => o,
             OffsetChoice::FromParams => stored_offset(params).unwrap_or(0.0),
-            OffsetChoice::Auto { max, step } => estimate_offset(log, &cfg.segment, max, step)
+            OffsetChoice::Auto { max, step } => estimate_offset(log, &scfg, max, step)
                 .map(|x| x.0)
                 .unwrap_or(0.0),
         });
     }
     let refs: Vec<&DriveLog> = logs.iter().collect();
-    let mut scfg = cfg.segment.clone();
-    scfg.gate_track_width = scfg
-        .gate_track_width
-        .or_else(|| logs.iter().find_map(|l| l.meta.track_width));
     let segs = Segments::build(&refs, &offsets, &scfg);
     let mut out = Vec::new();
     let mut no_params = 0;

@@ -1,20 +1,39 @@
 //! The `calibrate` and `calibrate validate` command-line contract
 //! (shared/spec/cli.md): exit codes, one JSON object on stdout, one-line errors.
 
+use std::ffi::OsStr;
+use std::path::Path;
+use std::process::Output;
+
 use assert_cmd::Command;
 use terraslip_calib::synthetic::{drive, mandow_table1, Manoeuvres, SynthConfig};
 use terraslip_core::IcrParams;
 
-fn terraslip() -> Command {
-    Command::cargo_bin("terraslip").expect("binary built")
+/// Runs `terraslip` with `args`; with `expect_ok`, fails the test on a
+/// non-zero exit, showing stderr.
+fn terraslip(args: &[&OsStr], expect_ok: bool) -> Output {
+    let out = Command::cargo_bin("terraslip")
+        .expect("binary built")
+        .args(args)
+        .output()
+        .expect("runs");
+    if expect_ok {
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    } else {
+        assert!(!out.status.success(), "expected a failure");
+    }
+    out
 }
 
-fn write_log(
-    dir: &std::path::Path,
-    name: &str,
-    labelled: bool,
-    cfg: &SynthConfig,
-) -> std::path::PathBuf {
+fn s(x: &str) -> &OsStr {
+    OsStr::new(x)
+}
+
+fn write_log(dir: &Path, name: &str, labelled: bool, cfg: &SynthConfig) -> std::path::PathBuf {
     let mut log = drive(&[("asphalt", mandow_table1())], cfg);
     if !labelled {
         log.terrain.clear();
@@ -25,9 +44,13 @@ fn write_log(
 }
 
 fn json_of(out: &[u8]) -> serde_json::Value {
-    let s = String::from_utf8(out.to_vec()).expect("utf8");
-    assert_eq!(s.trim().lines().count(), 1, "exactly one JSON line: {s}");
-    serde_json::from_str(s.trim()).expect("stdout is JSON")
+    let text = String::from_utf8(out.to_vec()).expect("utf8");
+    assert_eq!(
+        text.trim().lines().count(),
+        1,
+        "exactly one JSON line: {text}"
+    );
+    serde_json::from_str(text.trim()).expect("stdout is JSON")
 }
 
 #[test]
@@ -35,18 +58,17 @@ fn calibrate_json_and_validate_json_follow_the_contract() {
     let d = tempfile::tempdir().expect("tempdir");
     let log = write_log(d.path(), "drive", false, &SynthConfig::p3at(150.0, 21));
     let params = d.path().join("params.json");
-    let out = terraslip()
-        .args(["calibrate"])
-        .arg(&log)
-        .arg("--out")
-        .arg(&params)
-        .args(["--method", "lm", "--json"])
-        .output()
-        .expect("runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let out = terraslip(
+        &[
+            s("calibrate"),
+            log.as_os_str(),
+            s("--out"),
+            params.as_os_str(),
+            s("--method"),
+            s("lm"),
+            s("--json"),
+        ],
+        true,
     );
     let j = json_of(&out.stdout);
     let truth = mandow_table1();
@@ -65,20 +87,18 @@ fn calibrate_json_and_validate_json_follow_the_contract() {
     assert_eq!(file["params"], j["params"]);
 
     let svg = d.path().join("v.svg");
-    let out = terraslip()
-        .args(["calibrate", "validate"])
-        .arg(&log)
-        .arg("--params")
-        .arg(&params)
-        .arg("--json")
-        .arg("--plot")
-        .arg(&svg)
-        .output()
-        .expect("runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let out = terraslip(
+        &[
+            s("calibrate"),
+            s("validate"),
+            log.as_os_str(),
+            s("--params"),
+            params.as_os_str(),
+            s("--json"),
+            s("--plot"),
+            svg.as_os_str(),
+        ],
+        true,
     );
     let v = json_of(&out.stdout);
     assert!(v["segments"].as_u64().is_some_and(|n| n > 50));
@@ -97,12 +117,14 @@ fn labelled_logs_give_one_set_per_terrain() {
     let d = tempfile::tempdir().expect("tempdir");
     let log = write_log(d.path(), "drive", true, &SynthConfig::p3at(100.0, 22));
     let params = d.path().join("p.json");
-    let out = terraslip()
-        .arg("calibrate")
-        .arg(&log)
-        .arg("--out")
-        .arg(&params)
-        .args([
+    let mut args = vec![
+        s("calibrate"),
+        log.as_os_str(),
+        s("--out"),
+        params.as_os_str(),
+    ];
+    args.extend(
+        [
             "--method",
             "ga",
             "--generations",
@@ -110,15 +132,10 @@ fn labelled_logs_give_one_set_per_terrain() {
             "--population",
             "24",
             "--json",
-        ])
-        .output()
-        .expect("runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+        ]
+        .map(s),
     );
-    let j = json_of(&out.stdout);
+    let j = json_of(&terraslip(&args, true).stdout);
     let set = &j["terrains"]["asphalt"];
     assert!(set["params"]["y_l"].as_f64().is_some());
     assert!(set["cost"].as_f64().is_some());
@@ -132,14 +149,15 @@ fn missing_pose_reference_fails_with_one_line() {
     let log = write_log(d.path(), "drive", false, &SynthConfig::p3at(30.0, 23));
     std::fs::remove_file(log.join("pose.csv")).expect("remove pose");
     let params = d.path().join("p.json");
-    let out = terraslip()
-        .arg("calibrate")
-        .arg(&log)
-        .arg("--out")
-        .arg(&params)
-        .output()
-        .expect("runs");
-    assert!(!out.status.success());
+    let out = terraslip(
+        &[
+            s("calibrate"),
+            log.as_os_str(),
+            s("--out"),
+            params.as_os_str(),
+        ],
+        false,
+    );
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     assert!(err.contains("pose"), "{err}");
@@ -151,46 +169,29 @@ fn a_drive_that_never_turns_is_refused_unless_partial_is_allowed() {
     let d = tempfile::tempdir().expect("tempdir");
     let mut cfg = SynthConfig::p3at(100.0, 24);
     cfg.manoeuvres = Manoeuvres::StraightOnly;
-    let mut log = drive(
-        &[(
-            "a",
-            IcrParams {
-                alpha_r: 0.95,
-                ..IcrParams::new(0.3, -0.3, 0.0)
-            },
-        )],
-        &cfg,
-    );
+    let robot = IcrParams {
+        alpha_r: 0.95,
+        ..IcrParams::new(0.3, -0.3, 0.0)
+    };
+    let mut log = drive(&[("a", robot)], &cfg);
     log.wheels.iter_mut().for_each(|w| w.v_right = w.v_left);
     log.terrain.clear();
     let dir = d.path().join("straight");
     log.write(&dir).expect("write");
     let params = d.path().join("p.json");
-    let out = terraslip()
-        .arg("calibrate")
-        .arg(&dir)
-        .arg("--out")
-        .arg(&params)
-        .args(["--method", "lm"])
-        .output()
-        .expect("runs");
-    assert!(!out.status.success());
+    let mut args = vec![
+        s("calibrate"),
+        dir.as_os_str(),
+        s("--out"),
+        params.as_os_str(),
+        s("--method"),
+        s("lm"),
+    ];
+    let out = terraslip(&args, false);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("y_l") && err.contains("never turns"), "{err}");
-    let out = terraslip()
-        .arg("calibrate")
-        .arg(&dir)
-        .arg("--out")
-        .arg(&params)
-        .args(["--method", "lm", "--allow-partial", "--json"])
-        .output()
-        .expect("runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let j = json_of(&out.stdout);
+    args.extend([s("--allow-partial"), s("--json")]);
+    let j = json_of(&terraslip(&args, true).stdout);
     assert_eq!(j["unidentified"], serde_json::json!(["y_l", "y_r", "x_c"]));
 }
 
@@ -198,21 +199,41 @@ fn a_drive_that_never_turns_is_refused_unless_partial_is_allowed() {
 fn bad_flags_are_reported() {
     let d = tempfile::tempdir().expect("tempdir");
     let log = write_log(d.path(), "drive", false, &SynthConfig::p3at(20.0, 25));
-    let out = terraslip()
-        .arg("calibrate")
-        .arg(&log)
-        .args(["--out", "/dev/null", "--bound", "y_q=0:1"])
-        .output()
-        .expect("runs");
-    assert!(!out.status.success());
+    let out = terraslip(
+        &[
+            s("calibrate"),
+            log.as_os_str(),
+            s("--out"),
+            s("/dev/null"),
+            s("--bound"),
+            s("y_q=0:1"),
+        ],
+        false,
+    );
     assert!(String::from_utf8_lossy(&out.stderr).contains("unknown parameter"));
-    let out = terraslip()
-        .args(["calibrate", "validate"])
-        .arg(&log)
-        .args(["--params"])
-        .arg(d.path().join("missing.json"))
-        .output()
-        .expect("runs");
-    assert!(!out.status.success());
+    let missing = d.path().join("missing.json");
+    let out = terraslip(
+        &[
+            s("calibrate"),
+            s("validate"),
+            log.as_os_str(),
+            s("--params"),
+            missing.as_os_str(),
+        ],
+        false,
+    );
     assert!(String::from_utf8_lossy(&out.stderr).contains("missing.json"));
+    let out = terraslip(
+        &[
+            s("calibrate"),
+            log.as_os_str(),
+            s("--out"),
+            s("/dev/null"),
+            s("--time-offset"),
+            s("params"),
+        ],
+        false,
+    );
+    assert!(String::from_utf8_lossy(&out.stderr)
+        .contains("--time-offset `params`: expected `auto` or seconds"));
 }

@@ -9,32 +9,36 @@ use assert_cmd::Command;
 fn p3at_calib_scenario_recovers_table1() {
     let d = tempfile::tempdir().expect("tempdir");
     let log = d.path().join("p3at");
-    let out = Command::cargo_bin("terraslip")
-        .expect("binary")
-        .args(["simulate", "p3at-calib", "--seed", "7", "--out"])
-        .arg(&log)
-        .output()
-        .expect("runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let run = |args: &[&std::ffi::OsStr]| {
+        let out = Command::cargo_bin("terraslip")
+            .expect("binary")
+            .args(args)
+            .output()
+            .expect("runs");
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        out
+    };
+    let arg = std::ffi::OsStr::new;
+    run(&[
+        arg("simulate"),
+        arg("p3at-calib"),
+        arg("--seed"),
+        arg("7"),
+        arg("--out"),
+        log.as_os_str(),
+    ]);
     let params = d.path().join("p.json");
-    let out = Command::cargo_bin("terraslip")
-        .expect("binary")
-        .arg("calibrate")
-        .arg(&log)
-        .arg("--out")
-        .arg(&params)
-        .arg("--json")
-        .output()
-        .expect("runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = run(&[
+        arg("calibrate"),
+        log.as_os_str(),
+        arg("--out"),
+        params.as_os_str(),
+        arg("--json"),
+    ]);
     let j: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
     let set = &j["terrains"]["asphalt"];
     let p = |k: &str| set["params"][k].as_f64().expect(k);

@@ -207,6 +207,24 @@ fn parse_bound(s: &str) -> anyhow::Result<(usize, (f64, f64))> {
     Ok((k, (lo, hi)))
 }
 
+/// `--time-offset`: `auto` (searched within +-0.5 s), seconds, or `params`
+/// where `accepted` (the wording of the error) offers it.
+fn parse_offset(s: &str, accepted: &str) -> anyhow::Result<OffsetChoice> {
+    match s {
+        "params" if accepted.contains("params") => Ok(OffsetChoice::FromParams),
+        "auto" => Ok(OffsetChoice::Auto {
+            max: 0.5,
+            step: 0.01,
+        }),
+        s => s
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .map(OffsetChoice::Fixed)
+            .with_context(|| format!("--time-offset `{s}`: expected {accepted}")),
+    }
+}
+
 fn config(a: &Args) -> anyhow::Result<CalibConfig> {
     let mut c = CalibConfig {
         segment: a.seg.config()?,
@@ -223,17 +241,10 @@ fn config(a: &Args) -> anyhow::Result<CalibConfig> {
         bail!("--yaw-weight must be a positive number (m/rad)");
     }
     c.yaw_weight = a.yaw_weight;
-    c.time_offset = match a.time_offset.as_str() {
-        "auto" => TimeOffset::Auto {
-            max: 0.5,
-            step: 0.01,
-        },
-        s => TimeOffset::Fixed(
-            s.parse::<f64>()
-                .ok()
-                .filter(|x| x.is_finite())
-                .with_context(|| format!("--time-offset `{s}`: expected `auto` or seconds"))?,
-        ),
+    c.time_offset = match parse_offset(&a.time_offset, "`auto` or seconds")? {
+        OffsetChoice::Auto { max, step } => TimeOffset::Auto { max, step },
+        OffsetChoice::Fixed(o) => TimeOffset::Fixed(o),
+        OffsetChoice::FromParams => bail!("--time-offset params: only `validate` has parameters"),
     };
     c.lm.outlier_sigmas = a.outlier_sigmas;
     c.lm.cauchy_c = a.cauchy.unwrap_or(f64::INFINITY);
@@ -380,21 +391,7 @@ fn run_validate(a: ValidateArgs) -> anyhow::Result<()> {
         .with_context(|| format!("reading parameters {}", a.params.display()))?;
     let cfg = ValidateConfig {
         segment: a.seg.config()?,
-        time_offset: match a.time_offset.as_str() {
-            "params" => OffsetChoice::FromParams,
-            "auto" => OffsetChoice::Auto {
-                max: 0.5,
-                step: 0.01,
-            },
-            s => OffsetChoice::Fixed(
-                s.parse::<f64>()
-                    .ok()
-                    .filter(|x| x.is_finite())
-                    .with_context(|| {
-                        format!("--time-offset `{s}`: expected `params`, `auto` or seconds")
-                    })?,
-            ),
-        },
+        time_offset: parse_offset(&a.time_offset, "`params`, `auto` or seconds")?,
     };
     let logs = read_logs(&a.logs)?;
     let v = validate(&logs, &params, &cfg).context("validation failed")?;

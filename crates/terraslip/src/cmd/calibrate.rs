@@ -13,30 +13,38 @@ use terraslip_calib::{
 use terraslip_io::{DriveLog, ParamsFile};
 use terraslip_report::{Figure, LinePlot, Series, SeriesStyle};
 
-/// Identify ICR kinematic parameters (y_l, y_r, x_c, alpha_l, alpha_r) from
-/// drives with a pose reference (RTK GNSS, motion capture, lidar).
-///
-/// Each drive is cut into segments between pose observations at least
-/// `--min-segment` s apart; the model is integrated over the wheel samples of
-/// each segment and compared with the reference increment in the frame of the
-/// segment start (Mandow et al. 2007, eq. 13). The wheel/pose time offset is
-/// estimated per log, poses that stall or jump are dropped, outlier segments
-/// are dropped and reported. With terrain.csv, one set per terrain.
-///
-/// Methods: `lm` (robust Levenberg-Marquardt from the no-slip model, with
-/// uncertainties), `ga` (the paper's genetic algorithm, seeded), `symmetric`
-/// (eqs. 11-12 from spins in place and straight runs). Without --method all
-/// three run and the best (lowest eq. 13) is written.
-///
-/// The output file is what `terraslip estimate --init` reads. Examples:
-///
-///   terraslip calibrate drive1/ drive2/ --out params.json
-///
-///   terraslip calibrate drive/ --out p.json --method ga --seed 7 --json
-///
-///   terraslip calibrate validate other_drive/ --params p.json --plot v.svg
+const AFTER_HELP: &str = "\
+How it works: each drive is cut into segments between pose observations at
+least --min-segment s apart; the ICR model is integrated over the wheel
+samples of each segment and compared with the reference increment in the
+frame of the segment start (Mandow et al. 2007, eq. 13, heading errors
+weighted by --yaw-weight m/rad). The wheel/pose time offset is estimated per
+log; held, mistimed and jumping poses are dropped; outlier segments are
+dropped and listed in the output. With terrain.csv: one set per terrain.
+
+Methods: lm (robust Levenberg-Marquardt from the no-slip model, with 1-sigma
+uncertainties), ga (Mandow's genetic algorithm; --seed, --population,
+--generations, --gene-bits, --bound), symmetric (eqs. 11-12 from spins in
+place and straight runs). Without --method all three run, the best is written.
+
+The output (JSON) is what `terraslip estimate --init` reads; it also holds
+chi, e, uncertainties, the time offset, dropped segments and, for a Pioneer,
+Ticksmm/Revcount. A drive that never turns cannot identify y_l, y_r, x_c:
+that is an error unless --allow-partial.
+
+Examples:
+  terraslip calibrate drive1/ drive2/ --out params.json
+  terraslip calibrate drive/ --t-max 300 --out first-half.json --method ga --seed 7
+  terraslip calibrate validate drive/ --t-min 300 --params first-half.json --plot v.svg";
+
+/// `terraslip calibrate LOG... --out PARAMS` and its `validate` subcommand;
+/// the user-facing text is in [`AFTER_HELP`] and the variant's doc in main.rs.
 #[derive(clap::Args)]
-#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+#[command(
+    args_conflicts_with_subcommands = true,
+    subcommand_negates_reqs = true,
+    after_help = AFTER_HELP
+)]
 pub struct Args {
     #[command(subcommand)]
     command: Option<Sub>,

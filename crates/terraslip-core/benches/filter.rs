@@ -1,15 +1,15 @@
 //! Speed of one filter step (issue 2: predict <= 200 ns, predict+update <= 1 us).
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use terraslip_core::filter::{Filter, FilterConfig, PoseFix, Variant};
-use terraslip_core::model::{self, Mat6, State};
+use terraslip_core::model::{self, MatN, State};
 use terraslip_core::IcrParams;
 
 fn filter(variant: Variant) -> Filter {
     let mut cfg = FilterConfig::for_track(0.5);
     cfg.variant = variant;
     let x0 = model::state(0.0, 0.0, 0.3, &IcrParams::new(0.3, -0.32, 0.01));
-    let p0 = Mat6::from_diagonal(&State::from([4.0, 4.0, 1e-3, 1e-3, 1e-3, 1e-3]));
-    Filter::new(x0, p0, 1.0, 1.0, cfg).expect("valid start")
+    let p0 = MatN::from_diagonal(&State::from([4.0, 4.0, 1e-3, 1e-3, 1e-3, 1e-3, 1e-4, 1e-4]));
+    Filter::new(x0, p0, cfg).expect("valid start")
 }
 
 fn bench(c: &mut Criterion) {

@@ -8,6 +8,10 @@ pub fn wrap(a: f64) -> f64 {
     if !a.is_finite() {
         return a;
     }
+    // The filter's headings are nearly always in range already.
+    if a > -PI && a <= PI {
+        return a;
+    }
     let mut w = libm::remainder(a, 2.0 * PI);
     if w <= -PI {
         w += 2.0 * PI;

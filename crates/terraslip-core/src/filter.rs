@@ -30,14 +30,19 @@
 
 use nalgebra::{Matrix3, SMatrix, Vector3};
 
+use crate::kinematics::IcrParams;
+
 use crate::angle;
-use crate::model::{self, Mat6, State, TreadInput, EAST, N, NORTH, X_C, YAW, Y_L, Y_R};
+use crate::model::{
+    self, MatN, SlipCov, State, TreadInput, ALPHA_L, ALPHA_R, EAST, K, N, NORTH, SLIP, X_C, YAW,
+    Y_L, Y_R,
+};
 
 /// Largest innovation window of the IEKF variant.
 pub const MAX_WINDOW: usize = 64;
 
-type Mat3x6 = SMatrix<f64, 3, N>;
-type Mat6x3 = SMatrix<f64, N, 3>;
+type Mat3xN = SMatrix<f64, 3, N>;
+type MatNx3 = SMatrix<f64, N, 3>;
 
 /// Which gain rule the filter uses. See the module documentation.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -53,52 +58,79 @@ pub enum Variant {
     Adaptive,
 }
 
-/// ICR process noise in the coordinates the data can tell apart:
-/// spread `d = y_l - y_r`, centre `c = (y_l + y_r)/2` (asymmetry) and `x_c`.
-/// Each is a random-walk rate, m^2/s.
+/// Slip-parameter noise (random-walk rates per second, or variances) in the
+/// coordinates the data can tell apart: spread `d = y_l - y_r` (m^2),
+/// centre `c = (y_l + y_r)/2` (asymmetry, m^2), `x_c` (m^2), the common
+/// tread speed factor `(alpha_l + alpha_r)/2` and the factor difference
+/// `alpha_l - alpha_r` (dimensionless^2).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct IcrNoise {
-    /// Spread `d` random-walk rate, m^2/s (well observed in turns).
+    /// Spread `d` (well observed in turns).
     pub spread: f64,
-    /// Centre `(y_l + y_r)/2` random-walk rate, m^2/s (barely observable).
+    /// Centre `(y_l + y_r)/2` (barely observable).
     pub centre: f64,
-    /// `x_c` random-walk rate, m^2/s (hardly observable).
+    /// `x_c` (hardly observable).
     pub x_c: f64,
+    /// Common speed factor (observable through position only).
+    pub alpha: f64,
+    /// Speed factor difference (observable through heading on straights).
+    pub alpha_diff: f64,
 }
 
 impl IcrNoise {
-    /// The same rate on the three coordinates (the papers' `diag(q, q, q)`
-    /// on `y_l, y_r, x_c` is `spread = 2q, centre = q/2, x_c = q`).
+    /// The papers' `diag(q, q, q)` on `y_l, y_r, x_c` (which is
+    /// `spread = 2q, centre = q/2, x_c = q`), with fixed speed factors.
     pub fn papers(q: f64) -> Self {
         Self {
             spread: 2.0 * q,
             centre: 0.5 * q,
             x_c: q,
+            alpha: 0.0,
+            alpha_diff: 0.0,
         }
     }
 
-    /// All rates multiplied by `k`.
+    /// All entries multiplied by `k`.
     pub fn scaled(self, k: f64) -> Self {
         Self {
             spread: self.spread * k,
             centre: self.centre * k,
             x_c: self.x_c * k,
+            alpha: self.alpha * k,
+            alpha_diff: self.alpha_diff * k,
         }
     }
 
-    /// The 3x3 covariance on `(y_l, y_r, x_c)` of variances `(spread,
-    /// centre, x_c)` given in the `(d, c, x_c)` coordinates.
-    pub fn to_icr_cov(self) -> Matrix3<f64> {
-        // y_l = c + d/2, y_r = c - d/2
+    /// The covariance on `(y_l, y_r, x_c, alpha_l, alpha_r)`.
+    pub fn to_slip_cov(self) -> SlipCov {
+        // y_l = c + d/2, y_r = c - d/2; alpha_l = a + e/2, alpha_r = a - e/2
         let a = 0.25 * self.spread + self.centre;
         let b = -0.25 * self.spread + self.centre;
-        Matrix3::new(a, b, 0.0, b, a, 0.0, 0.0, 0.0, self.x_c)
+        let p = 0.25 * self.alpha_diff + self.alpha;
+        let q = -0.25 * self.alpha_diff + self.alpha;
+        let mut m = SlipCov::zeros();
+        m[(0, 0)] = a;
+        m[(1, 1)] = a;
+        m[(0, 1)] = b;
+        m[(1, 0)] = b;
+        m[(2, 2)] = self.x_c;
+        m[(3, 3)] = p;
+        m[(4, 4)] = p;
+        m[(3, 4)] = q;
+        m[(4, 3)] = q;
+        m
     }
 
     fn is_valid(&self) -> bool {
-        [self.spread, self.centre, self.x_c]
-            .iter()
-            .all(|v| v.is_finite() && *v >= 0.0)
+        [
+            self.spread,
+            self.centre,
+            self.x_c,
+            self.alpha,
+            self.alpha_diff,
+        ]
+        .iter()
+        .all(|v| v.is_finite() && *v >= 0.0)
     }
 }
 
@@ -114,6 +146,8 @@ pub struct IcrBand {
     pub max_centre: f64,
     /// Largest `|x_c|`, m.
     pub max_x_c: f64,
+    /// Smallest and largest tread speed factor.
+    pub alpha_range: (f64, f64),
 }
 
 impl IcrBand {
@@ -125,6 +159,7 @@ impl IcrBand {
             max_spread: 4.0 * w,
             max_centre: 0.25 * w,
             max_x_c: 0.5 * w,
+            alpha_range: (0.5, 1.5),
         }
     }
 
@@ -135,10 +170,15 @@ impl IcrBand {
         let dc = d.clamp(self.min_spread, self.max_spread);
         let cc = c.clamp(-self.max_centre, self.max_centre);
         let xc = s[X_C].clamp(-self.max_x_c, self.max_x_c);
-        let moved = dc != d || cc != c || xc != s[X_C];
+        let (lo, hi) = self.alpha_range;
+        let al = s[ALPHA_L].clamp(lo, hi);
+        let ar = s[ALPHA_R].clamp(lo, hi);
+        let moved = dc != d || cc != c || xc != s[X_C] || al != s[ALPHA_L] || ar != s[ALPHA_R];
         s[Y_L] = cc + 0.5 * dc;
         s[Y_R] = cc - 0.5 * dc;
         s[X_C] = xc;
+        s[ALPHA_L] = al;
+        s[ALPHA_R] = ar;
         moved
     }
 }
@@ -156,8 +196,29 @@ pub struct FilterConfig {
     pub q_yaw: f64,
     /// Extra yaw noise per squared yaw rate, s.
     pub q_yaw_per_rate2: f64,
-    /// ICR random walk (the noise schedule may scale it).
+    /// Time constant (s) of the low-pass on the tread speeds used for the
+    /// slip-parameter columns of the Jacobian (0 = raw speeds).
+    pub slip_input_time_constant: f64,
+    /// Encoder resolution on the tread, m per tick (0 = not quantised).
+    /// Each step's tread increments are off by up to a tick; as noise
+    /// this adds `tick^2 / (3 d^2)` to the yaw variance per step, so the
+    /// filter does not read a one-tick flicker as a turn (nor, by
+    /// correlation, as a change of spread).
+    pub encoder_tick: f64,
+    /// Slip-parameter random walk (the noise schedule may scale it).
     pub q_icr: IcrNoise,
+    /// Learn the ICRs `y_l, y_r, x_c` (false: they are "consider" states,
+    /// their uncertainty counted but never corrected).
+    pub learn_icr: bool,
+    /// Learn the tread speed factors (false: consider states, as above).
+    pub learn_alpha: bool,
+    /// Position fixes with a larger std (m) do not correct the slip
+    /// parameters, only the pose. GNSS-grade errors are correlated over tens
+    /// of seconds; fused as if white they would drag the weakly observable
+    /// parameters (common speed factor, x_c, asymmetry) wherever the error
+    /// wanders. The heading still teaches the spread and the factor
+    /// difference. `f64::INFINITY` = always learn from position.
+    pub slip_from_position_max_std: f64,
     /// Chi-square gate on the 2-dof position innovation (0 = no gate).
     pub gate_position: f64,
     /// Chi-square gate on the 1-dof heading innovation (0 = no gate).
@@ -186,11 +247,18 @@ impl FilterConfig {
             q_pos_per_speed2: 1e-3,
             q_yaw: 1e-6,
             q_yaw_per_rate2: 1e-4,
+            encoder_tick: 0.0,
+            slip_input_time_constant: 0.2,
             q_icr: IcrNoise {
                 spread: 1e-5,
                 centre: 1e-7,
                 x_c: 1e-7,
+                alpha: 1e-8,
+                alpha_diff: 1e-7,
             },
+            learn_icr: true,
+            learn_alpha: true,
+            slip_from_position_max_std: 0.25,
             gate_position: 13.8,
             gate_yaw: 10.8,
             max_rejections: 10,
@@ -212,6 +280,9 @@ pub enum FilterError {
     SingularInnovation,
     /// The step would produce a non-finite state or covariance.
     NonFinite,
+    /// The paper's IEKF update would leave a negative variance; the update
+    /// is refused (the filter is unchanged).
+    LostDefiniteness,
 }
 
 impl core::fmt::Display for FilterError {
@@ -222,6 +293,7 @@ impl core::fmt::Display for FilterError {
                 write!(f, "innovation covariance is not positive-definite")
             }
             Self::NonFinite => write!(f, "filter step would produce non-finite values"),
+            Self::LostDefiniteness => write!(f, "update would leave a negative variance"),
         }
     }
 }
@@ -272,10 +344,12 @@ pub struct UpdateReport {
 #[derive(Debug, Clone)]
 pub struct Filter {
     x: State,
-    P: Mat6,
+    P: MatN,
     cfg: FilterConfig,
-    alpha_l: f64,
-    alpha_r: f64,
+    /// Slip process noise per second (learned parameters only).
+    q_slip: SlipCov,
+    /// Low-passed tread speeds for the slip Jacobian.
+    u_smooth: Option<TreadInput>,
     /// Factor the noise schedule applies to the ICR noise.
     schedule_scale: f64,
     /// Heading NIS average of the adaptive variant.
@@ -296,21 +370,14 @@ fn finite_mat<const R: usize, const C: usize>(m: &SMatrix<f64, R, C>) -> bool {
 
 impl Filter {
     /// A filter starting at state `x0` with covariance `P0` (made symmetric).
-    /// `alpha_l`, `alpha_r` scale the measured tread speeds.
-    pub fn new(
-        x0: State,
-        P0: Mat6,
-        alpha_l: f64,
-        alpha_r: f64,
-        cfg: FilterConfig,
-    ) -> Result<Self, FilterError> {
+    pub fn new(x0: State, P0: MatN, cfg: FilterConfig) -> Result<Self, FilterError> {
         if !finite_mat(&x0) || !finite_mat(&P0) {
             return Err(FilterError::BadInput(
                 "initial state or covariance not finite",
             ));
         }
-        if !(alpha_l > 0.0 && alpha_r > 0.0 && alpha_l.is_finite() && alpha_r.is_finite()) {
-            return Err(FilterError::BadInput("alpha must be finite and > 0"));
+        if !(x0[ALPHA_L] > 0.0 && x0[ALPHA_R] > 0.0) {
+            return Err(FilterError::BadInput("alpha must be > 0"));
         }
         if P0.cholesky().is_none() {
             return Err(FilterError::BadInput(
@@ -322,18 +389,29 @@ impl Filter {
                 return Err(FilterError::BadInput("IEKF window must be 1..=64"));
             }
         }
-        if !cfg.q_icr.is_valid() || !(cfg.band.min_spread > crate::kinematics::MIN_SPREAD) {
+        let spread_ok = cfg.band.min_spread.is_finite()
+            && cfg.band.min_spread > crate::kinematics::MIN_SPREAD
+            && cfg.band.max_spread > cfg.band.min_spread;
+        let tick_ok = cfg.encoder_tick.is_finite() && cfg.encoder_tick >= 0.0;
+        if !cfg.q_icr.is_valid() || !spread_ok || !tick_ok {
             return Err(FilterError::BadInput("ICR noise or band invalid"));
         }
         let mut x = x0;
         x[YAW] = angle::wrap(x[YAW]);
         cfg.band.project(&mut x);
+        let mut q = cfg.q_icr;
+        if !cfg.learn_icr {
+            (q.spread, q.centre, q.x_c) = (0.0, 0.0, 0.0);
+        }
+        if !cfg.learn_alpha {
+            (q.alpha, q.alpha_diff) = (0.0, 0.0);
+        }
         Ok(Self {
             x,
             P: 0.5 * (P0 + P0.transpose()),
             cfg,
-            alpha_l,
-            alpha_r,
+            q_slip: q.to_slip_cov(),
+            u_smooth: None,
             schedule_scale: 1.0,
             nis_avg: 1.0,
             last_fix_t: None,
@@ -347,13 +425,13 @@ impl Filter {
         })
     }
 
-    /// Current state `[east, north, yaw, y_l, y_r, x_c]`.
+    /// Current state `[east, north, yaw, y_l, y_r, x_c, alpha_l, alpha_r]`.
     pub fn state(&self) -> &State {
         &self.x
     }
 
     /// Current covariance.
-    pub fn covariance(&self) -> &Mat6 {
+    pub fn covariance(&self) -> &MatN {
         &self.P
     }
 
@@ -362,9 +440,9 @@ impl Filter {
         &self.cfg
     }
 
-    /// Current ICR estimate (with the configured speed factors).
-    pub fn icr(&self) -> crate::IcrParams {
-        model::icr_of(&self.x, self.alpha_l, self.alpha_r)
+    /// Current slip-parameter estimate.
+    pub fn icr(&self) -> IcrParams {
+        model::icr_of(&self.x)
     }
 
     /// Standard deviations of the six states.
@@ -401,36 +479,34 @@ impl Filter {
         }
     }
 
-    /// Replaces the ICR estimate (if given) and the ICR covariance block,
+    /// Replaces the slip parameters (if given) and their covariance block,
     /// dropping its correlation with the pose: the covariance reset of
-    /// chen2023 and the terrain-memory recall. `cov` is on `(y_l, y_r, x_c)`.
-    pub fn reset_icr(
-        &mut self,
-        icr: Option<(f64, f64, f64)>,
-        cov: &Matrix3<f64>,
-    ) -> Result<(), FilterError> {
+    /// chen2023 and the terrain-memory recall. `cov` is on `(y_l, y_r, x_c,
+    /// alpha_l, alpha_r)`.
+    pub fn reset_icr(&mut self, icr: Option<&IcrParams>, cov: &SlipCov) -> Result<(), FilterError> {
         if !finite_mat(cov) || cov.cholesky().is_none() {
             return Err(FilterError::BadInput(
-                "ICR covariance not positive-definite",
+                "slip covariance not positive-definite",
             ));
         }
-        if let Some((y_l, y_r, x_c)) = icr {
-            if !(y_l.is_finite() && y_r.is_finite() && x_c.is_finite()) {
-                return Err(FilterError::BadInput("ICR not finite"));
+        if let Some(p) = icr {
+            let v = [p.y_l, p.y_r, p.x_c, p.alpha_l, p.alpha_r];
+            if v.iter().any(|x| !x.is_finite()) {
+                return Err(FilterError::BadInput("slip parameter not finite"));
             }
-            self.x[Y_L] = y_l;
-            self.x[Y_R] = y_r;
-            self.x[X_C] = x_c;
+            for (i, x) in v.into_iter().enumerate() {
+                self.x[SLIP + i] = x;
+            }
             self.cfg.band.project(&mut self.x);
         }
-        for i in 0..3 {
-            for j in 3..N {
+        for i in 0..SLIP {
+            for j in SLIP..N {
                 self.P[(i, j)] = 0.0;
                 self.P[(j, i)] = 0.0;
             }
         }
         let sym = 0.5 * (cov + cov.transpose());
-        self.P.fixed_view_mut::<3, 3>(3, 3).copy_from(&sym);
+        self.P.fixed_view_mut::<K, K>(SLIP, SLIP).copy_from(&sym);
         self.nis_avg = 1.0;
         Ok(())
     }
@@ -447,9 +523,25 @@ impl Filter {
         if dt == 0.0 {
             return Ok(());
         }
-        let u = TreadInput::new(v_left, v_right, self.alpha_l, self.alpha_r);
-        let F = model::jacobian(&self.x, u, dt);
-        let x = model::predict(&self.x, u, dt);
+        let u = TreadInput { v_left, v_right };
+        // Smoothed tread speeds for the slip columns: a one-tick flicker of
+        // the encoders is not a turn, and must not correlate the spread
+        // with the heading (it does sum to the right heading change, so
+        // the prediction itself uses the raw speeds).
+        let a = if self.cfg.slip_input_time_constant > 0.0 {
+            (dt / self.cfg.slip_input_time_constant).min(1.0)
+        } else {
+            1.0
+        };
+        match self.u_smooth.as_mut() {
+            Some(s) => {
+                s.v_left += a * (v_left - s.v_left);
+                s.v_right += a * (v_right - s.v_right);
+            }
+            None => self.u_smooth = Some(u),
+        }
+        let u_slip = self.u_smooth.unwrap_or(u);
+        let (x, F) = model::predict_with_jacobian(&self.x, u, u_slip, dt);
 
         // F = I + (a few off-diagonal terms), so F P F' is formed from the
         // non-identity rows only: three times fewer flops than a full product.
@@ -479,21 +571,23 @@ impl Filter {
         }
 
         let d = (x[Y_L] - x[Y_R]).max(crate::kinematics::MIN_SPREAD);
-        let omega = (u.v_r - u.v_l) / d;
-        let v = 0.5 * (u.v_l + u.v_r);
+        let omega = (v_right - v_left) / d;
+        let v = 0.5 * (v_left + v_right);
         P[(EAST, EAST)] += dt * (self.cfg.q_pos + self.cfg.q_pos_per_speed2 * v * v);
         P[(NORTH, NORTH)] += dt * (self.cfg.q_pos + self.cfg.q_pos_per_speed2 * v * v);
         P[(YAW, YAW)] += dt * (self.cfg.q_yaw + self.cfg.q_yaw_per_rate2 * omega * omega);
-        if !self.still {
-            let q = self
-                .cfg
-                .q_icr
-                .scaled(dt * self.icr_noise_scale())
-                .to_icr_cov();
-            let mut blk = P.fixed_view_mut::<3, 3>(3, 3);
-            blk += q;
+        if self.cfg.encoder_tick > 0.0 {
+            let t2 = self.cfg.encoder_tick * self.cfg.encoder_tick;
+            P[(YAW, YAW)] += t2 / (3.0 * d * d);
+            P[(EAST, EAST)] += t2 / 12.0;
+            P[(NORTH, NORTH)] += t2 / 12.0;
         }
-        if !finite_mat(&x) || !finite_mat(&P) {
+        if !self.still {
+            let k = dt * self.icr_noise_scale();
+            let mut blk = P.fixed_view_mut::<K, K>(SLIP, SLIP);
+            blk += self.q_slip * k;
+        }
+        if !finite_mat(&x) || (0..N).any(|i| !P[(i, i)].is_finite()) {
             return Err(FilterError::NonFinite);
         }
         self.x = x;
@@ -646,21 +740,20 @@ impl Filter {
     ) -> Result<(), FilterError> {
         // Rows not measured get H = 0, nu = 0 and a unit, uncorrelated S
         // entry: this is exactly the reduced-dimension update, in 3x3.
-        let mut H = Mat3x6::zeros();
+        // H = [I3 | 0] with those rows zeroed, so H P is the first three
+        // rows of P (zeroed likewise): no product with H is ever formed.
         let mut nu_m = *nu;
         let mut S = *S_full;
-        let mut R = Matrix3::<f64>::zeros();
+        let mut HP: Mat3xN = self.P.fixed_rows::<3>(0).into_owned();
         for i in 0..3 {
-            if use_[i] {
-                H[(i, i)] = 1.0;
-                R[(i, i)] = r[i];
-            } else {
+            if !use_[i] {
                 nu_m[i] = 0.0;
                 for j in 0..3 {
                     S[(i, j)] = 0.0;
                     S[(j, i)] = 0.0;
                 }
                 S[(i, i)] = 1.0;
+                HP.row_mut(i).fill(0.0);
             }
         }
 
@@ -676,30 +769,61 @@ impl Filter {
             _ => S,
         };
         let chol = gain_S.cholesky().ok_or(FilterError::SingularInnovation)?;
-        let PHt: Mat6x3 = self.P * H.transpose();
-        // K = P H' S^-1  <=>  S K' = H P
-        let mut K: Mat6x3 = chol.solve(&PHt.transpose()).transpose();
-        if self.still {
-            // Slip is unobservable at rest: keep the ICRs out of it.
-            for r in Y_L..N {
+        // G = P H' S^-1  <=>  S G' = H P (the Kalman gain)
+        let mut G: MatNx3 = chol.solve(&HP).transpose();
+        // Slip is unobservable at rest: keep the slip parameters out of it.
+        // Parameters not learned are "consider" states: counted, not corrected.
+        // Any gain is valid in the Joseph form, so zeroing rows keeps P SPD.
+        let slip_from_position = libm::sqrt(r[0]) <= self.cfg.slip_from_position_max_std;
+        for row in SLIP..N {
+            let learn = !self.still
+                && if row >= ALPHA_L {
+                    self.cfg.learn_alpha
+                } else {
+                    self.cfg.learn_icr
+                };
+            if !learn {
                 for c in 0..3 {
-                    K[(r, c)] = 0.0;
+                    G[(row, c)] = 0.0;
                 }
+            } else if !slip_from_position {
+                G[(row, 0)] = 0.0;
+                G[(row, 1)] = 0.0;
             }
         }
-        let mut x = self.x + K * nu_m;
+        let mut x = self.x + G * nu_m;
         x[YAW] = angle::wrap(x[YAW]);
-        let IKH = Mat6::identity() - K * H;
         let P = match self.cfg.variant {
-            // lv2019 eq. 15, as written.
-            Variant::Iekf { .. } => IKH * self.P,
+            // lv2019 eq. 15, as written: (I - G H) P.
+            Variant::Iekf { .. } => self.P - G * HP,
             _ => {
-                let P = IKH * self.P * IKH.transpose() + K * R * K.transpose();
-                0.5 * (P + P.transpose())
+                // Joseph form (I - GH) P (I - GH)' + G R G', expanded to
+                // P - G HP - (G HP)' + G (H P H' + R) G': exact for any gain
+                // (also the rows zeroed above) and four times cheaper. S is
+                // H P H' + R on the measured rows; the others meet zero columns of G.
+                let GS: MatNx3 = G * S;
+                let mut P = self.P;
+                for i in 0..N {
+                    for j in i..N {
+                        let mut acc = self.P[(i, j)];
+                        for k in 0..3 {
+                            acc -= G[(i, k)] * HP[(k, j)] + G[(j, k)] * HP[(k, i)]
+                                - GS[(i, k)] * G[(j, k)];
+                        }
+                        P[(i, j)] = acc;
+                        P[(j, i)] = acc;
+                    }
+                }
+                P
             }
         };
-        if !finite_mat(&x) || !finite_mat(&P) {
+        // Non-finite entries reach the diagonal within a step; checking it
+        // (and the state) is enough and cheap.
+        if !finite_mat(&x) || (0..N).any(|i| !P[(i, i)].is_finite()) {
             return Err(FilterError::NonFinite);
+        }
+        if (0..N).any(|i| P[(i, i)] < 0.0) {
+            return Err(FilterError::LostDefiniteness);
         }
         self.cfg.band.project(&mut x);
         self.x = x;
@@ -758,16 +882,16 @@ mod tests {
         c
     }
 
-    fn p0() -> Mat6 {
-        Mat6::from_diagonal(&State::from([1.0, 1.0, 0.01, 0.01, 0.01, 0.01]))
+    fn p0() -> MatN {
+        MatN::from_diagonal(&State::from([1.0, 1.0, 0.01, 0.01, 0.01, 0.01, 1e-4, 1e-4]))
     }
 
     fn start(variant: Variant) -> Filter {
         let x0 = model::state(0.0, 0.0, 0.0, &IcrParams::no_slip(0.5));
-        Filter::new(x0, p0(), 1.0, 1.0, cfg(variant)).unwrap()
+        Filter::new(x0, p0(), cfg(variant)).unwrap()
     }
 
-    fn is_spd(P: &Mat6) -> bool {
+    fn is_spd(P: &MatN) -> bool {
         (P - P.transpose()).amax() < 1e-9 && P.cholesky().is_some()
     }
 
@@ -808,7 +932,7 @@ mod tests {
     #[test]
     fn wrapped_heading_innovation_across_pi() {
         let x0 = model::state(0.0, 0.0, 3.1, &IcrParams::no_slip(0.5));
-        let mut f = Filter::new(x0, p0(), 1.0, 1.0, cfg(Variant::Ekf)).unwrap();
+        let mut f = Filter::new(x0, p0(), cfg(Variant::Ekf)).unwrap();
         let rep = f
             .update(
                 0.0,
@@ -840,7 +964,14 @@ mod tests {
                 } else {
                     (0.6, 0.3)
                 };
-                s = model::predict(&s, TreadInput::new(vl, vr, 1.0, 1.0), dt);
+                s = model::predict(
+                    &s,
+                    TreadInput {
+                        v_left: vl,
+                        v_right: vr,
+                    },
+                    dt,
+                );
                 f.predict(vl, vr, dt).unwrap();
                 if k % 50 == 49 {
                     f.update(
@@ -888,8 +1019,9 @@ mod tests {
     #[test]
     fn band_keeps_spread_above_floor() {
         let mut f = start(Variant::Ekf);
-        let cov = Matrix3::from_diagonal_element(1e-4);
-        f.reset_icr(Some((0.01, -0.01, 5.0)), &cov).unwrap();
+        let cov = SlipCov::from_diagonal_element(1e-4);
+        f.reset_icr(Some(&IcrParams::new(0.01, -0.01, 5.0)), &cov)
+            .unwrap();
         let s = f.state();
         assert!(s[Y_L] - s[Y_R] >= 0.8 * 0.5 - 1e-12);
         assert!(s[X_C] <= 0.25 + 1e-12);
@@ -932,9 +1064,9 @@ mod tests {
             Err(FilterError::BadInput(_))
         ));
         assert_eq!(*f.state(), x);
-        let bad_p = -Mat6::identity();
-        assert!(Filter::new(x, bad_p, 1.0, 1.0, cfg(Variant::Ekf)).is_err());
-        assert!(Filter::new(x, p0(), 1.0, 1.0, cfg(Variant::Iekf { window: 0 })).is_err());
+        let bad_p = -MatN::identity();
+        assert!(Filter::new(x, bad_p, cfg(Variant::Ekf)).is_err());
+        assert!(Filter::new(x, p0(), cfg(Variant::Iekf { window: 0 })).is_err());
     }
 
     #[test]
@@ -947,10 +1079,15 @@ mod tests {
             f.predict(0.3, 0.3, 0.02).unwrap();
             let s = *f.state();
             let eps = 1e-4 * (k as f64 + 1.0);
-            let _ = f.update(k as f64, &fix(s[0] + eps, s[1] - eps, s[2] + 1e-5));
-            if f.covariance().cholesky().is_none() {
+            let r = f.update(k as f64, &fix(s[0] + eps, s[1] - eps, s[2] + 1e-5));
+            if f.covariance().cholesky().is_none()
+                || r == Err(FilterError::LostDefiniteness)
+                || r == Err(FilterError::SingularInnovation)
+            {
                 lost = true;
             }
+            // Whatever happens, the state stays finite.
+            assert!(f.state().iter().all(|v| v.is_finite()));
         }
         assert!(
             lost,

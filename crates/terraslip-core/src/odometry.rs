@@ -8,8 +8,6 @@ use crate::model::{self, State, TreadInput, EAST, NORTH, YAW};
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Odometry {
     s: State,
-    alpha_l: f64,
-    alpha_r: f64,
 }
 
 impl Odometry {
@@ -17,8 +15,6 @@ impl Odometry {
     pub fn new(east: f64, north: f64, yaw: f64, icr: &IcrParams) -> Self {
         Self {
             s: model::state(east, north, yaw, icr),
-            alpha_l: icr.alpha_l,
-            alpha_r: icr.alpha_r,
         }
     }
 
@@ -28,7 +24,7 @@ impl Odometry {
         if !(v_left.is_finite() && v_right.is_finite() && dt.is_finite() && dt > 0.0) {
             return;
         }
-        let u = TreadInput::new(v_left, v_right, self.alpha_l, self.alpha_r);
+        let u = TreadInput { v_left, v_right };
         self.s = model::predict(&self.s, u, dt);
     }
 

@@ -12,14 +12,13 @@
 //!
 //! Terrains are indices `0..MAX_TERRAINS` (the pipeline maps names).
 
-use nalgebra::Matrix3;
-
 use crate::filter::{Filter, FilterError, IcrNoise};
-use crate::model::{X_C, Y_L, Y_R};
+use crate::kinematics::IcrParams;
+use crate::model::{self, SlipCov, K, SLIP};
 use crate::terrain_belief::MAX_TERRAINS;
 
-/// Standard deviations in the `(d, c, x_c)` coordinates of [`IcrNoise`]
-/// (spread, centre, longitudinal), m.
+/// Standard deviations in the coordinates of [`IcrNoise`]: spread,
+/// centre, `x_c` (m), common speed factor and speed factor difference.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct IcrStd {
     /// Spread `y_l - y_r`, m.
@@ -28,17 +27,23 @@ pub struct IcrStd {
     pub centre: f64,
     /// `x_c`, m.
     pub x_c: f64,
+    /// `(alpha_l + alpha_r)/2`.
+    pub alpha: f64,
+    /// `alpha_l - alpha_r`.
+    pub alpha_diff: f64,
 }
 
 impl IcrStd {
-    /// Covariance on `(y_l, y_r, x_c)`.
-    pub fn to_icr_cov(self) -> Matrix3<f64> {
+    /// Covariance on `(y_l, y_r, x_c, alpha_l, alpha_r)`.
+    pub fn to_slip_cov(self) -> SlipCov {
         IcrNoise {
             spread: self.spread * self.spread,
             centre: self.centre * self.centre,
             x_c: self.x_c * self.x_c,
+            alpha: self.alpha * self.alpha,
+            alpha_diff: self.alpha_diff * self.alpha_diff,
         }
-        .to_icr_cov()
+        .to_slip_cov()
     }
 }
 
@@ -73,6 +78,8 @@ impl Default for ScheduleConfig {
                 spread: 0.004,
                 centre: 0.005,
                 x_c: 0.01,
+                alpha: 0.003,
+                alpha_diff: 0.001,
             },
         }
     }
@@ -91,8 +98,8 @@ pub enum ChangeAction {
 
 #[derive(Debug, Clone, Copy)]
 struct Memory {
-    icr: (f64, f64, f64),
-    cov: Matrix3<f64>,
+    icr: IcrParams,
+    cov: SlipCov,
 }
 
 /// Terrain-driven noise schedule and per-terrain ICR memory.
@@ -130,11 +137,11 @@ impl NoiseSchedule {
 
     /// Seeds the memory of `terrain` (e.g. calibrated per-terrain ICRs)
     /// with standard deviations `std`. Out-of-range terrains are ignored.
-    pub fn seed(&mut self, terrain: usize, y_l: f64, y_r: f64, x_c: f64, std: IcrStd) {
+    pub fn seed(&mut self, terrain: usize, icr: &IcrParams, std: IcrStd) {
         if let Some(slot) = self.memory.get_mut(terrain) {
             *slot = Some(Memory {
-                icr: (y_l, y_r, x_c),
-                cov: std.to_icr_cov(),
+                icr: *icr,
+                cov: std.to_slip_cov(),
             });
         }
     }
@@ -169,10 +176,12 @@ impl NoiseSchedule {
         if self.cfg.memory {
             if let Some(prev) = self.current {
                 if self.dwell >= self.cfg.memory_min_dwell && prev < MAX_TERRAINS {
-                    let s = filter.state();
-                    let cov = filter.covariance().fixed_view::<3, 3>(3, 3).into_owned();
+                    let cov = filter
+                        .covariance()
+                        .fixed_view::<K, K>(SLIP, SLIP)
+                        .into_owned();
                     self.memory[prev] = Some(Memory {
-                        icr: (s[Y_L], s[Y_R], s[X_C]),
+                        icr: model::icr_of(filter.state()),
                         cov: floor_cov(&cov, &self.cfg.recall_floor),
                     });
                 }
@@ -182,7 +191,7 @@ impl NoiseSchedule {
         self.dwell = 0.0;
         if self.cfg.memory {
             if let Some(Some(m)) = self.memory.get(terrain) {
-                filter.reset_icr(Some(m.icr), &m.cov)?;
+                filter.reset_icr(Some(&m.icr), &m.cov)?;
                 self.boost_left = 0;
                 filter.set_schedule_scale(1.0);
                 return Ok(ChangeAction::Recalled);
@@ -194,7 +203,7 @@ impl NoiseSchedule {
             return Ok(ChangeAction::Learning);
         }
         if let Some(pb) = self.cfg.reset {
-            filter.reset_icr(None, &pb.to_icr_cov())?;
+            filter.reset_icr(None, &pb.to_slip_cov())?;
         }
         if self.cfg.boost_factor > 1.0 && self.cfg.boost_updates > 0 {
             self.boost_left = self.cfg.boost_updates;
@@ -206,7 +215,7 @@ impl NoiseSchedule {
 
 /// Raises the variances of `cov` (in `(d, c, x_c)` coordinates) to at least
 /// the floor, keeping it symmetric positive-definite.
-fn floor_cov(cov: &Matrix3<f64>, floor: &IcrStd) -> Matrix3<f64> {
+fn floor_cov(cov: &SlipCov, floor: &IcrStd) -> SlipCov {
     // A filter that lost definiteness (the papers' IEKF can) may hand over
     // an indefinite block: clip its eigenvalues at zero, then add the floor,
     // which is positive-definite, so the sum is too.
@@ -216,9 +225,9 @@ fn floor_cov(cov: &Matrix3<f64>, floor: &IcrStd) -> Matrix3<f64> {
         eig.eigenvalues.apply(|v| *v = v.max(0.0));
         eig.recompose()
     } else {
-        Matrix3::zeros()
+        SlipCov::zeros()
     };
-    0.5 * (psd + psd.transpose()) + floor.to_icr_cov()
+    0.5 * (psd + psd.transpose()) + floor.to_slip_cov()
 }
 
 #[cfg(test)]
@@ -226,14 +235,14 @@ mod tests {
     use super::*;
     use crate::filter::{FilterConfig, Variant};
     use crate::kinematics::IcrParams;
-    use crate::model::{self, Mat6, State};
+    use crate::model::{MatN, State, Y_L, Y_R};
 
     fn filter() -> Filter {
         let mut c = FilterConfig::for_track(0.5);
         c.variant = Variant::Ekf;
-        let x0 = model::state(0.0, 0.0, 0.0, &IcrParams::no_slip(0.5));
-        let p0 = Mat6::from_diagonal(&State::from([1.0, 1.0, 0.01, 1e-4, 1e-4, 1e-4]));
-        Filter::new(x0, p0, 1.0, 1.0, c).unwrap()
+        let x0 = crate::model::state(0.0, 0.0, 0.0, &IcrParams::no_slip(0.5));
+        let p0 = MatN::from_diagonal(&State::from([1.0, 1.0, 0.01, 1e-4, 1e-4, 1e-4, 1e-6, 1e-6]));
+        Filter::new(x0, p0, c).unwrap()
     }
 
     #[test]
@@ -267,6 +276,8 @@ mod tests {
             spread: 0.1,
             centre: 0.02,
             x_c: 0.05,
+            alpha: 0.01,
+            alpha_diff: 0.01,
         };
         let mut s = NoiseSchedule::new(ScheduleConfig {
             reset: Some(pb),
@@ -292,12 +303,14 @@ mod tests {
                 spread: 0.1,
                 centre: 0.02,
                 x_c: 0.05,
+                alpha: 0.01,
+                alpha_diff: 0.01,
             }),
             ..Default::default()
         });
         s.on_terrain(&mut f, 2).unwrap();
-        let learned = (0.4, -0.38, 0.03);
-        f.reset_icr(Some(learned), &Matrix3::from_diagonal_element(1e-6))
+        let learned = IcrParams::new(0.4, -0.38, 0.03);
+        f.reset_icr(Some(&learned), &SlipCov::from_diagonal_element(1e-6))
             .unwrap();
         for _ in 0..100 {
             f.predict(0.5, 0.5, 0.02).unwrap();
@@ -305,8 +318,8 @@ mod tests {
         }
         assert_eq!(s.on_terrain(&mut f, 0).unwrap(), ChangeAction::Learning);
         f.reset_icr(
-            Some((0.3, -0.3, 0.0)),
-            &Matrix3::from_diagonal_element(1e-4),
+            Some(&IcrParams::new(0.3, -0.3, 0.0)),
+            &SlipCov::from_diagonal_element(1e-4),
         )
         .unwrap();
         assert!(s.remembers(2) && !s.remembers(0));
@@ -321,11 +334,16 @@ mod tests {
 
     #[test]
     fn indefinite_block_is_stored_positive_definite() {
-        let bad = Matrix3::new(1e-4, 2e-4, 0.0, 2e-4, 1e-4, 0.0, 0.0, 0.0, -1e-5);
+        let mut bad = SlipCov::from_diagonal_element(1e-4);
+        bad[(0, 1)] = 2e-4;
+        bad[(1, 0)] = 2e-4;
+        bad[(2, 2)] = -1e-5;
         let f = floor_cov(&bad, &ScheduleConfig::default().recall_floor);
         assert!(f.cholesky().is_some());
-        let nan = Matrix3::from_element(f64::NAN);
-        assert!(floor_cov(&nan, &ScheduleConfig::default().recall_floor).cholesky().is_some());
+        let nan = SlipCov::from_element(f64::NAN);
+        assert!(floor_cov(&nan, &ScheduleConfig::default().recall_floor)
+            .cholesky()
+            .is_some());
     }
 
     #[test]
@@ -339,6 +357,10 @@ mod tests {
         s.on_terrain(&mut f, 1).unwrap();
         assert!(!s.remembers(0));
         // Out of range seeds are ignored, not a panic.
-        s.seed(99, 0.3, -0.3, 0.0, ScheduleConfig::default().recall_floor);
+        s.seed(
+            99,
+            &IcrParams::new(0.3, -0.3, 0.0),
+            ScheduleConfig::default().recall_floor,
+        );
     }
 }

@@ -44,6 +44,9 @@ fn main() {
         let mn = d.iter().cloned().fold(f64::MAX, f64::min);
         let mx = d.iter().cloned().fold(f64::MIN, f64::max);
         let p = ter.icr(&sc.robot);
+        let mean = d.iter().sum::<f64>() / d.len() as f64;
+        let sd = (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / d.len() as f64).sqrt();
+        println!("{:>9}: spread mean {mean:.4} m, std about the mean {:.2} cm (a constant estimate's floor)", ter.name, 100.0 * sd);
         println!(
             "{:>9}: nominal y_l {:.4} y_r {:.4} x_c {:.4} alpha {:.3}/{:.3}  spread {:.4}..{:.4}",
             ter.name, p.y_l, p.y_r, p.x_c, p.alpha_l, p.alpha_r, mn, mx
@@ -91,5 +94,3 @@ fn main() {
         println!("written to {out} in {:?}", t0.elapsed());
     }
 }
-#[allow(dead_code)]
-fn unused() {}

@@ -456,3 +456,20 @@ rate = 0.0
     assert!(spin.twist.v_x.abs() < 0.02 && (spin.twist.omega - 0.5 * chi).abs() < 0.05);
     assert!(at(38.0).twist.v_x.abs() < 1e-6 && at(38.0).twist.omega.abs() < 1e-6);
 }
+
+#[test]
+fn sample_times_are_exact_multiples_of_the_period() {
+    let mut s = Scenario::builtin("wang4").unwrap();
+    s.camera.rate = 0.05;
+    let run = simulate(&s, 1).unwrap();
+    for (k, w) in run.log.wheels.iter().enumerate() {
+        assert_eq!(w.t, k as f64 / 50.0);
+    }
+    for (k, m) in run.log.imu.iter().enumerate() {
+        assert_eq!(m.t, k as f64 / 200.0);
+    }
+    for (k, f) in run.log.images.iter().enumerate() {
+        assert_eq!(f.t, k as f64 / 0.05);
+    }
+    assert_eq!(run.log.wheels.last().unwrap().t, s.duration());
+}

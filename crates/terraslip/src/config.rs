@@ -10,7 +10,7 @@ use terraslip_core::schedule::{IcrStd, ScheduleConfig};
 use terraslip_core::terrain_belief::BeliefConfig;
 
 /// Everything `estimate` needs besides the log.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct EstimatorConfig {
     /// Gain rule and process noise of the filter.
@@ -39,6 +39,41 @@ pub enum FilterVariant {
     Adaptive,
 }
 
+/// Standard deviations of the slip parameters in the coordinates the data
+/// tell apart: spread y_l - y_r (m), centre (y_l + y_r)/2 (m), x_c (m),
+/// common speed factor (alpha_l + alpha_r)/2 and difference alpha_l - alpha_r.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SlipStd {
+    pub spread: f64,
+    pub centre: f64,
+    pub x_c: f64,
+    pub alpha: f64,
+    pub alpha_diff: f64,
+}
+
+impl SlipStd {
+    fn to_core(self) -> IcrStd {
+        IcrStd {
+            spread: self.spread,
+            centre: self.centre,
+            x_c: self.x_c,
+            alpha: self.alpha,
+            alpha_diff: self.alpha_diff,
+        }
+    }
+
+    fn entries(&self) -> [f64; 5] {
+        [
+            self.spread,
+            self.centre,
+            self.x_c,
+            self.alpha,
+            self.alpha_diff,
+        ]
+    }
+}
+
 /// `[filter]`
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -49,6 +84,13 @@ pub struct FilterSection {
     pub iekf_window: usize,
     /// Learn the ICRs at all (false = the fixed no-slip / initial model).
     pub learn_icr: bool,
+    /// Learn the tread speed factors alpha_l, alpha_r (false = the papers'
+    /// six-state model: the factors stay at their initial values).
+    pub learn_alpha: bool,
+    /// Position fixes with a larger std (m) correct only the pose, not the
+    /// slip parameters: GNSS errors correlated over tens of seconds would
+    /// drag the weakly observable ones (RTK-grade fixes still teach them).
+    pub slip_from_position_max_std: f64,
     /// Position random walk, m^2/s.
     pub q_pos: f64,
     /// Extra position noise per squared speed, m^2/s per (m/s)^2.
@@ -57,12 +99,19 @@ pub struct FilterSection {
     pub q_yaw: f64,
     /// Extra yaw noise per squared yaw rate, rad^2/s per (rad/s)^2.
     pub q_yaw_per_rate2: f64,
+    /// Low-pass time constant of the tread speeds that correlate the slip
+    /// parameters with the pose (s; 0 = raw): encoder flicker is no turn.
+    pub slip_input_time_constant: f64,
     /// ICR random walk of the spread d = y_l - y_r, m^2/s.
     pub q_spread: f64,
     /// ICR random walk of the centre (y_l + y_r)/2, m^2/s.
     pub q_centre: f64,
     /// ICR random walk of x_c, m^2/s.
     pub q_x_c: f64,
+    /// Random walk of the common speed factor (alpha_l + alpha_r)/2, 1/s.
+    pub q_alpha: f64,
+    /// Random walk of the speed factor difference alpha_l - alpha_r, 1/s.
+    pub q_alpha_diff: f64,
     /// Chi-square gate on the 2-dof position innovation (13.8 = 99.9 %; 0 = off).
     pub gate_position: f64,
     /// Chi-square gate on the 1-dof heading innovation (10.8 = 99.9 %; 0 = off).
@@ -93,8 +142,12 @@ pub struct InitSection {
     pub std_centre: f64,
     /// Initial std of x_c, m.
     pub std_x_c: f64,
-    /// Std of calibrated ICRs from `--init` (spread, centre, x_c), m.
-    pub calibrated_std: [f64; 3],
+    /// Initial std of the common speed factor (around 1).
+    pub std_alpha: f64,
+    /// Initial std of the speed factor difference (around 0).
+    pub std_alpha_diff: f64,
+    /// Std of calibrated parameters from `--init`.
+    pub calibrated_std: SlipStd,
     /// Initial yaw std when the first fix has no heading, rad.
     pub std_yaw_unknown: f64,
 }
@@ -107,6 +160,9 @@ pub struct MeasurementSection {
     pub std_xy: f64,
     /// Heading std when `pose.csv` has no `std_yaw`, rad.
     pub std_yaw: f64,
+    /// Encoder resolution on the tread, m per tick; 0 = from meta.toml
+    /// (2 pi wheel_radius / ticks_per_rev), or unquantised if that is unknown.
+    pub encoder_tick: f64,
 }
 
 /// `[band]`: multiples of the track width W.
@@ -121,6 +177,10 @@ pub struct BandSection {
     pub max_centre: f64,
     /// Largest |x_c|, x W.
     pub max_x_c: f64,
+    /// Smallest tread speed factor.
+    pub min_alpha: f64,
+    /// Largest tread speed factor.
+    pub max_alpha: f64,
 }
 
 /// `[schedule]`
@@ -133,14 +193,14 @@ pub struct ScheduleSection {
     pub boost_updates: u32,
     /// Reset the ICR covariance at a change to an unlearned terrain (chen2023).
     pub reset: bool,
-    /// Reset std of (spread, centre, x_c), m.
-    pub reset_std: [f64; 3],
+    /// Reset std (chen2023's P_B).
+    pub reset_std: SlipStd,
     /// Recall learned ICRs when a terrain is revisited.
     pub memory: bool,
     /// Seconds of driving on a terrain before its ICRs are remembered.
     pub memory_min_dwell: f64,
-    /// Floor on recalled std of (spread, centre, x_c), m.
-    pub recall_floor: [f64; 3],
+    /// Floor on recalled std: a remembered estimate is not trusted more.
+    pub recall_floor: SlipStd,
 }
 
 /// `[belief]` (wang2018 HMM + lambda vote), used with classifier evidence.
@@ -161,13 +221,18 @@ impl Default for FilterSection {
             variant: FilterVariant::Adaptive,
             iekf_window: 10,
             learn_icr: true,
+            learn_alpha: true,
+            slip_from_position_max_std: 0.25,
             q_pos: 1e-4,
             q_pos_per_speed2: 1e-3,
             q_yaw: 1e-6,
             q_yaw_per_rate2: 1e-4,
+            slip_input_time_constant: 0.2,
             q_spread: 1e-5,
             q_centre: 1e-7,
             q_x_c: 1e-7,
+            q_alpha: 1e-8,
+            q_alpha_diff: 1e-7,
             gate_position: 13.8,
             gate_yaw: 10.8,
             max_rejections: 10,
@@ -187,7 +252,15 @@ impl Default for InitSection {
             std_spread_factor: 0.3,
             std_centre: 0.02,
             std_x_c: 0.05,
-            calibrated_std: [0.01, 0.01, 0.02],
+            std_alpha: 0.03,
+            std_alpha_diff: 0.01,
+            calibrated_std: SlipStd {
+                spread: 0.01,
+                centre: 0.01,
+                x_c: 0.02,
+                alpha: 0.01,
+                alpha_diff: 0.003,
+            },
             std_yaw_unknown: std::f64::consts::PI,
         }
     }
@@ -198,6 +271,7 @@ impl Default for MeasurementSection {
         Self {
             std_xy: 2.0,
             std_yaw: 1f64.to_radians(),
+            encoder_tick: 0.0,
         }
     }
 }
@@ -209,6 +283,8 @@ impl Default for BandSection {
             max_spread: 4.0,
             max_centre: 0.25,
             max_x_c: 0.5,
+            min_alpha: 0.5,
+            max_alpha: 1.5,
         }
     }
 }
@@ -219,10 +295,22 @@ impl Default for ScheduleSection {
             boost_factor: 1.0,
             boost_updates: 0,
             reset: true,
-            reset_std: [0.1, 0.01, 0.02],
+            reset_std: SlipStd {
+                spread: 0.1,
+                centre: 0.01,
+                x_c: 0.02,
+                alpha: 0.02,
+                alpha_diff: 0.01,
+            },
             memory: true,
             memory_min_dwell: 20.0,
-            recall_floor: [0.004, 0.005, 0.01],
+            recall_floor: SlipStd {
+                spread: 0.004,
+                centre: 0.005,
+                x_c: 0.01,
+                alpha: 0.003,
+                alpha_diff: 0.001,
+            },
         }
     }
 }
@@ -238,24 +326,15 @@ impl Default for BeliefSection {
     }
 }
 
-impl Default for EstimatorConfig {
-    fn default() -> Self {
-        Self {
-            filter: FilterSection::default(),
-            init: InitSection::default(),
-            measurement: MeasurementSection::default(),
-            band: BandSection::default(),
-            schedule: ScheduleSection::default(),
-            belief: BeliefSection::default(),
+/// One line: "line N: message" from a TOML error.
+pub fn toml_error(text: &str, e: &toml::de::Error) -> ConfigError {
+    let msg = e.message().trim().replace('\n', " ");
+    match e.span() {
+        Some(span) => {
+            let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
+            ConfigError(format!("line {line}: {msg}"))
         }
-    }
-}
-
-fn icr_std(v: [f64; 3]) -> IcrStd {
-    IcrStd {
-        spread: v[0],
-        centre: v[1],
-        x_c: v[2],
+        None => ConfigError(msg),
     }
 }
 
@@ -265,9 +344,10 @@ fn icr_std(v: [f64; 3]) -> IcrStd {
 pub struct ConfigError(pub String);
 
 impl EstimatorConfig {
-    /// Parses TOML text (unknown keys are errors).
+    /// Parses TOML text (unknown keys are errors, reported as one line
+    /// with the line number in `text`).
     pub fn from_toml(text: &str) -> Result<Self, ConfigError> {
-        let cfg: Self = toml::from_str(text).map_err(|e| ConfigError(e.to_string()))?;
+        let cfg: Self = toml::from_str(text).map_err(|e| toml_error(text, &e))?;
         cfg.validate()?;
         Ok(cfg)
     }
@@ -288,9 +368,15 @@ impl EstimatorConfig {
             ("filter.q_spread", f.q_spread),
             ("filter.q_centre", f.q_centre),
             ("filter.q_x_c", f.q_x_c),
+            ("filter.q_alpha", f.q_alpha),
+            ("filter.q_alpha_diff", f.q_alpha_diff),
             ("filter.gate_position", f.gate_position),
             ("filter.gate_yaw", f.gate_yaw),
             ("filter.still_speed", f.still_speed),
+            (
+                "filter.slip_from_position_max_std",
+                f.slip_from_position_max_std,
+            ),
         ];
         let pos = [
             ("filter.adapt_time_constant", f.adapt_time_constant),
@@ -301,6 +387,8 @@ impl EstimatorConfig {
             ("init.std_spread_factor", self.init.std_spread_factor),
             ("init.std_centre", self.init.std_centre),
             ("init.std_x_c", self.init.std_x_c),
+            ("init.std_alpha", self.init.std_alpha),
+            ("init.std_alpha_diff", self.init.std_alpha_diff),
             ("init.std_yaw_unknown", self.init.std_yaw_unknown),
             ("measurement.std_xy", self.measurement.std_xy),
             ("measurement.std_yaw", self.measurement.std_yaw),
@@ -325,7 +413,7 @@ impl EstimatorConfig {
             ("schedule.reset_std", self.schedule.reset_std),
             ("schedule.recall_floor", self.schedule.recall_floor),
         ] {
-            if v.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
+            if v.entries().iter().any(|x| !(x.is_finite() && *x > 0.0)) {
                 return Err(ConfigError(format!(
                     "{name} = {v:?}: every entry must be > 0"
                 )));
@@ -337,6 +425,11 @@ impl EstimatorConfig {
                 f.iekf_window,
                 terraslip_core::filter::MAX_WINDOW
             )));
+        }
+        if !(self.band.min_alpha > 0.0 && self.band.min_alpha < 1.0 && self.band.max_alpha > 1.0) {
+            return Err(ConfigError(
+                "band.min_alpha must be in (0, 1) and band.max_alpha > 1".into(),
+            ));
         }
         if self.band.min_spread >= self.band.max_spread {
             return Err(ConfigError(
@@ -365,18 +458,12 @@ impl EstimatorConfig {
             },
             FilterVariant::Adaptive => Variant::Adaptive,
         };
-        let q_icr = if f.learn_icr {
-            IcrNoise {
-                spread: f.q_spread,
-                centre: f.q_centre,
-                x_c: f.q_x_c,
-            }
-        } else {
-            IcrNoise {
-                spread: 0.0,
-                centre: 0.0,
-                x_c: 0.0,
-            }
+        let q_icr = IcrNoise {
+            spread: f.q_spread,
+            centre: f.q_centre,
+            x_c: f.q_x_c,
+            alpha: f.q_alpha,
+            alpha_diff: f.q_alpha_diff,
         };
         FilterConfig {
             variant,
@@ -384,7 +471,12 @@ impl EstimatorConfig {
             q_pos_per_speed2: f.q_pos_per_speed2,
             q_yaw: f.q_yaw,
             q_yaw_per_rate2: f.q_yaw_per_rate2,
+            encoder_tick: self.measurement.encoder_tick,
+            slip_input_time_constant: f.slip_input_time_constant,
             q_icr,
+            learn_icr: f.learn_icr,
+            learn_alpha: f.learn_alpha,
+            slip_from_position_max_std: f.slip_from_position_max_std,
             gate_position: f.gate_position,
             gate_yaw: f.gate_yaw,
             max_rejections: f.max_rejections,
@@ -397,6 +489,7 @@ impl EstimatorConfig {
                 max_spread: self.band.max_spread * w,
                 max_centre: self.band.max_centre * w,
                 max_x_c: self.band.max_x_c * w,
+                alpha_range: (self.band.min_alpha, self.band.max_alpha),
             },
         }
     }
@@ -407,16 +500,16 @@ impl EstimatorConfig {
         ScheduleConfig {
             boost_factor: s.boost_factor,
             boost_updates: s.boost_updates,
-            reset: s.reset.then(|| icr_std(s.reset_std)),
+            reset: s.reset.then(|| s.reset_std.to_core()),
             memory: s.memory,
             memory_min_dwell: s.memory_min_dwell,
-            recall_floor: icr_std(s.recall_floor),
+            recall_floor: s.recall_floor.to_core(),
         }
     }
 
     /// Std of calibrated ICRs from `--init`.
     pub fn calibrated_std(&self) -> IcrStd {
-        icr_std(self.init.calibrated_std)
+        self.init.calibrated_std.to_core()
     }
 
     /// The terrain-belief settings.
@@ -442,7 +535,12 @@ impl EstimatorConfig {
             c.filter.q_spread = n.spread;
             c.filter.q_centre = n.centre;
             c.filter.q_x_c = n.x_c;
-            // The papers start from a vague prior and know no memory.
+            // The papers' six-state model: fixed speed factors (at 1, with
+            // no uncertainty of their own), a vague ICR prior, no memory.
+            c.filter.learn_alpha = false;
+            c.filter.slip_from_position_max_std = 1e9;
+            c.init.std_alpha = 1e-6;
+            c.init.std_alpha_diff = 1e-6;
             c.init.std_centre = 0.1;
             c.init.std_x_c = 0.1;
             c.schedule.reset = false;
@@ -465,7 +563,13 @@ impl EstimatorConfig {
         let mut reset = papers(Q_MIN);
         reset.schedule.reset = true;
         // P_B: 0.1 m on each of y_l, y_r, x_c, independent.
-        reset.schedule.reset_std = [0.1 * 2f64.sqrt(), 0.1 / 2f64.sqrt(), 0.1];
+        reset.schedule.reset_std = SlipStd {
+            spread: 0.1 * 2f64.sqrt(),
+            centre: 0.1 / 2f64.sqrt(),
+            x_c: 0.1,
+            alpha: 1e-6,
+            alpha_diff: 1e-6,
+        };
 
         vec![
             ("no-slip", no_slip),

@@ -5,9 +5,8 @@
 
 #![allow(non_snake_case)]
 
-use nalgebra::Matrix3;
 use terraslip_core::filter::{Fate, Filter, FilterError, PoseFix, UpdateReport};
-use terraslip_core::model::{self, Mat6, State, EAST, NORTH, X_C, YAW, Y_L, Y_R};
+use terraslip_core::model::{self, MatN, SlipCov, State, EAST, K, NORTH, SLIP, X_C, YAW, Y_L, Y_R};
 use terraslip_core::schedule::{ChangeAction, NoiseSchedule};
 use terraslip_core::terrain_belief::{TerrainBelief, MAX_TERRAINS};
 use terraslip_core::IcrParams;
@@ -52,8 +51,12 @@ pub struct EstimateRow {
     pub y_l: f64,
     pub y_r: f64,
     pub x_c: f64,
-    /// Standard deviations of the six states.
-    pub std: [f64; 6],
+    /// Tread speed factors.
+    pub alpha_l: f64,
+    pub alpha_r: f64,
+    /// Standard deviations of the eight states (east, north, yaw, y_l, y_r,
+    /// x_c, alpha_l, alpha_r).
+    pub std: [f64; 8],
     /// Std of the spread y_l - y_r, m.
     pub std_spread: f64,
     /// Index into [`EstimateRun::terrains`] of the believed terrain.
@@ -243,21 +246,17 @@ pub fn run_with(
             IcrParams::new(0.5 * d, -0.5 * d, 0.0)
         }
     };
-    let icr_cov: Matrix3<f64> = if calibrated.is_some() {
-        cfg.calibrated_std().to_icr_cov()
+    let icr_cov: SlipCov = if calibrated.is_some() {
+        cfg.calibrated_std().to_slip_cov()
     } else {
         terraslip_core::IcrStd {
             spread: cfg.init.std_spread_factor * track_width,
             centre: cfg.init.std_centre,
             x_c: cfg.init.std_x_c,
+            alpha: cfg.init.std_alpha,
+            alpha_diff: cfg.init.std_alpha_diff,
         }
-        .to_icr_cov()
-    };
-    let icr_cov = if cfg.filter.learn_icr {
-        icr_cov
-    } else {
-        // A fixed model: an ICR covariance so small the fixes cannot move it.
-        Matrix3::from_diagonal_element(1e-14)
+        .to_slip_cov()
     };
 
     // Starting pose: the first fix (whatever part it has).
@@ -297,7 +296,7 @@ pub fn run_with(
         travel += w[1].v_left.abs().max(w[1].v_right.abs()) * dt;
         turn += (w[1].v_right - w[1].v_left).abs() / (cfg.band.min_spread * track_width) * dt;
     }
-    let mut P0 = Mat6::zeros();
+    let mut P0 = MatN::zeros();
     let pos_var = if first_pos.is_some() {
         std_xy0 * std_xy0 + travel * travel
     } else {
@@ -313,23 +312,28 @@ pub fn run_with(
     P0[(EAST, EAST)] = pos_var;
     P0[(NORTH, NORTH)] = pos_var;
     P0[(YAW, YAW)] = yaw_var;
-    P0.fixed_view_mut::<3, 3>(3, 3).copy_from(&icr_cov);
+    P0.fixed_view_mut::<K, K>(SLIP, SLIP).copy_from(&icr_cov);
 
-    let fcfg = cfg.filter_config(track_width);
+    let mut fcfg = cfg.filter_config(track_width);
+    if fcfg.encoder_tick == 0.0 {
+        if let (Some(r), Some(n)) = (log.meta.wheel_radius, log.meta.ticks_per_rev) {
+            if r.is_finite() && r > 0.0 && n.is_finite() && n >= 1.0 {
+                fcfg.encoder_tick = 2.0 * std::f64::consts::PI * r / n;
+            }
+        }
+    }
     let filter_err = |t: f64, source: FilterError| PipelineError::Filter {
         dir: dir.clone(),
         t,
         source,
     };
-    let mut filter = Filter::new(x0, P0, icr0.alpha_l, icr0.alpha_r, fcfg)
-        .map_err(|e| filter_err(log.wheels[0].t, e))?;
+    let mut filter = Filter::new(x0, P0, fcfg).map_err(|e| filter_err(log.wheels[0].t, e))?;
 
     let mut schedule = NoiseSchedule::new(cfg.schedule_config());
     if let Some(pf) = init {
         for (name, entry) in &pf.terrains {
             if let Some(k) = terrains.iter().position(|n| n == name) {
-                let p = entry.params;
-                schedule.seed(k, p.y_l, p.y_r, p.x_c, cfg.calibrated_std());
+                schedule.seed(k, &entry.params, cfg.calibrated_std());
             } else {
                 warnings.push(format!(
                     "--init: terrain `{name}` never appears in the terrain evidence; ignored"
@@ -494,6 +498,8 @@ pub fn run_with(
             y_l: s[Y_L],
             y_r: s[Y_R],
             x_c: s[X_C],
+            alpha_l: s[model::ALPHA_L],
+            alpha_r: s[model::ALPHA_R],
             std: sd,
             std_spread: var_d.max(0.0).sqrt(),
             terrain: current_terrain,

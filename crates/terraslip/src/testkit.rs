@@ -98,11 +98,12 @@ pub fn drive(spec: &SynthSpec) -> DriveLog {
             // Finer truth integration than the filter's step.
             let icr = icr_at(t);
             for _ in 0..sub {
-                let mut st = s;
-                st[3] = icr.y_l;
-                st[4] = icr.y_r;
-                st[5] = icr.x_c;
-                s = model::predict(&st, TreadInput::new(vl, vr, 1.0, 1.0), dt / sub as f64);
+                let st = model::state(s[0], s[1], s[2], &icr);
+                let u = TreadInput {
+                    v_left: vl,
+                    v_right: vr,
+                };
+                s = model::predict(&st, u, dt / sub as f64);
             }
         }
         let icr = icr_at(t);

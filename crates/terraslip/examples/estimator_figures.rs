@@ -1,0 +1,109 @@
+//! The estimator's quality figures (issue 2 "How good") on simulated drives:
+//! every preset on `papers` (2 m GNSS) and `papers-rtk`, several seeds.
+//!
+//!     cargo run -p terraslip --release --example estimator_figures -- [SCENARIO...] [--seeds N]
+//!
+//! Prints one table per scenario: worst re-convergence after a first visit
+//! and after a revisit (s), steady-state RMS of d, y_l, y_r (cm), and the
+//! dead-reckoning drift over the scenario's GNSS outage (% of distance).
+
+use terraslip::config::EstimatorConfig;
+use terraslip::metrics;
+use terraslip::pipeline::{self, RunOptions, TerrainEvidence};
+use terraslip_sim::{simulate, Scenario};
+
+fn main() -> anyhow::Result<()> {
+    let mut scenarios: Vec<String> = Vec::new();
+    let mut seeds = 3u64;
+    let mut only: Option<String> = None;
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        match a.as_str() {
+            "--seeds" => seeds = args.next().and_then(|s| s.parse().ok()).unwrap_or(3),
+            "--preset" => only = args.next(),
+            _ => scenarios.push(a),
+        }
+    }
+    if scenarios.is_empty() {
+        scenarios = vec!["papers".into(), "papers-rtk".into()];
+    }
+    for name in &scenarios {
+        let sc = Scenario::resolve(name)?;
+        println!("\n## {name} ({seeds} seeds)\n");
+        println!("| variant | first visit worst (s) | revisit worst (s) | RMS d (cm) | RMS y_l (cm) | RMS y_r (cm) | RMS x_c (cm) | outage drift (%) |");
+        println!("|---|---|---|---|---|---|---|---|");
+        let mut presets = EstimatorConfig::presets();
+        // TUNE=file.toml adds the default overridden by that file's keys.
+        if let Ok(path) = std::env::var("TUNE") {
+            let text = std::fs::read_to_string(&path)?;
+            presets.push(("tuned", EstimatorConfig::from_toml(&text)?));
+        }
+        for (pname, cfg) in presets {
+            if only.as_deref().is_some_and(|o| o != pname) {
+                continue;
+            }
+            let mut first: Vec<Option<f64>> = Vec::new();
+            let mut revisit: Vec<Option<f64>> = Vec::new();
+            let mut any_revisit = false;
+            let (mut d, mut yl, mut yr, mut xc, mut drift) = (0.0, 0.0, 0.0, 0.0, Vec::new());
+            for seed in 1..=seeds {
+                let sim = simulate(&sc, seed)?;
+                let log = &sim.log;
+                let ev = TerrainEvidence::Labels(log.terrain.clone());
+                let outage = metrics::find_position_outage(&log.pose, 20.0);
+                // Pure dead reckoning through the outage: the compass goes too.
+                let opts = RunOptions { outage };
+                let run = pipeline::run_with(log, &cfg, &ev, None, opts, &mut |_, _| {})?;
+                let card = metrics::scorecard(&run, &log.truth, &log.terrain, outage, 20.0);
+                if std::env::var("VERBOSE").is_ok() {
+                    for r in &card.reconvergence {
+                        eprintln!("{pname} seed {seed}: change at {:.0} s to {} (revisit {}): {:?} of {:.0} s", r.t_change, r.terrain, r.revisit, r.seconds, r.segment);
+                    }
+                }
+                first.push(card.worst_first_visit);
+                if card.reconvergence.iter().any(|r| r.revisit) {
+                    any_revisit = true;
+                    revisit.push(card.worst_revisit);
+                }
+                d += card.rms.d.powi(2);
+                yl += card.rms.y_l.powi(2);
+                yr += card.rms.y_r.powi(2);
+                xc += card.rms.x_c.powi(2);
+                if let Some(dr) = card.drift {
+                    drift.push(dr.percent);
+                }
+            }
+            let n = seeds as f64;
+            let worst = |v: &[Option<f64>]| -> String {
+                if v.is_empty() {
+                    "-".into()
+                } else if v.iter().any(|x| x.is_none()) {
+                    "never".into()
+                } else {
+                    format!("{:.1}", v.iter().flatten().fold(0.0f64, |a, b| a.max(*b)))
+                }
+            };
+            let drift_s = if drift.is_empty() {
+                "-".into()
+            } else {
+                let mean = drift.iter().sum::<f64>() / drift.len() as f64;
+                let max = drift.iter().fold(0.0f64, |a, b| a.max(*b));
+                format!("{mean:.2} (max {max:.2})")
+            };
+            println!(
+                "| {pname} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {drift_s} |",
+                worst(&first),
+                if any_revisit {
+                    worst(&revisit)
+                } else {
+                    "-".into()
+                },
+                100.0 * (d / n).sqrt(),
+                100.0 * (yl / n).sqrt(),
+                100.0 * (yr / n).sqrt(),
+                100.0 * (xc / n).sqrt(),
+            );
+        }
+    }
+    Ok(())
+}

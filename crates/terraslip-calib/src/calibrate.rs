@@ -1,8 +1,6 @@
 //! The whole offline calibration: segments, time offset, the three methods,
 //! identifiability checks, one parameter set per terrain.
 
-use std::collections::BTreeMap;
-
 use serde_json::{json, Value};
 use terraslip_core::IcrParams;
 use terraslip_io::{DriveLog, ParamEntry, ParamsFile};
@@ -537,10 +535,11 @@ fn calibrate_set(
         if let Some(b) = cfg.ga.bounds {
             gcfg.bounds = b;
         }
+        // Genes the data cannot identify stay at the start value.
         let sv = model::to_vec(&start);
-        for k in 0..5 {
-            if !lm_cfg.free[k] {
-                gcfg.bounds[k] = (sv[k], sv[k]);
+        for ((b, &v), &free) in gcfg.bounds.iter_mut().zip(&sv).zip(&lm_cfg.free) {
+            if !free {
+                *b = (v, v);
             }
         }
         let fitness = |p: &IcrParams| model::robust_cost(p, segs, &inlier, cfg.yaw_weight, c);
@@ -628,17 +627,4 @@ fn calibrate_set(
         wheel_radius: None,
         pioneer: false,
     })
-}
-
-/// Per-terrain map of parameter sets from a params file (for reports).
-pub fn sets_of(pf: &ParamsFile) -> BTreeMap<String, IcrParams> {
-    let mut m: BTreeMap<String, IcrParams> = pf
-        .terrains
-        .iter()
-        .map(|(k, e)| (k.clone(), e.params))
-        .collect();
-    if let Some(p) = pf.params {
-        m.insert("(pooled)".into(), p);
-    }
-    m
 }

@@ -143,10 +143,7 @@ fn normal_equations(
                 g[a] += w[i] * J[i][a][c] * r[i][c];
             }
             for b in 0..5 {
-                let mut s = 0.0;
-                for c in 0..3 {
-                    s += J[i][a][c] * J[i][b][c];
-                }
+                let s: f64 = J[i][a].iter().zip(&J[i][b]).map(|(x, y)| x * y).sum();
                 A[(a, b)] += w[i] * s;
             }
         }

@@ -315,6 +315,78 @@ fn spread_from_yaw(segs: &Segments) -> Option<f64> {
     (d.is_finite() && d > 0.0).then_some(d)
 }
 
+/// Second stage of the offset search, with the model itself: a quick
+/// per-terrain LM fit at `offset`, then the offset within +-0.15 s (30 ms
+/// steps) that minimises the median segment residual norm under those
+/// parameters. The model-free first stage only sees
+/// symmetric ICRs and pure rotation or translation; this one sees the
+/// whole twist. Returns `offset` unchanged when a fit is not possible.
+fn refine_offset(
+    log: &DriveLog,
+    cfg: &SegmentConfig,
+    offset: f64,
+    max: f64,
+    yaw_weight: f64,
+) -> f64 {
+    let segs = Segments::build(&[log], &[offset], cfg);
+    let width = match log.meta.track_width.or_else(|| spread_from_yaw(&segs)) {
+        Some(w) => w,
+        None => return offset,
+    };
+    let mut names: Vec<Option<String>> = Vec::new();
+    for s in &segs.segments {
+        if !names.contains(&s.terrain) {
+            names.push(s.terrain.clone());
+        }
+    }
+    let quick = LmConfig {
+        irls_rounds: 3,
+        ..LmConfig::default()
+    };
+    let mut params: Vec<(Option<String>, IcrParams)> = Vec::new();
+    for name in names {
+        let active: Vec<bool> = segs.segments.iter().map(|s| s.terrain == name).collect();
+        if active.iter().filter(|&&a| a).count() < 10 {
+            continue;
+        }
+        if let Some(f) = lm::fit(
+            &segs,
+            &IcrParams::no_slip(width),
+            &active,
+            yaw_weight,
+            &quick,
+        ) {
+            params.push((name, f.params));
+        }
+    }
+    if params.is_empty() {
+        return offset;
+    }
+    let score = |t: f64| {
+        let sg = Segments::build(&[log], &[t], cfg);
+        let mut norms: Vec<f64> = sg
+            .segments
+            .iter()
+            .filter_map(|s| {
+                let p = params.iter().find(|(n, _)| *n == s.terrain)?.1;
+                let r = model::residual(&p, &sg, s, yaw_weight);
+                Some((r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt())
+            })
+            .collect();
+        if norms.len() < 10 {
+            return f64::INFINITY;
+        }
+        norms.sort_by(f64::total_cmp);
+        norms[norms.len() / 2]
+    };
+    (-5..=5)
+        .map(|k| offset + 0.03 * k as f64)
+        .filter(|t| t.abs() <= max + 1e-9)
+        .map(|t| (t, score(t)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map_or(offset, |(t, _)| t)
+}
+
 /// Calibrates from `logs` (each must have `pose.csv`).
 pub fn calibrate(
     logs: &[DriveLog],
@@ -349,6 +421,10 @@ pub fn calibrate(
                     0.0
                 }
             },
+        };
+        let o = match cfg.time_offset {
+            TimeOffset::Auto { max, .. } => refine_offset(log, &scfg, o, max, cfg.yaw_weight),
+            TimeOffset::Fixed(_) => o,
         };
         offsets.push(o);
     }

@@ -1,1 +1,69 @@
-//! terraslip-calib (to be built).
+//! terraslip-calib: offline identification of the ICR kinematic parameters
+//! of a skid-steering robot from logged drives with a pose reference,
+//! following Mandow et al. 2007 and going past it.
+//!
+//! Pipeline ([`calibrate()`]):
+//! 1. [`segment`]: the drive is cut into segments between pose observations
+//!    at least 1 s apart; held (repeated) poses are dropped, stationary
+//!    segments skipped, increments expressed in the frame of each segment start.
+//! 2. [`offset`]: the wheel/pose time offset is estimated per log.
+//! 3. [`lm`]: a robust Levenberg-Marquardt fit from the no-slip model sets
+//!    the residual scale and drops outlier segments (reported).
+//! 4. The methods minimise eq. 13 (Cauchy-robust, over the inliers):
+//!    [`lm`], the paper's [`ga`], and the symmetric quick calibration
+//!    ([`symmetric`], eqs. 11-12). The lowest robust cost wins.
+//! 5. One set per terrain of `terrain.csv`; steering efficiency, eccentricity,
+//!    uncertainties, and Pioneer Ticksmm/Revcount in the output.
+//!
+//! [`validate()`] scores a parameter file on other drives against the no-slip
+//! model, per segment (Mandow Table III).
+//!
+//! Frames: REP-103 (body x forward, y left; world ENU). Units: SI.
+
+pub mod calibrate;
+pub mod ga;
+pub mod lm;
+pub mod model;
+pub mod offset;
+pub mod segment;
+pub mod symmetric;
+pub mod synthetic;
+pub mod validate;
+
+use std::path::PathBuf;
+
+pub use calibrate::{
+    calibrate, CalibConfig, Calibration, GaSettings, Method, MethodFit, Progress, SetCalibration,
+    TimeOffset,
+};
+pub use segment::{Increment, SegmentConfig, Segments};
+pub use validate::{validate, Mse, OffsetChoice, ValidateConfig, Validation};
+
+/// Why a calibration or validation could not be done.
+#[derive(Debug, thiserror::Error)]
+pub enum CalibError {
+    #[error("no log given")]
+    NoLogs,
+    #[error(
+        "{log}: no pose reference (pose.csv is missing or has no rows); calibration needs one"
+    )]
+    NoPose { log: PathBuf },
+    #[error(
+        "{log}: meta.toml has no track_width, so the no-slip model to compare against is undefined"
+    )]
+    NoTrackWidth { log: PathBuf },
+    #[error("set `{set}`: only {moving} usable moving segments, need at least {needed} (is the robot moving while the pose reference is valid?)")]
+    TooFewSegments {
+        set: String,
+        moving: usize,
+        needed: usize,
+    },
+    #[error("set `{set}`: cannot identify {}: {reason}", params.join(", "))]
+    Unobservable {
+        set: String,
+        params: Vec<&'static str>,
+        reason: String,
+    },
+    #[error("set `{set}`: the symmetric calibration needs {what}, the drive has none")]
+    SymmetricNeeds { set: String, what: &'static str },
+}

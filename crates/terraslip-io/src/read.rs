@@ -393,7 +393,13 @@ pub fn read_meta(path: &Path) -> Result<Meta, LogError> {
     let meta: Meta = toml::from_str(&text).map_err(|e| {
         let line = e
             .span()
-            .map(|s| text[..s.start.min(text.len())].lines().count().max(1) as u64)
+            .map(|s| {
+                text.as_bytes()[..s.start.min(text.len())]
+                    .iter()
+                    .filter(|&&b| b == b'\n')
+                    .count() as u64
+                    + 1
+            })
             .unwrap_or(1);
         LogError::Parse {
             path: path.to_path_buf(),

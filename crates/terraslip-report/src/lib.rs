@@ -16,7 +16,7 @@ mod plot;
 mod table;
 
 pub use heatmap::Heatmap;
-pub use plot::{Band, Figure, LinePlot, Series, SeriesStyle, PALETTE};
+pub use plot::{Band, Figure, LegendPosition, LinePlot, Series, SeriesStyle, PALETTE};
 pub use table::{html_page, markdown_table, Section};
 
 /// Error drawing or writing a report.

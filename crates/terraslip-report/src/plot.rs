@@ -86,6 +86,19 @@ pub struct LinePlot {
     /// Fixed y range; `None` fits the data.
     pub y_range: Option<(f64, f64)>,
     pub size: (u32, u32),
+    /// Where the legend goes (default upper right).
+    pub legend: LegendPosition,
+}
+
+/// Legend placement inside the plot area.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LegendPosition {
+    #[default]
+    UpperRight,
+    UpperLeft,
+    LowerRight,
+    LowerLeft,
+    MiddleRight,
 }
 
 impl LinePlot {
@@ -104,6 +117,7 @@ impl LinePlot {
             equal_aspect: false,
             y_range: None,
             size: (1000, 450),
+            legend: LegendPosition::UpperRight,
         }
     }
     pub fn series(mut self, s: Series) -> Self {
@@ -133,6 +147,10 @@ impl LinePlot {
     }
     pub fn y_range(mut self, lo: f64, hi: f64) -> Self {
         self.y_range = Some((lo, hi));
+        self
+    }
+    pub fn legend(mut self, position: LegendPosition) -> Self {
+        self.legend = position;
         self
     }
     pub fn size(mut self, w: u32, h: u32) -> Self {
@@ -297,7 +315,13 @@ impl LinePlot {
         if !self.series.is_empty() || !self.bands.is_empty() {
             chart
                 .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
+                .position(match self.legend {
+                    LegendPosition::UpperRight => SeriesLabelPosition::UpperRight,
+                    LegendPosition::UpperLeft => SeriesLabelPosition::UpperLeft,
+                    LegendPosition::LowerRight => SeriesLabelPosition::LowerRight,
+                    LegendPosition::LowerLeft => SeriesLabelPosition::LowerLeft,
+                    LegendPosition::MiddleRight => SeriesLabelPosition::MiddleRight,
+                })
                 .background_style(WHITE.mix(0.85))
                 .border_style(BLACK)
                 .label_font(("sans-serif", 14))

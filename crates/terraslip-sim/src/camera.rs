@@ -45,6 +45,17 @@ pub fn render(frame: &FrameSpec, cam: &Camera) -> RgbImage {
     let m_per_px = frame.footprint / w as f64;
     let (s, c) = frame.yaw.sin_cos();
     let (sd, cd) = frame.shade_dir.sin_cos();
+    // Grass blades are drawn from a grid prepared once per frame: per pixel
+    // they would cost hashes and a sin/cos for each neighbouring cell.
+    let blades = (frame.texture == Texture::Grass).then(|| {
+        let half_diagonal = 0.5 * frame.footprint.hypot(frame.footprint * h as f64 / w as f64);
+        let (s, c) = frame.yaw.sin_cos();
+        BladeGrid::new(
+            frame.east + c * LOOK_AHEAD,
+            frame.north + s * LOOK_AHEAD,
+            half_diagonal,
+        )
+    });
     for py in 0..h {
         for px in 0..w {
             // Image up = robot forward, image right = robot right.
@@ -54,7 +65,7 @@ pub fn render(frame: &FrameSpec, cam: &Camera) -> RgbImage {
             let yb = -u;
             let e = frame.east + c * xb - s * yb;
             let n = frame.north + s * xb + c * yb;
-            let rgb = texture(frame.texture, e, n);
+            let rgb = texture_with(frame.texture, e, n, blades.as_ref());
             let nu = u / frame.footprint;
             let nv = v / frame.footprint;
             let light = frame.gain
@@ -73,6 +84,10 @@ pub fn render(frame: &FrameSpec, cam: &Camera) -> RgbImage {
 
 /// Linear RGB in 0..1 of terrain `tex` at world point (`e`, `n`) m.
 pub fn texture(tex: Texture, e: f64, n: f64) -> [f64; 3] {
+    texture_with(tex, e, n, None)
+}
+
+fn texture_with(tex: Texture, e: f64, n: f64, blades: Option<&BladeGrid>) -> [f64; 3] {
     match tex {
         Texture::Asphalt => {
             let base = 0.24 + 0.07 * fbm(e * 30.0, n * 30.0, 3, 11);
@@ -107,20 +122,17 @@ pub fn texture(tex: Texture, e: f64, n: f64) -> [f64; 3] {
             }
         }
         Texture::Grass => {
-            // Blades: noise stretched along a direction that wanders slowly.
-            let a = 1.5 * fbm(e * 1.5, n * 1.5, 2, 41);
-            let (sa, ca) = a.sin_cos();
-            let (x, y) = (ca * e + sa * n, -sa * e + ca * n);
-            let blade = 0.6 * value_noise(x * 120.0, y * 10.0, 42)
-                + 0.4 * value_noise(x * 260.0, y * 25.0, 45);
             let dry = fbm(e * 1.5, n * 1.5, 3, 43);
-            let gap = fbm(e * 6.0, n * 6.0, 3, 44) < 0.25;
-            if gap {
-                let k = 0.7 + 0.3 * blade;
+            if fbm(e * 6.0, n * 6.0, 3, 44) < 0.25 {
+                // A bare patch.
+                let k = 0.7 + 0.3 * value_noise(e * 200.0, n * 200.0, 46);
                 return [0.35 * k, 0.27 * k, 0.18 * k];
             }
-            let k = 0.45 + 0.75 * blade;
-            [(0.12 + 0.25 * dry) * k, (0.32 + 0.15 * dry) * k, 0.08 * k]
+            match blade(e, n, blades) {
+                Some(k) => [(0.16 + 0.3 * dry) * k, (0.45 + 0.15 * dry) * k, 0.09 * k],
+                // Shadowed ground between the blades.
+                None => [0.10, 0.22, 0.05],
+            }
         }
         Texture::Paving => {
             let (bw, bh, joint) = (0.20, 0.10, 0.008);
@@ -165,6 +177,118 @@ pub fn texture(tex: Texture, e: f64, n: f64) -> [f64; 3] {
             [0.80 * k, 0.70 * k, 0.52 * k]
         }
     }
+}
+
+const BLADE_CELL: f64 = 0.007;
+const BLADE_HALF_LEN: f64 = 0.012;
+const BLADE_HALF_WIDTH: f64 = 0.0018;
+/// Cells either side of a point whose blades can reach it:
+/// ceil((half length + half width) / cell).
+const BLADE_REACH: i64 = 2;
+
+/// One grass blade: a thin stroke around a centre, m and rad.
+#[derive(Debug, Clone, Copy)]
+struct Blade {
+    px: f64,
+    py: f64,
+    ca: f64,
+    sa: f64,
+    height: f64,
+    bright: f64,
+}
+
+impl Blade {
+    /// The blade of grid cell (`gx`, `gy`). Blades lean with the wind and
+    /// the mower: the direction wanders slowly over the lawn.
+    fn of_cell(gx: i64, gy: i64) -> Self {
+        let px = (gx as f64 + hash(gx, gy, 47)) * BLADE_CELL;
+        let py = (gy as f64 + hash(gx, gy, 48)) * BLADE_CELL;
+        let lean = 2.5 * fbm(px * 2.0, py * 2.0, 2, 41);
+        let (sa, ca) = (lean + 0.8 * (hash(gx, gy, 49) - 0.5)).sin_cos();
+        Self {
+            px,
+            py,
+            ca,
+            sa,
+            height: hash(gx, gy, 50),
+            bright: 0.5 + 0.7 * hash(gx, gy, 51),
+        }
+    }
+}
+
+/// The blades of every cell within `reach` m of a point, for one frame.
+struct BladeGrid {
+    gx0: i64,
+    gy0: i64,
+    side: i64,
+    blades: Vec<Blade>,
+}
+
+impl BladeGrid {
+    fn new(e: f64, n: f64, reach: f64) -> Self {
+        let r = (reach / BLADE_CELL).ceil() as i64 + BLADE_REACH + 1;
+        let (cx, cy) = (
+            (e / BLADE_CELL).floor() as i64,
+            (n / BLADE_CELL).floor() as i64,
+        );
+        let (gx0, gy0, side) = (cx - r, cy - r, 2 * r + 1);
+        let mut blades = Vec::with_capacity((side * side) as usize);
+        for gy in gy0..gy0 + side {
+            for gx in gx0..gx0 + side {
+                blades.push(Blade::of_cell(gx, gy));
+            }
+        }
+        Self {
+            gx0,
+            gy0,
+            side,
+            blades,
+        }
+    }
+
+    fn get(&self, gx: i64, gy: i64) -> Option<Blade> {
+        let (i, j) = (gx - self.gx0, gy - self.gy0);
+        if (0..self.side).contains(&i) && (0..self.side).contains(&j) {
+            Some(self.blades[(j * self.side + i) as usize])
+        } else {
+            None
+        }
+    }
+}
+
+/// Grass blades: thin tapering strokes, one per 7 mm cell, 2.4 cm long. The
+/// brightness (about 0.2..1.2) of the blade on top at (`e`, `n`) m, or
+/// `None` between blades. `grid` holds the blades of the frame (else they
+/// are computed here).
+fn blade(e: f64, n: f64, grid: Option<&BladeGrid>) -> Option<f64> {
+    let (cx, cy) = (
+        (e / BLADE_CELL).floor() as i64,
+        (n / BLADE_CELL).floor() as i64,
+    );
+    let mut best: Option<(f64, f64)> = None; // (height, brightness)
+    let bound = BLADE_HALF_LEN + BLADE_HALF_WIDTH;
+    for gy in cy - BLADE_REACH..=cy + BLADE_REACH {
+        for gx in cx - BLADE_REACH..=cx + BLADE_REACH {
+            let b = grid
+                .and_then(|g| g.get(gx, gy))
+                .unwrap_or_else(|| Blade::of_cell(gx, gy));
+            let (rx, ry) = (e - b.px, n - b.py);
+            if rx.abs() > bound || ry.abs() > bound {
+                continue;
+            }
+            let along = (rx * b.ca + ry * b.sa).clamp(-BLADE_HALF_LEN, BLADE_HALF_LEN);
+            let dist = (rx - along * b.ca).hypot(ry - along * b.sa);
+            // Blades taper towards the tip.
+            let width = BLADE_HALF_WIDTH * (1.0 - 0.6 * (along / BLADE_HALF_LEN).abs());
+            if dist < width && !matches!(best, Some((h, _)) if b.height <= h) {
+                // Lit along the middle, darker at the edges and the base.
+                let shade = 1.0 - 0.5 * dist / width;
+                let tip = 0.75 + 0.25 * (along / BLADE_HALF_LEN);
+                best = Some((b.height, b.bright * shade * tip));
+            }
+        }
+    }
+    best.map(|b| b.1)
 }
 
 /// A uniform value in [0, 1) from a lattice point and a salt.
@@ -253,8 +377,8 @@ mod tests {
     fn mean_rgb(img: &RgbImage) -> [f64; 3] {
         let mut m = [0.0; 3];
         for p in img.pixels() {
-            for k in 0..3 {
-                m[k] += p.0[k] as f64;
+            for (acc, v) in m.iter_mut().zip(p.0) {
+                *acc += v as f64;
             }
         }
         m.map(|v| v / (img.width() * img.height()) as f64)
@@ -276,6 +400,21 @@ mod tests {
         );
         assert!(soil[0] > soil[2], "soil {soil:?}");
         assert!((asphalt[0] - asphalt[2]).abs() < 15.0 && asphalt[0] < 120.0);
+    }
+
+    #[test]
+    fn blade_grid_draws_the_same_grass_as_direct_evaluation() {
+        let grid = BladeGrid::new(2.0, -1.0, 0.3);
+        let mut hits = 0;
+        for k in 0..2000 {
+            let e = 2.0 + 0.5 * (hash(k, 0, 9) - 0.5);
+            let n = -1.0 + 0.5 * (hash(k, 1, 9) - 0.5);
+            let a = blade(e, n, Some(&grid));
+            assert_eq!(a, blade(e, n, None), "at ({e}, {n})");
+            hits += a.is_some() as usize;
+        }
+        // Blades cover most of the lawn, not all of it.
+        assert!((800..1900).contains(&hits), "{hits} of 2000 on a blade");
     }
 
     #[test]

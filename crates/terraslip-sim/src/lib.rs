@@ -470,8 +470,9 @@ pub fn simulate(scenario: &Scenario, seed: u64) -> Result<SimRun, SimError> {
             break;
         }
         // Integrate up to the next sample time, in steps of at most dt_max.
-        let t_next = [
-            t + dt_max,
+        // Sample times are exact (k / rate): a step that would stop just
+        // short of one (rounding in the running sum) goes to it instead.
+        let next_sample = [
             duration,
             c_truth.next(),
             c_wheels.next(),
@@ -482,6 +483,11 @@ pub fn simulate(scenario: &Scenario, seed: u64) -> Result<SimRun, SimError> {
         ]
         .into_iter()
         .fold(f64::INFINITY, f64::min);
+        let t_next = if t + dt_max < next_sample - 1e-6 {
+            t + dt_max
+        } else {
+            next_sample
+        };
         let h = t_next - t;
         if h <= 0.0 {
             // A sample time at t that was not consumed cannot happen (every

@@ -65,7 +65,7 @@ impl Operator {
     /// Target (forward speed m/s, yaw rate rad/s) at time `t` with the robot
     /// at `east`, `north` (m) heading `yaw` (rad).
     pub(crate) fn command(&mut self, t: f64, east: f64, north: f64, yaw: f64) -> (f64, f64) {
-        let done = self.active.as_ref().map_or(true, |a| t >= a.t_end());
+        let done = !matches!(&self.active, Some(a) if t < a.t_end());
         if done {
             let spec = self.next(east, north, yaw);
             self.active = Some(Active { spec, t_start: t });

@@ -519,7 +519,9 @@ impl Scenario {
     /// A name or a path: a built-in if one has that name, else a TOML file.
     pub fn resolve(name_or_path: &str) -> Result<Self, SimError> {
         let p = Path::new(name_or_path);
-        if p.extension().is_some_and(|e| e == "toml") || p.exists() {
+        // A directory of that name (say, a log written earlier with
+        // `--out papers`) does not shadow the built-in.
+        if p.extension().is_some_and(|e| e == "toml") || p.is_file() {
             Self::from_toml_file(p)
         } else {
             Self::builtin(name_or_path)
@@ -737,6 +739,34 @@ impl Scenario {
             range("camera.lighting", c.lighting)?;
             pos("camera.lighting[0]", c.lighting[0])?;
         }
+        // Rates and steps that would exhaust memory or never finish.
+        if it.dt < 1e-5 {
+            return Err(format!("`integration.dt` = {} s: at least 1e-5 s", it.dt));
+        }
+        for (name, rate) in [
+            ("integration.truth_rate", it.truth_rate),
+            ("wheels.rate", self.wheels.rate),
+            ("gnss.rate", self.gnss.rate),
+            ("compass.rate", self.compass.rate),
+            ("imu.rate", self.imu.rate),
+            ("camera.rate", self.camera.rate),
+        ] {
+            if rate > 10_000.0 {
+                return Err(format!("`{name}` = {rate} Hz: at most 10000 Hz"));
+            }
+        }
+        if self.gnss.multipath_rate > 1.0 {
+            return Err(format!(
+                "`gnss.multipath_rate` = {} per s: at most 1 (that is no longer the odd jump)",
+                self.gnss.multipath_rate
+            ));
+        }
+        if self.camera.rate * self.duration() > 100_000.0 {
+            return Err(format!(
+                "camera: {:.0} frames; at most 100000 per drive (lower `camera.rate`)",
+                self.camera.rate * self.duration()
+            ));
+        }
         // A drive of days would exhaust memory long before it finished.
         if self.duration() > 36_000.0 {
             return Err(format!(
@@ -790,6 +820,9 @@ mod tests {
             ("[wheels]\nrate = -5\n", "wheels.rate"),
             ("[[segment]]\nterrain = \"lava\"\nduration = 5\n", "lava"),
             ("[gnss]\nwhite_std = nan\n", "gnss.white_std"),
+            ("[imu]\nrate = 1e9\n", "imu.rate"),
+            ("[integration]\ndt = 1e-9\n", "integration.dt"),
+            ("[gnss]\nmultipath_rate = 50.0\n", "gnss.multipath_rate"),
             ("[drive]\nspeed = [1.0, 0.5]\n", "drive.speed"),
             ("[terrains.soil]\nchi = 3.0\n", "chi"),
         ] {

@@ -69,6 +69,7 @@ impl Vibration {
 
     /// Vertical acceleration (m/s^2, gravity excluded) at `t`, for a sample
     /// step `dt`, speed `speed` m/s and distance driven `odometer` m.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn sample(
         &mut self,
         t: f64,

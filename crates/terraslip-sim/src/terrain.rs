@@ -155,57 +155,21 @@ impl Terrain {
     }
 }
 
-#[allow(clippy::too_many_arguments)]
-const fn entry(
-    chi: f64,
-    ecc: f64,
-    x_c: f64,
-    alpha: (f64, f64),
-    roughness: f64,
-    resonance_hz: f64,
-    damping: f64,
-    joints: (f64, f64),
-    impacts_per_m: f64,
-    texture: Texture,
-) -> (
-    f64,
-    f64,
-    f64,
-    (f64, f64),
-    f64,
-    f64,
-    f64,
-    (f64, f64),
-    f64,
-    Texture,
-) {
-    (
-        chi,
-        ecc,
-        x_c,
-        alpha,
-        roughness,
-        resonance_hz,
-        damping,
-        joints,
-        impacts_per_m,
-        texture,
-    )
-}
-
 /// A catalogue terrain by name.
 pub fn catalogue(name: &str) -> Option<Terrain> {
     use Texture::*;
+    // chi, eccentricity, x_c, alphas, roughness, resonance, damping, joints
+    // (spacing, knock), stones per metre, texture.
     #[rustfmt::skip]
     let e = match name {
-        //                chi   ecc    x_c     alpha          rough  f_res  zeta  joints        impacts
-        "asphalt"  => entry(0.70,  0.02, -0.010, (0.994, 0.994), 0.25, 30.0, 0.30, (0.0, 0.0),  0.2, Asphalt),
-        "concrete" => entry(0.73, -0.01, -0.012, (0.995, 0.995), 0.12, 36.0, 0.30, (3.0, 1.0),  0.0, Concrete),
-        "soil"     => entry(0.62,  0.03,  0.015, (0.970, 0.970), 0.80, 14.0, 0.25, (0.0, 0.0),  0.6, Soil),
-        "grass"    => entry(0.80, -0.02,  0.020, (0.980, 0.980), 0.45,  9.0, 0.45, (0.0, 0.0),  0.1, Grass),
-        "paving"   => entry(0.75,  0.01, -0.005, (0.990, 0.990), 0.30, 24.0, 0.30, (0.20, 1.6), 0.0, Paving),
-        "gravel"   => entry(0.66,  0.00,  0.010, (0.955, 0.955), 1.10, 21.0, 0.20, (0.0, 0.0),  6.0, Gravel),
-        "sand"     => entry(0.55,  0.03,  0.030, (0.935, 0.935), 0.30,  6.0, 0.50, (0.0, 0.0),  0.0, Sand),
+        //           chi   ecc    x_c     alpha          rough  f_res  zeta  joints        impacts
+        "asphalt"  => (0.70,  0.02, -0.010, (0.994, 0.994), 0.25, 30.0, 0.30, (0.0, 0.0),  0.2, Asphalt),
+        "concrete" => (0.73, -0.01, -0.012, (0.995, 0.995), 0.12, 36.0, 0.30, (3.0, 1.0),  0.0, Concrete),
+        "soil"     => (0.62,  0.03,  0.015, (0.970, 0.970), 0.80, 14.0, 0.25, (0.0, 0.0),  0.6, Soil),
+        "grass"    => (0.80, -0.02,  0.020, (0.980, 0.980), 0.45,  9.0, 0.45, (0.0, 0.0),  0.1, Grass),
+        "paving"   => (0.75,  0.01, -0.005, (0.990, 0.990), 0.30, 24.0, 0.30, (0.20, 1.6), 0.0, Paving),
+        "gravel"   => (0.66,  0.00,  0.010, (0.955, 0.955), 1.10, 21.0, 0.20, (0.0, 0.0),  6.0, Gravel),
+        "sand"     => (0.55,  0.03,  0.030, (0.935, 0.935), 0.30,  6.0, 0.50, (0.0, 0.0),  0.0, Sand),
         _ => return None,
     };
     let (chi, ecc, x_c, (a_l, a_r), rough, f, z, (js, jk), imp, tex) = e;

@@ -456,3 +456,50 @@ rate = 0.0
     assert!(spin.twist.v_x.abs() < 0.02 && (spin.twist.omega - 0.5 * chi).abs() < 0.05);
     assert!(at(38.0).twist.v_x.abs() < 1e-6 && at(38.0).twist.omega.abs() < 1e-6);
 }
+
+#[test]
+fn sample_times_are_exact_multiples_of_the_period() {
+    let mut s = Scenario::builtin("wang4").unwrap();
+    s.camera.rate = 0.05;
+    let run = simulate(&s, 1).unwrap();
+    for (k, w) in run.log.wheels.iter().enumerate() {
+        assert_eq!(w.t, k as f64 / 50.0);
+    }
+    for (k, m) in run.log.imu.iter().enumerate() {
+        assert_eq!(m.t, k as f64 / 200.0);
+    }
+    for (k, f) in run.log.images.iter().enumerate() {
+        assert_eq!(f.t, k as f64 / 0.05);
+    }
+    assert_eq!(run.log.wheels.last().unwrap().t, s.duration());
+}
+
+/// Odd but valid settings run to the end and give finite numbers.
+#[test]
+fn edge_scenarios_run_and_stay_finite() {
+    let base = "[[segment]]\nterrain = \"sand\"\nduration = 12.0\n[camera]\nrate = 0.0\n";
+    for extra in [
+        // only stops
+        "[drive.mix]\nstraight = 0.0\narc = 0.0\nspin = 0.0\ns_curve = 0.0\nstop = 1.0\n",
+        // a tiny field: the operator keeps turning home
+        "[drive]\narea_radius = 0.1\n",
+        // standing still, no spins, needle-thin arcs
+        "[drive]\nspeed = [0.0, 0.0]\nspin_rate = [0.0, 0.0]\nradii = [0.01]\n",
+        // every sensor off but the encoders
+        "[gnss]\nrate = 0.0\n[compass]\nrate = 0.0\n[imu]\nrate = 0.0\n",
+        // no noise, no lag, no slip variation
+        "[gnss]\nwhite_std = 0.0\nmarkov_std = 0.0\nmultipath_rate = 0.0\n[slip]\nturn_sensitivity = 0.0\nspeed_sensitivity = 0.0\nlag = 0.0\ntransition = 0.0\n[drive]\nwheel_lag = 0.0\n",
+        // fast clocks that do not divide each other
+        "[wheels]\nrate = 333.0\n[imu]\nrate = 997.0\n[gnss]\nrate = 7.0\n[compass]\nrate = 3.0\n",
+    ] {
+        let run = simulate(&scenario(&format!("{base}{extra}")), 3).unwrap();
+        let log = &run.log;
+        assert!(!log.wheels.is_empty(), "{extra}");
+        assert!(log.wheels.iter().all(|w| w.v_left.is_finite() && w.v_right.is_finite()), "{extra}");
+        assert!(run.truth.iter().all(|s| s.east.is_finite() && s.north.is_finite() && s.yaw.is_finite()), "{extra}");
+        assert!(log.pose.iter().all(|p| p.east.map_or(true, f64::is_finite)), "{extra}");
+        assert!(log.imu.iter().all(|m| m.accel_z.is_finite()), "{extra}");
+        let last = log.wheels.last().unwrap().t;
+        assert!((last - 12.0).abs() < 0.01, "{extra}: ends at {last}");
+    }
+}

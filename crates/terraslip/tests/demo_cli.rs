@@ -74,9 +74,16 @@ fn demo_writes_table_plots_and_report_for_every_variant() {
     assert_eq!(vars.len(), VARIANTS.len());
     for v in vars {
         let d = v["rms_m"]["d"].as_f64().unwrap();
-        assert!(d.is_finite() && d >= 0.0 && d < 1.0, "{v}");
+        assert!((0.0..1.0).contains(&d), "{v}");
         assert_eq!(v["reconvergence_s"].as_array().unwrap().len(), 2);
         assert!(v["outage_drift"]["percent"].as_f64().unwrap() >= 0.0);
+        // Pure dead reckoning: the window ends before the first fix after
+        // the outage (300-330 s) is fused.
+        let (t0, t1) = (
+            v["outage_drift"]["t0"].as_f64().unwrap(),
+            v["outage_drift"]["t1"].as_f64().unwrap(),
+        );
+        assert!(t0 >= 300.0 && t1 < 330.0 && t1 > 329.0, "{t0} {t1}");
     }
     // The no-slip model cannot follow slip: its spread is off by centimetres.
     let no_slip = vars.iter().find(|v| v["name"] == "no-slip").unwrap();

@@ -99,6 +99,15 @@ fn replaces_a_log_but_refuses_anything_else() {
         !out.join("images").exists(),
         "old log's images survived the replacement"
     );
+    // A log directory named like a built-in does not shadow it.
+    for _ in 0..2 {
+        let o = terraslip()
+            .current_dir(dir.path())
+            .args(["simulate", "papers", "--no-camera", "--out", "papers"])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
     let precious = dir.path().join("precious");
     std::fs::create_dir(&precious).unwrap();
     std::fs::write(precious.join("thesis.tex"), "x").unwrap();

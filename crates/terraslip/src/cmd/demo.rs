@@ -5,7 +5,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use terraslip::config::EstimatorConfig;
 use terraslip::metrics::{self, Scorecard};
@@ -14,7 +14,7 @@ use terraslip_io::{write_atomic, DriveLog, TerrainLabel, TruthSample};
 use terraslip_report::{html_page, markdown_table, Figure, LinePlot, Section, Series, SeriesStyle};
 use terraslip_sim::{simulate, Scenario, SimRun};
 
-use super::simulate::{replace_dir, staging_dir};
+use super::simulate::{check_target, replace_dir, staging_dir};
 
 const DETAILS: &str = "\
 Simulates the drive of lv2019 §IV (soil -> grass -> asphalt, 1 Hz GNSS with
@@ -79,7 +79,7 @@ const SETTLE: f64 = 20.0;
 
 pub fn run(args: Args) -> Result<()> {
     let started = std::time::Instant::now();
-    check_demo_target(&args.out)?;
+    check_target(&args.out, "summary.json", "an earlier demo")?;
     let mut scenario = Scenario::resolve(&args.scenario)?;
     // The demo compares estimators; camera frames would only cost time.
     scenario.camera.rate = 0.0;
@@ -90,6 +90,14 @@ pub fn run(args: Args) -> Result<()> {
         .outages
         .first()
         .map(|o| (o.start, o.start + o.duration));
+
+    // The row at the outage's end already holds the first fix after it;
+    // the drift is measured up to the last row before that fix.
+    let drift_window = outage.and_then(|(t0, t1)| {
+        let i = log.wheels.partition_point(|w| w.t < t1);
+        let end = log.wheels.get(i.checked_sub(1)?)?.t;
+        (end > t0).then_some((t0, end))
+    });
 
     let presets = EstimatorConfig::presets();
     let bar = ProgressBar::new(presets.len() as u64).with_style(
@@ -110,7 +118,7 @@ pub fn run(args: Args) -> Result<()> {
             &mut |_, _| {},
         )
         .with_context(|| format!("variant {name}"))?;
-        let card = metrics::scorecard(&run, &log.truth, &log.terrain, outage, SETTLE);
+        let card = metrics::scorecard(&run, &log.truth, &log.terrain, drift_window, SETTLE);
         outcomes.push(Outcome {
             name: name.to_string(),
             run,
@@ -124,7 +132,21 @@ pub fn run(args: Args) -> Result<()> {
     let (headers, rows) = table(&outcomes, &changes);
     let header_refs: Vec<&str> = headers.iter().map(String::as_str).collect();
     let table_md = markdown_table(&header_refs, &rows);
-    println!("{}", text_table(&headers, &rows));
+    println!(
+        "{} estimator variants on `{}` (seed {}): {}\n",
+        outcomes.len(),
+        scenario.name,
+        args.seed,
+        scenario.description
+    );
+    println!("{}\n", text_table(&headers, &rows));
+    for o in &outcomes {
+        println!("  {:<13} {}", o.name, describe(&o.name));
+    }
+    println!(
+        "\n  re-conv.: s after the change until d = y_l - y_r stays within 2 cm of the truth (5 s means);\n  \
+         RMS: from {SETTLE:.0} s after each change; outage drift: dead reckoning with every pose fix dropped."
+    );
 
     let staging = staging_dir(&args.out)?;
     let written = write_outputs(
@@ -144,30 +166,6 @@ pub fn run(args: Args) -> Result<()> {
         started.elapsed().as_secs_f64(),
         args.out.join("report.html").display()
     );
-    Ok(())
-}
-
-/// Like the simulate command's check, but what may be replaced is a demo.
-fn check_demo_target(out: &Path) -> Result<()> {
-    if !out.exists() {
-        return Ok(());
-    }
-    if !out.is_dir() {
-        bail!(
-            "{}: exists and is not a directory; refusing to overwrite it",
-            out.display()
-        );
-    }
-    let empty = std::fs::read_dir(out)
-        .with_context(|| format!("{}", out.display()))?
-        .next()
-        .is_none();
-    if !empty && !out.join("summary.json").is_file() {
-        bail!(
-            "{}: directory is not empty and holds no earlier demo (no summary.json); refusing to overwrite it",
-            out.display()
-        );
-    }
     Ok(())
 }
 
@@ -360,7 +358,8 @@ fn write_outputs(
         let c = outcomes.iter().position(|x| x.name == o.name).unwrap_or(0) % 7 + 1;
         let mut panels = Vec::new();
         type Pick = fn(&terraslip::pipeline::EstimateRow) -> (f64, f64);
-        let parts: [(&str, fn(&TruthSample) -> f64, Pick); 3] = [
+        type Part = (&'static str, fn(&TruthSample) -> f64, Pick);
+        let parts: [Part; 3] = [
             ("y_l [m] (left tread ICR)", |s| s.y_l, |r| (r.y_l, r.std[3])),
             (
                 "y_r [m] (right tread ICR)",
@@ -495,7 +494,7 @@ fn write_outputs(
             "worst_first_visit_s": o.card.worst_first_visit,
             "worst_revisit_s": o.card.worst_revisit,
             "rms_m": {"d": finite(o.card.rms.d), "y_l": finite(o.card.rms.y_l), "y_r": finite(o.card.rms.y_r), "x_c": finite(o.card.rms.x_c)},
-            "outage_drift": o.card.drift.map(|d| serde_json::json!({"percent": d.percent, "error_m": d.error, "distance_m": d.distance})),
+            "outage_drift": o.card.drift.map(|d| serde_json::json!({"percent": d.percent, "error_m": d.error, "distance_m": d.distance, "t0": d.t0, "t1": d.t1})),
             "final_icr": {"y_l": o.run.final_icr.y_l, "y_r": o.run.final_icr.y_r, "x_c": o.run.final_icr.x_c},
         })).collect::<Vec<_>>(),
     });
@@ -505,7 +504,7 @@ fn write_outputs(
     )?;
 
     let intro = format!(
-        "Scenario `{}` (seed {}): {} {:.0} s, terrains {}. Every variant ran over the same log with the \
+        "Scenario `{}` (seed {}): {} ({:.0} s; terrains {}). Every variant ran over the same log with the \
          log's terrain labels as evidence; during the outage {} every pose fix (GNSS and compass) was dropped, \
          so the drift is pure dead reckoning on the ICRs each variant had learned. Steady-state RMS counts \
          rows at least {SETTLE:.0} s after each terrain change. Re-convergence: seconds after a change until the \
@@ -536,7 +535,21 @@ fn write_outputs(
             format!("{n}: y_l, y_r, x_c with 2σ bands against the truth."),
         ));
     }
-    figures.push(("trajectory.svg".into(), "The drive: truth, GNSS fixes (2 m error, correlated over ~30 s, the odd 30 m multipath jump) and the terraslip estimate.".into()));
+    let g = &sim.scenario.gnss;
+    figures.push((
+        "trajectory.svg".into(),
+        format!(
+            "The drive: truth, GNSS fixes ({:.2} m error per axis, {:.0} % of its variance correlated over {:.0} s{}) and the terraslip estimate.",
+            g.total_std(),
+            100.0 * g.markov_std.powi(2) / g.total_std().powi(2).max(1e-12),
+            g.markov_tau,
+            if g.multipath_rate > 0.0 || !g.jumps.is_empty() {
+                format!(", the odd {:.0} m multipath jump", g.multipath_jump)
+            } else {
+                String::new()
+            }
+        ),
+    ));
     if outage.is_some() {
         figures.push(("outage.svg".into(), "Dead reckoning through the outage: each variant's path, aligned to the truth where the outage begins.".into()));
     }

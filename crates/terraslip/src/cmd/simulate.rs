@@ -79,7 +79,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let Some(out) = args.out.as_deref() else {
         bail!("--out LOG is required");
     };
-    check_target(out)?;
+    check_target(out, "wheels.csv", "a drive log")?;
     let run = simulate(&scenario, args.seed)?;
 
     let bar = if run.frames.is_empty() {
@@ -126,8 +126,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Refuses to clobber anything that is not a log directory.
-pub(crate) fn check_target(out: &Path) -> anyhow::Result<()> {
+/// Refuses to clobber anything but an earlier output of the same kind: a
+/// directory that is empty or holds `marker` (`what` names it in the error).
+pub(crate) fn check_target(out: &Path, marker: &str, what: &str) -> anyhow::Result<()> {
     if !out.exists() {
         return Ok(());
     }
@@ -139,9 +140,9 @@ pub(crate) fn check_target(out: &Path) -> anyhow::Result<()> {
     }
     let mut entries = std::fs::read_dir(out).with_context(|| format!("{}", out.display()))?;
     let empty = entries.next().is_none();
-    if !empty && !out.join("wheels.csv").is_file() {
+    if !empty && !out.join(marker).is_file() {
         bail!(
-            "{}: directory is not empty and is not a drive log (no wheels.csv); refusing to overwrite it",
+            "{}: directory is not empty and is not {what} (no {marker}); refusing to overwrite it",
             out.display()
         );
     }

@@ -1,0 +1,594 @@
+//! Segments: the motion between two pose observations, with the wheel
+//! samples recorded meanwhile.
+//!
+//! A segment starts at a pose observation and ends at the first later one at
+//! least [`SegmentConfig::min_duration`] away; the next segment starts where
+//! the previous one ended (Mandow et al. 2007, sec. III: "training paths can be
+//! broken into a number N of short segments according to the external sensor
+//! rate"). The reference increment is expressed in the body frame of the
+//! segment start (REP-103: x forward, y left), so it does not depend on the
+//! absolute heading.
+
+use terraslip_core::angle;
+use terraslip_io::{DriveLog, PoseObs, WheelSample};
+
+/// A pose increment in the body frame of the segment start: `dx` forward m,
+/// `dy` left m, `dyaw` counter-clockwise rad.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Increment {
+    pub dx: f64,
+    pub dy: f64,
+    pub dyaw: f64,
+}
+
+/// One wheel interval of constant measured tread speeds (m/s) lasting `dt` s.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Step {
+    pub dt: f64,
+    pub v_left: f64,
+    pub v_right: f64,
+}
+
+/// The motion between two pose observations.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Segment {
+    /// Index of the log this segment comes from (order given to the builder).
+    pub log: usize,
+    /// Start and end, s, on the pose clock.
+    pub t0: f64,
+    pub t1: f64,
+    /// Reference increment from the pose stream.
+    pub reference: Increment,
+    /// Terrain label in force over the whole segment, if the log has labels.
+    pub terrain: Option<String>,
+    /// Range of this segment's steps in [`Segments::steps`].
+    pub steps: std::ops::Range<usize>,
+    /// `int |v_l| + |v_r| dt`, m: how much the treads moved.
+    pub tread_travel: f64,
+    /// `int (v_r - v_l) dt`, m, and `int (v_r + v_l)/2 dt`, m (quick calibration).
+    pub int_diff: f64,
+    pub int_mean: f64,
+}
+
+/// Segmentation settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SegmentConfig {
+    /// Shortest segment, s (the contract's 1 s).
+    pub min_duration: f64,
+    /// Segments longer than this (a pose dropout) are discarded, s.
+    pub max_duration: f64,
+    /// Largest gap between wheel samples inside a segment, s.
+    pub max_wheel_gap: f64,
+    /// A segment whose treads travel less than this (m) is stationary.
+    pub stationary_travel: f64,
+    /// Only poses with `t_min <= t <= t_max` (pose clock, s) are used.
+    pub t_min: f64,
+    pub t_max: f64,
+    /// Drop segments whose reference cannot be a motion the treads made
+    /// (see [`plausible`]): a localiser that stalls and then catches up, or
+    /// relocalises, yields pose increments no wheel model can match.
+    pub reference_gate: bool,
+    /// Drop single poses whose timestamp is off (see [`drop_mistimed`]).
+    pub drop_mistimed: bool,
+    /// Track width (m) used by the gate's yaw bound; 1 m if unknown.
+    pub gate_track_width: Option<f64>,
+}
+
+impl Default for SegmentConfig {
+    fn default() -> Self {
+        Self {
+            min_duration: 1.0,
+            max_duration: 3.0,
+            max_wheel_gap: 0.5,
+            stationary_travel: 0.02,
+            t_min: f64::NEG_INFINITY,
+            t_max: f64::INFINITY,
+            reference_gate: true,
+            drop_mistimed: true,
+            gate_track_width: None,
+        }
+    }
+}
+
+impl SegmentConfig {
+    /// This configuration with the gate's track width taken from the first
+    /// log's `meta.toml` when not set.
+    pub fn for_logs(&self, logs: &[DriveLog]) -> Self {
+        let mut c = self.clone();
+        c.gate_track_width = c
+            .gate_track_width
+            .or_else(|| logs.iter().find_map(|l| l.meta.track_width));
+        c
+    }
+}
+
+/// Why pose rows or segments were not used, counted.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SegmentStats {
+    /// Pose rows lacking east, north or yaw.
+    pub incomplete_poses: usize,
+    /// Pose rows that repeat the previous pose exactly (a held, stale pose).
+    pub stale_poses: usize,
+    /// Poses dropped as mistimed (see [`drop_mistimed`]).
+    pub mistimed_poses: usize,
+    /// Segments with (almost) no tread motion.
+    pub stationary: usize,
+    /// Segments longer than `max_duration` or not covered by wheel samples.
+    pub gaps: usize,
+    /// Segments during which the terrain label changes.
+    pub terrain_change: usize,
+    /// Segments whose reference the treads cannot have produced (stalled
+    /// or jumping poses), see [`plausible`].
+    pub implausible: usize,
+}
+
+impl SegmentStats {
+    pub fn add(&mut self, o: &SegmentStats) {
+        self.incomplete_poses += o.incomplete_poses;
+        self.stale_poses += o.stale_poses;
+        self.mistimed_poses += o.mistimed_poses;
+        self.stationary += o.stationary;
+        self.gaps += o.gaps;
+        self.terrain_change += o.terrain_change;
+        self.implausible += o.implausible;
+    }
+}
+
+/// All moving segments of one or more logs, their wheel steps in one buffer.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Segments {
+    pub segments: Vec<Segment>,
+    pub steps: Vec<Step>,
+    /// Totals over all logs.
+    pub stats: SegmentStats,
+    /// The same, per log (index as given to [`Segments::push_log`]).
+    pub per_log: Vec<SegmentStats>,
+}
+
+/// Poses with east, north and yaw present, with exact repeats of the
+/// previous pose removed: a lidar localiser republishing its last solution
+/// between updates says nothing new, and the repeat's timestamp is not
+/// when that pose was true.
+pub fn clean_poses(pose: &[PoseObs], stats: &mut SegmentStats) -> Vec<(f64, f64, f64, f64)> {
+    let mut out: Vec<(f64, f64, f64, f64)> = Vec::with_capacity(pose.len());
+    for p in pose {
+        let (Some(e), Some(n), Some(y)) = (p.east, p.north, p.yaw) else {
+            stats.incomplete_poses += 1;
+            continue;
+        };
+        if let Some(&(_, pe, pn, py)) = out.last() {
+            if pe == e && pn == n && py == y {
+                stats.stale_poses += 1;
+                continue;
+            }
+        }
+        out.push((p.t, e, n, y));
+    }
+    out
+}
+
+/// Removes poses whose timestamp does not match when they were true: a
+/// localiser that stalls and catches up stamps an old pose late. Over
+/// consecutive poses `a, b, c` with the treads driving at least 0.1 m
+/// forward or back in each interval, the ratio of pose distance to tread
+/// travel is compared on `a->b`, `b->c` and `a->c`; if one half is under
+/// half the overall ratio and the other over 1.5 times it, `b` is suspect,
+/// and dropped if it is more lopsided than its suspect neighbours.
+/// The ratios are relative to the local one, so whatever the slip of the
+/// terrain (alpha), no calibrated parameter enters.
+pub fn drop_mistimed(
+    poses: &[(f64, f64, f64, f64)],
+    w: &[WheelSample],
+    time_offset: f64,
+) -> Vec<(f64, f64, f64, f64)> {
+    if poses.len() < 3 || w.len() < 2 {
+        return poses.to_vec();
+    }
+    // Cumulative signed forward tread travel at each wheel sample.
+    let mut cum = Vec::with_capacity(w.len());
+    let mut d = 0.0;
+    cum.push(0.0);
+    for p in w.windows(2) {
+        d += 0.25 * (p[0].v_left + p[0].v_right + p[1].v_left + p[1].v_right) * (p[1].t - p[0].t);
+        cum.push(d);
+    }
+    let travel_at = |t: f64| {
+        let t = t - time_offset;
+        let i = w.partition_point(|s| s.t <= t);
+        if i == 0 {
+            return cum[0];
+        }
+        if i >= w.len() {
+            return cum[w.len() - 1];
+        }
+        let (a, b) = (&w[i - 1], &w[i]);
+        let s = if b.t > a.t {
+            (t - a.t) / (b.t - a.t)
+        } else {
+            0.0
+        };
+        cum[i - 1] + s * (cum[i] - cum[i - 1])
+    };
+    // Score of each inner pose: how lopsided the two ratios are, when they
+    // are lopsided enough to call it mistimed (0 otherwise).
+    let dist = |p: (f64, f64, f64, f64), q: (f64, f64, f64, f64)| (q.1 - p.1).hypot(q.2 - p.2);
+    let mut score = vec![0.0f64; poses.len()];
+    for i in 1..poses.len() - 1 {
+        let (a, b, c) = (poses[i - 1], poses[i], poses[i + 1]);
+        let (wa, wc) = (
+            (travel_at(b.0) - travel_at(a.0)).abs(),
+            (travel_at(c.0) - travel_at(b.0)).abs(),
+        );
+        if wa < 0.1 || wc < 0.1 {
+            continue;
+        }
+        let r = dist(a, c) / (wa + wc);
+        let (r1, r2) = (dist(a, b) / wa, dist(b, c) / wc);
+        if (r1 < 0.5 * r && r2 > 1.5 * r) || (r1 > 1.5 * r && r2 < 0.5 * r) {
+            score[i] = r1.max(r2) / r1.min(r2).max(1e-9);
+        }
+    }
+    // A late pose also makes its neighbours look lopsided, less so: drop
+    // only the most lopsided of adjacent suspects.
+    poses
+        .iter()
+        .enumerate()
+        .filter(|&(i, _)| {
+            let s = score[i];
+            let prev = if i > 0 { score[i - 1] } else { 0.0 };
+            let next = score.get(i + 1).copied().unwrap_or(0.0);
+            !(s > 0.0 && s >= prev && s >= next)
+        })
+        .map(|(_, p)| *p)
+        .collect()
+}
+
+/// Whether a segment's reference increment is a motion its treads can have
+/// produced, with margins wide enough for any terrain (ice included) and
+/// without any calibrated parameter, so it treats every model alike:
+///
+/// * it moves at most 1.4x as far as the faster tread went, + 0.3 m;
+/// * when the treads drive more than 0.5 m forward or back, it moves at
+///   least 30 % of that, and not in the opposite direction (a stalled
+///   localiser repeats an old pose with fresh noise);
+/// * it turns at most 1.5x the no-slip yaw (skid steering only turns less), + 0.3 rad.
+pub fn plausible(seg: &Segment, steps: &[Step], cfg: &SegmentConfig) -> bool {
+    let r = seg.reference;
+    let moved = r.dx.hypot(r.dy);
+    let fast: f64 = steps
+        .iter()
+        .map(|s| s.v_left.abs().max(s.v_right.abs()) * s.dt)
+        .sum();
+    if moved > 1.4 * fast + 0.3 {
+        return false;
+    }
+    let fwd = seg.int_mean;
+    if fwd.abs() > 0.5 && (moved < 0.3 * fwd.abs() || r.dx * fwd < -0.09) {
+        return false;
+    }
+    let w = cfg.gate_track_width.unwrap_or(1.0);
+    let yaw_free = steps
+        .iter()
+        .map(|s| (s.v_right - s.v_left).abs() * s.dt)
+        .sum::<f64>()
+        / w;
+    r.dyaw.abs() <= 1.5 * yaw_free + 0.3
+}
+
+/// Linear interpolation of wheel speeds at `t` (clamped at the ends).
+/// `hint` is an index at or before `t`, advanced as the caller walks forward.
+fn wheel_at(w: &[WheelSample], t: f64, hint: &mut usize) -> (f64, f64) {
+    while *hint + 1 < w.len() && w[*hint + 1].t <= t {
+        *hint += 1;
+    }
+    let a = &w[*hint];
+    match w.get(*hint + 1) {
+        Some(b) if b.t > a.t && t > a.t => {
+            let s = ((t - a.t) / (b.t - a.t)).clamp(0.0, 1.0);
+            (
+                a.v_left + s * (b.v_left - a.v_left),
+                a.v_right + s * (b.v_right - a.v_right),
+            )
+        }
+        _ => (a.v_left, a.v_right),
+    }
+}
+
+/// Reference increment from pose `a` to pose `b`, in the frame of `a`.
+pub fn relative(a: (f64, f64, f64), b: (f64, f64, f64)) -> Increment {
+    let (s, c) = a.2.sin_cos();
+    let (de, dn) = (b.0 - a.0, b.1 - a.1);
+    Increment {
+        dx: c * de + s * dn,
+        dy: -s * de + c * dn,
+        dyaw: angle::wrap(b.2 - a.2),
+    }
+}
+
+impl Segments {
+    /// Builds the moving segments of `log` and appends them. The wheel clock
+    /// is shifted by `time_offset` s: the wheel sample stamped `t` is taken
+    /// to describe the motion at pose-clock time `t + time_offset` (a pose
+    /// stream that lags the wheels by 0.1 s needs `time_offset = 0.1`).
+    pub fn push_log(
+        &mut self,
+        log_index: usize,
+        log: &DriveLog,
+        time_offset: f64,
+        cfg: &SegmentConfig,
+    ) {
+        let mut stats = SegmentStats::default();
+        let mut poses = clean_poses(&log.pose, &mut stats);
+        let w = &log.wheels;
+        if cfg.drop_mistimed {
+            let n0 = poses.len();
+            // A stall over several poses needs several passes.
+            for _ in 0..4 {
+                let n = poses.len();
+                poses = drop_mistimed(&poses, w, time_offset);
+                if poses.len() == n {
+                    break;
+                }
+            }
+            stats.mistimed_poses += n0 - poses.len();
+        }
+        if w.len() < 2 || poses.len() < 2 {
+            self.record(log_index, &stats);
+            return;
+        }
+        let (w_first, w_last) = (w[0].t + time_offset, w[w.len() - 1].t + time_offset);
+        let mut hint = 0usize;
+        let mut i = 0usize;
+        while i < poses.len() {
+            let (ta, ..) = poses[i];
+            if ta < cfg.t_min {
+                i += 1;
+                continue;
+            }
+            // First pose at least min_duration later.
+            let mut j = i + 1;
+            while j < poses.len() && poses[j].0 - ta < cfg.min_duration {
+                j += 1;
+            }
+            if j >= poses.len() || poses[j].0 > cfg.t_max {
+                break;
+            }
+            let tb = poses[j].0;
+            let start = i;
+            i = j;
+            if tb - ta > cfg.max_duration || ta < w_first || tb > w_last {
+                stats.gaps += 1;
+                continue;
+            }
+            let terrain = if log.terrain.is_empty() {
+                None
+            } else {
+                let la = log.terrain_at(ta);
+                if la != log.terrain_at(tb) || log.terrain.iter().any(|l| l.t > ta && l.t < tb) {
+                    stats.terrain_change += 1;
+                    continue;
+                }
+                la.map(str::to_string)
+            };
+            // Wheel steps between ta and tb on the wheel clock.
+            let (wa, wb) = (ta - time_offset, tb - time_offset);
+            let first_step = self.steps.len();
+            let mut knots: Vec<f64> = vec![wa];
+            let k0 = w.partition_point(|s| s.t <= wa);
+            let mut k = k0;
+            while k < w.len() && w[k].t < wb {
+                knots.push(w[k].t);
+                k += 1;
+            }
+            knots.push(wb);
+            if knots.windows(2).any(|p| p[1] - p[0] > cfg.max_wheel_gap) {
+                stats.gaps += 1;
+                continue;
+            }
+            hint = hint.min(k0.saturating_sub(1));
+            let mut seg = Segment {
+                log: log_index,
+                t0: ta,
+                t1: tb,
+                reference: relative(
+                    (poses[start].1, poses[start].2, poses[start].3),
+                    (poses[j].1, poses[j].2, poses[j].3),
+                ),
+                terrain,
+                steps: 0..0,
+                tread_travel: 0.0,
+                int_diff: 0.0,
+                int_mean: 0.0,
+            };
+            let mut prev = wheel_at(w, knots[0], &mut hint);
+            for p in knots.windows(2) {
+                let dt = p[1] - p[0];
+                let next = wheel_at(w, p[1], &mut hint);
+                if dt <= 0.0 {
+                    prev = next;
+                    continue;
+                }
+                // Trapezoid: the mean speed over the interval.
+                let vl = 0.5 * (prev.0 + next.0);
+                let vr = 0.5 * (prev.1 + next.1);
+                seg.tread_travel += (vl.abs() + vr.abs()) * dt;
+                seg.int_diff += (vr - vl) * dt;
+                seg.int_mean += 0.5 * (vr + vl) * dt;
+                self.steps.push(Step {
+                    dt,
+                    v_left: vl,
+                    v_right: vr,
+                });
+                prev = next;
+            }
+            if seg.tread_travel < cfg.stationary_travel {
+                stats.stationary += 1;
+                self.steps.truncate(first_step);
+                continue;
+            }
+            if cfg.reference_gate && !plausible(&seg, &self.steps[first_step..], cfg) {
+                stats.implausible += 1;
+                self.steps.truncate(first_step);
+                continue;
+            }
+            seg.steps = first_step..self.steps.len();
+            self.segments.push(seg);
+        }
+        self.record(log_index, &stats);
+    }
+
+    fn record(&mut self, log_index: usize, stats: &SegmentStats) {
+        self.stats.add(stats);
+        if self.per_log.len() <= log_index {
+            self.per_log.resize(log_index + 1, SegmentStats::default());
+        }
+        self.per_log[log_index].add(stats);
+    }
+
+    /// Builds segments from several logs, each with its own time offset.
+    pub fn build(logs: &[&DriveLog], offsets: &[f64], cfg: &SegmentConfig) -> Self {
+        let mut s = Segments::default();
+        for (i, log) in logs.iter().enumerate() {
+            s.push_log(i, log, offsets.get(i).copied().unwrap_or(0.0), cfg);
+        }
+        s
+    }
+
+    /// The steps of one segment.
+    pub fn steps_of(&self, seg: &Segment) -> &[Step] {
+        &self.steps[seg.steps.clone()]
+    }
+
+    /// Keeps only the segments for which `keep` is true (steps stay shared).
+    pub fn retain(&mut self, mut keep: impl FnMut(&Segment) -> bool) {
+        self.segments.retain(|s| keep(s));
+    }
+
+    pub fn len(&self) -> usize {
+        self.segments.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.segments.is_empty()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use terraslip_io::TerrainLabel;
+
+    fn straight_log(speed: f64, duration: f64) -> DriveLog {
+        let mut log = DriveLog::default();
+        for k in 0..=(duration * 20.0) as usize {
+            let t = k as f64 * 0.05;
+            log.wheels.push(WheelSample {
+                t,
+                v_left: speed,
+                v_right: speed,
+            });
+            if k % 2 == 0 {
+                log.pose.push(PoseObs {
+                    t,
+                    east: Some(0.0),
+                    north: Some(speed * t),
+                    yaw: Some(std::f64::consts::FRAC_PI_2),
+                    ..Default::default()
+                });
+            }
+        }
+        log
+    }
+
+    #[test]
+    fn increments_are_in_the_frame_of_the_segment_start() {
+        // Heading north, moving north 1 m: 1 m forward, nothing sideways.
+        let inc = relative((5.0, 5.0, std::f64::consts::FRAC_PI_2), (5.0, 6.0, 3.0));
+        assert!((inc.dx - 1.0).abs() < 1e-12 && inc.dy.abs() < 1e-12);
+        assert!((inc.dyaw - angle::wrap(3.0 - std::f64::consts::FRAC_PI_2)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn segments_chain_at_least_min_duration_apart() {
+        let log = straight_log(1.0, 20.0);
+        let s = Segments::build(&[&log], &[0.0], &SegmentConfig::default());
+        assert_eq!(s.len(), 20);
+        for w in s.segments.windows(2) {
+            assert_eq!(w[0].t1, w[1].t0);
+        }
+        for seg in &s.segments {
+            assert!(seg.t1 - seg.t0 >= 1.0 - 1e-9);
+            assert!((seg.reference.dx - (seg.t1 - seg.t0)).abs() < 1e-9);
+            let steps = s.steps_of(seg);
+            let dt: f64 = steps.iter().map(|x| x.dt).sum();
+            assert!((dt - (seg.t1 - seg.t0)).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn stationary_stale_and_implausible_segments_are_counted_not_used() {
+        let mut log = straight_log(0.0, 10.0);
+        // Standing still, with a millimetre of reference noise.
+        for (k, p) in log.pose.iter_mut().enumerate() {
+            p.east = Some(0.001 * (k % 2) as f64);
+        }
+        let s = Segments::build(&[&log], &[0.0], &SegmentConfig::default());
+        assert_eq!(s.len(), 0);
+        assert_eq!(s.stats.stationary, 10);
+        assert_eq!(s.stats.stale_poses, 0);
+        for p in log.pose.iter_mut() {
+            p.east = Some(0.0);
+        }
+        // The treads drive 1 m/s but the pose never moves: a stalled localiser.
+        for w in log.wheels.iter_mut() {
+            w.v_left = 1.0;
+            w.v_right = 1.0;
+        }
+        let s = Segments::build(&[&log], &[0.0], &SegmentConfig::default());
+        assert_eq!(s.len(), 0);
+        assert!(s.stats.stale_poses > 0);
+        let mut log = straight_log(1.0, 10.0);
+        // A 5 m jump cannot come from treads at 1 m/s.
+        log.pose[50].north = log.pose[50].north.map(|n| n + 5.0);
+        let s = Segments::build(&[&log], &[0.0], &SegmentConfig::default());
+        assert!(s.stats.implausible >= 1);
+    }
+
+    #[test]
+    fn a_late_stamped_pose_is_dropped_and_a_clean_track_kept() {
+        let log = straight_log(2.0, 10.0);
+        let poses = clean_poses(&log.pose, &mut SegmentStats::default());
+        assert_eq!(drop_mistimed(&poses, &log.wheels, 0.0).len(), poses.len());
+        // Pose 20 (t = 2 s, poses 0.1 s apart) really shows where the
+        // robot was at 1.92 s.
+        let mut late = poses.clone();
+        late[20].2 -= 2.0 * 0.08;
+        let kept = drop_mistimed(&late, &log.wheels, 0.0);
+        assert_eq!(kept.len(), poses.len() - 1);
+        assert!(kept.iter().all(|p| p.0 != 2.0));
+        // Whatever the slip: the same track at 60 % of the tread speed.
+        let slow: Vec<_> = late.iter().map(|p| (p.0, p.1, 0.6 * p.2, p.3)).collect();
+        assert_eq!(
+            drop_mistimed(&slow, &log.wheels, 0.0).len(),
+            poses.len() - 1
+        );
+    }
+
+    #[test]
+    fn segments_across_a_terrain_change_are_skipped() {
+        let mut log = straight_log(1.0, 10.0);
+        log.terrain = vec![
+            TerrainLabel {
+                t: 0.0,
+                terrain: "a".into(),
+            },
+            TerrainLabel {
+                t: 4.5,
+                terrain: "b".into(),
+            },
+        ];
+        let s = Segments::build(&[&log], &[0.0], &SegmentConfig::default());
+        assert_eq!(s.stats.terrain_change, 1);
+        assert!(s.segments.iter().any(|x| x.terrain.as_deref() == Some("b")));
+    }
+}

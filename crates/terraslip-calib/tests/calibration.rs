@@ -1,0 +1,431 @@
+//! End-to-end checks of the calibration on synthetic drives integrated with
+//! the ICR model (known parameters), and of every bad-input path.
+
+use terraslip_calib::synthetic::{drive, mandow_table1, Manoeuvres, SynthConfig};
+use terraslip_calib::*;
+use terraslip_core::IcrParams;
+use terraslip_io::{ParamsFile, PoseObs};
+
+fn lm_only() -> CalibConfig {
+    CalibConfig {
+        method: Some(Method::Lm),
+        ..Default::default()
+    }
+}
+
+fn assert_close(p: &IcrParams, t: &IcrParams, tol_y: f64, tol_xc: f64, tol_alpha_rel: f64) {
+    assert!((p.y_l - t.y_l).abs() < tol_y, "y_l {} vs {}", p.y_l, t.y_l);
+    assert!((p.y_r - t.y_r).abs() < tol_y, "y_r {} vs {}", p.y_r, t.y_r);
+    assert!((p.x_c - t.x_c).abs() < tol_xc, "x_c {} vs {}", p.x_c, t.x_c);
+    assert!(
+        ((p.alpha_l - t.alpha_l) / t.alpha_l).abs() < tol_alpha_rel,
+        "alpha_l {} vs {}",
+        p.alpha_l,
+        t.alpha_l
+    );
+    assert!(
+        ((p.alpha_r - t.alpha_r) / t.alpha_r).abs() < tol_alpha_rel,
+        "alpha_r {} vs {}",
+        p.alpha_r,
+        t.alpha_r
+    );
+}
+
+#[test]
+fn lm_recovers_mandow_table1_on_a_p3at_drive() {
+    let truth = mandow_table1();
+    let log = drive(&[("asphalt", truth)], &SynthConfig::p3at(300.0, 3));
+    let cal = calibrate(&[log], &lm_only(), &|_| {}).expect("calibration");
+    assert_eq!(cal.sets.len(), 1);
+    let s = &cal.sets[0];
+    assert_eq!(s.terrain.as_deref(), Some("asphalt"));
+    // Issue 5 targets: 1 cm on y_l, y_r; 2 cm on x_c; 1 % on alpha.
+    assert_close(&s.best.params, &truth, 0.01, 0.02, 0.01);
+    // Uncertainties are finite, small, and cover the actual error.
+    for k in 0..5 {
+        assert!(
+            s.best.std[k].is_finite() && s.best.std[k] < 0.01,
+            "std {:?}",
+            s.best.std
+        );
+    }
+    // chi as in Table I (0.7112 for these values, W = 0.4 m).
+    let chi = s.chi().expect("track width known");
+    assert!((chi - 0.7112).abs() < 0.01, "chi {chi}");
+    assert!((s.best.params.eccentricity() - 0.0921).abs() < 0.03);
+    // A clean drive drops (almost) nothing.
+    assert!(
+        s.dropped.len() * 20 < s.segments_used,
+        "dropped {}",
+        s.dropped.len()
+    );
+}
+
+#[test]
+fn all_methods_run_and_the_asymmetric_fits_beat_the_symmetric_one() {
+    let truth = mandow_table1();
+    let log = drive(&[("asphalt", truth)], &SynthConfig::p3at(200.0, 5));
+    let mut cfg = CalibConfig::default();
+    cfg.ga.population = 40;
+    cfg.ga.generations = 80;
+    let cal = calibrate(&[log], &cfg, &|_| {}).expect("calibration");
+    let s = &cal.sets[0];
+    let cost = |m: Method| s.fits.iter().find(|f| f.method == m).map(|f| f.cost);
+    let (lm, ga, sym) = (
+        cost(Method::Lm).expect("lm ran"),
+        cost(Method::Ga).expect("ga ran"),
+        cost(Method::Symmetric).expect("symmetric ran"),
+    );
+    assert!(lm < sym && ga < sym, "lm {lm} ga {ga} symmetric {sym}");
+    assert!(
+        ga < 1.5 * lm,
+        "GA should get near the LM optimum: {ga} vs {lm}"
+    );
+    assert_ne!(s.best.method, Method::Symmetric);
+    // The GA alone lands close to the truth too.
+    let ga_p = s
+        .fits
+        .iter()
+        .find(|f| f.method == Method::Ga)
+        .map(|f| f.params);
+    assert_close(&ga_p.expect("ga"), &truth, 0.03, 0.04, 0.02);
+}
+
+#[test]
+fn symmetric_calibration_recovers_a_symmetric_robot() {
+    let truth = IcrParams {
+        y_l: 0.28,
+        y_r: -0.28,
+        x_c: 0.0,
+        alpha_l: 0.93,
+        alpha_r: 0.93,
+    };
+    let log = drive(&[("concrete", truth)], &SynthConfig::p3at(200.0, 8));
+    let cfg = CalibConfig {
+        method: Some(Method::Symmetric),
+        ..Default::default()
+    };
+    let cal = calibrate(&[log], &cfg, &|_| {}).expect("calibration");
+    let p = cal.sets[0].best.params;
+    assert_eq!(cal.sets[0].best.method, Method::Symmetric);
+    assert_close(&p, &truth, 0.01, 1e-12, 0.01);
+}
+
+#[test]
+fn ga_is_deterministic_whatever_the_thread_count() {
+    let log = drive(&[("a", mandow_table1())], &SynthConfig::p3at(60.0, 2));
+    let run = |threads| {
+        let mut cfg = CalibConfig {
+            method: Some(Method::Ga),
+            ..Default::default()
+        };
+        cfg.ga.population = 24;
+        cfg.ga.generations = 15;
+        cfg.ga.threads = Some(threads);
+        calibrate(std::slice::from_ref(&log), &cfg, &|_| {})
+            .expect("calibration")
+            .sets[0]
+            .best
+            .params
+    };
+    assert_eq!(run(1), run(3));
+    let mut cfg = CalibConfig {
+        method: Some(Method::Ga),
+        ..Default::default()
+    };
+    cfg.ga.population = 24;
+    cfg.ga.generations = 15;
+    cfg.ga.seed = 99;
+    let other = calibrate(std::slice::from_ref(&log), &cfg, &|_| {})
+        .expect("calibration")
+        .sets[0]
+        .best
+        .params;
+    assert_ne!(run(1), other, "a different seed explores differently");
+}
+
+#[test]
+fn ga_gene_bits_snap_to_the_grid() {
+    use terraslip_calib::ga::{minimise, GaConfig};
+    let mut cfg = GaConfig::for_track_width(0.4);
+    cfg.gene_bits = Some(8);
+    cfg.generations = 10;
+    cfg.population = 16;
+    let target = [0.25, -0.3, 0.0, 0.9, 0.95];
+    let f = |p: &IcrParams| {
+        let v = model::to_vec(p);
+        v.iter()
+            .zip(target)
+            .map(|(a, b)| (a - b).powi(2))
+            .sum::<f64>()
+    };
+    let r = minimise(&f, &cfg, None, &|_| {});
+    let v = model::to_vec(&r.params);
+    for k in 0..5 {
+        let (lo, hi) = cfg.bounds[k];
+        let level = (v[k] - lo) / (hi - lo) * 255.0;
+        assert!(
+            (level - level.round()).abs() < 1e-6,
+            "gene {k} off the 8-bit grid"
+        );
+    }
+    assert!(
+        r.history.windows(2).all(|w| w[1] <= w[0]),
+        "elitism keeps the best"
+    );
+}
+
+#[test]
+fn time_offset_between_streams_is_found() {
+    let truth = mandow_table1();
+    let mut sc = SynthConfig::p3at(200.0, 11);
+    sc.pose_latency = 0.2;
+    let log = drive(&[("asphalt", truth)], &sc);
+    let cal = calibrate(std::slice::from_ref(&log), &lm_only(), &|_| {}).expect("calibration");
+    let off = cal.sets[0].time_offsets[0].1;
+    assert!((off - 0.2).abs() < 0.03, "offset {off}");
+    assert_close(&cal.sets[0].best.params, &truth, 0.015, 0.03, 0.015);
+    // A given offset is used as given.
+    let cfg = CalibConfig {
+        time_offset: TimeOffset::Fixed(0.0),
+        ..lm_only()
+    };
+    let fixed = calibrate(&[log], &cfg, &|_| {}).expect("calibration");
+    assert_eq!(fixed.sets[0].time_offsets[0].1, 0.0);
+    assert!(fixed.sets[0].sigma > cal.sets[0].sigma);
+}
+
+#[test]
+fn relocalisation_jumps_and_held_poses_are_dropped_and_reported() {
+    let truth = mandow_table1();
+    let mut log = drive(&[("asphalt", truth)], &SynthConfig::p3at(300.0, 4));
+    // Ten relocalisation jumps of 0.5-1 m sideways on single poses.
+    for (k, i) in (100..1500).step_by(140).enumerate() {
+        if let Some(e) = log.pose[i].east.as_mut() {
+            *e += 0.5 + 0.05 * k as f64;
+        }
+    }
+    // A localiser that republishes its last pose.
+    let held: Vec<PoseObs> = log.pose[600..610].to_vec();
+    for (k, p) in held.iter().enumerate() {
+        let mut q = log.pose[599];
+        q.t = p.t;
+        log.pose[600 + k] = q;
+    }
+    let cal = calibrate(&[log], &lm_only(), &|_| {}).expect("calibration");
+    let s = &cal.sets[0];
+    assert_eq!(s.stats.stale_poses, 10);
+    assert!(
+        s.dropped.len() + s.stats.implausible >= 10,
+        "dropped {} implausible {}",
+        s.dropped.len(),
+        s.stats.implausible
+    );
+    assert_close(&s.best.params, &truth, 0.01, 0.02, 0.01);
+    let entry = s.entry();
+    assert!(entry.extra["dropped"]
+        .as_array()
+        .is_some_and(|a| !a.is_empty()));
+}
+
+#[test]
+fn one_set_per_terrain_and_the_file_is_what_estimate_reads() {
+    let asphalt = mandow_table1();
+    let grass = IcrParams {
+        y_l: 0.34,
+        y_r: -0.36,
+        x_c: 0.02,
+        alpha_l: 0.85,
+        alpha_r: 0.87,
+    };
+    let log = drive(
+        &[("asphalt", asphalt), ("grass", grass)],
+        &SynthConfig::p3at(400.0, 6),
+    );
+    let cal = calibrate(&[log], &lm_only(), &|_| {}).expect("calibration");
+    assert_eq!(cal.sets.len(), 2);
+    let pf = cal.params_file();
+    assert!(pf.params.is_none());
+    assert_close(&pf.terrains["asphalt"].params, &asphalt, 0.01, 0.02, 0.01);
+    assert_close(&pf.terrains["grass"].params, &grass, 0.01, 0.02, 0.01);
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("params.json");
+    pf.write(&path).expect("write");
+    let back = ParamsFile::read(&path).expect("estimate --init reads it");
+    // JSON keeps the values to the last bit or so.
+    let read = back.for_terrain(Some("grass")).expect("grass set");
+    assert_close(&read, &pf.terrains["grass"].params, 1e-12, 1e-12, 1e-12);
+    let e = &back.terrains["asphalt"].extra;
+    for key in [
+        "method",
+        "std",
+        "chi",
+        "e",
+        "time_offset_s",
+        "segments_used",
+        "segments_dropped",
+        "ticksmm",
+        "revcount",
+    ] {
+        assert!(e.contains_key(key), "missing extra `{key}`");
+    }
+    assert!(back.terrains["asphalt"]
+        .cost
+        .is_some_and(|c| c.is_finite() && c >= 0.0));
+}
+
+#[test]
+fn pioneer_settings_match_the_factory_values() {
+    // Factory: alpha = 1, x_ICR = 0.3 m, r = 110 mm -> Ticksmm 138, Revcount ~ 32 515.
+    let log = drive(
+        &[("a", IcrParams::no_slip(0.6))],
+        &SynthConfig::p3at(60.0, 1),
+    );
+    let cal = calibrate(&[log], &lm_only(), &|_| {}).expect("calibration");
+    let s = &cal.sets[0];
+    assert!(s.pioneer);
+    let (t, r) = s.pioneer_settings().expect("wheel radius known");
+    // The fitted alpha is within a few per mille of 1, so Ticksmm may round either way.
+    assert!((t - 138).abs() <= 1, "ticksmm {t}");
+    let expected =
+        2.0 * std::f64::consts::PI * 0.5 * s.best.params.spread() * 1000.0 * t as f64 / 8.0;
+    assert_eq!(r, expected.round() as i64);
+    assert!((r as f64 / 32515.0 - 1.0).abs() < 0.02, "revcount {r}");
+}
+
+#[test]
+fn validation_prefers_the_true_parameters_over_no_slip() {
+    let truth = mandow_table1();
+    let log = drive(&[("asphalt", truth)], &SynthConfig::p3at(120.0, 9));
+    let pf = ParamsFile {
+        params: Some(truth),
+        ..Default::default()
+    };
+    let v = validate(&[log], &pf, &ValidateConfig::default()).expect("validation");
+    assert!(v.segments.len() > 50);
+    // The 1 cm reference noise sets a floor of about 4e-4 m^2 on positions.
+    assert!(
+        v.mse.position() * 5.0 < v.nominal_mse.position(),
+        "{:?} vs {:?}",
+        v.mse,
+        v.nominal_mse
+    );
+    assert!(v.mse.position() < 1e-3);
+    assert!(v.mse.dyaw * 20.0 < v.nominal_mse.dyaw);
+    // Every segment lasts at least the contract's 1 s.
+    assert!(v.segments.iter().all(|s| s.t1 - s.t0 >= 1.0 - 1e-9));
+}
+
+// ---- bad input ----
+
+#[test]
+fn no_pose_reference_is_an_error() {
+    let mut log = drive(&[("a", mandow_table1())], &SynthConfig::p3at(30.0, 1));
+    log.pose.clear();
+    let e = calibrate(&[log.clone()], &lm_only(), &|_| {}).unwrap_err();
+    assert!(matches!(e, CalibError::NoPose { .. }), "{e}");
+    assert!(e.to_string().contains("no pose reference"));
+    let pf = ParamsFile {
+        params: Some(mandow_table1()),
+        ..Default::default()
+    };
+    assert!(matches!(
+        validate(&[log], &pf, &ValidateConfig::default()),
+        Err(CalibError::NoPose { .. })
+    ));
+    assert!(matches!(
+        calibrate(&[], &lm_only(), &|_| {}),
+        Err(CalibError::NoLogs)
+    ));
+}
+
+#[test]
+fn too_few_moving_segments_is_an_error() {
+    let mut log = drive(&[("a", mandow_table1())], &SynthConfig::p3at(60.0, 1));
+    // The robot stands still except for the first 5 s.
+    for w in log.wheels.iter_mut().filter(|w| w.t > 5.0) {
+        w.v_left = 0.0;
+        w.v_right = 0.0;
+    }
+    let e = calibrate(&[log], &lm_only(), &|_| {}).unwrap_err();
+    match e {
+        CalibError::TooFewSegments { moving, needed, .. } => {
+            assert!(moving < needed);
+        }
+        other => panic!("expected TooFewSegments, got {other}"),
+    }
+}
+
+#[test]
+fn a_reference_that_never_turns_names_the_unidentified_parameters() {
+    let truth = mandow_table1();
+    let mut sc = SynthConfig::p3at(200.0, 12);
+    sc.manoeuvres = Manoeuvres::StraightOnly;
+    // Equal alphas so the straight runs really are straight.
+    let straight = IcrParams {
+        alpha_r: truth.alpha_l,
+        ..truth
+    };
+    let log = drive(&[("a", straight)], &sc);
+    let e = calibrate(std::slice::from_ref(&log), &lm_only(), &|_| {}).unwrap_err();
+    match &e {
+        CalibError::Unobservable { params, .. } => {
+            assert!(params.contains(&"y_l") && params.contains(&"y_r") && params.contains(&"x_c"));
+        }
+        other => panic!("expected Unobservable, got {other}"),
+    }
+    assert!(e.to_string().contains("never turns"));
+    // With allow_partial: alphas are fitted, the rest is flagged, not invented.
+    let cfg = CalibConfig {
+        allow_partial: true,
+        ..lm_only()
+    };
+    let cal = calibrate(&[log], &cfg, &|_| {}).expect("partial calibration");
+    let s = &cal.sets[0];
+    assert_eq!(s.unidentified, vec!["y_l", "y_r", "x_c"]);
+    assert!((s.best.params.alpha_l - straight.alpha_l).abs() < 0.01);
+    assert!(
+        s.best.std[0].is_nan(),
+        "a fixed parameter has no uncertainty"
+    );
+    let e = s.entry();
+    assert_eq!(
+        e.extra["unidentified"],
+        serde_json::json!(["y_l", "y_r", "x_c"])
+    );
+}
+
+#[test]
+fn validation_without_track_width_is_an_error() {
+    let mut log = drive(&[("a", mandow_table1())], &SynthConfig::p3at(30.0, 1));
+    log.meta.track_width = None;
+    let pf = ParamsFile {
+        params: Some(mandow_table1()),
+        ..Default::default()
+    };
+    let e = validate(&[log], &pf, &ValidateConfig::default()).unwrap_err();
+    assert!(matches!(e, CalibError::NoTrackWidth { .. }), "{e}");
+}
+
+#[test]
+fn symmetric_without_spins_is_an_error() {
+    let mut sc = SynthConfig::p3at(100.0, 12);
+    sc.manoeuvres = Manoeuvres::StraightOnly;
+    let log = drive(&[("a", IcrParams::no_slip(0.5))], &sc);
+    let cfg = CalibConfig {
+        method: Some(Method::Symmetric),
+        allow_partial: true,
+        ..Default::default()
+    };
+    let e = calibrate(&[log], &cfg, &|_| {}).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            CalibError::SymmetricNeeds {
+                what: "spin-in-place segments",
+                ..
+            }
+        ),
+        "{e}"
+    );
+}

@@ -30,7 +30,8 @@ enum Command {
     /// Train and evaluate terrain classifiers.
     Terrain(cmd::terrain::Args),
     /// Identify ICR kinematic parameters offline from drives with a pose reference.
-    Calibrate(cmd::calibrate::Args),
+    // Boxed: its many flags make it much larger than the other variants.
+    Calibrate(Box<cmd::calibrate::Args>),
 }
 
 fn main() -> ExitCode {
@@ -40,7 +41,7 @@ fn main() -> ExitCode {
         Command::Simulate(a) => cmd::simulate::run(a),
         Command::Estimate(a) => cmd::estimate::run(a),
         Command::Terrain(a) => cmd::terrain::run(a),
-        Command::Calibrate(a) => cmd::calibrate::run(a),
+        Command::Calibrate(a) => cmd::calibrate::run(*a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

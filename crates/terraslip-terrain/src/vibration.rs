@@ -31,8 +31,9 @@ pub const CHANNEL_NAMES: [&str; 6] = [
 pub enum VibrationFeatureSet {
     /// wang2018: sign changes, mean and variance of `accel_z - g` (3 features).
     Paper,
-    /// Per channel: mean, log variance, zero-crossing rate, skewness,
-    /// kurtosis and `bands` log Welch band powers; plus tread speed terms.
+    /// Per channel: log variance, zero-crossing rate, skewness, kurtosis,
+    /// `bands` log Welch band powers and their shares of the total; plus
+    /// tread-speed and slip terms.
     Full,
 }
 
@@ -65,7 +66,7 @@ pub struct VibrationConfig {
 impl Default for VibrationConfig {
     fn default() -> Self {
         Self {
-            window_s: 2.0,
+            window_s: 4.0,
             hop_s: 0.5,
             feature_set: VibrationFeatureSet::Full,
             channels: ChannelSet::All,
@@ -107,11 +108,14 @@ impl VibrationConfig {
                 let mut names = Vec::new();
                 for &c in self.channel_indices() {
                     let ch = CHANNEL_NAMES[c];
-                    for f in ["mean", "log_var", "zcr", "skew", "kurt"] {
+                    for f in ["log_var", "zcr", "skew", "kurt"] {
                         names.push(format!("{ch}_{f}"));
                     }
                     for b in 0..self.bands {
                         names.push(format!("{ch}_band{b}"));
+                    }
+                    for b in 0..self.bands {
+                        names.push(format!("{ch}_band{b}_share"));
                     }
                 }
                 names.extend(
@@ -265,8 +269,9 @@ impl VibrationExtractor {
                     if c == 2 {
                         az_std = sd;
                     }
-                    let g = if c == 2 { STANDARD_GRAVITY } else { 0.0 };
-                    out.push(mean - g);
+                    // No channel means: they carry the slope and the sensor
+                    // mounting of a run more than its terrain, and cost
+                    // accuracy on runs left out of training.
                     out.push((m2 + 1e-12).ln());
                     out.push(zero_crossings(x, mean) as f64 / n);
                     out.push(if sd > 1e-9 { m3 / (sd * sd * sd) } else { 0.0 });
@@ -331,6 +336,9 @@ impl VibrationExtractor {
             acc[b] += p * scale * df;
         }
         out.extend(acc[..bands].iter().map(|p| (p + 1e-12).ln()));
+        // Spectral shape apart from amplitude: share of each band in the total.
+        let total: f64 = acc[..bands].iter().sum::<f64>() + 1e-12;
+        out.extend(acc[..bands].iter().map(|p| p / total));
         Ok(())
     }
 }
@@ -546,7 +554,7 @@ mod tests {
             &mut f,
         )
         .unwrap();
-        let bands = &f[5..15];
+        let bands = &f[4..14];
         let best = (0..10)
             .max_by(|&a, &b| bands[a].total_cmp(&bands[b]))
             .unwrap();
@@ -554,9 +562,10 @@ mod tests {
         // Parseval: band powers sum to about the variance (0.5).
         let total: f64 = bands.iter().map(|b| b.exp()).sum();
         assert!((total - 0.5).abs() < 0.1, "total power {total}");
-        // mean of a - g is 0, zero-crossing rate about 2 * 22 / 100.
-        assert!(f[0].abs() < 1e-2);
-        assert!((f[2] - 0.44).abs() < 0.03, "zcr {}", f[2]);
+        // Zero-crossing rate about 2 * 22 / 100; shares sum to 1.
+        assert!((f[1] - 0.44).abs() < 0.03, "zcr {}", f[1]);
+        let shares: f64 = f[14..24].iter().sum();
+        assert!((shares - 1.0).abs() < 1e-6);
     }
 
     #[test]

@@ -12,7 +12,14 @@
 #![allow(non_snake_case)]
 
 pub mod angle;
+pub mod filter;
 pub mod kinematics;
+pub mod model;
+pub mod odometry;
+pub mod schedule;
 pub mod terrain_belief;
 
+pub use filter::{Filter, FilterConfig, FilterError, IcrBand, IcrNoise, PoseFix, Variant};
 pub use kinematics::{IcrParams, KinematicsError, Twist};
+pub use odometry::Odometry;
+pub use schedule::{ChangeAction, IcrStd, NoiseSchedule, ScheduleConfig};

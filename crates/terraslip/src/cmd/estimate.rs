@@ -1,8 +1,289 @@
-//! Not built yet.
+//! `terraslip estimate LOG --out DIR`: the online ICR estimator over a log.
 
-#[derive(clap::Args)]
-pub struct Args {}
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("not built yet")
+use anyhow::{bail, Context, Result};
+use terraslip::config::{EstimatorConfig, FilterVariant};
+use terraslip::pipeline::{self, EstimateRun, RunOptions, TerrainEvidence};
+use terraslip_io::{AtomicFile, DriveLog, ParamsFile};
+
+/// Run the online ICR estimator over a drive log.
+///
+/// Reads LOG (shared/spec/log-format.md: wheels.csv required, pose.csv for
+/// the fixes), runs the filter event by event on the log's timestamps and
+/// writes DIR/estimate.csv (one row per wheels row: pose, ICRs y_l, y_r,
+/// x_c in m in the body frame, their standard deviations, the terrain) and
+/// DIR/summary.json (rows, duration_s, final icr, counters, warnings).
+///
+/// Examples:
+///   terraslip estimate drive/ --out est/
+///   terraslip estimate drive/ --out est/ --terrain-labels --init params.json
+///   terraslip estimate drive/ --out est/ --filter iekf --json
+///   terraslip estimate --print-config > estimator.toml
+#[derive(clap::Args, Debug)]
+#[command(verbatim_doc_comment)]
+pub struct Args {
+    /// Log directory to read.
+    #[arg(required_unless_present = "print_config")]
+    pub log: Option<PathBuf>,
+    /// Output directory (created if missing); estimate.csv and summary.json
+    /// appear there only when complete.
+    #[arg(long, required_unless_present = "print_config")]
+    pub out: Option<PathBuf>,
+    /// TOML configuration (see --print-config for every key and its default).
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Start from a named variant instead of the default: no-slip, ekf-qmin,
+    /// ekf-qmax, ta-ekf-boost, ta-iekf, ekf-reset, terraslip. Applied before --config.
+    #[arg(long, value_name = "NAME")]
+    pub preset: Option<String>,
+    /// Starting ICRs from `terraslip calibrate` (pooled set and/or one set per
+    /// terrain; per-terrain sets are recalled when the robot enters that terrain).
+    #[arg(long, value_name = "PARAMS")]
+    pub init: Option<PathBuf>,
+    /// Use the log's own terrain.csv as terrain evidence (a perfect classifier).
+    #[arg(long)]
+    pub terrain_labels: bool,
+    /// Classify terrain online with a trained model (not wired in this build).
+    #[arg(long, value_name = "MODEL", conflicts_with = "terrain_labels")]
+    pub terrain_model: Option<PathBuf>,
+    /// Gain rule: adaptive (default), ekf, or iekf (the papers' form). Overrides the config.
+    #[arg(long, value_enum, value_name = "VARIANT")]
+    pub filter: Option<FilterVariant>,
+    /// Drop every pose fix in [T0, T1) s (simulate a GNSS + compass outage).
+    #[arg(long, value_name = "T0,T1", value_parser = parse_window)]
+    pub outage: Option<(f64, f64)>,
+    /// Print the configuration in effect as TOML and exit.
+    #[arg(long)]
+    pub print_config: bool,
+    /// Print the summary as one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn parse_window(s: &str) -> Result<(f64, f64), String> {
+    let (a, b) = s
+        .split_once(',')
+        .ok_or_else(|| format!("`{s}`: expected T0,T1"))?;
+    let a: f64 = a.trim().parse().map_err(|e| format!("`{a}`: {e}"))?;
+    let b: f64 = b.trim().parse().map_err(|e| format!("`{b}`: {e}"))?;
+    if !(a.is_finite() && b.is_finite() && a < b) {
+        return Err(format!("`{s}`: need finite T0 < T1"));
+    }
+    Ok((a, b))
+}
+
+fn load_config(args: &Args) -> Result<EstimatorConfig> {
+    let mut cfg = match &args.preset {
+        Some(name) => EstimatorConfig::preset(name).with_context(|| {
+            let names: Vec<&str> = EstimatorConfig::presets().iter().map(|p| p.0).collect();
+            format!("unknown preset `{name}` (known: {})", names.join(", "))
+        })?,
+        None => EstimatorConfig::default(),
+    };
+    if let Some(path) = &args.config {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("{}: cannot read", path.display()))?;
+        // A preset is the base; the file's keys override it.
+        let base = toml::Value::try_from(&cfg).context("serialising the base configuration")?;
+        let over: toml::Value =
+            toml::from_str(&text).with_context(|| format!("{}", path.display()))?;
+        let merged = merge(base, over);
+        cfg = EstimatorConfig::from_toml(&toml::to_string(&merged).unwrap_or_default())
+            .with_context(|| format!("{}", path.display()))?;
+    }
+    if let Some(v) = args.filter {
+        cfg.filter.variant = v;
+    }
+    cfg.validate()?;
+    Ok(cfg)
+}
+
+fn merge(base: toml::Value, over: toml::Value) -> toml::Value {
+    match (base, over) {
+        (toml::Value::Table(mut b), toml::Value::Table(o)) => {
+            for (k, v) in o {
+                let nv = match b.remove(&k) {
+                    Some(bv) => merge(bv, v),
+                    None => v,
+                };
+                b.insert(k, nv);
+            }
+            toml::Value::Table(b)
+        }
+        (_, o) => o,
+    }
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let cfg = load_config(&args)?;
+    if args.print_config {
+        print!("{}", cfg.to_toml());
+        return Ok(());
+    }
+    if args.terrain_model.is_some() {
+        // LEAD: wire --terrain-model here (TerrainEvidence::Likelihoods).
+        bail!("--terrain-model: terrain models: not available in this build");
+    }
+    let (Some(log_dir), Some(out)) = (args.log.as_ref(), args.out.as_ref()) else {
+        bail!("LOG and --out are required");
+    };
+    let log = DriveLog::read(log_dir).with_context(|| format!("reading log {}", log_dir.display()))?;
+    let init = match &args.init {
+        Some(p) => Some(ParamsFile::read(p).with_context(|| "--init")?),
+        None => None,
+    };
+    let evidence = if args.terrain_labels {
+        if log.terrain.is_empty() {
+            bail!(
+                "--terrain-labels: {} has no terrain.csv",
+                log_dir.display()
+            );
+        }
+        TerrainEvidence::Labels(log.terrain.clone())
+    } else {
+        TerrainEvidence::None
+    };
+
+    let bar = progress_bar(log.wheels.len());
+    let opts = RunOptions {
+        outage: args.outage,
+    };
+    let result = pipeline::run_with(&log, &cfg, &evidence, init.as_ref(), opts, &mut |done, _| {
+        if let Some(b) = &bar {
+            b.set_position(done as u64);
+        }
+    });
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    let est = result?;
+
+    std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
+    let summary = summary_json(&log, &est, &cfg);
+    write_outputs(out, &est, &summary)?;
+
+    for w in log.warnings.iter().chain(&est.warnings) {
+        eprintln!("warning: {w}");
+    }
+    let icr = est.final_icr;
+    eprintln!(
+        "estimate: {} rows over {:.1} s, {} fixes ({} position / {} heading gated), final ICRs y_l = {:.4} m, y_r = {:.4} m, x_c = {:.4} m -> {}",
+        est.rows.len(),
+        est.duration(),
+        est.stats.fixes,
+        est.stats.position_gated,
+        est.stats.yaw_gated,
+        icr.y_l,
+        icr.y_r,
+        icr.x_c,
+        out.display()
+    );
+    if args.json {
+        println!("{}", serde_json::to_string(&summary)?);
+    }
+    Ok(())
+}
+
+fn progress_bar(total: usize) -> Option<indicatif::ProgressBar> {
+    // Short logs finish before a bar is worth drawing.
+    if total < 200_000 {
+        return None;
+    }
+    let b = indicatif::ProgressBar::new(total as u64);
+    b.set_style(
+        indicatif::ProgressStyle::with_template("estimating {bar:40} {pos}/{len} wheels rows ({eta})")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    Some(b)
+}
+
+fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) -> serde_json::Value {
+    let icr = est.final_icr;
+    let last = est.rows.last();
+    serde_json::json!({
+        "log": log.dir.display().to_string(),
+        "rows": est.rows.len(),
+        "duration_s": est.duration(),
+        "icr": {
+            "y_l": icr.y_l, "y_r": icr.y_r, "x_c": icr.x_c,
+            "alpha_l": icr.alpha_l, "alpha_r": icr.alpha_r,
+        },
+        "icr_std": last.map(|r| serde_json::json!({
+            "y_l": r.std[3], "y_r": r.std[4], "x_c": r.std[5], "spread": r.std_spread,
+        })),
+        "track_width": est.track_width,
+        "variant": cfg.filter.variant,
+        "terrain_changes": est.changes.iter().map(|c| serde_json::json!({
+            "t": c.t,
+            "terrain": est.terrains.get(c.terrain),
+            "action": format!("{:?}", c.action).to_lowercase(),
+        })).collect::<Vec<_>>(),
+        "stats": {
+            "predictions": est.stats.predictions,
+            "fixes": est.stats.fixes,
+            "position_fused": est.stats.position_fused,
+            "position_gated": est.stats.position_gated,
+            "yaw_fused": est.stats.yaw_fused,
+            "yaw_gated": est.stats.yaw_gated,
+            "reanchored": est.stats.reanchored,
+            "skipped_updates": est.stats.skipped_updates,
+            "dropped_fixes": est.stats.dropped_fixes,
+        },
+        "warnings": log.warnings.iter().chain(&est.warnings).collect::<Vec<_>>(),
+    })
+}
+
+/// CSV header of estimate.csv: log-format.md's columns, then extras.
+pub const HEADER: &str = "t,east,north,yaw,y_l,y_r,x_c,std_east,std_north,std_yaw,std_y_l,std_y_r,std_x_c,terrain,std_spread,fused,gated,nis,q_scale";
+
+/// Writes both files; neither appears unless both are complete.
+fn write_outputs(out: &Path, est: &EstimateRun, summary: &serde_json::Value) -> Result<()> {
+    let csv_path = out.join("estimate.csv");
+    let json_path = out.join("summary.json");
+    let mut csv = AtomicFile::create(&csv_path)?;
+    let mut buf = String::with_capacity(1 << 16);
+    buf.push_str(HEADER);
+    buf.push('\n');
+    for r in &est.rows {
+        let _ = write!(
+            buf,
+            "{},{:.4},{:.4},{:.6},{:.6},{:.6},{:.6},{:.4},{:.4},{:.6},{:.6},{:.6},{:.6},{},{:.6},{},{},{:.3},{:.3}",
+            r.t,
+            r.east,
+            r.north,
+            r.yaw,
+            r.y_l,
+            r.y_r,
+            r.x_c,
+            r.std[0],
+            r.std[1],
+            r.std[2],
+            r.std[3],
+            r.std[4],
+            r.std[5],
+            est.terrain_name(r).unwrap_or(""),
+            r.std_spread,
+            r.fused as u8,
+            r.gated as u8,
+            r.nis,
+            r.q_scale
+        );
+        buf.push('\n');
+        if buf.len() > 60_000 {
+            csv.write_all(buf.as_bytes())
+                .with_context(|| format!("{}: write failed", csv_path.display()))?;
+            buf.clear();
+        }
+    }
+    csv.write_all(buf.as_bytes())
+        .with_context(|| format!("{}: write failed", csv_path.display()))?;
+    let mut js = AtomicFile::create(&json_path)?;
+    js.write_all(serde_json::to_string_pretty(summary)?.as_bytes())
+        .with_context(|| format!("{}: write failed", json_path.display()))?;
+    csv.commit()?;
+    js.commit()?;
+    Ok(())
 }

@@ -1,0 +1,45 @@
+//! Speed of one filter step (issue 2: predict <= 200 ns, predict+update <= 1 us).
+use criterion::{black_box, criterion_group, criterion_main, Criterion};
+use terraslip_core::filter::{Filter, FilterConfig, PoseFix, Variant};
+use terraslip_core::model::{self, Mat6, State};
+use terraslip_core::IcrParams;
+
+fn filter(variant: Variant) -> Filter {
+    let mut cfg = FilterConfig::for_track(0.5);
+    cfg.variant = variant;
+    let x0 = model::state(0.0, 0.0, 0.3, &IcrParams::new(0.3, -0.32, 0.01));
+    let p0 = Mat6::from_diagonal(&State::from([4.0, 4.0, 1e-3, 1e-3, 1e-3, 1e-3]));
+    Filter::new(x0, p0, 1.0, 1.0, cfg).expect("valid start")
+}
+
+fn bench(c: &mut Criterion) {
+    let mut f = filter(Variant::Adaptive);
+    c.bench_function("predict", |b| {
+        b.iter(|| f.predict(black_box(0.4), black_box(0.6), black_box(0.02)))
+    });
+    for (name, variant) in [
+        ("predict+update adaptive", Variant::Adaptive),
+        ("predict+update ekf", Variant::Ekf),
+        ("predict+update iekf", Variant::Iekf { window: 10 }),
+    ] {
+        let mut f = filter(variant);
+        let mut t = 0.0;
+        c.bench_function(name, |b| {
+            b.iter(|| {
+                t += 0.02;
+                let _ = f.predict(black_box(0.4), black_box(0.6), 0.02);
+                let s = *f.state();
+                let fix = PoseFix {
+                    position: Some((s[0] + 0.3, s[1] - 0.2)),
+                    yaw: Some(s[2] + 0.01),
+                    std_xy: 2.0,
+                    std_yaw: 0.0175,
+                };
+                black_box(f.update(t, &fix))
+            })
+        });
+    }
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,960 @@
+//! Extended Kalman filter over [`crate::model`]: pose + ICRs from tread
+//! speeds and absolute pose fixes (GNSS east/north, compass yaw).
+//!
+//! Three gain rules ([`Variant`]):
+//!
+//! * [`Variant::Ekf`]: textbook EKF, innovation covariance `S = H P H' + R`,
+//!   Joseph-form covariance update.
+//! * [`Variant::Iekf`]: the papers' innovation-based EKF as written (lv2019
+//!   eqs. 11-15, wang2018): the gain uses the windowed sample covariance of
+//!   the last `N` innovations, `K = P H' Delta^-1`, and `P = (I - K H) P`.
+//!   Until `N` innovations are in the window the textbook `S` is used (the
+//!   paper does not say how it starts; a rank-deficient `Delta` has no
+//!   inverse). Nothing stops this form from losing positive-definiteness:
+//!   `Delta` can be much smaller than `H P H' + R`, which makes `K H` exceed
+//!   the identity and `(I - K H) P` indefinite. It is kept faithful so that
+//!   its behaviour can be compared, not repaired.
+//! * [`Variant::Adaptive`] (the terraslip default): the textbook gain and
+//!   Joseph update (so `P` stays symmetric positive-definite for any gain),
+//!   and ICR process noise that grows with the normalised heading
+//!   innovation: an exponential average `m` of `nu_yaw^2 / S_yaw` (1 when
+//!   the model fits) scales the ICR process noise by `clamp(m, 1, max)`.
+//!   Only the noise is adapted, never the gain directly, and only within a
+//!   bound, so the filter cannot diverge the way a data-driven gain can.
+//!
+//! Common to all: wrapped heading innovation, a chi-square gate on the
+//! position and heading parts of each fix separately (a 30 m multipath jump
+//! is rejected, not fused), re-anchoring after too many consecutive
+//! rejections (so a real jump, e.g. after an outage, is accepted eventually),
+//! no ICR learning while standing still, and a physical band on the ICRs.
+
+use nalgebra::{Matrix3, SMatrix, Vector3};
+
+use crate::angle;
+use crate::model::{self, Mat6, State, TreadInput, EAST, N, NORTH, X_C, YAW, Y_L, Y_R};
+
+/// Largest innovation window of the IEKF variant.
+pub const MAX_WINDOW: usize = 64;
+
+type Mat3x6 = SMatrix<f64, 3, N>;
+type Mat6x3 = SMatrix<f64, N, 3>;
+
+/// Which gain rule the filter uses. See the module documentation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Variant {
+    /// Textbook EKF with Joseph-form update.
+    Ekf,
+    /// lv2019 innovation-based EKF with window `N` (faithful, can break).
+    Iekf {
+        /// Number of innovations averaged (1..=[`MAX_WINDOW`]).
+        window: usize,
+    },
+    /// Textbook gain with innovation-adapted, bounded ICR process noise.
+    Adaptive,
+}
+
+/// ICR process noise in the coordinates the data can tell apart:
+/// spread `d = y_l - y_r`, centre `c = (y_l + y_r)/2` (asymmetry) and `x_c`.
+/// Each is a random-walk rate, m^2/s.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IcrNoise {
+    /// Spread `d` random-walk rate, m^2/s (well observed in turns).
+    pub spread: f64,
+    /// Centre `(y_l + y_r)/2` random-walk rate, m^2/s (barely observable).
+    pub centre: f64,
+    /// `x_c` random-walk rate, m^2/s (hardly observable).
+    pub x_c: f64,
+}
+
+impl IcrNoise {
+    /// The same rate on the three coordinates (the papers' `diag(q, q, q)`
+    /// on `y_l, y_r, x_c` is `spread = 2q, centre = q/2, x_c = q`).
+    pub fn papers(q: f64) -> Self {
+        Self {
+            spread: 2.0 * q,
+            centre: 0.5 * q,
+            x_c: q,
+        }
+    }
+
+    /// All rates multiplied by `k`.
+    pub fn scaled(self, k: f64) -> Self {
+        Self {
+            spread: self.spread * k,
+            centre: self.centre * k,
+            x_c: self.x_c * k,
+        }
+    }
+
+    /// The 3x3 covariance on `(y_l, y_r, x_c)` of variances `(spread,
+    /// centre, x_c)` given in the `(d, c, x_c)` coordinates.
+    pub fn to_icr_cov(self) -> Matrix3<f64> {
+        // y_l = c + d/2, y_r = c - d/2
+        let a = 0.25 * self.spread + self.centre;
+        let b = -0.25 * self.spread + self.centre;
+        Matrix3::new(a, b, 0.0, b, a, 0.0, 0.0, 0.0, self.x_c)
+    }
+
+    fn is_valid(&self) -> bool {
+        [self.spread, self.centre, self.x_c]
+            .iter()
+            .all(|v| v.is_finite() && *v >= 0.0)
+    }
+}
+
+/// Where the ICRs may physically be (body frame, m). The state is projected
+/// back into this band after every update.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IcrBand {
+    /// Smallest spread `y_l - y_r`, m (> 0).
+    pub min_spread: f64,
+    /// Largest spread, m.
+    pub max_spread: f64,
+    /// Largest `|y_l + y_r| / 2`, m.
+    pub max_centre: f64,
+    /// Largest `|x_c|`, m.
+    pub max_x_c: f64,
+}
+
+impl IcrBand {
+    /// A band around the tread lines of a robot of track width `w` (m):
+    /// spread in `[0.8 w, 4 w]`, centre and `x_c` within `0.25 w`, `0.5 w`.
+    pub fn around_track(w: f64) -> Self {
+        Self {
+            min_spread: 0.8 * w,
+            max_spread: 4.0 * w,
+            max_centre: 0.25 * w,
+            max_x_c: 0.5 * w,
+        }
+    }
+
+    /// Projects the ICR part of `s` into the band; returns whether it moved.
+    pub fn project(&self, s: &mut State) -> bool {
+        let d = s[Y_L] - s[Y_R];
+        let c = 0.5 * (s[Y_L] + s[Y_R]);
+        let dc = d.clamp(self.min_spread, self.max_spread);
+        let cc = c.clamp(-self.max_centre, self.max_centre);
+        let xc = s[X_C].clamp(-self.max_x_c, self.max_x_c);
+        let moved = dc != d || cc != c || xc != s[X_C];
+        s[Y_L] = cc + 0.5 * dc;
+        s[Y_R] = cc - 0.5 * dc;
+        s[X_C] = xc;
+        moved
+    }
+}
+
+/// Settings of the filter. Rates are per second of elapsed time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FilterConfig {
+    /// Gain rule.
+    pub variant: Variant,
+    /// Position random walk, m^2/s, plus `pos_per_speed2 * v^2`.
+    pub q_pos: f64,
+    /// Extra position noise per squared speed, s (m^2/s per (m/s)^2).
+    pub q_pos_per_speed2: f64,
+    /// Yaw random walk, rad^2/s, plus `q_yaw_per_rate2 * omega^2`.
+    pub q_yaw: f64,
+    /// Extra yaw noise per squared yaw rate, s.
+    pub q_yaw_per_rate2: f64,
+    /// ICR random walk (the noise schedule may scale it).
+    pub q_icr: IcrNoise,
+    /// Chi-square gate on the 2-dof position innovation (0 = no gate).
+    pub gate_position: f64,
+    /// Chi-square gate on the 1-dof heading innovation (0 = no gate).
+    pub gate_yaw: f64,
+    /// Consecutive gated fixes after which the filter re-anchors on the fix.
+    pub max_rejections: u32,
+    /// Tread speed (m/s) below which the robot counts as standing still.
+    pub still_speed: f64,
+    /// Time constant (s) of the heading-NIS average of [`Variant::Adaptive`].
+    pub adapt_time_constant: f64,
+    /// Largest factor [`Variant::Adaptive`] applies to the ICR noise.
+    pub adapt_max_scale: f64,
+    /// Heading-NIS average above which an "innovation jump" is reported
+    /// (terrain evidence for [`crate::terrain_belief`]).
+    pub jump_threshold: f64,
+    /// Physical band of the ICRs.
+    pub band: IcrBand,
+}
+
+impl FilterConfig {
+    /// Sensible defaults for a robot of track width `w` (m).
+    pub fn for_track(w: f64) -> Self {
+        Self {
+            variant: Variant::Adaptive,
+            q_pos: 1e-4,
+            q_pos_per_speed2: 1e-3,
+            q_yaw: 1e-6,
+            q_yaw_per_rate2: 1e-4,
+            q_icr: IcrNoise {
+                spread: 1e-5,
+                centre: 1e-7,
+                x_c: 1e-7,
+            },
+            gate_position: 13.8,
+            gate_yaw: 10.8,
+            max_rejections: 10,
+            still_speed: 0.02,
+            adapt_time_constant: 5.0,
+            adapt_max_scale: 50.0,
+            jump_threshold: 4.0,
+            band: IcrBand::around_track(w),
+        }
+    }
+}
+
+/// Why a filter step could not be taken. The filter is unchanged then.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FilterError {
+    /// An input (speed, time step, measurement, noise) is NaN/inf or out of range.
+    BadInput(&'static str),
+    /// The innovation covariance (or the IEKF's `Delta`) is not positive-definite.
+    SingularInnovation,
+    /// The step would produce a non-finite state or covariance.
+    NonFinite,
+}
+
+impl core::fmt::Display for FilterError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::BadInput(what) => write!(f, "bad filter input: {what}"),
+            Self::SingularInnovation => {
+                write!(f, "innovation covariance is not positive-definite")
+            }
+            Self::NonFinite => write!(f, "filter step would produce non-finite values"),
+        }
+    }
+}
+
+#[cfg(feature = "std")]
+impl std::error::Error for FilterError {}
+
+/// One absolute pose observation. `None` = not measured.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PoseFix {
+    /// `(east, north)`, m, world ENU.
+    pub position: Option<(f64, f64)>,
+    /// Yaw, rad, counter-clockwise from east (any branch).
+    pub yaw: Option<f64>,
+    /// Standard deviation of each position coordinate, m.
+    pub std_xy: f64,
+    /// Standard deviation of yaw, rad.
+    pub std_yaw: f64,
+}
+
+/// What happened to one part of a fix.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Fate {
+    /// Not in the fix.
+    Absent,
+    /// Fused.
+    Fused,
+    /// Rejected by the chi-square gate.
+    Gated,
+    /// Accepted without the gate after too many rejections (state re-anchored).
+    Reanchored,
+}
+
+/// Result of one update.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UpdateReport {
+    /// Fate of the position part.
+    pub position: Fate,
+    /// Fate of the heading part.
+    pub yaw: Fate,
+    /// Normalised innovation squared of the parts that were tested.
+    pub nis: f64,
+    /// The heading innovation average is above the jump threshold.
+    pub jump: bool,
+}
+
+/// The estimator: state, covariance and the adaptation memory.
+#[derive(Debug, Clone)]
+pub struct Filter {
+    x: State,
+    P: Mat6,
+    cfg: FilterConfig,
+    alpha_l: f64,
+    alpha_r: f64,
+    /// Factor the noise schedule applies to the ICR noise.
+    schedule_scale: f64,
+    /// Heading NIS average of the adaptive variant.
+    nis_avg: f64,
+    last_fix_t: Option<f64>,
+    still: bool,
+    rejected_pos: u32,
+    rejected_yaw: u32,
+    window: [Vector3<f64>; MAX_WINDOW],
+    window_mask: [[bool; 3]; MAX_WINDOW],
+    window_len: usize,
+    window_next: usize,
+}
+
+fn finite_mat<const R: usize, const C: usize>(m: &SMatrix<f64, R, C>) -> bool {
+    m.iter().all(|v| v.is_finite())
+}
+
+impl Filter {
+    /// A filter starting at state `x0` with covariance `P0` (made symmetric).
+    /// `alpha_l`, `alpha_r` scale the measured tread speeds.
+    pub fn new(
+        x0: State,
+        P0: Mat6,
+        alpha_l: f64,
+        alpha_r: f64,
+        cfg: FilterConfig,
+    ) -> Result<Self, FilterError> {
+        if !finite_mat(&x0) || !finite_mat(&P0) {
+            return Err(FilterError::BadInput(
+                "initial state or covariance not finite",
+            ));
+        }
+        if !(alpha_l > 0.0 && alpha_r > 0.0 && alpha_l.is_finite() && alpha_r.is_finite()) {
+            return Err(FilterError::BadInput("alpha must be finite and > 0"));
+        }
+        if P0.cholesky().is_none() {
+            return Err(FilterError::BadInput(
+                "initial covariance not positive-definite",
+            ));
+        }
+        if let Variant::Iekf { window } = cfg.variant {
+            if window == 0 || window > MAX_WINDOW {
+                return Err(FilterError::BadInput("IEKF window must be 1..=64"));
+            }
+        }
+        if !cfg.q_icr.is_valid() || !(cfg.band.min_spread > crate::kinematics::MIN_SPREAD) {
+            return Err(FilterError::BadInput("ICR noise or band invalid"));
+        }
+        let mut x = x0;
+        x[YAW] = angle::wrap(x[YAW]);
+        cfg.band.project(&mut x);
+        Ok(Self {
+            x,
+            P: 0.5 * (P0 + P0.transpose()),
+            cfg,
+            alpha_l,
+            alpha_r,
+            schedule_scale: 1.0,
+            nis_avg: 1.0,
+            last_fix_t: None,
+            still: true,
+            rejected_pos: 0,
+            rejected_yaw: 0,
+            window: [Vector3::zeros(); MAX_WINDOW],
+            window_mask: [[false; 3]; MAX_WINDOW],
+            window_len: 0,
+            window_next: 0,
+        })
+    }
+
+    /// Current state `[east, north, yaw, y_l, y_r, x_c]`.
+    pub fn state(&self) -> &State {
+        &self.x
+    }
+
+    /// Current covariance.
+    pub fn covariance(&self) -> &Mat6 {
+        &self.P
+    }
+
+    /// The settings in use.
+    pub fn config(&self) -> &FilterConfig {
+        &self.cfg
+    }
+
+    /// Current ICR estimate (with the configured speed factors).
+    pub fn icr(&self) -> crate::IcrParams {
+        model::icr_of(&self.x, self.alpha_l, self.alpha_r)
+    }
+
+    /// Standard deviations of the six states.
+    pub fn std(&self) -> [f64; N] {
+        let mut out = [0.0; N];
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = libm::sqrt(self.P[(i, i)].max(0.0));
+        }
+        out
+    }
+
+    /// Whether the last prediction saw the robot standing still.
+    pub fn is_still(&self) -> bool {
+        self.still
+    }
+
+    /// The factor currently applied to the ICR process noise (schedule x adaptation).
+    pub fn icr_noise_scale(&self) -> f64 {
+        self.schedule_scale * self.adapt_scale()
+    }
+
+    fn adapt_scale(&self) -> f64 {
+        match self.cfg.variant {
+            Variant::Adaptive => self.nis_avg.clamp(1.0, self.cfg.adapt_max_scale.max(1.0)),
+            _ => 1.0,
+        }
+    }
+
+    /// Sets the factor the noise schedule applies to the ICR process noise
+    /// (1 = configured noise; the papers' boost is `q_max / q_min`).
+    pub fn set_schedule_scale(&mut self, k: f64) {
+        if k.is_finite() && k > 0.0 {
+            self.schedule_scale = k;
+        }
+    }
+
+    /// Replaces the ICR estimate (if given) and the ICR covariance block,
+    /// dropping its correlation with the pose: the covariance reset of
+    /// chen2023 and the terrain-memory recall. `cov` is on `(y_l, y_r, x_c)`.
+    pub fn reset_icr(
+        &mut self,
+        icr: Option<(f64, f64, f64)>,
+        cov: &Matrix3<f64>,
+    ) -> Result<(), FilterError> {
+        if !finite_mat(cov) || cov.cholesky().is_none() {
+            return Err(FilterError::BadInput(
+                "ICR covariance not positive-definite",
+            ));
+        }
+        if let Some((y_l, y_r, x_c)) = icr {
+            if !(y_l.is_finite() && y_r.is_finite() && x_c.is_finite()) {
+                return Err(FilterError::BadInput("ICR not finite"));
+            }
+            self.x[Y_L] = y_l;
+            self.x[Y_R] = y_r;
+            self.x[X_C] = x_c;
+            self.cfg.band.project(&mut self.x);
+        }
+        for i in 0..3 {
+            for j in 3..N {
+                self.P[(i, j)] = 0.0;
+                self.P[(j, i)] = 0.0;
+            }
+        }
+        let sym = 0.5 * (cov + cov.transpose());
+        self.P.fixed_view_mut::<3, 3>(3, 3).copy_from(&sym);
+        self.nis_avg = 1.0;
+        Ok(())
+    }
+
+    /// Propagates over `dt` seconds with measured tread speeds (m/s).
+    pub fn predict(&mut self, v_left: f64, v_right: f64, dt: f64) -> Result<(), FilterError> {
+        if !(v_left.is_finite() && v_right.is_finite()) {
+            return Err(FilterError::BadInput("tread speed not finite"));
+        }
+        if !(dt.is_finite() && dt >= 0.0) {
+            return Err(FilterError::BadInput("time step negative or not finite"));
+        }
+        self.still = v_left.abs() < self.cfg.still_speed && v_right.abs() < self.cfg.still_speed;
+        if dt == 0.0 {
+            return Ok(());
+        }
+        let u = TreadInput::new(v_left, v_right, self.alpha_l, self.alpha_r);
+        let F = model::jacobian(&self.x, u, dt);
+        let x = model::predict(&self.x, u, dt);
+
+        // F = I + (a few off-diagonal terms), so F P F' is formed from the
+        // non-identity rows only: three times fewer flops than a full product.
+        let mut FP = self.P;
+        for r in [EAST, NORTH, YAW] {
+            for c in 0..N {
+                let mut acc = self.P[(r, c)];
+                for k in YAW..N {
+                    if k != r {
+                        acc += F[(r, k)] * self.P[(k, c)];
+                    }
+                }
+                FP[(r, c)] = acc;
+            }
+        }
+        let mut P = FP;
+        for c in [EAST, NORTH, YAW] {
+            for r in 0..N {
+                let mut acc = FP[(r, c)];
+                for k in YAW..N {
+                    if k != c {
+                        acc += FP[(r, k)] * F[(c, k)];
+                    }
+                }
+                P[(r, c)] = acc;
+            }
+        }
+
+        let d = (x[Y_L] - x[Y_R]).max(crate::kinematics::MIN_SPREAD);
+        let omega = (u.v_r - u.v_l) / d;
+        let v = 0.5 * (u.v_l + u.v_r);
+        P[(EAST, EAST)] += dt * (self.cfg.q_pos + self.cfg.q_pos_per_speed2 * v * v);
+        P[(NORTH, NORTH)] += dt * (self.cfg.q_pos + self.cfg.q_pos_per_speed2 * v * v);
+        P[(YAW, YAW)] += dt * (self.cfg.q_yaw + self.cfg.q_yaw_per_rate2 * omega * omega);
+        if !self.still {
+            let q = self
+                .cfg
+                .q_icr
+                .scaled(dt * self.icr_noise_scale())
+                .to_icr_cov();
+            let mut blk = P.fixed_view_mut::<3, 3>(3, 3);
+            blk += q;
+        }
+        if !finite_mat(&x) || !finite_mat(&P) {
+            return Err(FilterError::NonFinite);
+        }
+        self.x = x;
+        self.P = P;
+        Ok(())
+    }
+
+    /// Fuses a pose fix taken at time `t` (s; used by the adaptation's time
+    /// constant). Parts failing the gate are not fused.
+    pub fn update(&mut self, t: f64, fix: &PoseFix) -> Result<UpdateReport, FilterError> {
+        if !(fix.std_xy.is_finite()
+            && fix.std_xy > 0.0
+            && fix.std_yaw.is_finite()
+            && fix.std_yaw > 0.0)
+        {
+            return Err(FilterError::BadInput(
+                "measurement std must be finite and > 0",
+            ));
+        }
+        let pos = match fix.position {
+            Some((e, n)) if e.is_finite() && n.is_finite() => Some((e, n)),
+            Some(_) => return Err(FilterError::BadInput("position not finite")),
+            None => None,
+        };
+        let yaw = match fix.yaw {
+            Some(y) if y.is_finite() => Some(y),
+            Some(_) => return Err(FilterError::BadInput("yaw not finite")),
+            None => None,
+        };
+        let r = [
+            fix.std_xy * fix.std_xy,
+            fix.std_xy * fix.std_xy,
+            fix.std_yaw * fix.std_yaw,
+        ];
+        let mut nu = Vector3::zeros();
+        if let Some((e, n)) = pos {
+            nu[0] = e - self.x[EAST];
+            nu[1] = n - self.x[NORTH];
+        }
+        if let Some(y) = yaw {
+            nu[2] = angle::wrap(y - self.x[YAW]);
+        }
+        let pose_block: Matrix3<f64> = self.P.fixed_view::<3, 3>(0, 0).into_owned();
+        let S_full = pose_block + Matrix3::from_diagonal(&Vector3::from(r));
+
+        let mut report = UpdateReport {
+            position: Fate::Absent,
+            yaw: Fate::Absent,
+            nis: 0.0,
+            jump: false,
+        };
+        let mut use_ = [false; 3];
+        let mut reanchor = [false; 3];
+        // The adaptive variant widens its gates as far as it has raised its
+        // ICR noise: a run of large innovations after a slip change is the
+        // model being wrong, not the sensor, and must be learned from. A
+        // single multipath jump does not move the average far enough.
+        let widen = self.adapt_scale();
+        if pos.is_some() {
+            let Spp = S_full.fixed_view::<2, 2>(0, 0).into_owned();
+            let nup = nu.fixed_rows::<2>(0).into_owned();
+            let nis = Spp
+                .cholesky()
+                .map(|c| nup.dot(&c.solve(&nup)))
+                .ok_or(FilterError::SingularInnovation)?;
+            report.nis += nis;
+            if self.cfg.gate_position > 0.0 && nis > self.cfg.gate_position * widen {
+                self.rejected_pos += 1;
+                if self.rejected_pos > self.cfg.max_rejections {
+                    reanchor[0] = true;
+                    reanchor[1] = true;
+                    report.position = Fate::Reanchored;
+                } else {
+                    report.position = Fate::Gated;
+                }
+            } else {
+                self.rejected_pos = 0;
+                use_[0] = true;
+                use_[1] = true;
+                report.position = Fate::Fused;
+            }
+        }
+        let mut yaw_nis = None;
+        if yaw.is_some() {
+            let nis = nu[2] * nu[2] / S_full[(2, 2)];
+            report.nis += nis;
+            if self.cfg.gate_yaw > 0.0 && nis > self.cfg.gate_yaw * widen {
+                self.rejected_yaw += 1;
+                if self.rejected_yaw > self.cfg.max_rejections {
+                    reanchor[2] = true;
+                    report.yaw = Fate::Reanchored;
+                } else {
+                    report.yaw = Fate::Gated;
+                }
+            } else {
+                self.rejected_yaw = 0;
+                use_[2] = true;
+                report.yaw = Fate::Fused;
+            }
+            yaw_nis = Some(nis);
+        }
+
+        // Adaptation sees every heading innovation, gated or not: a slip
+        // change shows up as a run of large ones.
+        if let Some(nis) = yaw_nis {
+            let dt = match self.last_fix_t {
+                Some(t0) if t > t0 => t - t0,
+                _ => 1.0,
+            };
+            let a = (dt / self.cfg.adapt_time_constant.max(1e-3)).min(1.0);
+            self.nis_avg += a * (nis.min(100.0) - self.nis_avg);
+            report.jump = self.nis_avg > self.cfg.jump_threshold;
+        }
+        self.last_fix_t = Some(t);
+
+        if reanchor.iter().any(|&b| b) {
+            self.reanchor(&reanchor, &nu, &r);
+        }
+        if use_.iter().any(|&b| b) {
+            self.fuse(&use_, &nu, &r, &S_full)?;
+        }
+        Ok(report)
+    }
+
+    /// Jumps the flagged pose states to the measurement and gives them the
+    /// measurement's variance, uncorrelated with everything else.
+    fn reanchor(&mut self, which: &[bool; 3], nu: &Vector3<f64>, r: &[f64; 3]) {
+        for i in 0..3 {
+            if !which[i] {
+                continue;
+            }
+            self.x[i] += nu[i];
+            for j in 0..N {
+                self.P[(i, j)] = 0.0;
+                self.P[(j, i)] = 0.0;
+            }
+            self.P[(i, i)] = r[i];
+        }
+        self.x[YAW] = angle::wrap(self.x[YAW]);
+        self.rejected_pos = if which[0] { 0 } else { self.rejected_pos };
+        self.rejected_yaw = if which[2] { 0 } else { self.rejected_yaw };
+    }
+
+    fn fuse(
+        &mut self,
+        use_: &[bool; 3],
+        nu: &Vector3<f64>,
+        r: &[f64; 3],
+        S_full: &Matrix3<f64>,
+    ) -> Result<(), FilterError> {
+        // Rows not measured get H = 0, nu = 0 and a unit, uncorrelated S
+        // entry: this is exactly the reduced-dimension update, in 3x3.
+        let mut H = Mat3x6::zeros();
+        let mut nu_m = *nu;
+        let mut S = *S_full;
+        let mut R = Matrix3::<f64>::zeros();
+        for i in 0..3 {
+            if use_[i] {
+                H[(i, i)] = 1.0;
+                R[(i, i)] = r[i];
+            } else {
+                nu_m[i] = 0.0;
+                for j in 0..3 {
+                    S[(i, j)] = 0.0;
+                    S[(j, i)] = 0.0;
+                }
+                S[(i, i)] = 1.0;
+            }
+        }
+
+        let gain_S = match self.cfg.variant {
+            Variant::Iekf { window } => {
+                self.push_innovation(&nu_m, use_);
+                if self.window_len >= window {
+                    self.windowed_innovation_cov(window, use_)
+                } else {
+                    S
+                }
+            }
+            _ => S,
+        };
+        let chol = gain_S.cholesky().ok_or(FilterError::SingularInnovation)?;
+        let PHt: Mat6x3 = self.P * H.transpose();
+        // K = P H' S^-1  <=>  S K' = H P
+        let mut K: Mat6x3 = chol.solve(&PHt.transpose()).transpose();
+        if self.still {
+            // Slip is unobservable at rest: keep the ICRs out of it.
+            for r in Y_L..N {
+                for c in 0..3 {
+                    K[(r, c)] = 0.0;
+                }
+            }
+        }
+        let mut x = self.x + K * nu_m;
+        x[YAW] = angle::wrap(x[YAW]);
+        let IKH = Mat6::identity() - K * H;
+        let P = match self.cfg.variant {
+            // lv2019 eq. 15, as written.
+            Variant::Iekf { .. } => IKH * self.P,
+            _ => {
+                let P = IKH * self.P * IKH.transpose() + K * R * K.transpose();
+                0.5 * (P + P.transpose())
+            }
+        };
+        if !finite_mat(&x) || !finite_mat(&P) {
+            return Err(FilterError::NonFinite);
+        }
+        self.cfg.band.project(&mut x);
+        self.x = x;
+        self.P = P;
+        Ok(())
+    }
+
+    fn push_innovation(&mut self, nu: &Vector3<f64>, mask: &[bool; 3]) {
+        self.window[self.window_next] = *nu;
+        self.window_mask[self.window_next] = *mask;
+        self.window_next = (self.window_next + 1) % MAX_WINDOW;
+        self.window_len = (self.window_len + 1).min(MAX_WINDOW);
+    }
+
+    /// lv2019 eq. 12: mean of `nu nu'` over the last `window` innovations,
+    /// per entry over the innovations where both components were measured;
+    /// rows not measured now get a unit entry (as in [`Self::fuse`]).
+    fn windowed_innovation_cov(&self, window: usize, use_: &[bool; 3]) -> Matrix3<f64> {
+        let mut sum = Matrix3::<f64>::zeros();
+        let mut cnt = Matrix3::<f64>::zeros();
+        for k in 0..window {
+            let idx = (self.window_next + MAX_WINDOW - 1 - k) % MAX_WINDOW;
+            let (v, m) = (&self.window[idx], &self.window_mask[idx]);
+            for i in 0..3 {
+                for j in 0..3 {
+                    if m[i] && m[j] {
+                        sum[(i, j)] += v[i] * v[j];
+                        cnt[(i, j)] += 1.0;
+                    }
+                }
+            }
+        }
+        let mut D = Matrix3::<f64>::zeros();
+        for i in 0..3 {
+            for j in 0..3 {
+                if use_[i] && use_[j] && cnt[(i, j)] > 0.0 {
+                    D[(i, j)] = sum[(i, j)] / cnt[(i, j)];
+                }
+            }
+            if !use_[i] {
+                D[(i, i)] = 1.0;
+            }
+        }
+        D
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kinematics::IcrParams;
+
+    fn cfg(variant: Variant) -> FilterConfig {
+        let mut c = FilterConfig::for_track(0.5);
+        c.variant = variant;
+        c
+    }
+
+    fn p0() -> Mat6 {
+        Mat6::from_diagonal(&State::from([1.0, 1.0, 0.01, 0.01, 0.01, 0.01]))
+    }
+
+    fn start(variant: Variant) -> Filter {
+        let x0 = model::state(0.0, 0.0, 0.0, &IcrParams::no_slip(0.5));
+        Filter::new(x0, p0(), 1.0, 1.0, cfg(variant)).unwrap()
+    }
+
+    fn is_spd(P: &Mat6) -> bool {
+        (P - P.transpose()).amax() < 1e-9 && P.cholesky().is_some()
+    }
+
+    fn fix(e: f64, n: f64, yaw: f64) -> PoseFix {
+        PoseFix {
+            position: Some((e, n)),
+            yaw: Some(yaw),
+            std_xy: 0.5,
+            std_yaw: 0.02,
+        }
+    }
+
+    #[test]
+    fn multipath_jump_is_gated_but_yaw_still_fused() {
+        let mut f = start(Variant::Ekf);
+        for _ in 0..50 {
+            f.predict(0.5, 0.5, 0.02).unwrap();
+        }
+        let rep = f.update(1.0, &fix(30.5, 0.0, 0.0)).unwrap();
+        assert_eq!(rep.position, Fate::Gated);
+        assert_eq!(rep.yaw, Fate::Fused);
+        assert!(f.state()[EAST] < 1.0, "east {}", f.state()[EAST]);
+    }
+
+    #[test]
+    fn persistent_jump_reanchors_after_max_rejections() {
+        let mut f = start(Variant::Ekf);
+        let fates: Vec<Fate> = (0..12)
+            .map(|k| f.update(k as f64, &fix(40.0, 0.0, 0.0)).unwrap().position)
+            .collect();
+        assert!(fates[..10].iter().all(|&x| x == Fate::Gated));
+        assert_eq!(fates[10], Fate::Reanchored);
+        assert_eq!(fates[11], Fate::Fused);
+        assert!((f.state()[EAST] - 40.0).abs() < 1e-9);
+        assert!(is_spd(f.covariance()));
+    }
+
+    #[test]
+    fn wrapped_heading_innovation_across_pi() {
+        let x0 = model::state(0.0, 0.0, 3.1, &IcrParams::no_slip(0.5));
+        let mut f = Filter::new(x0, p0(), 1.0, 1.0, cfg(Variant::Ekf)).unwrap();
+        let rep = f
+            .update(
+                0.0,
+                &PoseFix {
+                    position: None,
+                    yaw: Some(-3.1),
+                    std_xy: 1.0,
+                    std_yaw: 0.01,
+                },
+            )
+            .unwrap();
+        assert_eq!(rep.yaw, Fate::Fused);
+        // 0.083 rad of true difference, not 6.2
+        let yaw = f.state()[YAW];
+        assert!(yaw > 3.1 || yaw < -3.1, "yaw {yaw}");
+    }
+
+    #[test]
+    fn learns_spread_from_turning_and_stays_spd() {
+        for variant in [Variant::Ekf, Variant::Adaptive] {
+            let truth = IcrParams::new(0.33, -0.35, 0.02);
+            let mut s = model::state(0.0, 0.0, 0.0, &truth);
+            let mut f = start(variant);
+            let dt = 0.02;
+            for k in 0..3000 {
+                let t = k as f64 * dt;
+                let (vl, vr) = if (t as i64 / 10) % 2 == 0 {
+                    (0.2, 0.6)
+                } else {
+                    (0.6, 0.3)
+                };
+                s = model::predict(&s, TreadInput::new(vl, vr, 1.0, 1.0), dt);
+                f.predict(vl, vr, dt).unwrap();
+                if k % 50 == 49 {
+                    f.update(
+                        t,
+                        &PoseFix {
+                            position: Some((s[0], s[1])),
+                            yaw: Some(s[2]),
+                            std_xy: 0.02,
+                            std_yaw: 0.005,
+                        },
+                    )
+                    .unwrap();
+                    assert!(is_spd(f.covariance()));
+                }
+            }
+            let d = f.state()[Y_L] - f.state()[Y_R];
+            assert!((d - 0.68).abs() < 0.01, "{variant:?}: d = {d}");
+        }
+    }
+
+    #[test]
+    fn standing_still_learns_nothing() {
+        let mut f = start(Variant::Adaptive);
+        // Correlate yaw and ICRs by turning, then stand still and feed a
+        // drifting compass: the ICRs must not move.
+        for _ in 0..100 {
+            f.predict(0.2, 0.6, 0.02).unwrap();
+        }
+        let icr0 = f.icr();
+        f.predict(0.0, 0.0, 0.02).unwrap();
+        assert!(f.is_still());
+        f.update(
+            2.0,
+            &PoseFix {
+                position: None,
+                yaw: Some(f.state()[YAW] + 0.05),
+                std_xy: 1.0,
+                std_yaw: 0.02,
+            },
+        )
+        .unwrap();
+        assert_eq!(f.icr(), icr0);
+    }
+
+    #[test]
+    fn band_keeps_spread_above_floor() {
+        let mut f = start(Variant::Ekf);
+        let cov = Matrix3::from_diagonal_element(1e-4);
+        f.reset_icr(Some((0.01, -0.01, 5.0)), &cov).unwrap();
+        let s = f.state();
+        assert!(s[Y_L] - s[Y_R] >= 0.8 * 0.5 - 1e-12);
+        assert!(s[X_C] <= 0.25 + 1e-12);
+    }
+
+    #[test]
+    fn bad_inputs_are_errors_and_leave_state_alone() {
+        let mut f = start(Variant::Ekf);
+        let x = *f.state();
+        assert!(matches!(
+            f.predict(f64::NAN, 0.0, 0.02),
+            Err(FilterError::BadInput(_))
+        ));
+        assert!(matches!(
+            f.predict(0.1, 0.1, -0.1),
+            Err(FilterError::BadInput(_))
+        ));
+        assert!(matches!(
+            f.update(
+                0.0,
+                &PoseFix {
+                    position: Some((f64::NAN, 0.0)),
+                    yaw: None,
+                    std_xy: 1.0,
+                    std_yaw: 0.1
+                }
+            ),
+            Err(FilterError::BadInput(_))
+        ));
+        assert!(matches!(
+            f.update(
+                0.0,
+                &PoseFix {
+                    position: None,
+                    yaw: Some(0.0),
+                    std_xy: 1.0,
+                    std_yaw: 0.0
+                }
+            ),
+            Err(FilterError::BadInput(_))
+        ));
+        assert_eq!(*f.state(), x);
+        let bad_p = -Mat6::identity();
+        assert!(Filter::new(x, bad_p, 1.0, 1.0, cfg(Variant::Ekf)).is_err());
+        assert!(Filter::new(x, p0(), 1.0, 1.0, cfg(Variant::Iekf { window: 0 })).is_err());
+    }
+
+    #[test]
+    fn iekf_faithful_form_can_lose_definiteness() {
+        // Tiny innovations make Delta far smaller than H P H' + R: the gain
+        // exceeds one and (I - K H) P goes indefinite. Documented behaviour.
+        let mut f = start(Variant::Iekf { window: 3 });
+        let mut lost = false;
+        for k in 0..10 {
+            f.predict(0.3, 0.3, 0.02).unwrap();
+            let s = *f.state();
+            let eps = 1e-4 * (k as f64 + 1.0);
+            let _ = f.update(k as f64, &fix(s[0] + eps, s[1] - eps, s[2] + 1e-5));
+            if f.covariance().cholesky().is_none() {
+                lost = true;
+            }
+        }
+        assert!(
+            lost,
+            "expected the paper's form to lose positive-definiteness"
+        );
+    }
+}

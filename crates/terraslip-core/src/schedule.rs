@@ -1,0 +1,344 @@
+//! How terrain evidence changes the filter ([`crate::filter::Filter`]):
+//!
+//! * **boost** (lv2019, wang2018): after a declared terrain change the ICR
+//!   process noise is raised from `q_min` to `q_max` for `k` pose updates,
+//!   then restored;
+//! * **covariance reset** (chen2023): the ICR covariance block is reset to a
+//!   large preset `P_B` at the change;
+//! * **terrain memory** (terraslip): when the robot leaves a terrain where
+//!   it has learned, the ICRs and their covariance are stored; when it
+//!   returns, they are recalled at once and neither boost nor reset is
+//!   applied, so there is nothing to learn again.
+//!
+//! Terrains are indices `0..MAX_TERRAINS` (the pipeline maps names).
+
+use nalgebra::Matrix3;
+
+use crate::filter::{Filter, FilterError, IcrNoise};
+use crate::model::{X_C, Y_L, Y_R};
+use crate::terrain_belief::MAX_TERRAINS;
+
+/// Standard deviations in the `(d, c, x_c)` coordinates of [`IcrNoise`]
+/// (spread, centre, longitudinal), m.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IcrStd {
+    /// Spread `y_l - y_r`, m.
+    pub spread: f64,
+    /// Centre `(y_l + y_r)/2`, m.
+    pub centre: f64,
+    /// `x_c`, m.
+    pub x_c: f64,
+}
+
+impl IcrStd {
+    /// Covariance on `(y_l, y_r, x_c)`.
+    pub fn to_icr_cov(self) -> Matrix3<f64> {
+        IcrNoise {
+            spread: self.spread * self.spread,
+            centre: self.centre * self.centre,
+            x_c: self.x_c * self.x_c,
+        }
+        .to_icr_cov()
+    }
+}
+
+/// Settings of the schedule.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScheduleConfig {
+    /// Factor `q_max / q_min` on the ICR noise after a change (1 = no boost).
+    pub boost_factor: f64,
+    /// Number of pose updates the boost lasts (the papers' k = 5 at 1 Hz).
+    pub boost_updates: u32,
+    /// Covariance reset `P_B` at a change to an unlearned terrain.
+    pub reset: Option<IcrStd>,
+    /// Recall learned ICRs when a terrain is revisited.
+    pub memory: bool,
+    /// Seconds on a terrain (while moving) before what was learned there is
+    /// worth remembering.
+    pub memory_min_dwell: f64,
+    /// Floor on the recalled standard deviations: a stored estimate is not
+    /// trusted more than this (terrain ICRs vary a little between visits).
+    pub recall_floor: IcrStd,
+}
+
+impl Default for ScheduleConfig {
+    fn default() -> Self {
+        Self {
+            boost_factor: 1.0,
+            boost_updates: 0,
+            reset: None,
+            memory: false,
+            memory_min_dwell: 20.0,
+            recall_floor: IcrStd {
+                spread: 0.004,
+                centre: 0.005,
+                x_c: 0.01,
+            },
+        }
+    }
+}
+
+/// What the schedule did at a terrain change.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ChangeAction {
+    /// Same terrain as before: nothing.
+    None,
+    /// Learned ICRs recalled from memory.
+    Recalled,
+    /// Boost and/or reset started for learning.
+    Learning,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Memory {
+    icr: (f64, f64, f64),
+    cov: Matrix3<f64>,
+}
+
+/// Terrain-driven noise schedule and per-terrain ICR memory.
+#[derive(Debug, Clone)]
+pub struct NoiseSchedule {
+    cfg: ScheduleConfig,
+    current: Option<usize>,
+    /// Seconds spent moving on the current terrain.
+    dwell: f64,
+    boost_left: u32,
+    memory: [Option<Memory>; MAX_TERRAINS],
+}
+
+impl NoiseSchedule {
+    /// An empty schedule (no terrain known yet, nothing remembered).
+    pub fn new(cfg: ScheduleConfig) -> Self {
+        Self {
+            cfg,
+            current: None,
+            dwell: 0.0,
+            boost_left: 0,
+            memory: [None; MAX_TERRAINS],
+        }
+    }
+
+    /// The terrain the schedule believes the robot is on.
+    pub fn current(&self) -> Option<usize> {
+        self.current
+    }
+
+    /// Whether ICRs are remembered for `terrain`.
+    pub fn remembers(&self, terrain: usize) -> bool {
+        self.memory.get(terrain).is_some_and(|m| m.is_some())
+    }
+
+    /// Seeds the memory of `terrain` (e.g. calibrated per-terrain ICRs)
+    /// with standard deviations `std`. Out-of-range terrains are ignored.
+    pub fn seed(&mut self, terrain: usize, y_l: f64, y_r: f64, x_c: f64, std: IcrStd) {
+        if let Some(slot) = self.memory.get_mut(terrain) {
+            *slot = Some(Memory {
+                icr: (y_l, y_r, x_c),
+                cov: std.to_icr_cov(),
+            });
+        }
+    }
+
+    /// Counts time on the current terrain; call after each prediction.
+    pub fn on_predict(&mut self, filter: &Filter, dt: f64) {
+        if !filter.is_still() && dt.is_finite() && dt > 0.0 {
+            self.dwell += dt;
+        }
+    }
+
+    /// Counts down the boost; call after each pose update.
+    pub fn on_update(&mut self, filter: &mut Filter) {
+        if self.boost_left > 0 {
+            self.boost_left -= 1;
+            if self.boost_left == 0 {
+                filter.set_schedule_scale(1.0);
+            }
+        }
+    }
+
+    /// The terrain evidence declares the robot is now on `terrain`.
+    pub fn on_terrain(
+        &mut self,
+        filter: &mut Filter,
+        terrain: usize,
+    ) -> Result<ChangeAction, FilterError> {
+        if self.current == Some(terrain) {
+            return Ok(ChangeAction::None);
+        }
+        let first = self.current.is_none();
+        if self.cfg.memory {
+            if let Some(prev) = self.current {
+                if self.dwell >= self.cfg.memory_min_dwell && prev < MAX_TERRAINS {
+                    let s = filter.state();
+                    let cov = filter.covariance().fixed_view::<3, 3>(3, 3).into_owned();
+                    self.memory[prev] = Some(Memory {
+                        icr: (s[Y_L], s[Y_R], s[X_C]),
+                        cov: floor_cov(&cov, &self.cfg.recall_floor),
+                    });
+                }
+            }
+        }
+        self.current = Some(terrain);
+        self.dwell = 0.0;
+        if self.cfg.memory {
+            if let Some(Some(m)) = self.memory.get(terrain) {
+                filter.reset_icr(Some(m.icr), &m.cov)?;
+                self.boost_left = 0;
+                filter.set_schedule_scale(1.0);
+                return Ok(ChangeAction::Recalled);
+            }
+        }
+        // The first terrain of a drive starts from the initial covariance:
+        // there is no learned state to throw away.
+        if first {
+            return Ok(ChangeAction::Learning);
+        }
+        if let Some(pb) = self.cfg.reset {
+            filter.reset_icr(None, &pb.to_icr_cov())?;
+        }
+        if self.cfg.boost_factor > 1.0 && self.cfg.boost_updates > 0 {
+            self.boost_left = self.cfg.boost_updates;
+            filter.set_schedule_scale(self.cfg.boost_factor);
+        }
+        Ok(ChangeAction::Learning)
+    }
+}
+
+/// Raises the variances of `cov` (in `(d, c, x_c)` coordinates) to at least
+/// the floor, keeping it symmetric positive-definite.
+fn floor_cov(cov: &Matrix3<f64>, floor: &IcrStd) -> Matrix3<f64> {
+    // A filter that lost definiteness (the papers' IEKF can) may hand over
+    // an indefinite block: clip its eigenvalues at zero, then add the floor,
+    // which is positive-definite, so the sum is too.
+    let sym = 0.5 * (cov + cov.transpose());
+    let psd = if sym.iter().all(|v| v.is_finite()) {
+        let mut eig = sym.symmetric_eigen();
+        eig.eigenvalues.apply(|v| *v = v.max(0.0));
+        eig.recompose()
+    } else {
+        Matrix3::zeros()
+    };
+    0.5 * (psd + psd.transpose()) + floor.to_icr_cov()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::filter::{FilterConfig, Variant};
+    use crate::kinematics::IcrParams;
+    use crate::model::{self, Mat6, State};
+
+    fn filter() -> Filter {
+        let mut c = FilterConfig::for_track(0.5);
+        c.variant = Variant::Ekf;
+        let x0 = model::state(0.0, 0.0, 0.0, &IcrParams::no_slip(0.5));
+        let p0 = Mat6::from_diagonal(&State::from([1.0, 1.0, 0.01, 1e-4, 1e-4, 1e-4]));
+        Filter::new(x0, p0, 1.0, 1.0, c).unwrap()
+    }
+
+    #[test]
+    fn boost_lasts_k_updates() {
+        let mut f = filter();
+        let mut s = NoiseSchedule::new(ScheduleConfig {
+            boost_factor: 100.0,
+            boost_updates: 3,
+            ..Default::default()
+        });
+        assert_eq!(s.on_terrain(&mut f, 0).unwrap(), ChangeAction::Learning);
+        assert_eq!(f.icr_noise_scale(), 1.0, "first terrain: no boost");
+        s.on_terrain(&mut f, 1).unwrap();
+        assert_eq!(f.icr_noise_scale(), 100.0);
+        for _ in 0..2 {
+            s.on_update(&mut f);
+            assert_eq!(f.icr_noise_scale(), 100.0);
+        }
+        s.on_update(&mut f);
+        assert_eq!(f.icr_noise_scale(), 1.0);
+    }
+
+    #[test]
+    fn reset_sets_icr_block_and_decorrelates() {
+        let mut f = filter();
+        for _ in 0..100 {
+            f.predict(0.2, 0.6, 0.02).unwrap();
+        }
+        assert!(f.covariance()[(2, 3)].abs() > 0.0);
+        let pb = IcrStd {
+            spread: 0.1,
+            centre: 0.02,
+            x_c: 0.05,
+        };
+        let mut s = NoiseSchedule::new(ScheduleConfig {
+            reset: Some(pb),
+            ..Default::default()
+        });
+        s.on_terrain(&mut f, 0).unwrap();
+        s.on_terrain(&mut f, 1).unwrap();
+        let p = f.covariance();
+        assert_eq!(p[(2, 3)], 0.0);
+        // var(d) = var(y_l) + var(y_r) - 2 cov = 0.01
+        let var_d = p[(3, 3)] + p[(4, 4)] - 2.0 * p[(3, 4)];
+        assert!((var_d - 0.01).abs() < 1e-12);
+        assert!((p[(5, 5)] - 0.0025).abs() < 1e-12);
+    }
+
+    #[test]
+    fn memory_recalls_a_revisited_terrain() {
+        let mut f = filter();
+        let mut s = NoiseSchedule::new(ScheduleConfig {
+            memory: true,
+            memory_min_dwell: 1.0,
+            reset: Some(IcrStd {
+                spread: 0.1,
+                centre: 0.02,
+                x_c: 0.05,
+            }),
+            ..Default::default()
+        });
+        s.on_terrain(&mut f, 2).unwrap();
+        let learned = (0.4, -0.38, 0.03);
+        f.reset_icr(Some(learned), &Matrix3::from_diagonal_element(1e-6))
+            .unwrap();
+        for _ in 0..100 {
+            f.predict(0.5, 0.5, 0.02).unwrap();
+            s.on_predict(&f, 0.02);
+        }
+        assert_eq!(s.on_terrain(&mut f, 0).unwrap(), ChangeAction::Learning);
+        f.reset_icr(
+            Some((0.3, -0.3, 0.0)),
+            &Matrix3::from_diagonal_element(1e-4),
+        )
+        .unwrap();
+        assert!(s.remembers(2) && !s.remembers(0));
+        assert_eq!(s.on_terrain(&mut f, 2).unwrap(), ChangeAction::Recalled);
+        let st = f.state();
+        assert!((st[Y_L] - 0.4).abs() < 1e-12 && (st[Y_R] + 0.38).abs() < 1e-12);
+        // Recalled spread std is at least the floor.
+        let p = f.covariance();
+        let var_d = p[(3, 3)] + p[(4, 4)] - 2.0 * p[(3, 4)];
+        assert!(var_d >= 0.004f64.powi(2));
+    }
+
+    #[test]
+    fn indefinite_block_is_stored_positive_definite() {
+        let bad = Matrix3::new(1e-4, 2e-4, 0.0, 2e-4, 1e-4, 0.0, 0.0, 0.0, -1e-5);
+        let f = floor_cov(&bad, &ScheduleConfig::default().recall_floor);
+        assert!(f.cholesky().is_some());
+        let nan = Matrix3::from_element(f64::NAN);
+        assert!(floor_cov(&nan, &ScheduleConfig::default().recall_floor).cholesky().is_some());
+    }
+
+    #[test]
+    fn short_visits_are_not_remembered() {
+        let mut f = filter();
+        let mut s = NoiseSchedule::new(ScheduleConfig {
+            memory: true,
+            ..Default::default()
+        });
+        s.on_terrain(&mut f, 0).unwrap();
+        s.on_terrain(&mut f, 1).unwrap();
+        assert!(!s.remembers(0));
+        // Out of range seeds are ignored, not a panic.
+        s.seed(99, 0.3, -0.3, 0.0, ScheduleConfig::default().recall_floor);
+    }
+}

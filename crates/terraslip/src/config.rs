@@ -1,0 +1,529 @@
+//! Configuration of the online estimator (`terraslip estimate --config`).
+//!
+//! One TOML file, every key optional (missing keys take the defaults shown by
+//! `terraslip estimate --print-config`), unknown keys are an error. Units are
+//! SI; noise "rates" are random-walk variances per second of elapsed time.
+
+use serde::{Deserialize, Serialize};
+use terraslip_core::filter::{FilterConfig, IcrBand, IcrNoise, Variant};
+use terraslip_core::schedule::{IcrStd, ScheduleConfig};
+use terraslip_core::terrain_belief::BeliefConfig;
+
+/// Everything `estimate` needs besides the log.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct EstimatorConfig {
+    /// Gain rule and process noise of the filter.
+    pub filter: FilterSection,
+    /// Starting state and its uncertainty.
+    pub init: InitSection,
+    /// Measurement noise used when `pose.csv` has no `std_xy` / `std_yaw`.
+    pub measurement: MeasurementSection,
+    /// Physical band the ICRs are kept in, relative to the track width.
+    pub band: BandSection,
+    /// Reaction to terrain changes: boost, reset, memory.
+    pub schedule: ScheduleSection,
+    /// Terrain belief over classifier outputs (`--terrain-model`).
+    pub belief: BeliefSection,
+}
+
+/// Gain rule of the filter.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum FilterVariant {
+    /// Textbook EKF, Joseph form.
+    Ekf,
+    /// The papers' innovation-based EKF (windowed innovation covariance in the gain).
+    Iekf,
+    /// terraslip default: textbook gain, innovation-adapted bounded ICR noise.
+    Adaptive,
+}
+
+/// `[filter]`
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FilterSection {
+    /// `ekf`, `iekf` or `adaptive`.
+    pub variant: FilterVariant,
+    /// IEKF innovation window N (1..=64), in pose fixes.
+    pub iekf_window: usize,
+    /// Learn the ICRs at all (false = the fixed no-slip / initial model).
+    pub learn_icr: bool,
+    /// Position random walk, m^2/s.
+    pub q_pos: f64,
+    /// Extra position noise per squared speed, m^2/s per (m/s)^2.
+    pub q_pos_per_speed2: f64,
+    /// Yaw random walk, rad^2/s.
+    pub q_yaw: f64,
+    /// Extra yaw noise per squared yaw rate, rad^2/s per (rad/s)^2.
+    pub q_yaw_per_rate2: f64,
+    /// ICR random walk of the spread d = y_l - y_r, m^2/s.
+    pub q_spread: f64,
+    /// ICR random walk of the centre (y_l + y_r)/2, m^2/s.
+    pub q_centre: f64,
+    /// ICR random walk of x_c, m^2/s.
+    pub q_x_c: f64,
+    /// Chi-square gate on the 2-dof position innovation (13.8 = 99.9 %; 0 = off).
+    pub gate_position: f64,
+    /// Chi-square gate on the 1-dof heading innovation (10.8 = 99.9 %; 0 = off).
+    pub gate_yaw: f64,
+    /// Consecutive gated fixes after which the filter re-anchors on the fix.
+    pub max_rejections: u32,
+    /// Tread speed below which the robot stands still (no ICR learning), m/s.
+    pub still_speed: f64,
+    /// Time constant of the heading-NIS average (adaptive variant), s.
+    pub adapt_time_constant: f64,
+    /// Largest factor the adaptive variant applies to the ICR noise.
+    pub adapt_max_scale: f64,
+    /// Heading-NIS average above which the filter reports an innovation jump.
+    pub jump_threshold: f64,
+}
+
+/// `[init]`
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct InitSection {
+    /// Track width used when `meta.toml` has none, m (a warning is printed).
+    pub default_track_width: f64,
+    /// Initial spread as a multiple of the track width (without `--init`).
+    pub spread_factor: f64,
+    /// Initial std of the spread, as a multiple of the track width.
+    pub std_spread_factor: f64,
+    /// Initial std of the centre (y_l + y_r)/2, m: the weak symmetric prior.
+    pub std_centre: f64,
+    /// Initial std of x_c, m.
+    pub std_x_c: f64,
+    /// Std of calibrated ICRs from `--init` (spread, centre, x_c), m.
+    pub calibrated_std: [f64; 3],
+    /// Initial yaw std when the first fix has no heading, rad.
+    pub std_yaw_unknown: f64,
+}
+
+/// `[measurement]`
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MeasurementSection {
+    /// Position std per axis when `pose.csv` has no `std_xy`, m.
+    pub std_xy: f64,
+    /// Heading std when `pose.csv` has no `std_yaw`, rad.
+    pub std_yaw: f64,
+}
+
+/// `[band]`: multiples of the track width W.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct BandSection {
+    /// Smallest spread y_l - y_r, x W.
+    pub min_spread: f64,
+    /// Largest spread, x W.
+    pub max_spread: f64,
+    /// Largest |y_l + y_r|/2, x W.
+    pub max_centre: f64,
+    /// Largest |x_c|, x W.
+    pub max_x_c: f64,
+}
+
+/// `[schedule]`
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ScheduleSection {
+    /// q_max / q_min factor on the ICR noise after a terrain change (1 = off).
+    pub boost_factor: f64,
+    /// Pose fixes the boost lasts (the papers' k).
+    pub boost_updates: u32,
+    /// Reset the ICR covariance at a change to an unlearned terrain (chen2023).
+    pub reset: bool,
+    /// Reset std of (spread, centre, x_c), m.
+    pub reset_std: [f64; 3],
+    /// Recall learned ICRs when a terrain is revisited.
+    pub memory: bool,
+    /// Seconds of driving on a terrain before its ICRs are remembered.
+    pub memory_min_dwell: f64,
+    /// Floor on recalled std of (spread, centre, x_c), m.
+    pub recall_floor: [f64; 3],
+}
+
+/// `[belief]` (wang2018 HMM + lambda vote), used with classifier evidence.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct BeliefSection {
+    /// Probability of staying on a terrain between classifier windows.
+    pub stay_prob: f64,
+    /// Same, right after the filter's innovation jumped.
+    pub stay_prob_on_jump: f64,
+    /// Consecutive votes before a change is declared (odd).
+    pub vote_lambda: u32,
+}
+
+impl Default for FilterSection {
+    fn default() -> Self {
+        Self {
+            variant: FilterVariant::Adaptive,
+            iekf_window: 10,
+            learn_icr: true,
+            q_pos: 1e-4,
+            q_pos_per_speed2: 1e-3,
+            q_yaw: 1e-6,
+            q_yaw_per_rate2: 1e-4,
+            q_spread: 1e-5,
+            q_centre: 1e-7,
+            q_x_c: 1e-7,
+            gate_position: 13.8,
+            gate_yaw: 10.8,
+            max_rejections: 10,
+            still_speed: 0.02,
+            adapt_time_constant: 5.0,
+            adapt_max_scale: 50.0,
+            jump_threshold: 4.0,
+        }
+    }
+}
+
+impl Default for InitSection {
+    fn default() -> Self {
+        Self {
+            default_track_width: 0.5,
+            spread_factor: 1.0,
+            std_spread_factor: 0.3,
+            std_centre: 0.02,
+            std_x_c: 0.05,
+            calibrated_std: [0.01, 0.01, 0.02],
+            std_yaw_unknown: std::f64::consts::PI,
+        }
+    }
+}
+
+impl Default for MeasurementSection {
+    fn default() -> Self {
+        Self {
+            std_xy: 2.0,
+            std_yaw: 1f64.to_radians(),
+        }
+    }
+}
+
+impl Default for BandSection {
+    fn default() -> Self {
+        Self {
+            min_spread: 0.8,
+            max_spread: 4.0,
+            max_centre: 0.25,
+            max_x_c: 0.5,
+        }
+    }
+}
+
+impl Default for ScheduleSection {
+    fn default() -> Self {
+        Self {
+            boost_factor: 1.0,
+            boost_updates: 0,
+            reset: true,
+            reset_std: [0.1, 0.01, 0.02],
+            memory: true,
+            memory_min_dwell: 20.0,
+            recall_floor: [0.004, 0.005, 0.01],
+        }
+    }
+}
+
+impl Default for BeliefSection {
+    fn default() -> Self {
+        let b = BeliefConfig::default();
+        Self {
+            stay_prob: b.stay_prob,
+            stay_prob_on_jump: b.stay_prob_on_jump,
+            vote_lambda: b.vote_lambda,
+        }
+    }
+}
+
+impl Default for EstimatorConfig {
+    fn default() -> Self {
+        Self {
+            filter: FilterSection::default(),
+            init: InitSection::default(),
+            measurement: MeasurementSection::default(),
+            band: BandSection::default(),
+            schedule: ScheduleSection::default(),
+            belief: BeliefSection::default(),
+        }
+    }
+}
+
+fn icr_std(v: [f64; 3]) -> IcrStd {
+    IcrStd {
+        spread: v[0],
+        centre: v[1],
+        x_c: v[2],
+    }
+}
+
+/// A configuration that makes no sense (negative noise, empty band, ...).
+#[derive(Debug, thiserror::Error)]
+#[error("invalid estimator configuration: {0}")]
+pub struct ConfigError(pub String);
+
+impl EstimatorConfig {
+    /// Parses TOML text (unknown keys are errors).
+    pub fn from_toml(text: &str) -> Result<Self, ConfigError> {
+        let cfg: Self = toml::from_str(text).map_err(|e| ConfigError(e.to_string()))?;
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
+    /// The configuration as TOML.
+    pub fn to_toml(&self) -> String {
+        toml::to_string_pretty(self).unwrap_or_default()
+    }
+
+    /// Checks ranges; every constant must be finite and of the right sign.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let f = &self.filter;
+        let nonneg = [
+            ("filter.q_pos", f.q_pos),
+            ("filter.q_pos_per_speed2", f.q_pos_per_speed2),
+            ("filter.q_yaw", f.q_yaw),
+            ("filter.q_yaw_per_rate2", f.q_yaw_per_rate2),
+            ("filter.q_spread", f.q_spread),
+            ("filter.q_centre", f.q_centre),
+            ("filter.q_x_c", f.q_x_c),
+            ("filter.gate_position", f.gate_position),
+            ("filter.gate_yaw", f.gate_yaw),
+            ("filter.still_speed", f.still_speed),
+        ];
+        let pos = [
+            ("filter.adapt_time_constant", f.adapt_time_constant),
+            ("filter.adapt_max_scale", f.adapt_max_scale),
+            ("filter.jump_threshold", f.jump_threshold),
+            ("init.default_track_width", self.init.default_track_width),
+            ("init.spread_factor", self.init.spread_factor),
+            ("init.std_spread_factor", self.init.std_spread_factor),
+            ("init.std_centre", self.init.std_centre),
+            ("init.std_x_c", self.init.std_x_c),
+            ("init.std_yaw_unknown", self.init.std_yaw_unknown),
+            ("measurement.std_xy", self.measurement.std_xy),
+            ("measurement.std_yaw", self.measurement.std_yaw),
+            ("band.min_spread", self.band.min_spread),
+            ("band.max_spread", self.band.max_spread),
+            ("band.max_centre", self.band.max_centre),
+            ("band.max_x_c", self.band.max_x_c),
+            ("schedule.boost_factor", self.schedule.boost_factor),
+        ];
+        for (name, v) in nonneg {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(ConfigError(format!("{name} = {v} must be finite and >= 0")));
+            }
+        }
+        for (name, v) in pos {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(ConfigError(format!("{name} = {v} must be finite and > 0")));
+            }
+        }
+        for (name, v) in [
+            ("init.calibrated_std", self.init.calibrated_std),
+            ("schedule.reset_std", self.schedule.reset_std),
+            ("schedule.recall_floor", self.schedule.recall_floor),
+        ] {
+            if v.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
+                return Err(ConfigError(format!("{name} = {v:?}: every entry must be > 0")));
+            }
+        }
+        if !(1..=terraslip_core::filter::MAX_WINDOW).contains(&f.iekf_window) {
+            return Err(ConfigError(format!(
+                "filter.iekf_window = {} must be in 1..={}",
+                f.iekf_window,
+                terraslip_core::filter::MAX_WINDOW
+            )));
+        }
+        if self.band.min_spread >= self.band.max_spread {
+            return Err(ConfigError("band.min_spread must be < band.max_spread".into()));
+        }
+        let b = &self.belief;
+        if !(0.0..=1.0).contains(&b.stay_prob) || !(0.0..=1.0).contains(&b.stay_prob_on_jump) {
+            return Err(ConfigError("belief stay probabilities must be in [0, 1]".into()));
+        }
+        if !self.schedule.memory_min_dwell.is_finite() || self.schedule.memory_min_dwell < 0.0 {
+            return Err(ConfigError("schedule.memory_min_dwell must be >= 0".into()));
+        }
+        Ok(())
+    }
+
+    /// The core filter settings for a robot of track width `w` (m).
+    pub fn filter_config(&self, w: f64) -> FilterConfig {
+        let f = &self.filter;
+        let variant = match f.variant {
+            FilterVariant::Ekf => Variant::Ekf,
+            FilterVariant::Iekf => Variant::Iekf {
+                window: f.iekf_window,
+            },
+            FilterVariant::Adaptive => Variant::Adaptive,
+        };
+        let q_icr = if f.learn_icr {
+            IcrNoise {
+                spread: f.q_spread,
+                centre: f.q_centre,
+                x_c: f.q_x_c,
+            }
+        } else {
+            IcrNoise {
+                spread: 0.0,
+                centre: 0.0,
+                x_c: 0.0,
+            }
+        };
+        FilterConfig {
+            variant,
+            q_pos: f.q_pos,
+            q_pos_per_speed2: f.q_pos_per_speed2,
+            q_yaw: f.q_yaw,
+            q_yaw_per_rate2: f.q_yaw_per_rate2,
+            q_icr,
+            gate_position: f.gate_position,
+            gate_yaw: f.gate_yaw,
+            max_rejections: f.max_rejections,
+            still_speed: f.still_speed,
+            adapt_time_constant: f.adapt_time_constant,
+            adapt_max_scale: f.adapt_max_scale,
+            jump_threshold: f.jump_threshold,
+            band: IcrBand {
+                min_spread: self.band.min_spread * w,
+                max_spread: self.band.max_spread * w,
+                max_centre: self.band.max_centre * w,
+                max_x_c: self.band.max_x_c * w,
+            },
+        }
+    }
+
+    /// The core schedule settings.
+    pub fn schedule_config(&self) -> ScheduleConfig {
+        let s = &self.schedule;
+        ScheduleConfig {
+            boost_factor: s.boost_factor,
+            boost_updates: s.boost_updates,
+            reset: s.reset.then(|| icr_std(s.reset_std)),
+            memory: s.memory,
+            memory_min_dwell: s.memory_min_dwell,
+            recall_floor: icr_std(s.recall_floor),
+        }
+    }
+
+    /// Std of calibrated ICRs from `--init`.
+    pub fn calibrated_std(&self) -> IcrStd {
+        icr_std(self.init.calibrated_std)
+    }
+
+    /// The terrain-belief settings.
+    pub fn belief_config(&self) -> BeliefConfig {
+        BeliefConfig {
+            stay_prob: self.belief.stay_prob,
+            stay_prob_on_jump: self.belief.stay_prob_on_jump,
+            vote_lambda: self.belief.vote_lambda,
+        }
+    }
+
+    /// The estimator variants the demo compares, by name. The papers'
+    /// `q_min`/`q_max` keep their ratio (10^4) but are scaled to metres on a
+    /// 1 Hz pose rate: the published 0.01 and 100 m^2/s would let the ICRs
+    /// swing by metres.
+    pub fn presets() -> Vec<(&'static str, EstimatorConfig)> {
+        const Q_MIN: f64 = 1e-6;
+        const Q_MAX: f64 = 1e-2;
+        let papers = |q: f64| {
+            let n = IcrNoise::papers(q);
+            let mut c = EstimatorConfig::default();
+            c.filter.variant = FilterVariant::Ekf;
+            c.filter.q_spread = n.spread;
+            c.filter.q_centre = n.centre;
+            c.filter.q_x_c = n.x_c;
+            // The papers start from a vague prior and know no memory.
+            c.init.std_centre = 0.1;
+            c.init.std_x_c = 0.1;
+            c.schedule.reset = false;
+            c.schedule.memory = false;
+            c
+        };
+        let mut no_slip = papers(Q_MIN);
+        no_slip.filter.learn_icr = false;
+
+        let ekf_qmin = papers(Q_MIN);
+        let ekf_qmax = papers(Q_MAX);
+
+        let mut ta_ekf = papers(Q_MIN);
+        ta_ekf.schedule.boost_factor = Q_MAX / Q_MIN;
+        ta_ekf.schedule.boost_updates = 5;
+
+        let mut ta_iekf = ta_ekf.clone();
+        ta_iekf.filter.variant = FilterVariant::Iekf;
+
+        let mut reset = papers(Q_MIN);
+        reset.schedule.reset = true;
+        // P_B: 0.1 m on each of y_l, y_r, x_c, independent.
+        reset.schedule.reset_std = [0.1 * 2f64.sqrt(), 0.1 / 2f64.sqrt(), 0.1];
+
+        vec![
+            ("no-slip", no_slip),
+            ("ekf-qmin", ekf_qmin),
+            ("ekf-qmax", ekf_qmax),
+            ("ta-ekf-boost", ta_ekf),
+            ("ta-iekf", ta_iekf),
+            ("ekf-reset", reset),
+            ("terraslip", EstimatorConfig::default()),
+        ]
+    }
+
+    /// A preset by name.
+    pub fn preset(name: &str) -> Option<EstimatorConfig> {
+        Self::presets()
+            .into_iter()
+            .find(|(n, _)| *n == name)
+            .map(|(_, c)| c)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_round_trips_through_toml() {
+        let c = EstimatorConfig::default();
+        let back = EstimatorConfig::from_toml(&c.to_toml()).unwrap();
+        assert_eq!(c, back);
+    }
+
+    #[test]
+    fn unknown_keys_and_bad_values_are_errors() {
+        let e = EstimatorConfig::from_toml("[filter]\nq_spred = 1.0\n").unwrap_err();
+        assert!(e.to_string().contains("q_spred"), "{e}");
+        let e = EstimatorConfig::from_toml("[filter]\nq_spread = -1.0\n").unwrap_err();
+        assert!(e.to_string().contains("q_spread"), "{e}");
+        let e = EstimatorConfig::from_toml("[filter]\niekf_window = 0\n").unwrap_err();
+        assert!(e.to_string().contains("iekf_window"), "{e}");
+        let e = EstimatorConfig::from_toml("[band]\nmin_spread = 5.0\n").unwrap_err();
+        assert!(e.to_string().contains("min_spread"), "{e}");
+    }
+
+    #[test]
+    fn partial_file_keeps_defaults() {
+        let c = EstimatorConfig::from_toml("[filter]\nvariant = \"iekf\"\n").unwrap();
+        assert_eq!(c.filter.variant, FilterVariant::Iekf);
+        assert_eq!(c.init, InitSection::default());
+    }
+
+    #[test]
+    fn presets_are_valid_and_distinct() {
+        let p = EstimatorConfig::presets();
+        assert_eq!(p.len(), 7);
+        for (name, c) in &p {
+            c.validate().unwrap_or_else(|e| panic!("{name}: {e}"));
+        }
+        for i in 0..p.len() {
+            for j in i + 1..p.len() {
+                assert_ne!(p[i].1, p[j].1, "{} == {}", p[i].0, p[j].0);
+            }
+        }
+        assert!(EstimatorConfig::preset("terraslip").is_some());
+        assert!(EstimatorConfig::preset("nope").is_none());
+    }
+}

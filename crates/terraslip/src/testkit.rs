@@ -1,0 +1,136 @@
+//! Small deterministic drives for tests and benchmarks that must not depend
+//! on the full simulator: exact ICR-model truth, white pose noise, a
+//! terrain change schedule. Not a substitute for `terraslip-sim`.
+
+use terraslip_core::model::{self, TreadInput};
+use terraslip_core::IcrParams;
+use terraslip_io::{DriveLog, Meta, PoseObs, TerrainLabel, TruthSample, WheelSample};
+
+/// Settings of [`drive`].
+#[derive(Debug, Clone)]
+pub struct SynthSpec {
+    /// Length, s.
+    pub duration: f64,
+    /// Wheels rate, Hz.
+    pub wheel_hz: f64,
+    /// Pose rate, Hz.
+    pub pose_hz: f64,
+    /// Position noise std, m (white).
+    pub std_xy: f64,
+    /// Heading noise std, rad (white).
+    pub std_yaw: f64,
+    /// `(start time, name, ICRs)` of each terrain stretch.
+    pub terrains: Vec<(f64, String, IcrParams)>,
+    /// Track width written to meta.toml, m.
+    pub track_width: f64,
+    /// Seed of the noise.
+    pub seed: u64,
+}
+
+impl Default for SynthSpec {
+    fn default() -> Self {
+        Self {
+            duration: 300.0,
+            wheel_hz: 50.0,
+            pose_hz: 1.0,
+            std_xy: 0.05,
+            std_yaw: 0.01,
+            terrains: vec![
+                (0.0, "asphalt".into(), IcrParams::new(0.30, -0.31, 0.01)),
+                (100.0, "grass".into(), IcrParams::new(0.36, -0.37, 0.02)),
+                (200.0, "asphalt".into(), IcrParams::new(0.30, -0.31, 0.01)),
+            ],
+            track_width: 0.5,
+            seed: 1,
+        }
+    }
+}
+
+/// Gaussian noise by Box-Muller on a xorshift generator (deterministic).
+struct Noise(u64);
+impl Noise {
+    fn uniform(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        ((self.0 >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    }
+    fn gauss(&mut self) -> f64 {
+        let (u, v) = (self.uniform(), self.uniform());
+        (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
+    }
+}
+
+/// Tread speeds of an operator weaving left and right at 0.5-1 m/s.
+pub fn tread_speeds(t: f64) -> (f64, f64) {
+    let v = 0.75 + 0.25 * (0.05 * t).sin();
+    let turn = 0.35 * (0.21 * t).sin() + 0.2 * (0.077 * t).cos();
+    (v - turn, v + turn)
+}
+
+/// A drive with truth, labels and noisy pose.
+pub fn drive(spec: &SynthSpec) -> DriveLog {
+    let mut noise = Noise(spec.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1);
+    let icr_at = |t: f64| {
+        spec.terrains
+            .iter()
+            .rev()
+            .find(|x| x.0 <= t)
+            .or(spec.terrains.first())
+            .map_or(IcrParams::no_slip(spec.track_width), |x| x.2)
+    };
+    let n = (spec.duration * spec.wheel_hz).round() as usize;
+    let dt = 1.0 / spec.wheel_hz;
+    let sub = 10;
+    let mut s = model::state(0.0, 0.0, 0.0, &icr_at(0.0));
+    let mut log = DriveLog {
+        meta: Meta {
+            track_width: Some(spec.track_width),
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let pose_every = (spec.wheel_hz / spec.pose_hz).round().max(1.0) as usize;
+    for k in 0..=n {
+        let t = k as f64 * dt;
+        let (vl, vr) = tread_speeds(t);
+        if k > 0 {
+            // Finer truth integration than the filter's step.
+            let icr = icr_at(t);
+            for _ in 0..sub {
+                let mut st = s;
+                st[3] = icr.y_l;
+                st[4] = icr.y_r;
+                st[5] = icr.x_c;
+                s = model::predict(&st, TreadInput::new(vl, vr, 1.0, 1.0), dt / sub as f64);
+            }
+        }
+        let icr = icr_at(t);
+        log.wheels.push(WheelSample { t, v_left: vl, v_right: vr });
+        log.truth.push(TruthSample {
+            t,
+            east: s[0],
+            north: s[1],
+            yaw: s[2],
+            y_l: icr.y_l,
+            y_r: icr.y_r,
+            x_c: icr.x_c,
+        });
+        if k > 0 && k % pose_every == 0 {
+            log.pose.push(PoseObs {
+                t,
+                east: Some(s[0] + spec.std_xy * noise.gauss()),
+                north: Some(s[1] + spec.std_xy * noise.gauss()),
+                yaw: Some(terraslip_core::angle::wrap(s[2] + spec.std_yaw * noise.gauss())),
+                std_xy: Some(spec.std_xy),
+                std_yaw: Some(spec.std_yaw),
+            });
+        }
+    }
+    log.terrain = spec
+        .terrains
+        .iter()
+        .map(|(t, name, _)| TerrainLabel { t: *t, terrain: name.clone() })
+        .collect();
+    log
+}

@@ -1,0 +1,101 @@
+//! The pipeline on small exact-model drives (terraslip::testkit): learning,
+//! terrain memory, outage, failure modes.
+
+use terraslip::config::EstimatorConfig;
+use terraslip::metrics;
+use terraslip::pipeline::{self, RunOptions, TerrainEvidence};
+use terraslip::testkit::{drive, SynthSpec};
+
+fn all_finite(run: &terraslip::EstimateRun) -> bool {
+    run.rows.iter().all(|r| {
+        [r.east, r.north, r.yaw, r.y_l, r.y_r, r.x_c, r.std_spread, r.nis, r.q_scale]
+            .iter()
+            .chain(r.std.iter())
+            .all(|v| v.is_finite())
+    })
+}
+
+#[test]
+fn default_learns_and_recalls_terrains() {
+    let log = drive(&SynthSpec::default());
+    let ev = TerrainEvidence::Labels(log.terrain.clone());
+    let run = pipeline::run(&log, &EstimatorConfig::default(), &ev, None).unwrap();
+    assert_eq!(run.rows.len(), log.wheels.len());
+    assert!(all_finite(&run));
+    let card = metrics::scorecard(&run, &log.truth, &log.terrain, None, 20.0);
+    eprintln!("{card:#?}");
+    assert!(card.rms.d < 0.01, "rms d {}", card.rms.d);
+    let rec = &card.reconvergence;
+    assert_eq!(rec.len(), 2);
+    assert!(!rec[0].revisit && rec[1].revisit);
+    assert!(rec[0].seconds.is_some_and(|s| s < 20.0), "{rec:?}");
+    assert_eq!(rec[1].seconds, Some(0.0), "revisit must be recalled: {rec:?}");
+    assert_eq!(run.changes[2].action, terraslip_core::ChangeAction::Recalled);
+}
+
+#[test]
+fn every_preset_runs_finite() {
+    let log = drive(&SynthSpec { duration: 120.0, ..Default::default() });
+    let ev = TerrainEvidence::Labels(log.terrain.clone());
+    for (name, cfg) in EstimatorConfig::presets() {
+        let run = pipeline::run(&log, &cfg, &ev, None).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert!(all_finite(&run), "{name}");
+    }
+}
+
+#[test]
+fn outage_drops_fixes_and_dead_reckons() {
+    let log = drive(&SynthSpec::default());
+    let ev = TerrainEvidence::Labels(log.terrain.clone());
+    let opts = RunOptions { outage: Some((150.0, 180.0)) };
+    let run = pipeline::run_with(&log, &EstimatorConfig::default(), &ev, None, opts, &mut |_, _| {}).unwrap();
+    assert_eq!(run.stats.dropped_fixes, 30);
+    let d = metrics::outage_drift(&run, &log.truth, 150.0, 180.0).unwrap();
+    assert!(d.distance > 15.0, "{d:?}");
+    assert!(d.percent < 1.0, "{d:?}");
+    // The no-slip model drifts far more.
+    let ns = EstimatorConfig::preset("no-slip").unwrap();
+    let run = pipeline::run_with(&log, &ns, &ev, None, opts, &mut |_, _| {}).unwrap();
+    let dn = metrics::outage_drift(&run, &log.truth, 150.0, 180.0).unwrap();
+    assert!(dn.percent > 3.0 * d.percent, "{dn:?} vs {d:?}");
+}
+
+#[test]
+fn multipath_jump_is_rejected() {
+    let mut spec = SynthSpec::default();
+    spec.terrains.truncate(1);
+    let mut log = drive(&spec);
+    let k = log.pose.len() / 2;
+    let e = log.pose[k].east.unwrap();
+    log.pose[k].east = Some(e + 30.0);
+    let t = log.pose[k].t;
+    let run = pipeline::run(&log, &EstimatorConfig::default(), &TerrainEvidence::None, None).unwrap();
+    let gated: Vec<f64> = run.rows.iter().filter(|r| r.gated).map(|r| r.t).collect();
+    assert_eq!(run.stats.position_gated, 1, "{:?} gated at {gated:?}, jump at {t}", run.stats);
+    let row = run.rows.iter().find(|r| r.t >= t).unwrap();
+    assert!(row.gated);
+    let truth = metrics::truth_at(&log.truth, row.t).unwrap();
+    assert!((row.east - truth.east).abs() < 1.0);
+}
+
+#[test]
+fn standing_still_log_warns_and_keeps_initial_icrs() {
+    let mut log = drive(&SynthSpec { duration: 30.0, ..Default::default() });
+    for w in &mut log.wheels {
+        w.v_left = 0.0;
+        w.v_right = 0.0;
+    }
+    let run = pipeline::run(&log, &EstimatorConfig::default(), &TerrainEvidence::None, None).unwrap();
+    assert!(run.warnings.iter().any(|w| w.contains("never moves")), "{:?}", run.warnings);
+    assert!((run.final_icr.y_l - 0.25).abs() < 1e-9 && (run.final_icr.y_r + 0.25).abs() < 1e-9);
+    assert!(all_finite(&run));
+}
+
+#[test]
+fn iekf_runs_and_reports_instead_of_nan() {
+    let log = drive(&SynthSpec { duration: 200.0, ..Default::default() });
+    let mut cfg = EstimatorConfig::default();
+    cfg.filter.variant = terraslip::config::FilterVariant::Iekf;
+    let run = pipeline::run(&log, &cfg, &TerrainEvidence::Labels(log.terrain.clone()), None).unwrap();
+    assert!(all_finite(&run));
+}

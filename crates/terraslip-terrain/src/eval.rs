@@ -105,6 +105,59 @@ pub struct LogScore {
     pub frames: Vec<FilteredFrame>,
     pub raw: Confusion,
     pub filtered: Confusion,
+    /// How the camera change detector did (all zero for IMU models).
+    pub change: ChangeScore,
+}
+
+/// Scoring of lv2019's change detector against the label changes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub struct ChangeScore {
+    /// Label changes inside the span of the frames.
+    pub changes: usize,
+    /// Of those, how many the detector flagged at the first or second
+    /// frame at or after the change ("within one frame").
+    pub detected: usize,
+    /// Detections matching no label change.
+    pub false_alarms: usize,
+}
+
+impl ChangeScore {
+    pub fn merge(&mut self, o: &ChangeScore) {
+        self.changes += o.changes;
+        self.detected += o.detected;
+        self.false_alarms += o.false_alarms;
+    }
+}
+
+/// Matches detections (times) to label changes: a change at `tc` is
+/// detected when a detection falls on one of the first two frames at or after `tc`.
+pub fn score_changes(log: &DriveLog, frame_times: &[f64], detections: &[f64]) -> ChangeScore {
+    let (Some(&first), Some(&last)) = (frame_times.first(), frame_times.last()) else {
+        return ChangeScore::default();
+    };
+    let mut score = ChangeScore::default();
+    let mut used = vec![false; detections.len()];
+    for w in log.terrain.windows(2) {
+        let tc = w[1].t;
+        if w[0].terrain == w[1].terrain || tc <= first || tc > last {
+            continue;
+        }
+        score.changes += 1;
+        let k = frame_times.partition_point(|&t| t < tc);
+        let until = frame_times
+            .get(k + 1)
+            .or(frame_times.get(k))
+            .copied()
+            .unwrap_or(tc);
+        if let Some(j) = (0..detections.len())
+            .find(|&j| !used[j] && detections[j] >= tc && detections[j] <= until)
+        {
+            used[j] = true;
+            score.detected += 1;
+        }
+    }
+    score.false_alarms = used.iter().filter(|u| !**u).count();
+    score
 }
 
 /// Classifies a labelled log with `model` and scores raw and filtered output.
@@ -115,6 +168,12 @@ pub fn score_log(model: &TerrainModel, log: &DriveLog) -> Result<LogScore> {
     }
     let tl = model.classify_log(log)?;
     let frames = tl.filter(&model.belief);
+    let times: Vec<f64> = tl.frames.iter().map(|f| f.0).collect();
+    let change = if model.source == crate::model::Source::Camera {
+        score_changes(log, &times, &tl.changes)
+    } else {
+        ChangeScore::default()
+    };
     let mut raw = Confusion::new(&model.classes);
     let mut filtered = Confusion::new(&model.classes);
     let truth: Vec<Option<usize>> = frames
@@ -136,6 +195,7 @@ pub fn score_log(model: &TerrainModel, log: &DriveLog) -> Result<LogScore> {
         frames,
         raw,
         filtered,
+        change,
     })
 }
 
@@ -240,6 +300,8 @@ pub struct CrossvalReport {
     pub spliced_raw: Confusion,
     /// Same, after the Bayesian filter.
     pub spliced_filtered: Confusion,
+    /// Camera change detector on the held-out runs and the spliced logs.
+    pub change: ChangeScore,
 }
 
 /// Leave-runs-out cross-validation: a model is trained without the runs of
@@ -266,6 +328,7 @@ pub fn crossval(
         filtered: Confusion::new(&classes),
         spliced_raw: Confusion::new(&classes),
         spliced_filtered: Confusion::new(&classes),
+        change: ChangeScore::default(),
     };
     for (fi, fold) in folds.iter().enumerate() {
         progress(fi, folds.len());
@@ -278,6 +341,7 @@ pub fn crossval(
             let s = score_log(&model, &logs[i])?;
             rep.raw.merge(&s.raw);
             rep.filtered.merge(&s.filtered);
+            rep.change.merge(&s.change);
         }
         let order = interleave_by_terrain(logs, fold);
         let runs: Vec<&DriveLog> = order.iter().map(|&i| &logs[i]).collect();
@@ -285,6 +349,7 @@ pub fn crossval(
         let s = score_log(&model, &spliced)?;
         rep.spliced_raw.merge(&s.raw);
         rep.spliced_filtered.merge(&s.filtered);
+        rep.change.merge(&s.change);
     }
     progress(folds.len(), folds.len());
     Ok(rep)

@@ -22,7 +22,7 @@ pub mod vision;
 
 pub use classify::{Classifier, ClassifierKind, ClassifierParams};
 pub use error::{Result, TerrainError};
-pub use eval::{crossval, score_log, splice, Confusion, CrossvalReport, LogScore};
+pub use eval::{crossval, score_log, splice, ChangeScore, Confusion, CrossvalReport, LogScore};
 pub use model::{
     BeliefSettings, Features, FilteredFrame, Source, TerrainModel, TerrainTimeline, TrainOptions,
     MODEL_FORMAT_VERSION,

@@ -341,12 +341,26 @@ impl TerrainModel {
         let mut phi_same = Vec::new();
         let mut phi_change = Vec::new();
         for log in logs {
-            for s in labelled(log, &features, classes)? {
+            let samples = labelled(log, &features, classes)?;
+            // A label change at frame i may show in the image only at frame
+            // i + 1 (the camera looks ahead, the label is where the body
+            // is): score a change by the larger φ of the two, and keep
+            // frame i + 1 out of the same-terrain statistics.
+            let mut skip_next = false;
+            for (i, s) in samples.iter().enumerate() {
                 match s.same_as_prev {
-                    Some(true) => phi_same.push(s.phi),
-                    Some(false) => phi_change.push(s.phi),
-                    None => {}
+                    Some(false) => {
+                        let next = samples.get(i + 1).filter(|n| n.same_as_prev == Some(true));
+                        phi_change.push(next.map_or(s.phi, |n| n.phi.max(s.phi)));
+                        skip_next = true;
+                        continue;
+                    }
+                    Some(true) if !skip_next => phi_same.push(s.phi),
+                    _ => {}
                 }
+                skip_next = false;
+            }
+            for s in samples {
                 x.push(s.x);
                 y.push(s.y);
             }

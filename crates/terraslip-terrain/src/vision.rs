@@ -551,11 +551,25 @@ pub fn frame_features(
 }
 
 /// lv2019's colour+texture vector of a frame (RGB histograms + LBP), used
-/// by the change detector whatever features the classifier reads.
+/// by the change detector whatever features the classifier reads. The
+/// colours are first divided by the frame's mean grey level: lighting
+/// changes between frames (sun, cloud, shadow) otherwise move the
+/// histograms more than a change of terrain does. LBP is already
+/// invariant to monotone grey-level changes.
 pub fn similarity_vector(img: &RgbImage, bins: usize) -> Vec<f64> {
-    let mut v = Vec::with_capacity(3 * bins + LBP_BINS);
-    rgb_histograms(img, bins, &mut v);
+    let bins = bins.clamp(1, 256);
     let g = grey(img);
+    let mean = g.iter().map(|&v| v as f64).sum::<f64>() / g.len().max(1) as f64;
+    let gain = 128.0 / mean.max(1.0);
+    let mut h = vec![0u32; 3 * bins];
+    for p in img.pixels() {
+        for (c, &v) in p.0.iter().enumerate() {
+            let v = ((v as f64 * gain) as usize).min(255);
+            h[c * bins + v * bins / 256] += 1;
+        }
+    }
+    let n = g.len().max(1) as f64;
+    let mut v: Vec<f64> = h.iter().map(|&c| c as f64 / n).collect();
     lbp_histogram(&g, img.width() as usize, img.height() as usize, &mut v);
     v
 }

@@ -326,7 +326,9 @@ impl EstimatorConfig {
             ("schedule.recall_floor", self.schedule.recall_floor),
         ] {
             if v.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
-                return Err(ConfigError(format!("{name} = {v:?}: every entry must be > 0")));
+                return Err(ConfigError(format!(
+                    "{name} = {v:?}: every entry must be > 0"
+                )));
             }
         }
         if !(1..=terraslip_core::filter::MAX_WINDOW).contains(&f.iekf_window) {
@@ -337,11 +339,15 @@ impl EstimatorConfig {
             )));
         }
         if self.band.min_spread >= self.band.max_spread {
-            return Err(ConfigError("band.min_spread must be < band.max_spread".into()));
+            return Err(ConfigError(
+                "band.min_spread must be < band.max_spread".into(),
+            ));
         }
         let b = &self.belief;
         if !(0.0..=1.0).contains(&b.stay_prob) || !(0.0..=1.0).contains(&b.stay_prob_on_jump) {
-            return Err(ConfigError("belief stay probabilities must be in [0, 1]".into()));
+            return Err(ConfigError(
+                "belief stay probabilities must be in [0, 1]".into(),
+            ));
         }
         if !self.schedule.memory_min_dwell.is_finite() || self.schedule.memory_min_dwell < 0.0 {
             return Err(ConfigError("schedule.memory_min_dwell must be >= 0".into()));

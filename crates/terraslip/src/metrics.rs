@@ -77,9 +77,7 @@ fn spread_errors(run: &EstimateRun, truth: &[TruthSample], t0: f64, t1: f64) -> 
     run.rows[start..]
         .iter()
         .take_while(|r| r.t < t1)
-        .filter_map(|r| {
-            truth_at(truth, r.t).map(|s| (r.t, (r.y_l - r.y_r) - (s.y_l - s.y_r)))
-        })
+        .filter_map(|r| truth_at(truth, r.t).map(|s| (r.t, (r.y_l - r.y_r) - (s.y_l - s.y_r))))
         .collect()
 }
 
@@ -220,7 +218,13 @@ pub fn steady_state_rms(
         }
         n += 1;
     }
-    let rms = |s: f64| if n > 0 { (s / n as f64).sqrt() } else { f64::NAN };
+    let rms = |s: f64| {
+        if n > 0 {
+            (s / n as f64).sqrt()
+        } else {
+            f64::NAN
+        }
+    };
     IcrRms {
         d: rms(sums[0]),
         y_l: rms(sums[1]),
@@ -284,10 +288,7 @@ pub fn outage_drift(run: &EstimateRun, truth: &[TruthSample], t0: f64, t1: f64) 
 
 /// The longest stretch (at least `min_len` s) of the log's time with no
 /// position fix: an outage already in the data.
-pub fn find_position_outage(
-    pose: &[terraslip_io::PoseObs],
-    min_len: f64,
-) -> Option<(f64, f64)> {
+pub fn find_position_outage(pose: &[terraslip_io::PoseObs], min_len: f64) -> Option<(f64, f64)> {
     let times: Vec<f64> = pose
         .iter()
         .filter(|p| p.east.is_some())
@@ -347,7 +348,10 @@ mod tests {
 
     #[test]
     fn settle_time_finds_last_excursion() {
-        let spec = ReconvergenceSpec { tolerance: 0.02, window: 1.0 };
+        let spec = ReconvergenceSpec {
+            tolerance: 0.02,
+            window: 1.0,
+        };
         // error 0.1 for t < 3, then 0: settled from the first window
         // starting after the last bad one.
         let errs: Vec<(f64, f64)> = (0..100)
@@ -366,7 +370,12 @@ mod tests {
 
     #[test]
     fn truth_interpolates_and_wraps_yaw() {
-        let mk = |t: f64, yaw: f64| TruthSample { t, yaw, y_l: t, ..Default::default() };
+        let mk = |t: f64, yaw: f64| TruthSample {
+            t,
+            yaw,
+            y_l: t,
+            ..Default::default()
+        };
         let tr = [mk(0.0, 3.1), mk(1.0, -3.1)];
         let s = truth_at(&tr, 0.5).unwrap();
         assert!((s.y_l - 0.5).abs() < 1e-12);

@@ -156,7 +156,14 @@ pub fn run(
     evidence: &TerrainEvidence,
     init: Option<&ParamsFile>,
 ) -> Result<EstimateRun, PipelineError> {
-    run_with(log, cfg, evidence, init, RunOptions::default(), &mut |_, _| {})
+    run_with(
+        log,
+        cfg,
+        evidence,
+        init,
+        RunOptions::default(),
+        &mut |_, _| {},
+    )
 }
 
 /// Runs the estimator over `log` with options; `progress(done, total)` is
@@ -221,9 +228,10 @@ pub fn run_with(
         TerrainEvidence::Labels(l) => l.first().map(|x| x.terrain.as_str()),
         _ => None,
     };
-    let calibrated = init.and_then(|p| p.for_terrain(first_terrain).or_else(|| {
-        p.terrains.values().next().map(|e| e.params)
-    }));
+    let calibrated = init.and_then(|p| {
+        p.for_terrain(first_terrain)
+            .or_else(|| p.terrains.values().next().map(|e| e.params))
+    });
     let icr0 = match calibrated {
         Some(p) => {
             p.validate()
@@ -269,8 +277,14 @@ pub fn run_with(
     }
     let first_pos = pose.iter().find_map(|p| p.east.zip(p.north));
     let first_yaw = pose.iter().find_map(|p| p.yaw);
-    let std_xy0 = pose.iter().find_map(|p| p.std_xy).unwrap_or(cfg.measurement.std_xy);
-    let std_yaw0 = pose.iter().find_map(|p| p.std_yaw).unwrap_or(cfg.measurement.std_yaw);
+    let std_xy0 = pose
+        .iter()
+        .find_map(|p| p.std_xy)
+        .unwrap_or(cfg.measurement.std_xy);
+    let std_yaw0 = pose
+        .iter()
+        .find_map(|p| p.std_yaw)
+        .unwrap_or(cfg.measurement.std_yaw);
     let (e0, n0) = first_pos.unwrap_or((0.0, 0.0));
     let y0 = first_yaw.unwrap_or(0.0);
     let x0: State = model::state(e0, n0, y0, &icr0);
@@ -346,9 +360,9 @@ pub fn run_with(
     let mut moved = false;
 
     let fuse = |filter: &mut Filter,
-                    schedule: &mut NoiseSchedule,
-                    p: &PoseObs,
-                    stats: &mut RunStats|
+                schedule: &mut NoiseSchedule,
+                p: &PoseObs,
+                stats: &mut RunStats|
      -> Option<UpdateReport> {
         let fix = PoseFix {
             position: p.east.zip(p.north),
@@ -360,7 +374,11 @@ pub fn run_with(
         match filter.update(p.t, &fix) {
             Ok(rep) => {
                 for (fate, fused, gated) in [
-                    (rep.position, &mut stats.position_fused, &mut stats.position_gated),
+                    (
+                        rep.position,
+                        &mut stats.position_fused,
+                        &mut stats.position_gated,
+                    ),
                     (rep.yaw, &mut stats.yaw_fused, &mut stats.yaw_gated),
                 ] {
                     match fate {
@@ -401,7 +419,11 @@ pub fn run_with(
                             let action = schedule
                                 .on_terrain(&mut filter, k)
                                 .map_err(|e| filter_err(w.t, e))?;
-                            changes.push(TerrainChange { t: w.t, terrain: k, action });
+                            changes.push(TerrainChange {
+                                t: w.t,
+                                terrain: k,
+                                action,
+                            });
                             current_terrain = Some(k);
                         }
                     }
@@ -414,7 +436,11 @@ pub fn run_with(
                             let action = schedule
                                 .on_terrain(&mut filter, k)
                                 .map_err(|e| filter_err(w.t, e))?;
-                            changes.push(TerrainChange { t: frames[li].0, terrain: k, action });
+                            changes.push(TerrainChange {
+                                t: frames[li].0,
+                                terrain: k,
+                                action,
+                            });
                         }
                         jump_since_frame = false;
                         li += 1;

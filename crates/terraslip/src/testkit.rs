@@ -106,7 +106,11 @@ pub fn drive(spec: &SynthSpec) -> DriveLog {
             }
         }
         let icr = icr_at(t);
-        log.wheels.push(WheelSample { t, v_left: vl, v_right: vr });
+        log.wheels.push(WheelSample {
+            t,
+            v_left: vl,
+            v_right: vr,
+        });
         log.truth.push(TruthSample {
             t,
             east: s[0],
@@ -121,7 +125,9 @@ pub fn drive(spec: &SynthSpec) -> DriveLog {
                 t,
                 east: Some(s[0] + spec.std_xy * noise.gauss()),
                 north: Some(s[1] + spec.std_xy * noise.gauss()),
-                yaw: Some(terraslip_core::angle::wrap(s[2] + spec.std_yaw * noise.gauss())),
+                yaw: Some(terraslip_core::angle::wrap(
+                    s[2] + spec.std_yaw * noise.gauss(),
+                )),
                 std_xy: Some(spec.std_xy),
                 std_yaw: Some(spec.std_yaw),
             });
@@ -130,7 +136,10 @@ pub fn drive(spec: &SynthSpec) -> DriveLog {
     log.terrain = spec
         .terrains
         .iter()
-        .map(|(t, name, _)| TerrainLabel { t: *t, terrain: name.clone() })
+        .map(|(t, name, _)| TerrainLabel {
+            t: *t,
+            terrain: name.clone(),
+        })
         .collect();
     log
 }

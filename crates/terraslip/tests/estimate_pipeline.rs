@@ -8,10 +8,20 @@ use terraslip::testkit::{drive, SynthSpec};
 
 fn all_finite(run: &terraslip::EstimateRun) -> bool {
     run.rows.iter().all(|r| {
-        [r.east, r.north, r.yaw, r.y_l, r.y_r, r.x_c, r.std_spread, r.nis, r.q_scale]
-            .iter()
-            .chain(r.std.iter())
-            .all(|v| v.is_finite())
+        [
+            r.east,
+            r.north,
+            r.yaw,
+            r.y_l,
+            r.y_r,
+            r.x_c,
+            r.std_spread,
+            r.nis,
+            r.q_scale,
+        ]
+        .iter()
+        .chain(r.std.iter())
+        .all(|v| v.is_finite())
     })
 }
 
@@ -29,13 +39,23 @@ fn default_learns_and_recalls_terrains() {
     assert_eq!(rec.len(), 2);
     assert!(!rec[0].revisit && rec[1].revisit);
     assert!(rec[0].seconds.is_some_and(|s| s < 20.0), "{rec:?}");
-    assert_eq!(rec[1].seconds, Some(0.0), "revisit must be recalled: {rec:?}");
-    assert_eq!(run.changes[2].action, terraslip_core::ChangeAction::Recalled);
+    assert_eq!(
+        rec[1].seconds,
+        Some(0.0),
+        "revisit must be recalled: {rec:?}"
+    );
+    assert_eq!(
+        run.changes[2].action,
+        terraslip_core::ChangeAction::Recalled
+    );
 }
 
 #[test]
 fn every_preset_runs_finite() {
-    let log = drive(&SynthSpec { duration: 120.0, ..Default::default() });
+    let log = drive(&SynthSpec {
+        duration: 120.0,
+        ..Default::default()
+    });
     let ev = TerrainEvidence::Labels(log.terrain.clone());
     for (name, cfg) in EstimatorConfig::presets() {
         let run = pipeline::run(&log, &cfg, &ev, None).unwrap_or_else(|e| panic!("{name}: {e}"));
@@ -47,8 +67,18 @@ fn every_preset_runs_finite() {
 fn outage_drops_fixes_and_dead_reckons() {
     let log = drive(&SynthSpec::default());
     let ev = TerrainEvidence::Labels(log.terrain.clone());
-    let opts = RunOptions { outage: Some((150.0, 180.0)) };
-    let run = pipeline::run_with(&log, &EstimatorConfig::default(), &ev, None, opts, &mut |_, _| {}).unwrap();
+    let opts = RunOptions {
+        outage: Some((150.0, 180.0)),
+    };
+    let run = pipeline::run_with(
+        &log,
+        &EstimatorConfig::default(),
+        &ev,
+        None,
+        opts,
+        &mut |_, _| {},
+    )
+    .unwrap();
     assert_eq!(run.stats.dropped_fixes, 30);
     let d = metrics::outage_drift(&run, &log.truth, 150.0, 180.0).unwrap();
     assert!(d.distance > 15.0, "{d:?}");
@@ -69,9 +99,19 @@ fn multipath_jump_is_rejected() {
     let e = log.pose[k].east.unwrap();
     log.pose[k].east = Some(e + 30.0);
     let t = log.pose[k].t;
-    let run = pipeline::run(&log, &EstimatorConfig::default(), &TerrainEvidence::None, None).unwrap();
+    let run = pipeline::run(
+        &log,
+        &EstimatorConfig::default(),
+        &TerrainEvidence::None,
+        None,
+    )
+    .unwrap();
     let gated: Vec<f64> = run.rows.iter().filter(|r| r.gated).map(|r| r.t).collect();
-    assert_eq!(run.stats.position_gated, 1, "{:?} gated at {gated:?}, jump at {t}", run.stats);
+    assert_eq!(
+        run.stats.position_gated, 1,
+        "{:?} gated at {gated:?}, jump at {t}",
+        run.stats
+    );
     let row = run.rows.iter().find(|r| r.t >= t).unwrap();
     assert!(row.gated);
     let truth = metrics::truth_at(&log.truth, row.t).unwrap();
@@ -80,22 +120,44 @@ fn multipath_jump_is_rejected() {
 
 #[test]
 fn standing_still_log_warns_and_keeps_initial_icrs() {
-    let mut log = drive(&SynthSpec { duration: 30.0, ..Default::default() });
+    let mut log = drive(&SynthSpec {
+        duration: 30.0,
+        ..Default::default()
+    });
     for w in &mut log.wheels {
         w.v_left = 0.0;
         w.v_right = 0.0;
     }
-    let run = pipeline::run(&log, &EstimatorConfig::default(), &TerrainEvidence::None, None).unwrap();
-    assert!(run.warnings.iter().any(|w| w.contains("never moves")), "{:?}", run.warnings);
+    let run = pipeline::run(
+        &log,
+        &EstimatorConfig::default(),
+        &TerrainEvidence::None,
+        None,
+    )
+    .unwrap();
+    assert!(
+        run.warnings.iter().any(|w| w.contains("never moves")),
+        "{:?}",
+        run.warnings
+    );
     assert!((run.final_icr.y_l - 0.25).abs() < 1e-9 && (run.final_icr.y_r + 0.25).abs() < 1e-9);
     assert!(all_finite(&run));
 }
 
 #[test]
 fn iekf_runs_and_reports_instead_of_nan() {
-    let log = drive(&SynthSpec { duration: 200.0, ..Default::default() });
+    let log = drive(&SynthSpec {
+        duration: 200.0,
+        ..Default::default()
+    });
     let mut cfg = EstimatorConfig::default();
     cfg.filter.variant = terraslip::config::FilterVariant::Iekf;
-    let run = pipeline::run(&log, &cfg, &TerrainEvidence::Labels(log.terrain.clone()), None).unwrap();
+    let run = pipeline::run(
+        &log,
+        &cfg,
+        &TerrainEvidence::Labels(log.terrain.clone()),
+        None,
+    )
+    .unwrap();
     assert!(all_finite(&run));
 }

@@ -130,17 +130,15 @@ pub fn run(args: Args) -> Result<()> {
     let (Some(log_dir), Some(out)) = (args.log.as_ref(), args.out.as_ref()) else {
         bail!("LOG and --out are required");
     };
-    let log = DriveLog::read(log_dir).with_context(|| format!("reading log {}", log_dir.display()))?;
+    let log =
+        DriveLog::read(log_dir).with_context(|| format!("reading log {}", log_dir.display()))?;
     let init = match &args.init {
         Some(p) => Some(ParamsFile::read(p).with_context(|| "--init")?),
         None => None,
     };
     let evidence = if args.terrain_labels {
         if log.terrain.is_empty() {
-            bail!(
-                "--terrain-labels: {} has no terrain.csv",
-                log_dir.display()
-            );
+            bail!("--terrain-labels: {} has no terrain.csv", log_dir.display());
         }
         TerrainEvidence::Labels(log.terrain.clone())
     } else {
@@ -151,11 +149,18 @@ pub fn run(args: Args) -> Result<()> {
     let opts = RunOptions {
         outage: args.outage,
     };
-    let result = pipeline::run_with(&log, &cfg, &evidence, init.as_ref(), opts, &mut |done, _| {
-        if let Some(b) = &bar {
-            b.set_position(done as u64);
-        }
-    });
+    let result = pipeline::run_with(
+        &log,
+        &cfg,
+        &evidence,
+        init.as_ref(),
+        opts,
+        &mut |done, _| {
+            if let Some(b) = &bar {
+                b.set_position(done as u64);
+            }
+        },
+    );
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
@@ -194,8 +199,10 @@ fn progress_bar(total: usize) -> Option<indicatif::ProgressBar> {
     }
     let b = indicatif::ProgressBar::new(total as u64);
     b.set_style(
-        indicatif::ProgressStyle::with_template("estimating {bar:40} {pos}/{len} wheels rows ({eta})")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        indicatif::ProgressStyle::with_template(
+            "estimating {bar:40} {pos}/{len} wheels rows ({eta})",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
     Some(b)
 }

@@ -9,8 +9,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use terraslip_io::DriveLog;
 use terraslip_report::{Heatmap, LinePlot, Series, SeriesStyle};
 use terraslip_terrain::{
-    crossval, score_log, ChannelSet, ClassifierKind, Confusion, LogScore, RoiConfig, Source,
-    TerrainModel, TrainOptions, VibrationConfig, VibrationFeatureSet, VisionFeatureSet,
+    crossval, score_log, ChangeScore, ChannelSet, ClassifierKind, Confusion, LogScore, RoiConfig,
+    Source, TerrainModel, TrainOptions, VibrationConfig, VibrationFeatureSet, VisionFeatureSet,
 };
 
 /// Train and evaluate terrain classifiers.
@@ -299,11 +299,13 @@ fn eval(a: EvalArgs) -> anyhow::Result<()> {
     let mut raw = Confusion::new(&model.classes);
     let mut filtered = Confusion::new(&model.classes);
     let mut scores = Vec::new();
+    let mut change = ChangeScore::default();
     for log in &logs {
         let s =
             score_log(&model, log).with_context(|| format!("classifying {}", log.dir.display()))?;
         raw.merge(&s.raw);
         filtered.merge(&s.filtered);
+        change.merge(&s.change);
         scores.push(s);
         bar.inc(1);
     }
@@ -333,8 +335,16 @@ fn eval(a: EvalArgs) -> anyhow::Result<()> {
             .context("drawing the terrain timeline")?;
         plots.push(p);
     }
+    let change_text = if model.source == Source::Camera {
+        format!(
+            "change detector (lv2019): {} of {} terrain changes flagged within one frame, {} false alarms\n",
+            change.detected, change.changes, change.false_alarms
+        )
+    } else {
+        String::new()
+    };
     let text = format!(
-        "{} windows from {} logs\nsingle windows: accuracy {:.1} % (balanced {:.1} %)\n{}\nafter the Bayesian filter: accuracy {:.1} % (balanced {:.1} %)\n{}plots in {}",
+        "{} windows from {} logs\nsingle windows: accuracy {:.1} % (balanced {:.1} %)\n{}\nafter the Bayesian filter: accuracy {:.1} % (balanced {:.1} %)\n{}{change_text}plots in {}",
         raw.total(),
         logs.len(),
         100.0 * raw.accuracy(),
@@ -365,6 +375,7 @@ fn eval(a: EvalArgs) -> anyhow::Result<()> {
             "confusion": raw.counts,
             "confusion_filtered": filtered.counts,
             "source": model.source.name(),
+            "change_detection": change,
             "logs": per_log,
             "plots": plots,
         });
@@ -450,6 +461,14 @@ fn run_crossval(a: CrossvalArgs) -> anyhow::Result<()> {
         100.0 * (1.0 - rep.spliced_filtered.accuracy()),
         rep.spliced_filtered.to_table()
     );
+    let text = if opts.source == Source::Camera {
+        format!(
+            "{text}change detector: {} of {} changes within one frame, {} false alarms\n",
+            rep.change.detected, rep.change.changes, rep.change.false_alarms
+        )
+    } else {
+        text
+    };
     if a.json {
         eprintln!("{text}");
         let out = serde_json::json!({
@@ -462,6 +481,7 @@ fn run_crossval(a: CrossvalArgs) -> anyhow::Result<()> {
             "classes": rep.raw.classes,
             "confusion": rep.raw.counts,
             "confusion_spliced_filtered": rep.spliced_filtered.counts,
+            "change_detection": rep.change,
         });
         println!("{out}");
     } else {

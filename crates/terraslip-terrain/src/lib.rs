@@ -8,6 +8,7 @@
 //! - [`model`]: the serialisable [`TerrainModel`] and
 //!   [`TerrainModel::classify_log`], the call the estimator pipeline makes.
 //! - [`eval`]: confusion matrices, leave-runs-out cross-validation, spliced logs.
+//! - [`synth`]: small synthetic labelled logs for tests and benchmarks.
 //!
 //! The Bayesian (HMM) filter and the λ-vote live in
 //! `terraslip_core::terrain_belief`, allocation-free, so the robot-side
@@ -17,6 +18,7 @@ pub mod classify;
 pub mod error;
 pub mod eval;
 pub mod model;
+pub mod synth;
 pub mod vibration;
 pub mod vision;
 

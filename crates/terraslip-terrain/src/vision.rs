@@ -108,10 +108,12 @@ pub const LBP_BINS: usize = 10;
 
 /// Grey level of chen2023 eq. 18 (0.30 R + 0.59 G + 0.11 B), row-major.
 pub fn grey(img: &RgbImage) -> Vec<u8> {
-    img.pixels()
+    img.as_raw()
+        .chunks_exact(3)
         .map(|p| {
-            let [r, g, b] = p.0;
-            ((30 * r as u32 + 59 * g as u32 + 11 * b as u32 + 50) / 100) as u8
+            let (r, g, b) = (p[0], p[1], p[2]);
+            // 0.30, 0.59, 0.11 in 8.8 fixed point (77 + 151 + 28 = 256).
+            ((77 * r as u32 + 151 * g as u32 + 28 * b as u32 + 128) >> 8) as u8
         })
         .collect()
 }
@@ -119,12 +121,30 @@ pub fn grey(img: &RgbImage) -> Vec<u8> {
 /// Appends `bins` normalised histogram bins for each of R, G, B.
 pub fn rgb_histograms(img: &RgbImage, bins: usize, out: &mut Vec<f64>) {
     let bins = bins.clamp(1, 256);
-    let mut h = vec![0u32; 3 * bins];
-    for p in img.pixels() {
-        for (c, &v) in p.0.iter().enumerate() {
-            h[c * bins + v as usize * bins / 256] += 1;
+    let mut bin_of = [0u16; 256];
+    for (v, b) in bin_of.iter_mut().enumerate() {
+        *b = (v * bins / 256) as u16;
+    }
+    // Two interleaved copies per channel: neighbouring pixels often fall in
+    // the same bin, and back-to-back increments of one counter stall.
+    let mut h2 = vec![0u32; 6 * bins];
+    let (h_a, h_b) = h2.split_at_mut(3 * bins);
+    let raw = img.as_raw();
+    let mut pairs = raw.chunks_exact(6);
+    for p in &mut pairs {
+        h_a[bin_of[p[0] as usize] as usize] += 1;
+        h_a[bins + bin_of[p[1] as usize] as usize] += 1;
+        h_a[2 * bins + bin_of[p[2] as usize] as usize] += 1;
+        h_b[bin_of[p[3] as usize] as usize] += 1;
+        h_b[bins + bin_of[p[4] as usize] as usize] += 1;
+        h_b[2 * bins + bin_of[p[5] as usize] as usize] += 1;
+    }
+    for p in pairs.remainder().chunks_exact(3) {
+        for c in 0..3 {
+            h_a[c * bins + bin_of[p[c] as usize] as usize] += 1;
         }
     }
+    let h: Vec<u32> = h_a.iter().zip(h_b.iter()).map(|(a, b)| a + b).collect();
     let n = (img.width() as f64 * img.height() as f64).max(1.0);
     out.extend(h.iter().map(|&c| c as f64 / n));
 }
@@ -157,21 +177,35 @@ static LBP_TABLE: [u8; 256] = lbp_table();
 pub fn lbp_histogram(grey: &[u8], width: usize, height: usize, out: &mut Vec<f64>) {
     let mut h = [0u32; LBP_BINS];
     if width >= 3 && height >= 3 && grey.len() >= width * height {
+        // One pass per neighbour over a whole row: simple zips that the
+        // compiler vectorises, then one table lookup per pixel.
+        let inner = width - 2;
+        let mut code = vec![0u8; inner];
         for y in 1..height - 1 {
             let up = &grey[(y - 1) * width..y * width];
             let mid = &grey[y * width..(y + 1) * width];
             let down = &grey[(y + 1) * width..(y + 2) * width];
-            for x in 1..width - 1 {
-                let c = mid[x];
-                let code = (mid[x + 1] >= c) as usize
-                    | ((up[x + 1] >= c) as usize) << 1
-                    | ((up[x] >= c) as usize) << 2
-                    | ((up[x - 1] >= c) as usize) << 3
-                    | ((mid[x - 1] >= c) as usize) << 4
-                    | ((down[x - 1] >= c) as usize) << 5
-                    | ((down[x] >= c) as usize) << 6
-                    | ((down[x + 1] >= c) as usize) << 7;
-                h[LBP_TABLE[code] as usize] += 1;
+            let centre = &mid[1..width - 1];
+            code.iter_mut().for_each(|c| *c = 0);
+            // (row, column offset) of neighbour p, p = 0 right, counter-clockwise.
+            let neighbours: [(&[u8], usize); 8] = [
+                (mid, 2),
+                (up, 2),
+                (up, 1),
+                (up, 0),
+                (mid, 0),
+                (down, 0),
+                (down, 1),
+                (down, 2),
+            ];
+            for (p, (row, dx)) in neighbours.iter().enumerate() {
+                let nb = &row[*dx..*dx + inner];
+                for ((c, &n), &g) in code.iter_mut().zip(nb).zip(centre) {
+                    *c |= ((n >= g) as u8) << p;
+                }
+            }
+            for &c in &code {
+                h[LBP_TABLE[c as usize] as usize] += 1;
             }
         }
     }
@@ -270,30 +304,47 @@ pub fn sfta(grey: &[u8], width: usize, height: usize, n_t: usize, out: &mut Vec<
             *m |= 1 << (n_t + l - 1);
         }
     }
-    let mut border = vec![0u16; n_px];
-    let mut count = [0u64; 16];
-    let mut grey_sum = [0u64; 16];
-    for k in 0..n_px {
-        let l = labels[k] as usize;
-        let (lo, hi) = (mn[k] as usize, mx[k] as usize);
-        let member = member_mask[l];
-        let mut b = 0u16;
-        for i in 0..n_t {
-            // Cumulative set {label <= i}: border if a neighbour is above i.
-            if l <= i && hi > i {
-                b |= 1 << i;
+    // Border mask of every binary image as a function of (label, 3x3 min,
+    // 3x3 max): a table of at most 9³ entries, one lookup per pixel.
+    let nl = n_t + 1;
+    let mut border_of = vec![0u16; nl * nl * nl];
+    for l in 0..nl {
+        for lo in 0..nl {
+            for hi in 0..nl {
+                let mut b = 0u16;
+                for i in 0..n_t {
+                    // Cumulative set {label <= i}: border if a neighbour is above i.
+                    if l <= i && hi > i {
+                        b |= 1 << i;
+                    }
+                }
+                if l >= 1 && (lo < l || hi > l) {
+                    b |= 1 << (n_t + l - 1);
+                }
+                border_of[(l * nl + lo) * nl + hi] = b;
             }
         }
-        if l >= 1 && (lo < l || hi > l) {
-            b |= 1 << (n_t + l - 1);
-        }
-        border[k] = b;
-        let mut m = member;
-        while m != 0 {
-            let i = m.trailing_zeros() as usize;
-            count[i] += 1;
-            grey_sum[i] += grey[k] as u64;
-            m &= m - 1;
+    }
+    let border: Vec<u16> = labels
+        .iter()
+        .zip(mn.iter().zip(&mx))
+        .map(|(&l, (&lo, &hi))| border_of[(l as usize * nl + lo as usize) * nl + hi as usize])
+        .collect();
+    // Pixel counts and grey sums per label, then per binary image.
+    let mut label_count = [0u64; 9];
+    let mut label_grey = [0u64; 9];
+    for (&l, &g) in labels.iter().zip(grey) {
+        label_count[l as usize] += 1;
+        label_grey[l as usize] += g as u64;
+    }
+    let mut count = [0u64; 16];
+    let mut grey_sum = [0u64; 16];
+    for (l, m) in member_mask.iter().enumerate().take(nl) {
+        for i in 0..n_img {
+            if m & (1 << i) != 0 {
+                count[i] += label_count[l];
+                grey_sum[i] += label_grey[l];
+            }
         }
     }
     let dims = box_counting(border, width, height, n_img);
@@ -309,35 +360,39 @@ pub fn sfta(grey: &[u8], width: usize, height: usize, n_t: usize, out: &mut Vec<
 }
 
 fn min_max_3x3(v: &[u8], w: usize, h: usize) -> (Vec<u8>, Vec<u8>) {
+    // Separable: 1x3 along rows, then 3x1 along columns; edges see only
+    // the neighbours that exist.
     let mut rmin = vec![0u8; v.len()];
     let mut rmax = vec![0u8; v.len()];
     for y in 0..h {
         let row = &v[y * w..(y + 1) * w];
+        let (omin, omax) = (&mut rmin[y * w..(y + 1) * w], &mut rmax[y * w..(y + 1) * w]);
         for x in 0..w {
-            let a = x.saturating_sub(1);
-            let b = (x + 1).min(w - 1);
-            let (mut lo, mut hi) = (row[a], row[a]);
-            for &q in &row[a + 1..=b] {
-                lo = lo.min(q);
-                hi = hi.max(q);
-            }
-            rmin[y * w + x] = lo;
-            rmax[y * w + x] = hi;
+            let a = row[x.saturating_sub(1)];
+            let b = row[x];
+            let c = row[(x + 1).min(w - 1)];
+            omin[x] = a.min(b).min(c);
+            omax[x] = a.max(b).max(c);
         }
     }
     let mut mn = vec![0u8; v.len()];
     let mut mx = vec![0u8; v.len()];
     for y in 0..h {
-        let a = y.saturating_sub(1);
-        let b = (y + 1).min(h - 1);
+        let (ya, yb) = (y.saturating_sub(1), (y + 1).min(h - 1));
+        let (a0, b0, c0) = (
+            &rmin[ya * w..ya * w + w],
+            &rmin[y * w..y * w + w],
+            &rmin[yb * w..yb * w + w],
+        );
+        let (a1, b1, c1) = (
+            &rmax[ya * w..ya * w + w],
+            &rmax[y * w..y * w + w],
+            &rmax[yb * w..yb * w + w],
+        );
+        let (omin, omax) = (&mut mn[y * w..(y + 1) * w], &mut mx[y * w..(y + 1) * w]);
         for x in 0..w {
-            let (mut lo, mut hi) = (u8::MAX, 0u8);
-            for yy in a..=b {
-                lo = lo.min(rmin[yy * w + x]);
-                hi = hi.max(rmax[yy * w + x]);
-            }
-            mn[y * w + x] = lo;
-            mx[y * w + x] = hi;
+            omin[x] = a0[x].min(b0[x]).min(c0[x]);
+            omax[x] = a1[x].max(b1[x]).max(c1[x]);
         }
     }
     (mn, mx)
@@ -348,13 +403,22 @@ fn min_max_3x3(v: &[u8], w: usize, h: usize) -> (Vec<u8>, Vec<u8>) {
 fn box_counting(mut mask: Vec<u16>, mut w: usize, mut h: usize, planes: usize) -> Vec<f64> {
     let mut pts: Vec<Vec<(f64, f64)>> = vec![Vec::new(); planes];
     let mut size = 1.0f64;
+    let mut by_value = vec![0u32; 1 << planes.min(16)];
     loop {
-        let mut n = [0u64; 16];
+        // Count cells by mask value, then spread the values over their bits:
+        // one increment per cell instead of one per set bit.
+        by_value.iter_mut().for_each(|c| *c = 0);
         for &m in &mask {
-            let mut m = m;
-            while m != 0 {
-                n[m.trailing_zeros() as usize] += 1;
-                m &= m - 1;
+            by_value[m as usize] += 1;
+        }
+        let mut n = [0u64; 16];
+        for (v, &c) in by_value.iter().enumerate().skip(1) {
+            if c > 0 {
+                let mut m = v;
+                while m != 0 {
+                    n[m.trailing_zeros() as usize] += c as u64;
+                    m &= m - 1;
+                }
             }
         }
         for (i, p) in pts.iter_mut().enumerate() {
@@ -368,8 +432,10 @@ fn box_counting(mut mask: Vec<u16>, mut w: usize, mut h: usize, planes: usize) -
         let (nw, nh) = (w.div_ceil(2), h.div_ceil(2));
         let mut next = vec![0u16; nw * nh];
         for y in 0..h {
-            for x in 0..w {
-                next[(y / 2) * nw + x / 2] |= mask[y * w + x];
+            let row = &mask[y * w..(y + 1) * w];
+            let out = &mut next[(y / 2) * nw..(y / 2 + 1) * nw];
+            for (x, &m) in row.iter().enumerate() {
+                out[x >> 1] |= m;
             }
         }
         mask = next;

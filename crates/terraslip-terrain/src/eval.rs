@@ -210,25 +210,9 @@ pub fn splice(runs: &[&DriveLog], gap_s: f64) -> DriveLog {
     };
     let mut offset = 0.0;
     for run in runs {
-        let start = [
-            run.imu.first().map(|s| s.t),
-            run.wheels.first().map(|s| s.t),
-            run.images.first().map(|s| s.t),
-        ]
-        .into_iter()
-        .flatten()
-        .fold(f64::INFINITY, f64::min);
-        if !start.is_finite() {
+        let Some((start, end)) = time_span(run) else {
             continue;
-        }
-        let end = [
-            run.imu.last().map(|s| s.t),
-            run.wheels.last().map(|s| s.t),
-            run.images.last().map(|s| s.t),
-        ]
-        .into_iter()
-        .flatten()
-        .fold(f64::NEG_INFINITY, f64::max);
+        };
         let shift = offset - start;
         out.imu.extend(run.imu.iter().map(|s| {
             let mut s = *s;
@@ -258,6 +242,25 @@ pub fn splice(runs: &[&DriveLog], gap_s: f64) -> DriveLog {
         offset = end + shift + gap_s;
     }
     out
+}
+
+/// First and last sensor timestamps of a log (IMU, wheels, images), s.
+fn time_span(log: &DriveLog) -> Option<(f64, f64)> {
+    let ends = |s: Option<f64>, e: Option<f64>| s.zip(e);
+    [
+        ends(log.imu.first().map(|s| s.t), log.imu.last().map(|s| s.t)),
+        ends(
+            log.wheels.first().map(|s| s.t),
+            log.wheels.last().map(|s| s.t),
+        ),
+        ends(
+            log.images.first().map(|s| s.t),
+            log.images.last().map(|s| s.t),
+        ),
+    ]
+    .into_iter()
+    .flatten()
+    .reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)))
 }
 
 /// Folds of runs: the runs of each terrain (by first label) are dealt

@@ -26,6 +26,24 @@ fn terraslip() -> Command {
     Command::cargo_bin("terraslip").unwrap()
 }
 
+/// Trains a small model on `runs` (1 s windows) into `model`.
+fn train_model(runs: &[String], model: &Path, trees: &str) {
+    terraslip()
+        .args(["terrain", "train"])
+        .args(runs)
+        .args([
+            "--out",
+            model.to_str().unwrap(),
+            "--window",
+            "1",
+            "--trees",
+            trees,
+        ])
+        .assert()
+        .success();
+    assert!(model.exists());
+}
+
 #[test]
 fn train_then_eval_json_has_the_contract_fields_and_draws_plots() {
     let dir = tempfile::tempdir().unwrap();

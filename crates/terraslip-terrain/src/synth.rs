@@ -81,7 +81,7 @@ pub fn texture(k: usize, w: u32, h: u32, seed: u64, gain: f64) -> RgbImage {
         [150.0, 140.0, 130.0],
     ];
     let b = base[k % 4];
-    let (ox, oy) = ((rng.next() % 64) as u32, (rng.next() % 64) as u32);
+    let (ox, oy) = ((rng.next_u64() % 64) as u32, (rng.next_u64() % 64) as u32);
     let mut img = RgbImage::new(w, h);
     for y in 0..h {
         for x in 0..w {
@@ -141,7 +141,7 @@ pub fn camera_log(
             let i = log.images.len();
             let rel = format!("images/{i:05}.png");
             let gain = 0.7 + 0.6 * rng.uniform();
-            let img = texture(k, w, h, rng.next(), gain);
+            let img = texture(k, w, h, rng.next_u64(), gain);
             let mut png = Vec::new();
             img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
                 .map_err(|e| LogError::Invalid {

@@ -66,7 +66,7 @@ pub struct VibrationConfig {
 impl Default for VibrationConfig {
     fn default() -> Self {
         Self {
-            window_s: 4.0,
+            window_s: 6.0,
             hop_s: 0.5,
             feature_set: VibrationFeatureSet::Full,
             channels: ChannelSet::All,
@@ -474,10 +474,13 @@ pub(crate) fn speed_stats(
     s
 }
 
+/// `(t_end, features)` of one window: end time, s, and its feature vector.
+pub type Window = (f64, Vec<f64>);
+
 /// Features of every window of a log: `(t_end, features)`, windows ending
 /// every `hop_s` seconds. Windows spanning a gap in the IMU stream (a
 /// sample spacing over 5x the nominal one) are skipped.
-pub fn log_windows(log: &DriveLog, cfg: &VibrationConfig) -> Result<(f64, Vec<(f64, Vec<f64>)>)> {
+pub fn log_windows(log: &DriveLog, cfg: &VibrationConfig) -> Result<(f64, Vec<Window>)> {
     let imu = ImuChannels::from_log(log, cfg)?;
     if cfg.feature_set == VibrationFeatureSet::Full && log.wheels.is_empty() {
         return Err(TerrainError::MissingSource {

@@ -240,8 +240,8 @@ pub fn multi_otsu(hist: &[u64; 256], n_t: usize) -> Vec<u8> {
     // best[c][e]: best value splitting levels [0, e) into c+1 classes.
     let mut best = vec![[f64::NEG_INFINITY; L + 1]; classes];
     let mut arg = vec![[0usize; L + 1]; classes];
-    for e in 1..=L {
-        best[0][e] = cost(0, e);
+    for (e, b) in best[0].iter_mut().enumerate().skip(1) {
+        *b = cost(0, e);
     }
     for c in 1..classes {
         for e in (c + 1)..=L {
@@ -273,7 +273,7 @@ pub fn sfta(grey: &[u8], width: usize, height: usize, n_t: usize, out: &mut Vec<
     let n_img = 2 * n_t;
     let n_px = width * height;
     if n_px == 0 || grey.len() < n_px {
-        out.extend(std::iter::repeat(0.0).take(3 * n_img));
+        out.resize(out.len() + 3 * n_img, 0.0);
         return;
     }
     let grey = &grey[..n_px];

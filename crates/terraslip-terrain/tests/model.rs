@@ -209,7 +209,7 @@ fn camera_model_reaches_95_percent_and_flags_changes_within_one_frame() {
         let mut o = fast_opts();
         o.source = Source::Camera;
         o.vision.features = features;
-        let m = TerrainModel::train(&[train.clone()], &o).unwrap();
+        let m = TerrainModel::train(std::slice::from_ref(&train), &o).unwrap();
         let s = score_log(&m, &test).unwrap();
         assert_eq!(s.raw.total(), 32);
         assert!(
@@ -232,7 +232,7 @@ fn corrupt_frame_in_a_log_names_the_file() {
     let log = camera_log(dir.path(), &names, &[(0, 4), (1, 4)], 3, 32, 24).unwrap();
     let mut o = fast_opts();
     o.source = Source::Camera;
-    let m = TerrainModel::train(&[log.clone()], &o).unwrap();
+    let m = TerrainModel::train(std::slice::from_ref(&log), &o).unwrap();
     std::fs::write(
         dir.path().join("images/00002.png"),
         b"\x89PNG\r\n\x1a\ntruncated",

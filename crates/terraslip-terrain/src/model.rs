@@ -157,26 +157,44 @@ pub struct FilteredFrame {
 }
 
 impl TerrainTimeline {
+    /// The frames with each probability vector mixed with `floor` of a
+    /// uniform distribution (see [`BeliefSettings::prob_floor`]): what to
+    /// feed `TerrainBelief::update` so one confident mistake cannot zero
+    /// out the true terrain.
+    pub fn floored(&self, floor: f64) -> Vec<(f64, Vec<f64>)> {
+        let floor = if floor.is_finite() {
+            floor.clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let k = self.classes.len().max(1) as f64;
+        self.frames
+            .iter()
+            .map(|(t, p)| {
+                (
+                    *t,
+                    p.iter().map(|v| (1.0 - floor) * v + floor / k).collect(),
+                )
+            })
+            .collect()
+    }
+
     /// Runs the HMM filter and λ-vote over the frames. A camera change
     /// detection counts as an innovation jump (lower stay probability).
     pub fn filter(&self, settings: &BeliefSettings) -> Vec<FilteredFrame> {
         let k = self.classes.len();
         let mut belief = TerrainBelief::new(k, settings.belief_config());
-        let floor = settings.prob_floor.clamp(0.0, 1.0);
-        let mut lik = vec![0.0; k];
         let mut next_change = 0;
-        self.frames
+        self.floored(settings.prob_floor)
             .iter()
-            .map(|(t, p)| {
+            .zip(&self.frames)
+            .map(|((t, lik), (_, p))| {
                 let mut jump = false;
                 while next_change < self.changes.len() && self.changes[next_change] <= *t {
                     jump = true;
                     next_change += 1;
                 }
-                for (l, &v) in lik.iter_mut().zip(p) {
-                    *l = (1.0 - floor) * v + floor / k.max(1) as f64;
-                }
-                belief.update(&lik, jump);
+                belief.update(lik, jump);
                 FilteredFrame {
                     t: *t,
                     raw: argmax(p),

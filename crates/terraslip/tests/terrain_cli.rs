@@ -297,6 +297,23 @@ fn bad_input_is_one_line_and_non_zero() {
         ]),
         "imu.csv:3",
     );
+    // A region-of-interest file with a wrong type: file, line, reason.
+    let roi = dir.path().join("roi.toml");
+    std::fs::write(&roi, "length = 0.5\nhorizon_s = \"soon\"\n").unwrap();
+    fails_with(
+        terraslip()
+            .args([
+                "terrain",
+                "train",
+                &runs[0],
+                "--source",
+                "camera",
+                "--roi",
+                roi.to_str().unwrap(),
+            ])
+            .args(["--out", dir.path().join("t.json").to_str().unwrap()]),
+        "roi.toml:2",
+    );
     // Nothing was written for the failed trainings.
     assert!(!dir.path().join("t.json").exists());
     assert!(!dir.path().join("c.json").exists());

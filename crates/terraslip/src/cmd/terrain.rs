@@ -243,8 +243,19 @@ fn options(s: &TrainSettings) -> anyhow::Result<TrainOptions> {
     if let Some(p) = &s.roi {
         let text =
             std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
-        let roi: RoiConfig = toml::from_str(&text)
-            .with_context(|| format!("{}: bad region of interest", p.display()))?;
+        // toml's own message spans several lines (a source excerpt); the CLI
+        // contract wants one.
+        let roi: RoiConfig = toml::from_str(&text).map_err(|e| {
+            let line = e
+                .span()
+                .map(|r| text[..r.start.min(text.len())].lines().count().max(1));
+            anyhow::anyhow!(
+                "{}:{}: bad region of interest: {}",
+                p.display(),
+                line.unwrap_or(0),
+                e.message()
+            )
+        })?;
         o.vision.roi = Some(roi);
     }
     Ok(o)

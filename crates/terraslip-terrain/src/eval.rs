@@ -267,18 +267,8 @@ fn time_span(log: &DriveLog) -> Option<(f64, f64)> {
 /// round-robin to `k` folds so that every fold tests every terrain it can.
 pub fn run_folds(logs: &[DriveLog], k: usize) -> Vec<Vec<usize>> {
     let k = k.max(2);
-    let mut by_class: Vec<(String, Vec<usize>)> = Vec::new();
-    for (i, l) in logs.iter().enumerate() {
-        let c = l
-            .terrain
-            .first()
-            .map(|x| x.terrain.clone())
-            .unwrap_or_default();
-        match by_class.iter_mut().find(|(n, _)| *n == c) {
-            Some((_, v)) => v.push(i),
-            None => by_class.push((c, vec![i])),
-        }
-    }
+    let all: Vec<usize> = (0..logs.len()).collect();
+    let by_class = group_by_terrain(logs, &all);
     let mut folds = vec![Vec::new(); k];
     let mut next = 0;
     for (_, runs) in &by_class {
@@ -358,8 +348,9 @@ pub fn crossval(
     Ok(rep)
 }
 
-/// Orders runs so that consecutive ones have different terrains as far as possible.
-fn interleave_by_terrain(logs: &[DriveLog], runs: &[usize]) -> Vec<usize> {
+/// The runs `runs` grouped by their first terrain label, groups in order of
+/// first appearance.
+fn group_by_terrain(logs: &[DriveLog], runs: &[usize]) -> Vec<(String, Vec<usize>)> {
     let mut groups: Vec<(String, Vec<usize>)> = Vec::new();
     for &i in runs {
         let c = logs[i]
@@ -372,6 +363,12 @@ fn interleave_by_terrain(logs: &[DriveLog], runs: &[usize]) -> Vec<usize> {
             None => groups.push((c, vec![i])),
         }
     }
+    groups
+}
+
+/// Orders runs so that consecutive ones have different terrains as far as possible.
+fn interleave_by_terrain(logs: &[DriveLog], runs: &[usize]) -> Vec<usize> {
+    let groups = group_by_terrain(logs, runs);
     let mut out = Vec::with_capacity(runs.len());
     let mut round = 0;
     while out.len() < runs.len() {

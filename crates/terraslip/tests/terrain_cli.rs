@@ -49,20 +49,7 @@ fn train_then_eval_json_has_the_contract_fields_and_draws_plots() {
     let dir = tempfile::tempdir().unwrap();
     let runs = write_runs(dir.path());
     let model = dir.path().join("model.json");
-    terraslip()
-        .args(["terrain", "train"])
-        .args(&runs[..3])
-        .args([
-            "--out",
-            model.to_str().unwrap(),
-            "--window",
-            "1",
-            "--trees",
-            "10",
-        ])
-        .assert()
-        .success();
-    assert!(model.exists());
+    train_model(&runs[..3], &model, "10");
     // A spliced test log: asphalt -> soil -> grass.
     let test = dir.path().join("test");
     vibration_log(&NAMES, &[(0, 20.0), (2, 20.0), (1, 20.0)], 99, 0.0)
@@ -165,26 +152,27 @@ fn fails_with(cmd: &mut Command, needle: &str) {
     assert!(err.contains(needle), "expected `{needle}` in: {err}");
 }
 
+/// `terrain eval LOG --model MODEL` must fail with one line containing `needle`.
+fn eval_fails(log: &Path, model: &Path, plots: &Path, needle: &str) {
+    fails_with(
+        terraslip()
+            .args(["terrain", "eval"])
+            .arg(log)
+            .arg("--model")
+            .arg(model)
+            .arg("--plots")
+            .arg(plots),
+        needle,
+    );
+}
+
 #[test]
 fn bad_input_is_one_line_and_non_zero() {
     let dir = tempfile::tempdir().unwrap();
     let runs = write_runs(dir.path());
     let model = dir.path().join("model.json");
-    terraslip()
-        .args(["terrain", "train"])
-        .args(&runs[..3])
-        .args([
-            "--out",
-            model.to_str().unwrap(),
-            "--window",
-            "1",
-            "--trees",
-            "5",
-        ])
-        .assert()
-        .success();
+    train_model(&runs[..3], &model, "5");
     let plots = dir.path().join("plots");
-    let p = plots.to_str().unwrap();
 
     // Model of another format version.
     let old = dir.path().join("old.json");
@@ -194,52 +182,19 @@ fn bad_input_is_one_line_and_non_zero() {
         text.replacen("\"format_version\": 1", "\"format_version\": 7", 1),
     )
     .unwrap();
-    fails_with(
-        terraslip().args([
-            "terrain",
-            "eval",
-            &runs[0],
-            "--model",
-            old.to_str().unwrap(),
-            "--plots",
-            p,
-        ]),
-        "version 7",
-    );
+    eval_fails(Path::new(&runs[0]), &old, &plots, "version 7");
     // A log with a terrain the model does not know.
     let other = dir.path().join("other");
     vibration_log(&["ice"], &[(0, 10.0)], 5, 0.0)
         .write(&other)
         .unwrap();
-    fails_with(
-        terraslip().args([
-            "terrain",
-            "eval",
-            other.to_str().unwrap(),
-            "--model",
-            model.to_str().unwrap(),
-            "--plots",
-            p,
-        ]),
-        "ice",
-    );
+    eval_fails(&other, &model, &plots, "ice");
     // A log without an IMU for an IMU model.
     let no_imu = dir.path().join("no_imu");
     let mut log = vibration_log(&NAMES, &[(0, 10.0)], 6, 0.0);
     log.imu.clear();
     log.write(&no_imu).unwrap();
-    fails_with(
-        terraslip().args([
-            "terrain",
-            "eval",
-            no_imu.to_str().unwrap(),
-            "--model",
-            model.to_str().unwrap(),
-            "--plots",
-            p,
-        ]),
-        "no imu data",
-    );
+    eval_fails(&no_imu, &model, &plots, "no imu data");
     // Training a camera model from logs without images.
     fails_with(
         terraslip()
@@ -285,18 +240,7 @@ fn bad_input_is_one_line_and_non_zero() {
     )
     .unwrap();
     std::fs::write(bad.join("imu.csv"), "t,accel_z\n0,9.8\n0.01,oops\n").unwrap();
-    fails_with(
-        terraslip().args([
-            "terrain",
-            "eval",
-            bad.to_str().unwrap(),
-            "--model",
-            model.to_str().unwrap(),
-            "--plots",
-            p,
-        ]),
-        "imu.csv:3",
-    );
+    eval_fails(&bad, &model, &plots, "imu.csv:3");
     // A region-of-interest file with a wrong type: file, line, reason.
     let roi = dir.path().join("roi.toml");
     std::fs::write(&roi, "length = 0.5\nhorizon_s = \"soon\"\n").unwrap();

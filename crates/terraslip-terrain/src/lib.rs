@@ -1,1 +1,33 @@
-//! terraslip-terrain (to be built).
+//! Terrain evidence from sensors (issue 4).
+//!
+//! - [`vibration`]: IMU window features (wang2018 + spectral and speed terms).
+//! - [`vision`]: ground-camera features: RGB histograms + uniform LBP and the
+//!   frame-to-frame change detector (lv2019), SFTA and the region of
+//!   interest predicted from the kinematic model (chen2023).
+//! - [`classify`]: pruned decision tree, k-nearest neighbours, random forest.
+//! - [`model`]: the serialisable [`TerrainModel`] and
+//!   [`TerrainModel::classify_log`], the call the estimator pipeline makes.
+//! - [`eval`]: confusion matrices, leave-runs-out cross-validation, spliced logs.
+//! - [`synth`]: small synthetic labelled logs for tests and benchmarks.
+//!
+//! The Bayesian (HMM) filter and the λ-vote live in
+//! `terraslip_core::terrain_belief`, allocation-free, so the robot-side
+//! estimator can run them.
+
+pub mod classify;
+pub mod error;
+pub mod eval;
+pub mod model;
+pub mod synth;
+pub mod vibration;
+pub mod vision;
+
+pub use classify::{Classifier, ClassifierKind, ClassifierParams};
+pub use error::{Result, TerrainError};
+pub use eval::{crossval, score_log, splice, ChangeScore, Confusion, CrossvalReport, LogScore};
+pub use model::{
+    BeliefSettings, Features, FilteredFrame, Source, TerrainModel, TerrainTimeline, TrainOptions,
+    MODEL_FORMAT_VERSION,
+};
+pub use vibration::{ChannelSet, VibrationConfig, VibrationFeatureSet};
+pub use vision::{CameraModel, RoiConfig, VisionConfig, VisionFeatureSet};

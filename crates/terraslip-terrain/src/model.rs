@@ -1,0 +1,604 @@
+//! The serialisable terrain model: what it reads (source and features),
+//! how it scales them, the trained classifier and the filter settings; and
+//! the call the estimator pipeline makes, [`TerrainModel::classify_log`].
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+use terraslip_core::terrain_belief::{BeliefConfig, TerrainBelief, MAX_TERRAINS};
+use terraslip_core::IcrParams;
+use terraslip_io::DriveLog;
+
+use crate::classify::{Classifier, ClassifierParams, Standardizer};
+use crate::error::{Result, TerrainError};
+use crate::vibration::{self, VibrationConfig};
+use crate::vision::{self, VisionConfig};
+
+/// Version of the model file format; a file of another version is refused.
+pub const MODEL_FORMAT_VERSION: u32 = 1;
+
+/// The sensor a model reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Source {
+    /// `imu.csv` (+ tread speeds from `wheels.csv`).
+    Imu,
+    /// `images.csv` ground-camera frames.
+    Camera,
+}
+
+impl Source {
+    pub fn name(self) -> &'static str {
+        match self {
+            Source::Imu => "imu",
+            Source::Camera => "camera",
+        }
+    }
+}
+
+/// Feature extraction settings of either source.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Features {
+    Vibration {
+        config: VibrationConfig,
+        /// IMU rate the model was trained at, Hz (a log at another rate is refused).
+        rate_hz: f64,
+    },
+    Vision {
+        config: VisionConfig,
+        /// lv2019 change detector: a terrain change when `φ_t` exceeds this.
+        change_threshold: f64,
+    },
+}
+
+/// How classifier outputs are smoothed (wang2018's Bayesian filter + λ-vote).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BeliefSettings {
+    pub stay_prob: f64,
+    pub stay_prob_on_jump: f64,
+    pub vote_lambda: u32,
+    /// Class probabilities are mixed with this share of a uniform
+    /// distribution before the Bayes update, so that one confident
+    /// mistake cannot zero out the true terrain.
+    pub prob_floor: f64,
+}
+
+impl Default for BeliefSettings {
+    fn default() -> Self {
+        let b = BeliefConfig::default();
+        Self {
+            stay_prob: b.stay_prob,
+            stay_prob_on_jump: b.stay_prob_on_jump,
+            vote_lambda: b.vote_lambda,
+            prob_floor: 0.1,
+        }
+    }
+}
+
+impl BeliefSettings {
+    pub fn belief_config(&self) -> BeliefConfig {
+        BeliefConfig {
+            stay_prob: self.stay_prob,
+            stay_prob_on_jump: self.stay_prob_on_jump,
+            vote_lambda: self.vote_lambda,
+        }
+    }
+}
+
+/// Everything `train` needs besides the logs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrainOptions {
+    pub source: Source,
+    pub vibration: VibrationConfig,
+    pub vision: VisionConfig,
+    pub classifier: ClassifierParams,
+    pub belief: BeliefSettings,
+}
+
+impl Default for TrainOptions {
+    fn default() -> Self {
+        Self {
+            source: Source::Imu,
+            vibration: VibrationConfig::default(),
+            vision: VisionConfig::default(),
+            classifier: ClassifierParams::default(),
+            belief: BeliefSettings::default(),
+        }
+    }
+}
+
+/// What the model was trained on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrainingInfo {
+    pub logs: Vec<String>,
+    /// Training windows (frames) per class, in the order of `classes`.
+    pub samples_per_class: Vec<usize>,
+}
+
+/// A trained terrain classifier, saved as JSON.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TerrainModel {
+    pub format_version: u32,
+    pub source: Source,
+    /// Terrain names; class `i` of every probability vector is `classes[i]`.
+    pub classes: Vec<String>,
+    pub features: Features,
+    pub feature_names: Vec<String>,
+    pub normalisation: Standardizer,
+    pub classifier_settings: ClassifierParams,
+    pub classifier: Classifier,
+    pub belief: BeliefSettings,
+    pub training: TrainingInfo,
+}
+
+/// Class probabilities over time, causal: frame `t` uses data up to `t` only.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct TerrainTimeline {
+    pub classes: Vec<String>,
+    /// `(t, probabilities)`: `t` in s (end of the window, or frame time).
+    pub frames: Vec<(f64, Vec<f64>)>,
+    /// Times (s) at which the camera change detector fired (lv2019); empty for IMU models.
+    pub changes: Vec<f64>,
+}
+
+/// One frame after the Bayesian filter.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FilteredFrame {
+    pub t: f64,
+    /// argmax of the classifier output.
+    pub raw: usize,
+    /// argmax of the filtered belief.
+    pub filtered: usize,
+    /// Terrain declared by the λ-vote (what the noise schedule would use).
+    pub voted: Option<usize>,
+}
+
+impl TerrainTimeline {
+    /// The frames with each probability vector mixed with `floor` of a
+    /// uniform distribution (see [`BeliefSettings::prob_floor`]): what to
+    /// feed `TerrainBelief::update` so one confident mistake cannot zero
+    /// out the true terrain.
+    pub fn floored(&self, floor: f64) -> Vec<(f64, Vec<f64>)> {
+        let floor = if floor.is_finite() {
+            floor.clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let k = self.classes.len().max(1) as f64;
+        self.frames
+            .iter()
+            .map(|(t, p)| {
+                (
+                    *t,
+                    p.iter().map(|v| (1.0 - floor) * v + floor / k).collect(),
+                )
+            })
+            .collect()
+    }
+
+    /// Runs the HMM filter and λ-vote over the frames. A camera change
+    /// detection counts as an innovation jump (lower stay probability).
+    pub fn filter(&self, settings: &BeliefSettings) -> Vec<FilteredFrame> {
+        let k = self.classes.len();
+        let mut belief = TerrainBelief::new(k, settings.belief_config());
+        let mut next_change = 0;
+        self.floored(settings.prob_floor)
+            .iter()
+            .zip(&self.frames)
+            .map(|((t, lik), (_, p))| {
+                let mut jump = false;
+                while next_change < self.changes.len() && self.changes[next_change] <= *t {
+                    jump = true;
+                    next_change += 1;
+                }
+                belief.update(lik, jump);
+                FilteredFrame {
+                    t: *t,
+                    raw: argmax(p),
+                    filtered: belief.most_likely(),
+                    voted: belief.current(),
+                }
+            })
+            .collect()
+    }
+}
+
+pub(crate) fn argmax(p: &[f64]) -> usize {
+    let mut best = 0;
+    for (i, v) in p.iter().enumerate() {
+        if *v > p[best] {
+            best = i;
+        }
+    }
+    best
+}
+
+/// Per-frame features of a log for `features`: `(t, feature vector)`, and
+/// the lv2019 similarity change `φ_t` of each frame (0 for IMU windows).
+pub fn extract(log: &DriveLog, features: &Features) -> Result<Vec<(f64, Vec<f64>, f64)>> {
+    match features {
+        Features::Vibration { config, rate_hz } => {
+            let (rate, windows) = vibration::log_windows(log, config)?;
+            if *rate_hz > 0.0 && (rate / rate_hz - 1.0).abs() > 0.1 {
+                return Err(TerrainError::MissingSource {
+                    log: log.name(),
+                    sensor: "imu",
+                    reason: format!("imu.csv is sampled at {rate:.1} Hz but the model was trained at {rate_hz:.1} Hz"),
+                });
+            }
+            Ok(windows.into_iter().map(|(t, f)| (t, f, 0.0)).collect())
+        }
+        Features::Vision { config, .. } => camera_frames(log, config),
+    }
+}
+
+fn camera_frames(log: &DriveLog, cfg: &VisionConfig) -> Result<Vec<(f64, Vec<f64>, f64)>> {
+    if log.images.is_empty() {
+        return Err(TerrainError::MissingSource {
+            log: log.name(),
+            sensor: "camera",
+            reason: "images.csv is missing or empty".into(),
+        });
+    }
+    let icr = IcrParams::no_slip(
+        log.meta
+            .track_width
+            .or(cfg.roi.as_ref().map(|r| r.width))
+            .unwrap_or(0.5),
+    );
+    let mut out = Vec::with_capacity(log.images.len());
+    let mut prev: Option<Vec<f64>> = None;
+    for im in &log.images {
+        let img = vision::load_frame(&log.image_path(im))?;
+        let roi = cfg.roi.as_ref().and_then(|r| {
+            let i = log.wheels.partition_point(|w| w.t <= im.t);
+            let w = log.wheels.get(i.saturating_sub(1))?;
+            r.region(&icr.twist(w.v_left, w.v_right))
+        });
+        let mut f = Vec::new();
+        vision::frame_features(&img, cfg, roi, &mut f)?;
+        let sim = vision::similarity_vector(&img, cfg.hist_bins);
+        let phi = vision::similarity_change(prev.as_deref(), &sim);
+        prev = Some(sim);
+        out.push((im.t, f, phi));
+    }
+    Ok(out)
+}
+
+/// A training sample: features and the label index.
+struct Labelled {
+    x: Vec<f64>,
+    y: usize,
+    phi: f64,
+    same_as_prev: Option<bool>,
+}
+
+/// Labelled samples of a log; IMU windows straddling a label change are
+/// dropped (they belong to neither terrain).
+fn labelled(log: &DriveLog, features: &Features, classes: &[String]) -> Result<Vec<Labelled>> {
+    if log.terrain.is_empty() {
+        return Err(TerrainError::MissingLabels { log: log.name() });
+    }
+    let window = match features {
+        Features::Vibration { config, .. } => config.window_s,
+        Features::Vision { .. } => 0.0,
+    };
+    let mut out = Vec::new();
+    let mut prev_label: Option<usize> = None;
+    for (t, x, phi) in extract(log, features)? {
+        let (Some(a), Some(b)) = (log.terrain_at(t - window), log.terrain_at(t)) else {
+            continue;
+        };
+        if a != b {
+            prev_label = None;
+            continue;
+        }
+        let Some(y) = classes.iter().position(|c| c == b) else {
+            continue;
+        };
+        out.push(Labelled {
+            x,
+            y,
+            phi,
+            same_as_prev: prev_label.map(|p| p == y),
+        });
+        prev_label = Some(y);
+    }
+    Ok(out)
+}
+
+impl TerrainModel {
+    /// Trains on labelled logs. Classes are the sorted union of their labels.
+    pub fn train(logs: &[DriveLog], opts: &TrainOptions) -> Result<Self> {
+        let mut classes: Vec<String> = logs.iter().flat_map(|l| l.terrain_names()).collect();
+        classes.sort();
+        classes.dedup();
+        Self::train_classes(logs, &classes, opts)
+    }
+
+    /// Trains for the given classes (labels outside them are ignored).
+    pub fn train_classes(
+        logs: &[DriveLog],
+        classes: &[String],
+        opts: &TrainOptions,
+    ) -> Result<Self> {
+        if logs.is_empty() {
+            return Err(TerrainError::Training("no logs given".into()));
+        }
+        if classes.len() > MAX_TERRAINS {
+            return Err(TerrainError::Training(format!(
+                "{} terrain classes, the belief filter holds at most {MAX_TERRAINS}",
+                classes.len()
+            )));
+        }
+        let mut features = match opts.source {
+            Source::Imu => {
+                let first = logs
+                    .iter()
+                    .find_map(|l| vibration::imu_rate(&l.imu))
+                    .ok_or_else(|| TerrainError::MissingSource {
+                        log: logs[0].name(),
+                        sensor: "imu",
+                        reason: "no training log has IMU data".into(),
+                    })?;
+                Features::Vibration {
+                    config: opts.vibration.clone(),
+                    rate_hz: first,
+                }
+            }
+            Source::Camera => Features::Vision {
+                config: opts.vision.clone(),
+                change_threshold: f64::INFINITY,
+            },
+        };
+        let mut x = Vec::new();
+        let mut y = Vec::new();
+        let mut phi_same = Vec::new();
+        let mut phi_change = Vec::new();
+        for log in logs {
+            let samples = labelled(log, &features, classes)?;
+            // A label change at frame i may show in the image only at frame
+            // i + 1 (the camera looks ahead, the label is where the body
+            // is): score a change by the larger φ of the two, and keep
+            // frame i + 1 out of the same-terrain statistics.
+            let mut skip_next = false;
+            for (i, s) in samples.iter().enumerate() {
+                match s.same_as_prev {
+                    Some(false) => {
+                        let next = samples.get(i + 1).filter(|n| n.same_as_prev == Some(true));
+                        phi_change.push(next.map_or(s.phi, |n| n.phi.max(s.phi)));
+                        skip_next = true;
+                        continue;
+                    }
+                    Some(true) if !skip_next => phi_same.push(s.phi),
+                    _ => {}
+                }
+                skip_next = false;
+            }
+            for s in samples {
+                x.push(s.x);
+                y.push(s.y);
+            }
+        }
+        if x.is_empty() {
+            return Err(TerrainError::Training(
+                "no labelled windows in the training logs".into(),
+            ));
+        }
+        let mut samples_per_class = vec![0usize; classes.len()];
+        for &c in &y {
+            samples_per_class[c] += 1;
+        }
+        if let Some((c, n)) = samples_per_class
+            .iter()
+            .enumerate()
+            .find(|(_, &n)| n < crate::classify::MIN_SAMPLES_PER_CLASS)
+        {
+            return Err(TerrainError::Training(format!(
+                "terrain `{}` has {n} training samples, fewer than {}",
+                classes[c],
+                crate::classify::MIN_SAMPLES_PER_CLASS
+            )));
+        }
+        if let Features::Vision {
+            change_threshold, ..
+        } = &mut features
+        {
+            *change_threshold = change_threshold_from(&phi_same, &phi_change);
+        }
+        let normalisation = Standardizer::fit(&x);
+        let xs: Vec<Vec<f64>> = x.iter().map(|r| normalisation.apply(r)).collect();
+        let classifier = Classifier::fit(&xs, &y, classes.len(), &opts.classifier)?;
+        let feature_names = match &features {
+            Features::Vibration { config, .. } => config.feature_names(),
+            Features::Vision { config, .. } => config.feature_names(),
+        };
+        Ok(Self {
+            format_version: MODEL_FORMAT_VERSION,
+            source: opts.source,
+            classes: classes.to_vec(),
+            features,
+            feature_names,
+            normalisation,
+            classifier_settings: opts.classifier.clone(),
+            classifier,
+            belief: opts.belief,
+            training: TrainingInfo {
+                logs: logs.iter().map(|l| l.name()).collect(),
+                samples_per_class,
+            },
+        })
+    }
+
+    /// Class probabilities of every window (IMU) or frame (camera) of a log.
+    pub fn classify_log(&self, log: &DriveLog) -> Result<TerrainTimeline> {
+        let samples = extract(log, &self.features)?;
+        let k = self.classes.len();
+        let threshold = match &self.features {
+            Features::Vision {
+                change_threshold, ..
+            } => *change_threshold,
+            Features::Vibration { .. } => f64::INFINITY,
+        };
+        let mut tl = TerrainTimeline {
+            classes: self.classes.clone(),
+            frames: Vec::with_capacity(samples.len()),
+            changes: Vec::new(),
+        };
+        for (t, x, phi) in samples {
+            if x.len() != self.normalisation.mean.len() {
+                return Err(TerrainError::Data(format!(
+                    "{}: {} features per window, the model expects {}",
+                    log.name(),
+                    x.len(),
+                    self.normalisation.mean.len()
+                )));
+            }
+            let mut p = vec![0.0; k];
+            self.classifier
+                .predict_proba(&self.normalisation.apply(&x), &mut p);
+            if phi > threshold {
+                tl.changes.push(t);
+            }
+            tl.frames.push((t, p));
+        }
+        Ok(tl)
+    }
+
+    /// Writes the model as JSON, atomically.
+    pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
+        let path = path.as_ref();
+        let json = serde_json::to_vec_pretty(self).map_err(|e| TerrainError::ModelFile {
+            path: path.to_path_buf(),
+            reason: e.to_string(),
+        })?;
+        terraslip_io::write_atomic(path, &json).map_err(|e| TerrainError::ModelFile {
+            path: path.to_path_buf(),
+            reason: e.to_string(),
+        })
+    }
+
+    /// Reads a model, refusing other format versions and inconsistent files.
+    pub fn load(path: impl AsRef<Path>) -> Result<Self> {
+        let path = path.as_ref();
+        let err = |reason: String| TerrainError::ModelFile {
+            path: path.to_path_buf(),
+            reason,
+        };
+        let text = std::fs::read_to_string(path).map_err(|e| err(e.to_string()))?;
+        // Check the version before the full parse, so that a file of another
+        // version says so instead of failing on some renamed field.
+        let value: serde_json::Value = serde_json::from_str(&text)
+            .map_err(|e| err(format!("not a terrain model (JSON error: {e})")))?;
+        let found = value
+            .get("format_version")
+            .and_then(|v| v.as_u64())
+            .ok_or_else(|| err("not a terrain model: no `format_version`".into()))?;
+        if found != MODEL_FORMAT_VERSION as u64 {
+            return Err(TerrainError::ModelVersion {
+                path: path.to_path_buf(),
+                found: found.min(u32::MAX as u64) as u32,
+                expected: MODEL_FORMAT_VERSION,
+            });
+        }
+        let model: Self =
+            serde_json::from_value(value).map_err(|e| err(format!("bad terrain model: {e}")))?;
+        model.validate().map_err(err)?;
+        Ok(model)
+    }
+
+    /// Reads a model that must classify exactly `classes` (in any order).
+    pub fn load_for_classes(path: impl AsRef<Path>, classes: &[String]) -> Result<Self> {
+        let m = Self::load(path)?;
+        m.check_classes(classes)?;
+        Ok(m)
+    }
+
+    /// Fails unless the model's classes are `classes` (in any order).
+    pub fn check_classes(&self, classes: &[String]) -> Result<()> {
+        let mut a = self.classes.clone();
+        let mut b = classes.to_vec();
+        a.sort();
+        b.sort();
+        if a != b {
+            return Err(TerrainError::ClassMismatch {
+                model: self.classes.clone(),
+                expected: classes.to_vec(),
+            });
+        }
+        Ok(())
+    }
+
+    fn validate(&self) -> std::result::Result<(), String> {
+        let k = self.classes.len();
+        if !(2..=MAX_TERRAINS).contains(&k) {
+            return Err(format!("{k} classes; a model needs 2..={MAX_TERRAINS}"));
+        }
+        let d = self.feature_names.len();
+        if self.normalisation.mean.len() != d || self.normalisation.std.len() != d {
+            return Err("normalisation does not match the feature list".into());
+        }
+        let expected = match &self.features {
+            Features::Vibration { config, .. } => config.feature_names(),
+            Features::Vision { config, .. } => config.feature_names(),
+        };
+        if expected != self.feature_names {
+            return Err("feature list does not match the feature settings".into());
+        }
+        let source_ok = matches!(
+            (&self.features, self.source),
+            (Features::Vibration { .. }, Source::Imu) | (Features::Vision { .. }, Source::Camera)
+        );
+        if !source_ok {
+            return Err(format!(
+                "source `{}` does not match the features",
+                self.source.name()
+            ));
+        }
+        if self
+            .normalisation
+            .std
+            .iter()
+            .any(|s| !(s.is_finite() && *s > 0.0))
+        {
+            return Err("normalisation has a non-positive scale".into());
+        }
+        let probs_ok = |probs: &Vec<f64>| probs.len() == k;
+        let ok = match &self.classifier {
+            Classifier::Tree(t) => t.nodes.iter().all(|n| probs_ok(&n.probs)),
+            Classifier::Forest(f) => f
+                .trees
+                .iter()
+                .flat_map(|t| &t.nodes)
+                .all(|n| probs_ok(&n.probs)),
+            Classifier::Knn(knn) => {
+                knn.y.iter().all(|&c| c < k) && knn.x.iter().all(|r| r.len() == d)
+            }
+        };
+        if !ok {
+            return Err("classifier does not match the classes or features".into());
+        }
+        Ok(())
+    }
+}
+
+/// Threshold on `φ_t` between same-terrain and changing consecutive frames:
+/// halfway (geometrically) between the 99th percentile of the former and
+/// the smallest of the latter; 2x that percentile when no change was seen.
+fn change_threshold_from(same: &[f64], change: &[f64]) -> f64 {
+    if same.is_empty() {
+        return change.iter().copied().fold(f64::INFINITY, f64::min) * 0.5;
+    }
+    let mut s = same.to_vec();
+    s.sort_by(|a, b| a.total_cmp(b));
+    let p99 = s[((s.len() - 1) as f64 * 0.99).round() as usize].max(1e-6);
+    let lo_change = change.iter().copied().fold(f64::INFINITY, f64::min);
+    if lo_change.is_finite() && lo_change > p99 {
+        (p99 * lo_change).sqrt()
+    } else {
+        2.0 * p99
+    }
+}

@@ -1,0 +1,280 @@
+//! TerrainModel end to end on synthetic logs: training, held-out accuracy,
+//! the Bayesian filter on spliced logs, the camera path with the change
+//! detector, and every bad-input case of the issue.
+
+use terraslip_io::DriveLog;
+use terraslip_terrain::synth::{camera_log, vibration_log};
+use terraslip_terrain::*;
+
+const NAMES: [&str; 3] = ["asphalt", "grass", "soil"];
+
+fn imu_runs(seed: u64) -> Vec<DriveLog> {
+    (0..3)
+        .map(|k| vibration_log(&NAMES, &[(k, 40.0)], seed + k as u64, 0.0))
+        .collect()
+}
+
+fn fast_opts() -> TrainOptions {
+    let mut o = TrainOptions::default();
+    o.vibration.window_s = 1.0;
+    o.classifier.forest.n_trees = 15;
+    o
+}
+
+#[test]
+fn imu_model_classifies_unseen_runs_and_filters_a_spliced_log() {
+    let model = TerrainModel::train(&imu_runs(1), &fast_opts()).unwrap();
+    assert_eq!(model.classes, ["asphalt", "grass", "soil"]);
+    // Unseen runs, spliced: grass -> soil -> asphalt -> grass.
+    let test = vibration_log(
+        &NAMES,
+        &[(1, 30.0), (2, 30.0), (0, 30.0), (1, 30.0)],
+        99,
+        5.0,
+    );
+    let s = score_log(&model, &test).unwrap();
+    assert!(s.raw.total() > 150, "windows {}", s.raw.total());
+    assert!(s.raw.accuracy() > 0.9, "raw {}", s.raw.accuracy());
+    assert!(
+        s.filtered.accuracy() > 0.95,
+        "filtered {}",
+        s.filtered.accuracy()
+    );
+    // The timeline is causal and the probabilities are distributions.
+    let tl = model.classify_log(&test).unwrap();
+    assert!(tl.frames.windows(2).all(|w| w[0].0 < w[1].0));
+    assert!(tl
+        .frames
+        .iter()
+        .all(|(_, p)| (p.iter().sum::<f64>() - 1.0).abs() < 1e-9));
+    assert!(
+        tl.frames[0].0 >= 5.0 + 1.0 - 0.02,
+        "first window ends after one window"
+    );
+}
+
+#[test]
+fn every_classifier_kind_trains_and_round_trips_through_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let runs = imu_runs(3);
+    let test = vibration_log(&NAMES, &[(0, 10.0), (1, 10.0), (2, 10.0)], 77, 0.0);
+    for kind in [
+        ClassifierKind::Tree,
+        ClassifierKind::Knn,
+        ClassifierKind::Forest,
+    ] {
+        let mut o = fast_opts();
+        o.classifier.kind = kind;
+        let m = TerrainModel::train(&runs, &o).unwrap();
+        let path = dir.path().join("m.json");
+        m.save(&path).unwrap();
+        let back = TerrainModel::load(&path).unwrap();
+        assert_eq!(back, m);
+        let s = score_log(&back, &test).unwrap();
+        assert!(s.raw.accuracy() > 0.85, "{kind:?}: {}", s.raw.accuracy());
+    }
+    // The paper's feature set trains too (three features).
+    let mut o = fast_opts();
+    o.vibration = VibrationConfig::paper();
+    o.classifier.kind = ClassifierKind::Tree;
+    let m = TerrainModel::train(&runs, &o).unwrap();
+    assert_eq!(m.feature_names.len(), 3);
+}
+
+#[test]
+fn model_from_another_version_or_other_classes_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = TerrainModel::train(&imu_runs(5), &fast_opts()).unwrap();
+    let path = dir.path().join("m.json");
+    m.save(&path).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    let old = text.replacen("\"format_version\": 1", "\"format_version\": 0", 1);
+    assert_ne!(old, text);
+    let p0 = dir.path().join("old.json");
+    std::fs::write(&p0, old).unwrap();
+    let e = TerrainModel::load(&p0).unwrap_err();
+    assert!(
+        matches!(e, TerrainError::ModelVersion { found: 0, .. }),
+        "{e}"
+    );
+    assert!(e.to_string().contains("old.json"));
+
+    let other = vec!["asphalt".to_string(), "ice".to_string()];
+    let e = TerrainModel::load_for_classes(&path, &other).unwrap_err();
+    assert!(matches!(e, TerrainError::ClassMismatch { .. }), "{e}");
+    let same: Vec<String> = ["soil", "asphalt", "grass"].map(String::from).to_vec();
+    assert!(TerrainModel::load_for_classes(&path, &same).is_ok());
+
+    // Not JSON, JSON but not a model, a model with a broken classifier.
+    let p1 = dir.path().join("garbage.json");
+    std::fs::write(&p1, "{not json").unwrap();
+    assert!(matches!(
+        TerrainModel::load(&p1),
+        Err(TerrainError::ModelFile { .. })
+    ));
+    std::fs::write(&p1, "{\"format_version\": 1}").unwrap();
+    assert!(matches!(
+        TerrainModel::load(&p1),
+        Err(TerrainError::ModelFile { .. })
+    ));
+    let broken = text.replacen("\"classes\": [", "\"classes\": [\n    \"extra\",", 1);
+    std::fs::write(&p1, broken).unwrap();
+    let e = TerrainModel::load(&p1).unwrap_err();
+    assert!(matches!(e, TerrainError::ModelFile { .. }), "{e}");
+    assert!(TerrainModel::load(dir.path().join("missing.json")).is_err());
+}
+
+#[test]
+fn logs_without_the_needed_source_are_clear_errors() {
+    let m = TerrainModel::train(&imu_runs(7), &fast_opts()).unwrap();
+    let mut no_imu = vibration_log(&NAMES, &[(0, 10.0)], 8, 0.0);
+    no_imu.imu.clear();
+    let e = m.classify_log(&no_imu).unwrap_err();
+    assert!(
+        matches!(e, TerrainError::MissingSource { sensor: "imu", .. }),
+        "{e}"
+    );
+    // An accel_z-only log for a six-channel model.
+    let mut z_only = vibration_log(&NAMES, &[(0, 10.0)], 8, 0.0);
+    for s in &mut z_only.imu {
+        s.gyro_x = None;
+    }
+    let e = m.classify_log(&z_only).unwrap_err();
+    assert!(e.to_string().contains("gyro_x"), "{e}");
+    // The wrong IMU rate.
+    let mut slow = vibration_log(&NAMES, &[(0, 20.0)], 8, 0.0);
+    slow.imu = slow.imu.into_iter().step_by(2).collect();
+    let e = m.classify_log(&slow).unwrap_err();
+    assert!(e.to_string().contains("Hz"), "{e}");
+    // Training on unlabelled logs.
+    let mut unlabelled = imu_runs(9);
+    unlabelled[1].terrain.clear();
+    let e = TerrainModel::train(&unlabelled, &fast_opts()).unwrap_err();
+    assert!(matches!(e, TerrainError::MissingLabels { .. }), "{e}");
+    // A camera model on a log without images.
+    let mut o = fast_opts();
+    o.source = Source::Camera;
+    let e = TerrainModel::train(&imu_runs(9), &o).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            TerrainError::MissingSource {
+                sensor: "camera",
+                ..
+            }
+        ),
+        "{e}"
+    );
+}
+
+#[test]
+fn classes_with_too_few_samples_cannot_train() {
+    let mut runs = imu_runs(11);
+    // 1.5 s of soil: a single 1 s window.
+    runs[2] = vibration_log(&NAMES, &[(2, 1.5)], 12, 0.0);
+    let e = TerrainModel::train(&runs, &fast_opts()).unwrap_err();
+    assert!(
+        matches!(e, TerrainError::Training(ref m) if m.contains("soil")),
+        "{e}"
+    );
+}
+
+#[test]
+fn camera_model_reaches_95_percent_and_flags_changes_within_one_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let names = ["gravel", "grass", "soil", "paving"];
+    let train = camera_log(
+        &dir.path().join("train"),
+        &names,
+        &[(0, 12), (1, 12), (2, 8), (0, 6), (3, 12), (0, 4)],
+        1,
+        96,
+        72,
+    )
+    .unwrap();
+    let test = camera_log(
+        &dir.path().join("test"),
+        &names,
+        &[(2, 8), (0, 8), (3, 8), (1, 8)],
+        2,
+        96,
+        72,
+    )
+    .unwrap();
+    for features in [
+        VisionFeatureSet::HistLbp,
+        VisionFeatureSet::Sfta,
+        VisionFeatureSet::Both,
+    ] {
+        let mut o = fast_opts();
+        o.source = Source::Camera;
+        o.vision.features = features;
+        let m = TerrainModel::train(std::slice::from_ref(&train), &o).unwrap();
+        let s = score_log(&m, &test).unwrap();
+        assert_eq!(s.raw.total(), 32);
+        assert!(
+            s.raw.accuracy() >= 0.95,
+            "{features:?}: {}",
+            s.raw.accuracy()
+        );
+        if features == VisionFeatureSet::Both {
+            assert_eq!(s.change.changes, 3);
+            assert_eq!(s.change.detected, 3, "{:?}", s.change);
+            assert!(s.change.false_alarms <= 1, "{:?}", s.change);
+        }
+    }
+}
+
+#[test]
+fn corrupt_frame_in_a_log_names_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let names = ["a", "b"];
+    let log = camera_log(dir.path(), &names, &[(0, 4), (1, 4)], 3, 32, 24).unwrap();
+    let mut o = fast_opts();
+    o.source = Source::Camera;
+    let m = TerrainModel::train(std::slice::from_ref(&log), &o).unwrap();
+    std::fs::write(
+        dir.path().join("images/00002.png"),
+        b"\x89PNG\r\n\x1a\ntruncated",
+    )
+    .unwrap();
+    let e = m.classify_log(&log).unwrap_err();
+    assert!(matches!(e, TerrainError::Image { .. }), "{e}");
+    assert!(e.to_string().contains("00002.png"), "{e}");
+    std::fs::remove_file(dir.path().join("images/00003.png")).unwrap();
+    let e = TerrainModel::train(&[log], &o).unwrap_err();
+    assert!(e.to_string().contains("0000"), "{e}");
+}
+
+#[test]
+fn crossval_leaves_whole_runs_out() {
+    let mut runs = imu_runs(20);
+    runs.extend(imu_runs(30));
+    for (i, r) in runs.iter_mut().enumerate() {
+        r.dir = format!("run{i}").into();
+    }
+    let folds = eval::run_folds(&runs, 2);
+    assert_eq!(folds.len(), 2);
+    // Every terrain in every fold, no run in two folds.
+    for f in &folds {
+        let mut t: Vec<_> = f
+            .iter()
+            .map(|&i| runs[i].terrain[0].terrain.clone())
+            .collect();
+        t.sort();
+        t.dedup();
+        assert_eq!(t.len(), 3);
+    }
+    let rep = crossval(&runs, &fast_opts(), 2, |_, _| {}).unwrap();
+    assert_eq!(rep.folds, 2);
+    assert!(rep.raw.accuracy() > 0.9, "{}", rep.raw.accuracy());
+    assert!(
+        rep.spliced_filtered.accuracy() > 0.9,
+        "{}",
+        rep.spliced_filtered.accuracy()
+    );
+    assert_eq!(
+        rep.raw.total() as usize,
+        rep.raw.counts.iter().flatten().sum::<u64>() as usize
+    );
+}

@@ -1,0 +1,264 @@
+//! `terraslip terrain train|eval|crossval` on small synthetic logs: the
+//! contract's JSON fields, the plots, and one-line errors on bad input.
+
+use std::path::Path;
+
+use assert_cmd::Command;
+use terraslip_terrain::synth::vibration_log;
+
+const NAMES: [&str; 3] = ["asphalt", "grass", "soil"];
+
+fn write_runs(dir: &Path) -> Vec<String> {
+    let mut paths = Vec::new();
+    for (i, seed) in [1u64, 2].iter().enumerate() {
+        for k in 0..3 {
+            let p = dir.join(format!("run_{i}_{k}"));
+            vibration_log(&NAMES, &[(k, 25.0)], seed * 10 + k as u64, 0.0)
+                .write(&p)
+                .unwrap();
+            paths.push(p.to_string_lossy().into_owned());
+        }
+    }
+    paths
+}
+
+fn terraslip() -> Command {
+    Command::cargo_bin("terraslip").unwrap()
+}
+
+/// Trains a small model on `runs` (1 s windows) into `model`.
+fn train_model(runs: &[String], model: &Path, trees: &str) {
+    terraslip()
+        .args(["terrain", "train"])
+        .args(runs)
+        .args([
+            "--out",
+            model.to_str().unwrap(),
+            "--window",
+            "1",
+            "--trees",
+            trees,
+        ])
+        .assert()
+        .success();
+    assert!(model.exists());
+}
+
+#[test]
+fn train_then_eval_json_has_the_contract_fields_and_draws_plots() {
+    let dir = tempfile::tempdir().unwrap();
+    let runs = write_runs(dir.path());
+    let model = dir.path().join("model.json");
+    train_model(&runs[..3], &model, "10");
+    // A spliced test log: asphalt -> soil -> grass.
+    let test = dir.path().join("test");
+    vibration_log(&NAMES, &[(0, 20.0), (2, 20.0), (1, 20.0)], 99, 0.0)
+        .write(&test)
+        .unwrap();
+    let plots = dir.path().join("plots");
+    let out = terraslip()
+        .args(["terrain", "eval", test.to_str().unwrap(), &runs[4]])
+        .args(["--model", model.to_str().unwrap(), "--json"])
+        .args(["--plots", plots.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value =
+        serde_json::from_slice(&out.stdout).expect("exactly one JSON object");
+    let windows = v["windows"].as_u64().unwrap();
+    assert!(windows > 100, "{v}");
+    let acc = v["accuracy"].as_f64().unwrap();
+    let filt = v["accuracy_filtered"].as_f64().unwrap();
+    assert!(acc > 0.85 && acc <= 1.0, "{acc}");
+    assert!(filt > 0.85 && filt <= 1.0, "{filt}");
+    assert_eq!(
+        v["classes"],
+        serde_json::json!(["asphalt", "grass", "soil"])
+    );
+    let conf = v["confusion"].as_array().unwrap();
+    assert_eq!(conf.len(), 3);
+    let total: u64 = conf
+        .iter()
+        .flat_map(|r| r.as_array().unwrap())
+        .map(|c| c.as_u64().unwrap())
+        .sum();
+    assert_eq!(total, windows);
+    for f in ["confusion.svg", "confusion_filtered.svg"] {
+        let svg = std::fs::read_to_string(plots.join(f)).unwrap();
+        assert!(svg.contains("<svg") && svg.contains("asphalt"), "{f}");
+    }
+    let timelines = std::fs::read_dir(&plots)
+        .unwrap()
+        .filter(|e| {
+            e.as_ref()
+                .unwrap()
+                .file_name()
+                .to_string_lossy()
+                .starts_with("timeline_")
+        })
+        .count();
+    assert_eq!(timelines, 2);
+    // Human-readable output: the confusion table with per-class percentages.
+    let text = terraslip()
+        .args(["terrain", "eval", test.to_str().unwrap()])
+        .args([
+            "--model",
+            model.to_str().unwrap(),
+            "--plots",
+            plots.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let s = String::from_utf8_lossy(&text.stdout);
+    assert!(
+        s.contains("recall") && s.contains("%") && s.contains("Bayesian filter"),
+        "{s}"
+    );
+}
+
+#[test]
+fn crossval_reports_leave_runs_out_accuracy() {
+    let dir = tempfile::tempdir().unwrap();
+    let runs = write_runs(dir.path());
+    let out = terraslip()
+        .args(["terrain", "crossval"])
+        .args(&runs)
+        .args(["--folds", "2", "--window", "1", "--trees", "10", "--json"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["folds"], 2);
+    assert!(v["accuracy"].as_f64().unwrap() > 0.85, "{v}");
+    assert!(
+        v["spliced_accuracy_filtered"].as_f64().unwrap() > 0.85,
+        "{v}"
+    );
+}
+
+fn fails_with(cmd: &mut Command, needle: &str) {
+    let out = cmd.output().unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+    assert!(err.contains(needle), "expected `{needle}` in: {err}");
+}
+
+/// `terrain eval LOG --model MODEL` must fail with one line containing `needle`.
+fn eval_fails(log: &Path, model: &Path, plots: &Path, needle: &str) {
+    fails_with(
+        terraslip()
+            .args(["terrain", "eval"])
+            .arg(log)
+            .arg("--model")
+            .arg(model)
+            .arg("--plots")
+            .arg(plots),
+        needle,
+    );
+}
+
+#[test]
+fn bad_input_is_one_line_and_non_zero() {
+    let dir = tempfile::tempdir().unwrap();
+    let runs = write_runs(dir.path());
+    let model = dir.path().join("model.json");
+    train_model(&runs[..3], &model, "5");
+    let plots = dir.path().join("plots");
+
+    // Model of another format version.
+    let old = dir.path().join("old.json");
+    let text = std::fs::read_to_string(&model).unwrap();
+    std::fs::write(
+        &old,
+        text.replacen("\"format_version\": 1", "\"format_version\": 7", 1),
+    )
+    .unwrap();
+    eval_fails(Path::new(&runs[0]), &old, &plots, "version 7");
+    // A log with a terrain the model does not know.
+    let other = dir.path().join("other");
+    vibration_log(&["ice"], &[(0, 10.0)], 5, 0.0)
+        .write(&other)
+        .unwrap();
+    eval_fails(&other, &model, &plots, "ice");
+    // A log without an IMU for an IMU model.
+    let no_imu = dir.path().join("no_imu");
+    let mut log = vibration_log(&NAMES, &[(0, 10.0)], 6, 0.0);
+    log.imu.clear();
+    log.write(&no_imu).unwrap();
+    eval_fails(&no_imu, &model, &plots, "no imu data");
+    // Training a camera model from logs without images.
+    fails_with(
+        terraslip()
+            .args(["terrain", "train", &runs[0], &runs[1], "--source", "camera"])
+            .args(["--out", dir.path().join("c.json").to_str().unwrap()]),
+        "camera",
+    );
+    // A class with too few windows.
+    let tiny = dir.path().join("tiny");
+    vibration_log(&NAMES, &[(2, 1.2)], 7, 0.0)
+        .write(&tiny)
+        .unwrap();
+    fails_with(
+        terraslip()
+            .args([
+                "terrain",
+                "train",
+                &runs[0],
+                &runs[1],
+                tiny.to_str().unwrap(),
+            ])
+            .args([
+                "--window",
+                "1",
+                "--out",
+                dir.path().join("t.json").to_str().unwrap(),
+            ]),
+        "soil",
+    );
+    // Nonsense settings.
+    fails_with(
+        terraslip()
+            .args(["terrain", "train", &runs[0], "--window", "0"])
+            .args(["--out", dir.path().join("t.json").to_str().unwrap()]),
+        "--window",
+    );
+    // A corrupt imu.csv names file and line.
+    let bad = dir.path().join("bad");
+    std::fs::create_dir_all(&bad).unwrap();
+    std::fs::copy(
+        Path::new(&runs[0]).join("wheels.csv"),
+        bad.join("wheels.csv"),
+    )
+    .unwrap();
+    std::fs::write(bad.join("imu.csv"), "t,accel_z\n0,9.8\n0.01,oops\n").unwrap();
+    eval_fails(&bad, &model, &plots, "imu.csv:3");
+    // A region-of-interest file with a wrong type: file, line, reason.
+    let roi = dir.path().join("roi.toml");
+    std::fs::write(&roi, "length = 0.5\nhorizon_s = \"soon\"\n").unwrap();
+    fails_with(
+        terraslip()
+            .args([
+                "terrain",
+                "train",
+                &runs[0],
+                "--source",
+                "camera",
+                "--roi",
+                roi.to_str().unwrap(),
+            ])
+            .args(["--out", dir.path().join("t.json").to_str().unwrap()]),
+        "roi.toml:2",
+    );
+    // Nothing was written for the failed trainings.
+    assert!(!dir.path().join("t.json").exists());
+    assert!(!dir.path().join("c.json").exists());
+}

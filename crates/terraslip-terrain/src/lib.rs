@@ -27,7 +27,7 @@ pub use error::{Result, TerrainError};
 pub use eval::{crossval, score_log, splice, ChangeScore, Confusion, CrossvalReport, LogScore};
 pub use model::{
     BeliefSettings, Features, FilteredFrame, Source, TerrainModel, TerrainTimeline, TrainOptions,
-    MODEL_FORMAT_VERSION,
+    MIN_INFORMATIVE_SPEED, MODEL_FORMAT_VERSION,
 };
 pub use vibration::{ChannelSet, VibrationConfig, VibrationFeatureSet};
 pub use vision::{CameraModel, RoiConfig, VisionConfig, VisionFeatureSet};

@@ -310,7 +310,41 @@ fn labelled(log: &DriveLog, features: &Features, classes: &[String]) -> Result<V
     Ok(out)
 }
 
+/// Below this mean tread speed (m/s) over a vibration window the robot is
+/// standing or spinning slowly in place: the terrain hardly shakes it, and
+/// the classifier's verdict is a guess (on the simulated drives, every
+/// wrongly declared terrain came from such windows). Such windows carry no
+/// evidence for the estimator.
+pub const MIN_INFORMATIVE_SPEED: f64 = 0.2;
+
 impl TerrainModel {
+    /// What the online estimator should fuse: [`Self::classify_log`]'s
+    /// class probabilities floored by the model's `prob_floor`, without the
+    /// vibration windows in which the robot was nearly still (mean tread
+    /// speed below [`MIN_INFORMATIVE_SPEED`]). Camera frames are kept at any
+    /// speed.
+    pub fn estimator_evidence(&self, log: &DriveLog) -> Result<TerrainTimeline> {
+        let mut timeline = self.classify_log(log)?;
+        timeline.frames = timeline.floored(self.belief.prob_floor);
+        if let Features::Vibration { config, .. } = &self.features {
+            let w = &log.wheels;
+            timeline.frames.retain(|(t, _)| {
+                let lo = w.partition_point(|s| s.t < t - config.window_s);
+                let hi = w.partition_point(|s| s.t <= *t);
+                let n = hi.saturating_sub(lo);
+                if n == 0 {
+                    return false;
+                }
+                let sum: f64 = w[lo..hi]
+                    .iter()
+                    .map(|s| 0.5 * (s.v_left.abs() + s.v_right.abs()))
+                    .sum();
+                sum / n as f64 >= MIN_INFORMATIVE_SPEED
+            });
+        }
+        Ok(timeline)
+    }
+
     /// Trains on labelled logs. Classes are the sorted union of their labels.
     pub fn train(logs: &[DriveLog], opts: &TrainOptions) -> Result<Self> {
         let mut classes: Vec<String> = logs.iter().flat_map(|l| l.terrain_names()).collect();

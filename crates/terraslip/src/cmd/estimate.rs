@@ -46,7 +46,9 @@ pub struct Args {
     /// Use the log's own terrain.csv as terrain evidence (a perfect classifier).
     #[arg(long)]
     pub terrain_labels: bool,
-    /// Classify terrain online with a trained model (not wired in this build).
+    /// Classify terrain online from the log's imu or camera stream with a model
+    /// from `terraslip terrain train`; its smoothed, λ-voted terrain fills the
+    /// `terrain` column and drives the noise schedule (boost / reset / recall).
     #[arg(long, value_name = "MODEL", conflicts_with = "terrain_labels")]
     pub terrain_model: Option<PathBuf>,
     /// Gain rule: adaptive (default), ekf, or iekf (the papers' form). Overrides the config.
@@ -137,31 +139,59 @@ fn merge(base: toml::Value, over: toml::Value) -> toml::Value {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let cfg = load_config(&args)?;
+    let mut cfg = load_config(&args)?;
     if args.print_config {
         print!("{}", cfg.to_toml());
         return Ok(());
     }
-    if args.terrain_model.is_some() {
-        // LEAD: wire --terrain-model here (TerrainEvidence::Likelihoods).
-        bail!("--terrain-model: terrain models: not available in this build");
-    }
     let (Some(log_dir), Some(out)) = (args.log.as_ref(), args.out.as_ref()) else {
         bail!("LOG and --out are required");
     };
-    let log = read_log(log_dir, args.terrain_labels)
-        .with_context(|| format!("reading log {}", log_dir.display()))?;
+    // A terrain model needs the sensor streams it classifies (imu or images).
+    let log = if args.terrain_model.is_some() {
+        DriveLog::read(log_dir)
+    } else {
+        read_log(log_dir, args.terrain_labels)
+    }
+    .with_context(|| format!("reading log {}", log_dir.display()))?;
     let init = match &args.init {
         Some(p) => Some(ParamsFile::read(p).with_context(|| "--init")?),
         None => None,
     };
-    let evidence = if args.terrain_labels {
+    let (evidence, evidence_name) = if args.terrain_labels {
         if log.terrain.is_empty() {
             bail!("--terrain-labels: {} has no terrain.csv", log_dir.display());
         }
-        TerrainEvidence::Labels(log.terrain.clone())
+        (
+            TerrainEvidence::Labels(log.terrain.clone()),
+            "labels (terrain.csv)".to_string(),
+        )
+    } else if let Some(path) = &args.terrain_model {
+        let ctx = || format!("--terrain-model {}", path.display());
+        let model = terraslip_terrain::TerrainModel::load(path).with_context(ctx)?;
+        let timeline = model.estimator_evidence(&log).with_context(ctx)?;
+        // The model carries the smoothing it was validated with (λ chosen
+        // from its own accuracy, wang2018 eq. 14): use it, not the defaults.
+        cfg.belief.stay_prob = model.belief.stay_prob;
+        cfg.belief.stay_prob_on_jump = model.belief.stay_prob_on_jump;
+        cfg.belief.vote_lambda = model.belief.vote_lambda;
+        let frames = timeline.frames;
+        eprintln!(
+            "terrain: {} {:?} classifier, {} windows over classes {}",
+            path.display(),
+            model.source,
+            frames.len(),
+            timeline.classes.join(", ")
+        );
+        (
+            TerrainEvidence::Likelihoods {
+                classes: timeline.classes.clone(),
+                frames,
+            },
+            format!("model {} ({:?})", path.display(), model.source),
+        )
     } else {
-        TerrainEvidence::None
+        (TerrainEvidence::None, "none".to_string())
     };
 
     let bar = progress_bar(log.wheels.len());
@@ -186,7 +216,8 @@ pub fn run(args: Args) -> Result<()> {
     let est = result?;
 
     std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
-    let summary = summary_json(&log, &est, &cfg);
+    let mut summary = summary_json(&log, &est, &cfg);
+    summary["terrain_evidence"] = serde_json::Value::String(evidence_name);
     write_outputs(out, &est, &summary)?;
 
     for w in log.warnings.iter().chain(&est.warnings) {

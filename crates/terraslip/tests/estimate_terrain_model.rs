@@ -1,0 +1,127 @@
+//! `estimate --terrain-model`: a trained classifier as terrain evidence.
+
+use std::path::Path;
+
+use assert_cmd::Command;
+
+fn terraslip() -> Command {
+    Command::cargo_bin("terraslip").unwrap()
+}
+
+const SCENARIO: &str = r#"
+name = "two-terrains"
+description = "soil then asphalt, for the terrain-model test"
+[[segment]]
+terrain = "soil"
+duration = 60.0
+[[segment]]
+terrain = "asphalt"
+duration = 60.0
+"#;
+
+fn simulate(dir: &Path, name: &str, seed: u32) -> std::path::PathBuf {
+    let sc = dir.join("sc.toml");
+    std::fs::write(&sc, SCENARIO).unwrap();
+    let out = dir.join(name);
+    let o = terraslip()
+        .args(["simulate"])
+        .arg(&sc)
+        .arg("--out")
+        .arg(&out)
+        .args(["--seed", &seed.to_string(), "--no-camera"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    out
+}
+
+#[test]
+fn model_evidence_fills_terrain_column_and_is_reported() {
+    let tmp = tempfile::tempdir().unwrap();
+    let train = simulate(tmp.path(), "train", 11);
+    let test = simulate(tmp.path(), "test", 12);
+    let model = tmp.path().join("imu.json");
+    let o = terraslip()
+        .args(["terrain", "train"])
+        .arg(&train)
+        .args(["--source", "imu", "--window", "2", "--out"])
+        .arg(&model)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+
+    let out = tmp.path().join("est");
+    let o = terraslip()
+        .args(["estimate"])
+        .arg(&test)
+        .arg("--out")
+        .arg(&out)
+        .arg("--terrain-model")
+        .arg(&model)
+        .arg("--json")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let summary: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(summary["terrain_evidence"]
+        .as_str()
+        .unwrap()
+        .starts_with("model"));
+
+    // The believed terrain agrees with the labels on most rows, and the
+    // change to asphalt is declared within a few seconds of the truth.
+    let text = std::fs::read_to_string(out.join("estimate.csv")).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let (ti, ci) = (
+        header.iter().position(|h| *h == "t").unwrap(),
+        header.iter().position(|h| *h == "terrain").unwrap(),
+    );
+    let (mut agree, mut total, mut first_asphalt) = (0usize, 0usize, None);
+    for l in lines {
+        let f: Vec<&str> = l.split(',').collect();
+        let t: f64 = f[ti].parse().unwrap();
+        let truth = if t < 60.0 { "soil" } else { "asphalt" };
+        if f[ci] == "asphalt" && first_asphalt.is_none() {
+            first_asphalt = Some(t);
+        }
+        if t > 5.0 {
+            total += 1;
+            agree += usize::from(f[ci] == truth);
+        }
+    }
+    let frac = agree as f64 / total as f64;
+    assert!(
+        frac > 0.9,
+        "terrain column agrees on only {:.0} % of rows",
+        100.0 * frac
+    );
+    let t_switch = first_asphalt.expect("asphalt never declared");
+    assert!(
+        (60.0..70.0).contains(&t_switch),
+        "asphalt declared at {t_switch} s"
+    );
+}
+
+#[test]
+fn missing_model_file_is_a_clear_error_and_writes_nothing() {
+    let tmp = tempfile::tempdir().unwrap();
+    let log = simulate(tmp.path(), "log", 3);
+    let model = tmp.path().join("missing.json");
+    let o = terraslip()
+        .args(["estimate"])
+        .arg(&log)
+        .arg("--out")
+        .arg(tmp.path().join("est"))
+        .arg("--terrain-model")
+        .arg(&model)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("--terrain-model") && err.contains("missing.json"),
+        "{err}"
+    );
+    assert!(!tmp.path().join("est/estimate.csv").exists());
+}

@@ -196,10 +196,12 @@ fn progress(n: u64, what: &'static str, quiet: bool) -> ProgressBar {
 }
 
 fn options(s: &TrainSettings) -> anyhow::Result<TrainOptions> {
-    let mut o = TrainOptions::default();
-    o.source = match s.source {
-        SourceArg::Imu => Source::Imu,
-        SourceArg::Camera => Source::Camera,
+    let mut o = TrainOptions {
+        source: match s.source {
+            SourceArg::Imu => Source::Imu,
+            SourceArg::Camera => Source::Camera,
+        },
+        ..TrainOptions::default()
     };
     o.classifier.kind = match s.classifier {
         ClassifierArg::Tree => ClassifierKind::Tree,

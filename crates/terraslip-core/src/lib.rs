@@ -16,6 +16,7 @@ pub mod filter;
 pub mod kinematics;
 pub mod model;
 pub mod odometry;
+pub mod rng;
 pub mod schedule;
 pub mod terrain_belief;
 

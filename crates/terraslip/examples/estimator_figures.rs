@@ -70,6 +70,16 @@ fn main() -> anyhow::Result<()> {
                 yr += card.rms.y_r.powi(2);
                 xc += card.rms.x_c.powi(2);
                 if let Some(dr) = card.drift {
+                    if std::env::var("VERBOSE").is_ok() {
+                        let at = |t: f64| run.rows.iter().find(|r| r.t >= t);
+                        let tr = log.truth.iter().find(|r| r.t >= dr.t0);
+                        if let (Some(r), Some(tr)) = (at(dr.t0), tr) {
+                            eprintln!(
+                                "{pname} seed {seed}: drift {:.2} % over {:.1} m; at t0 alpha {:.4} {:.4}, d {:.4} (truth {:.4})",
+                                dr.percent, dr.distance, r.alpha_l, r.alpha_r, r.y_l - r.y_r, tr.y_l - tr.y_r
+                            );
+                        }
+                    }
                     drift.push(dr.percent);
                 }
             }

@@ -36,8 +36,8 @@ use crate::kinematics::IcrParams;
 
 use crate::angle;
 use crate::model::{
-    self, MatN, SlipCov, State, TreadInput, ALPHA_L, ALPHA_R, BIAS_E, BIAS_N, EAST, K, N, NORTH,
-    SLIP, X_C, YAW, Y_L, Y_R,
+    self, MatN, SlipCov, State, TreadInput, ALPHA_L, ALPHA_R, EAST, K, N, NORTH, SLIP, X_C, YAW,
+    Y_L, Y_R,
 };
 
 /// Largest innovation window of the IEKF variant.
@@ -221,17 +221,6 @@ pub struct FilterConfig {
     /// wanders. The heading still teaches the spread and the factor
     /// difference. `f64::INFINITY` = always learn from position.
     pub slip_from_position_max_std: f64,
-    /// Correlation time (s) of the GNSS position error, modelled as a
-    /// first-order Gauss-Markov bias per axis in the state (`b_east`,
-    /// `b_north`); 0 = no bias states (the fixes are white, the papers'
-    /// model). With the bias in the state only the white part of each fix
-    /// corrects the pose and the slip parameters, and the test of
-    /// `slip_from_position_max_std` is on that white part.
-    pub gnss_bias_tau: f64,
-    /// Share of a fix's stated std that is the correlated bias (0..1): the
-    /// bias std is `gnss_bias_share * std_xy`, the white part
-    /// `sqrt(1 - share^2) * std_xy`.
-    pub gnss_bias_share: f64,
     /// Chi-square gate on the 2-dof position innovation (0 = no gate).
     pub gate_position: f64,
     /// Chi-square gate on the 1-dof heading innovation (0 = no gate).
@@ -272,8 +261,6 @@ impl FilterConfig {
             learn_icr: true,
             learn_alpha: true,
             slip_from_position_max_std: 0.25,
-            gnss_bias_tau: 0.0,
-            gnss_bias_share: 0.0,
             gate_position: 13.8,
             gate_yaw: 10.8,
             max_rejections: 10,
@@ -372,8 +359,6 @@ pub struct Filter {
     /// Heading NIS average of the adaptive variant.
     nis_avg: f64,
     last_fix_t: Option<f64>,
-    /// Stationary variance of the GNSS bias (m^2), from the last fix's std.
-    bias_var: f64,
     still: bool,
     rejected_pos: u32,
     rejected_yaw: u32,
@@ -412,12 +397,6 @@ impl Filter {
             && cfg.band.min_spread > crate::kinematics::MIN_SPREAD
             && cfg.band.max_spread > cfg.band.min_spread;
         let tick_ok = cfg.encoder_tick.is_finite() && cfg.encoder_tick >= 0.0;
-        let bias_ok = cfg.gnss_bias_tau.is_finite()
-            && cfg.gnss_bias_tau >= 0.0
-            && (0.0..1.0).contains(&cfg.gnss_bias_share);
-        if !bias_ok {
-            return Err(FilterError::BadInput("GNSS bias tau or share invalid"));
-        }
         if !cfg.q_icr.is_valid() || !spread_ok || !tick_ok {
             return Err(FilterError::BadInput("ICR noise or band invalid"));
         }
@@ -448,7 +427,6 @@ impl Filter {
             schedule_scale: 1.0,
             nis_avg: 1.0,
             last_fix_t: None,
-            bias_var: P0[(BIAS_E, BIAS_E)].max(0.0),
             still: true,
             rejected_pos: 0,
             rejected_yaw: 0,
@@ -534,8 +512,8 @@ impl Filter {
             }
             self.cfg.band.project(&mut self.x);
         }
-        for i in (0..N).filter(|i| !(SLIP..SLIP + K).contains(i)) {
-            for j in SLIP..SLIP + K {
+        for i in 0..SLIP {
+            for j in SLIP..N {
                 self.P[(i, j)] = 0.0;
                 self.P[(j, i)] = 0.0;
             }
@@ -622,20 +600,6 @@ impl Filter {
             let mut blk = P.fixed_view_mut::<K, K>(SLIP, SLIP);
             blk += self.q_slip * k + self.q_spread * (k * (self.adapt_scale() - 1.0));
         }
-        let mut x = x;
-        if self.cfg.gnss_bias_tau > 0.0 {
-            // Exact discretisation of the Gauss-Markov bias: decay by phi,
-            // noise that keeps the stationary variance.
-            let phi = libm::exp(-dt / self.cfg.gnss_bias_tau);
-            for b in [BIAS_E, BIAS_N] {
-                x[b] *= phi;
-                for j in 0..N {
-                    P[(b, j)] *= phi;
-                    P[(j, b)] *= phi;
-                }
-                P[(b, b)] += self.bias_var * (1.0 - phi * phi);
-            }
-        }
         if !finite_mat(&x) || (0..N).any(|i| !P[(i, i)].is_finite()) {
             return Err(FilterError::NonFinite);
         }
@@ -666,45 +630,21 @@ impl Filter {
             Some(_) => return Err(FilterError::BadInput("yaw not finite")),
             None => None,
         };
-        let biased = self.cfg.gnss_bias_tau > 0.0;
-        let var_xy = fix.std_xy * fix.std_xy;
-        let white_xy = if biased {
-            let share2 = self.cfg.gnss_bias_share * self.cfg.gnss_bias_share;
-            if pos.is_some() {
-                self.bias_var = share2 * var_xy;
-            }
-            (1.0 - share2) * var_xy
-        } else {
-            var_xy
-        };
-        let r = [white_xy, white_xy, fix.std_yaw * fix.std_yaw];
-        // H = [I3 | 0 | bias columns]: H P is read off P's rows.
-        let mut HP: Mat3xN = self.P.fixed_rows::<3>(0).into_owned();
-        let mut predicted = [self.x[EAST], self.x[NORTH]];
-        if biased {
-            for (i, b) in [(EAST, BIAS_E), (NORTH, BIAS_N)] {
-                let row = self.P.row(b).into_owned();
-                HP.row_mut(i).add_assign(&row);
-                predicted[i] += self.x[b];
-            }
-        }
+        let r = [
+            fix.std_xy * fix.std_xy,
+            fix.std_xy * fix.std_xy,
+            fix.std_yaw * fix.std_yaw,
+        ];
         let mut nu = Vector3::zeros();
         if let Some((e, n)) = pos {
-            nu[0] = e - predicted[0];
-            nu[1] = n - predicted[1];
+            nu[0] = e - self.x[EAST];
+            nu[1] = n - self.x[NORTH];
         }
         if let Some(y) = yaw {
             nu[2] = angle::wrap(y - self.x[YAW]);
         }
-        let mut S_full = Matrix3::from_diagonal(&Vector3::from(r));
-        for i in 0..3 {
-            for (j, col) in [(0, EAST), (1, NORTH), (2, YAW)] {
-                S_full[(i, j)] += HP[(i, col)];
-                if biased && j < 2 {
-                    S_full[(i, j)] += HP[(i, [BIAS_E, BIAS_N][j])];
-                }
-            }
-        }
+        let pose_block: Matrix3<f64> = self.P.fixed_view::<3, 3>(0, 0).into_owned();
+        let S_full = pose_block + Matrix3::from_diagonal(&Vector3::from(r));
 
         let mut report = UpdateReport {
             position: Fate::Absent,
@@ -780,7 +720,7 @@ impl Filter {
             self.reanchor(&reanchor, &nu, &r);
         }
         if use_.iter().any(|&b| b) {
-            self.fuse(&use_, &nu, &r, &S_full, HP)?;
+            self.fuse(&use_, &nu, &r, &S_full)?;
         }
         Ok(report)
     }
@@ -810,7 +750,6 @@ impl Filter {
         nu: &Vector3<f64>,
         r: &[f64; 3],
         S_full: &Matrix3<f64>,
-        mut HP: Mat3xN,
     ) -> Result<(), FilterError> {
         // Rows not measured get H = 0, nu = 0 and a unit, uncorrelated S
         // entry: this is exactly the reduced-dimension update, in 3x3.
@@ -818,6 +757,7 @@ impl Filter {
         // rows of P (zeroed likewise): no product with H is ever formed.
         let mut nu_m = *nu;
         let mut S = *S_full;
+        let mut HP: Mat3xN = self.P.fixed_rows::<3>(0).into_owned();
         for i in 0..3 {
             if !use_[i] {
                 nu_m[i] = 0.0;
@@ -848,7 +788,7 @@ impl Filter {
         // Parameters not learned are "consider" states: counted, not corrected.
         // Any gain is valid in the Joseph form, so zeroing rows keeps P SPD.
         let slip_from_position = libm::sqrt(r[0]) <= self.cfg.slip_from_position_max_std;
-        for row in SLIP..SLIP + K {
+        for row in SLIP..N {
             let learn = !self.still
                 && if row >= ALPHA_L {
                     self.cfg.learn_alpha
@@ -946,7 +886,7 @@ mod tests {
     }
 
     fn p0() -> MatN {
-        MatN::from_diagonal(&State::from([1.0, 1.0, 0.01, 0.01, 0.01, 0.01, 1e-4, 1e-4, 1.0, 1.0]))
+        MatN::from_diagonal(&State::from([1.0, 1.0, 0.01, 0.01, 0.01, 0.01, 1e-4, 1e-4]))
     }
 
     fn start(variant: Variant) -> Filter {
@@ -964,68 +904,6 @@ mod tests {
             yaw: Some(yaw),
             std_xy: 0.5,
             std_yaw: 0.02,
-        }
-    }
-
-    fn start_biased(tau: f64) -> Filter {
-        let mut c = cfg(Variant::Adaptive);
-        c.gnss_bias_tau = tau;
-        c.gnss_bias_share = 0.9;
-        let x0 = model::state(0.0, 0.0, 0.0, &IcrParams::no_slip(0.5));
-        let mut p = p0();
-        // Seeded from a fix: pose error = bias + white.
-        for (i, b) in [(EAST, BIAS_E), (NORTH, BIAS_N)] {
-            p[(b, b)] = 0.81 * 0.25;
-            p[(i, i)] = 0.25;
-            p[(i, b)] = -0.81 * 0.25;
-            p[(b, i)] = -0.81 * 0.25;
-        }
-        Filter::new(x0, p, c).unwrap()
-    }
-
-    #[test]
-    fn gnss_bias_takes_part_of_a_fix_and_decays() {
-        let mut plain = start(Variant::Adaptive);
-        let mut biased = start_biased(30.0);
-        let f1 = PoseFix {
-            position: Some((1.0, 0.0)),
-            yaw: None,
-            std_xy: 0.5,
-            std_yaw: 0.02,
-        };
-        plain.update(0.0, &f1).unwrap();
-        biased.update(0.0, &f1).unwrap();
-        let b0 = biased.state()[BIAS_E];
-        // Part of the offset is explained as receiver bias, so the pose
-        // moves less than without bias states, and the two add up to at
-        // most the innovation.
-        assert!(b0 > 0.05, "bias {b0}");
-        assert!(biased.state()[EAST] < plain.state()[EAST] - 0.05);
-        assert!(biased.state()[EAST] + b0 <= 1.0 + 1e-9);
-        assert!(is_spd(biased.covariance()));
-        // Standing still for one correlation time: the bias decays by 1/e,
-        // its variance returns towards the stationary 0.81 * 0.25 m^2.
-        for _ in 0..1500 {
-            biased.predict(0.0, 0.0, 0.02).unwrap();
-        }
-        let b1 = biased.state()[BIAS_E];
-        assert!((b1 - b0 * (-1.0f64).exp()).abs() < 1e-9, "{b0} -> {b1}");
-        let v = biased.covariance()[(BIAS_E, BIAS_E)];
-        assert!(v > 0.1 && v <= 0.81 * 0.25 + 1e-12, "bias variance {v}");
-        assert!(is_spd(biased.covariance()));
-    }
-
-    #[test]
-    fn gnss_bias_share_out_of_range_is_an_error() {
-        let x0 = model::state(0.0, 0.0, 0.0, &IcrParams::no_slip(0.5));
-        for (tau, share) in [(30.0, 1.0), (30.0, -0.1), (-1.0, 0.5), (f64::NAN, 0.5)] {
-            let mut c = cfg(Variant::Adaptive);
-            c.gnss_bias_tau = tau;
-            c.gnss_bias_share = share;
-            assert!(matches!(
-                Filter::new(x0, p0(), c),
-                Err(FilterError::BadInput(_))
-            ));
         }
     }
 

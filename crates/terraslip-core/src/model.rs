@@ -29,10 +29,10 @@ use crate::angle;
 use crate::kinematics::{IcrParams, MIN_SPREAD};
 
 /// Dimension of the state.
-pub const N: usize = 10;
+pub const N: usize = 8;
 /// Number of slip parameters (`y_l, y_r, x_c, alpha_l, alpha_r`).
 pub const K: usize = 5;
-/// State vector `[east, north, yaw, y_l, y_r, x_c, alpha_l, alpha_r, b_east, b_north]`.
+/// State vector `[east, north, yaw, y_l, y_r, x_c, alpha_l, alpha_r]`.
 pub type State = SVector<f64, N>;
 /// NxN matrix (covariance, Jacobian).
 pub type MatN = SMatrix<f64, N, N>;
@@ -57,12 +57,6 @@ pub const ALPHA_L: usize = 6;
 pub const ALPHA_R: usize = 7;
 /// First index of the slip parameters.
 pub const SLIP: usize = Y_L;
-/// Index of the east bias of the GNSS fixes (m; the receiver reports
-/// `east + b_east`). The kinematic model leaves it unchanged; the filter
-/// applies its Gauss-Markov decay.
-pub const BIAS_E: usize = 8;
-/// Index of the north bias of the GNSS fixes (m).
-pub const BIAS_N: usize = 9;
 
 /// Builds a state from a pose and slip parameters.
 pub fn state(east: f64, north: f64, yaw: f64, icr: &IcrParams) -> State {
@@ -75,8 +69,6 @@ pub fn state(east: f64, north: f64, yaw: f64, icr: &IcrParams) -> State {
         icr.x_c,
         icr.alpha_l,
         icr.alpha_r,
-        0.0,
-        0.0,
     ])
 }
 
@@ -277,7 +269,7 @@ mod tests {
             a_l in 0.8f64..1.2, a_r in 0.8f64..1.2,
             vl in -2.0f64..2.0, vr in -2.0f64..2.0, dt in 0.001f64..0.5,
         ) {
-            let s = State::from([e, n, yaw, y_l, y_r, x_c, a_l, a_r, 0.5 * e, -0.5 * n]);
+            let s = State::from([e, n, yaw, y_l, y_r, x_c, a_l, a_r]);
             let u = TreadInput { v_left: vl, v_right: vr };
             let fa = jacobian(&s, u, dt);
             let fd = central_difference(&s, u, dt);

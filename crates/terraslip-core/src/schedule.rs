@@ -241,7 +241,7 @@ mod tests {
         let mut c = FilterConfig::for_track(0.5);
         c.variant = Variant::Ekf;
         let x0 = crate::model::state(0.0, 0.0, 0.0, &IcrParams::no_slip(0.5));
-        let p0 = MatN::from_diagonal(&State::from([1.0, 1.0, 0.01, 1e-4, 1e-4, 1e-4, 1e-6, 1e-6, 1.0, 1.0]));
+        let p0 = MatN::from_diagonal(&State::from([1.0, 1.0, 0.01, 1e-4, 1e-4, 1e-4, 1e-6, 1e-6]));
         Filter::new(x0, p0, c).unwrap()
     }
 

@@ -91,15 +91,6 @@ pub struct FilterSection {
     /// slip parameters: GNSS errors correlated over tens of seconds would
     /// drag the weakly observable ones (RTK-grade fixes still teach them).
     pub slip_from_position_max_std: f64,
-    /// Correlation time (s) of the GNSS position error, estimated as a
-    /// first-order Gauss-Markov bias per axis (two extra states); 0 = the
-    /// fixes are white (the papers' model). 30 s is typical of a consumer
-    /// receiver (multipath and atmosphere change over tens of seconds).
-    pub gnss_bias_tau: f64,
-    /// Share of a fix's stated `std_xy` that is that correlated bias (0..1):
-    /// bias std = share * std_xy, white part = sqrt(1 - share^2) * std_xy.
-    /// Only the white part is compared with `slip_from_position_max_std`.
-    pub gnss_bias_share: f64,
     /// Position random walk, m^2/s.
     pub q_pos: f64,
     /// Extra position noise per squared speed, m^2/s per (m/s)^2.
@@ -227,11 +218,6 @@ pub struct BeliefSection {
     pub vote_lambda: u32,
 }
 
-/// Default GNSS error correlation time, s (see `FilterSection::gnss_bias_tau`).
-pub const GNSS_BIAS_TAU: f64 = 30.0;
-/// Default share of the stated GNSS std that is correlated bias.
-pub const GNSS_BIAS_SHARE: f64 = 0.9;
-
 impl Default for FilterSection {
     fn default() -> Self {
         Self {
@@ -240,8 +226,6 @@ impl Default for FilterSection {
             learn_icr: true,
             learn_alpha: true,
             slip_from_position_max_std: 0.25,
-            gnss_bias_tau: GNSS_BIAS_TAU,
-            gnss_bias_share: GNSS_BIAS_SHARE,
             q_pos: 1e-4,
             q_pos_per_speed2: 1e-3,
             q_yaw: 1e-6,
@@ -397,14 +381,7 @@ impl EstimatorConfig {
                 "filter.slip_from_position_max_std",
                 f.slip_from_position_max_std,
             ),
-            ("filter.gnss_bias_tau", f.gnss_bias_tau),
         ];
-        if !(0.0..1.0).contains(&f.gnss_bias_share) {
-            return Err(ConfigError(format!(
-                "filter.gnss_bias_share = {} must be in [0, 1)",
-                f.gnss_bias_share
-            )));
-        }
         let pos = [
             ("filter.adapt_time_constant", f.adapt_time_constant),
             ("filter.max_wheel_gap", f.max_wheel_gap),
@@ -505,8 +482,6 @@ impl EstimatorConfig {
             learn_icr: f.learn_icr,
             learn_alpha: f.learn_alpha,
             slip_from_position_max_std: f.slip_from_position_max_std,
-            gnss_bias_tau: f.gnss_bias_tau,
-            gnss_bias_share: f.gnss_bias_share,
             gate_position: f.gate_position,
             gate_yaw: f.gate_yaw,
             max_rejections: f.max_rejections,
@@ -569,8 +544,6 @@ impl EstimatorConfig {
             // no uncertainty of their own), a vague ICR prior, no memory.
             c.filter.learn_alpha = false;
             c.filter.slip_from_position_max_std = 1e9;
-            c.filter.gnss_bias_tau = 0.0;
-            c.filter.gnss_bias_share = 0.0;
             c.init.std_alpha = 1e-6;
             c.init.std_alpha_diff = 1e-6;
             c.init.std_centre = 0.1;

@@ -56,7 +56,7 @@ pub struct EstimateRow {
     pub alpha_r: f64,
     /// Standard deviations of the eight states (east, north, yaw, y_l, y_r,
     /// x_c, alpha_l, alpha_r).
-    pub std: [f64; model::N],
+    pub std: [f64; 8],
     /// Std of the spread y_l - y_r, m.
     pub std_spread: f64,
     /// Index into [`EstimateRun::terrains`] of the believed terrain.
@@ -313,22 +313,6 @@ pub fn run_with(
     P0[(NORTH, NORTH)] = pos_var;
     P0[(YAW, YAW)] = yaw_var;
     P0.fixed_view_mut::<K, K>(SLIP, SLIP).copy_from(&icr_cov);
-    // The first fix is truth + bias + white noise and seeds the pose with a
-    // zero bias estimate: the pose error then holds the bias, whence the
-    // negative correlation. Without bias states they are inert (unit
-    // variance, never observed, never coupled).
-    let bias_var = if cfg.filter.gnss_bias_tau > 0.0 && first_pos.is_some() {
-        (cfg.filter.gnss_bias_share * std_xy0).powi(2)
-    } else {
-        1.0
-    };
-    for (p, b) in [(EAST, model::BIAS_E), (NORTH, model::BIAS_N)] {
-        P0[(b, b)] = bias_var;
-        if cfg.filter.gnss_bias_tau > 0.0 && first_pos.is_some() {
-            P0[(p, b)] = -bias_var;
-            P0[(b, p)] = -bias_var;
-        }
-    }
 
     let mut fcfg = cfg.filter_config(track_width);
     if fcfg.encoder_tick == 0.0 {

@@ -54,6 +54,23 @@ fn main() -> anyhow::Result<()> {
                 // Pure dead reckoning through the outage: the compass goes too.
                 let opts = RunOptions { outage };
                 let run = pipeline::run_with(log, &cfg, &ev, None, opts, &mut |_, _| {})?;
+                // TRACE=seed,t0,t1 prints the spread error and turn rate there.
+                if let Ok(tr) = std::env::var("TRACE") {
+                    let v: Vec<f64> = tr.split(',').filter_map(|x| x.parse().ok()).collect();
+                    if v.len() == 3 && v[0] as u64 == seed {
+                        for r in run.rows.iter().filter(|r| r.t >= v[1] && r.t <= v[2]) {
+                            if (r.t * 50.0).round() as i64 % 25 != 0 {
+                                continue;
+                            }
+                            if let Some(t) = log.truth.iter().find(|x| x.t >= r.t) {
+                                eprintln!(
+                                    "{pname} t {:.1} d_err {:+.4} std_d {:.4} alpha {:.4} q {:.1} yaw {:+.3} truth_yaw {:+.3}",
+                                    r.t, (r.y_l - r.y_r) - (t.y_l - t.y_r), r.std_spread, 0.5 * (r.alpha_l + r.alpha_r), r.q_scale, r.yaw, t.yaw
+                                );
+                            }
+                        }
+                    }
+                }
                 let card = metrics::scorecard(&run, &log.truth, &log.terrain, outage, 20.0);
                 if std::env::var("VERBOSE").is_ok() {
                     for r in &card.reconvergence {

@@ -61,6 +61,13 @@ pub struct ScheduleConfig {
     /// Seconds on a terrain (while moving) before what was learned there is
     /// worth remembering.
     pub memory_min_dwell: f64,
+    /// Time constant (s) of the running average of the slip parameters that
+    /// is remembered (0 = the estimate at the moment of leaving). Taken
+    /// after half of `memory_min_dwell` (the re-convergence after arriving is
+    /// left out). The estimate at any one moment wanders with the heading
+    /// noise and with the turn rate (ICRs vary a few percent with it); the
+    /// average over the stay is the better guess for the next visit.
+    pub memory_average: f64,
     /// Floor on the recalled standard deviations: a stored estimate is not
     /// trusted more than this (terrain ICRs vary a little between visits).
     pub recall_floor: IcrStd,
@@ -74,6 +81,7 @@ impl Default for ScheduleConfig {
             reset: None,
             memory: false,
             memory_min_dwell: 20.0,
+            memory_average: 0.0,
             recall_floor: IcrStd {
                 spread: 0.004,
                 centre: 0.005,
@@ -111,6 +119,10 @@ pub struct NoiseSchedule {
     dwell: f64,
     boost_left: u32,
     memory: [Option<Memory>; MAX_TERRAINS],
+    /// Running average of the slip parameters on the current terrain and
+    /// the seconds it covers.
+    average: [f64; K],
+    averaged: f64,
 }
 
 impl NoiseSchedule {
@@ -122,6 +134,8 @@ impl NoiseSchedule {
             dwell: 0.0,
             boost_left: 0,
             memory: [None; MAX_TERRAINS],
+            average: [0.0; K],
+            averaged: 0.0,
         }
     }
 
@@ -150,6 +164,16 @@ impl NoiseSchedule {
     pub fn on_predict(&mut self, filter: &Filter, dt: f64) {
         if !filter.is_still() && dt.is_finite() && dt > 0.0 {
             self.dwell += dt;
+            if self.cfg.memory_average > 0.0 && self.dwell >= 0.5 * self.cfg.memory_min_dwell {
+                // A plain mean until one time constant is covered, then
+                // exponential: no start-up bias towards zero.
+                self.averaged += dt;
+                let a = dt / self.averaged.min(self.cfg.memory_average);
+                let x = filter.state();
+                for (i, m) in self.average.iter_mut().enumerate() {
+                    *m += a * (x[SLIP + i] - *m);
+                }
+            }
         }
     }
 
@@ -180,8 +204,19 @@ impl NoiseSchedule {
                         .covariance()
                         .fixed_view::<K, K>(SLIP, SLIP)
                         .into_owned();
+                    let mut icr = model::icr_of(filter.state());
+                    if self.averaged > 0.0 && self.average.iter().all(|v| v.is_finite()) {
+                        let m = &self.average;
+                        icr = IcrParams {
+                            y_l: m[0],
+                            y_r: m[1],
+                            x_c: m[2],
+                            alpha_l: m[3],
+                            alpha_r: m[4],
+                        };
+                    }
                     self.memory[prev] = Some(Memory {
-                        icr: model::icr_of(filter.state()),
+                        icr,
                         cov: floor_cov(&cov, &self.cfg.recall_floor),
                     });
                 }
@@ -189,6 +224,7 @@ impl NoiseSchedule {
         }
         self.current = Some(terrain);
         self.dwell = 0.0;
+        self.averaged = 0.0;
         if self.cfg.memory {
             if let Some(Some(m)) = self.memory.get(terrain) {
                 filter.reset_icr(Some(&m.icr), &m.cov)?;
@@ -330,6 +366,36 @@ mod tests {
         let p = f.covariance();
         let var_d = p[(3, 3)] + p[(4, 4)] - 2.0 * p[(3, 4)];
         assert!(var_d >= 0.004f64.powi(2));
+    }
+
+    #[test]
+    fn memory_keeps_the_average_over_the_stay_not_the_last_value() {
+        let mut f = filter();
+        let mut s = NoiseSchedule::new(ScheduleConfig {
+            memory: true,
+            memory_min_dwell: 2.0,
+            memory_average: 10.0,
+            ..Default::default()
+        });
+        s.on_terrain(&mut f, 1).unwrap();
+        let cov = SlipCov::from_diagonal_element(1e-6);
+        // 1 s settling (not averaged), 3 s at y_l = 0.40 and 1 s at 0.45:
+        // remembered 0.4125 (a plain mean: shorter than the time constant).
+        for k in 0..250 {
+            let y_l = match k {
+                0..=49 => 0.5,
+                50..=199 => 0.40,
+                _ => 0.45,
+            };
+            f.predict(0.5, 0.5, 0.02).unwrap();
+            f.reset_icr(Some(&IcrParams::new(y_l, -0.38, 0.0)), &cov)
+                .unwrap();
+            s.on_predict(&f, 0.02);
+        }
+        s.on_terrain(&mut f, 0).unwrap();
+        assert_eq!(s.on_terrain(&mut f, 1).unwrap(), ChangeAction::Recalled);
+        let y_l = f.state()[Y_L];
+        assert!((y_l - 0.4125).abs() < 2e-3, "recalled y_l {y_l}");
     }
 
     #[test]

@@ -54,6 +54,23 @@ fn main() -> anyhow::Result<()> {
                 // Pure dead reckoning through the outage: the compass goes too.
                 let opts = RunOptions { outage };
                 let run = pipeline::run_with(log, &cfg, &ev, None, opts, &mut |_, _| {})?;
+                // TRACE=seed,t0,t1 prints the spread error and turn rate there.
+                if let Ok(tr) = std::env::var("TRACE") {
+                    let v: Vec<f64> = tr.split(',').filter_map(|x| x.parse().ok()).collect();
+                    if v.len() == 3 && v[0] as u64 == seed {
+                        for r in run.rows.iter().filter(|r| r.t >= v[1] && r.t <= v[2]) {
+                            if (r.t * 50.0).round() as i64 % 25 != 0 {
+                                continue;
+                            }
+                            if let Some(t) = log.truth.iter().find(|x| x.t >= r.t) {
+                                eprintln!(
+                                    "{pname} t {:.1} d_err {:+.4} std_d {:.4} alpha {:.4} q {:.1} yaw {:+.3} truth_yaw {:+.3}",
+                                    r.t, (r.y_l - r.y_r) - (t.y_l - t.y_r), r.std_spread, 0.5 * (r.alpha_l + r.alpha_r), r.q_scale, r.yaw, t.yaw
+                                );
+                            }
+                        }
+                    }
+                }
                 let card = metrics::scorecard(&run, &log.truth, &log.terrain, outage, 20.0);
                 if std::env::var("VERBOSE").is_ok() {
                     for r in &card.reconvergence {
@@ -70,6 +87,16 @@ fn main() -> anyhow::Result<()> {
                 yr += card.rms.y_r.powi(2);
                 xc += card.rms.x_c.powi(2);
                 if let Some(dr) = card.drift {
+                    if std::env::var("VERBOSE").is_ok() {
+                        let at = |t: f64| run.rows.iter().find(|r| r.t >= t);
+                        let tr = log.truth.iter().find(|r| r.t >= dr.t0);
+                        if let (Some(r), Some(tr)) = (at(dr.t0), tr) {
+                            eprintln!(
+                                "{pname} seed {seed}: drift {:.2} % over {:.1} m; at t0 alpha {:.4} {:.4}, d {:.4} (truth {:.4})",
+                                dr.percent, dr.distance, r.alpha_l, r.alpha_r, r.y_l - r.y_r, tr.y_l - tr.y_r
+                            );
+                        }
+                    }
                     drift.push(dr.percent);
                 }
             }

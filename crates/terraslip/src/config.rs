@@ -202,6 +202,10 @@ pub struct ScheduleSection {
     pub memory: bool,
     /// Seconds of driving on a terrain before its ICRs are remembered.
     pub memory_min_dwell: f64,
+    /// Time constant (s) of the running average of the slip parameters
+    /// remembered for a terrain, taken after half of `memory_min_dwell`
+    /// (0 = remember the estimate at the moment of leaving).
+    pub memory_average: f64,
     /// Floor on recalled std: a remembered estimate is not trusted more.
     pub recall_floor: SlipStd,
 }
@@ -308,6 +312,7 @@ impl Default for ScheduleSection {
             },
             memory: true,
             memory_min_dwell: 20.0,
+            memory_average: 40.0,
             recall_floor: SlipStd {
                 spread: 0.004,
                 centre: 0.005,
@@ -450,6 +455,9 @@ impl EstimatorConfig {
         if !self.schedule.memory_min_dwell.is_finite() || self.schedule.memory_min_dwell < 0.0 {
             return Err(ConfigError("schedule.memory_min_dwell must be >= 0".into()));
         }
+        if !self.schedule.memory_average.is_finite() || self.schedule.memory_average < 0.0 {
+            return Err(ConfigError("schedule.memory_average must be >= 0".into()));
+        }
         Ok(())
     }
 
@@ -508,6 +516,7 @@ impl EstimatorConfig {
             reset: s.reset.then(|| s.reset_std.to_core()),
             memory: s.memory,
             memory_min_dwell: s.memory_min_dwell,
+            memory_average: s.memory_average,
             recall_floor: s.recall_floor.to_core(),
         }
     }

@@ -255,11 +255,16 @@ pub struct Drift {
 /// error at `t0` (GNSS noise), so what remains is what dead reckoning on the
 /// estimated ICRs adds. `None` without truth over the window or motion.
 pub fn outage_drift(run: &EstimateRun, truth: &[TruthSample], t0: f64, t1: f64) -> Option<Drift> {
-    let at = |t: f64| {
-        let i = run.rows.partition_point(|r| r.t < t);
-        run.rows.get(i)
-    };
-    let (a, b) = (at(t0)?, at(t1)?);
+    // Start after the last fix (the row at t0 has fused it), end before the
+    // first fix after the outage: the row at t1 has already been pulled
+    // towards that fix, which measures the GNSS error there, not the drift.
+    let a = run.rows.get(run.rows.partition_point(|r| r.t < t0))?;
+    let b = run
+        .rows
+        .get(run.rows.partition_point(|r| r.t < t1).checked_sub(1)?)?;
+    if b.t <= a.t {
+        return None;
+    }
     let (ta, tb) = (truth_at(truth, a.t)?, truth_at(truth, b.t)?);
     let local = |de: f64, dn: f64, yaw: f64| {
         let (s, c) = yaw.sin_cos();

@@ -101,7 +101,10 @@ fn outage_drops_fixes_and_dead_reckons() {
     assert_eq!(run.stats.dropped_fixes, 30);
     let d = metrics::outage_drift(&run, &log.truth, 150.0, 180.0).unwrap();
     assert!(d.distance > 15.0, "{d:?}");
-    assert!(d.percent < 1.0, "{d:?}");
+    // Pure dead reckoning: the window ends before the fix at 180 s (1.39 %
+    // measured; the former < 1 % included that 5 cm fix in the end point).
+    assert!(d.t1 < 180.0, "{d:?}");
+    assert!(d.percent < 1.5, "{d:?}");
     // The no-slip model drifts far more.
     let ns = EstimatorConfig::preset("no-slip").unwrap();
     let run = pipeline::run_with(&log, &ns, &ev, None, opts, &mut |_, _| {}).unwrap();

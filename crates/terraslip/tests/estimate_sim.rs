@@ -44,7 +44,7 @@ fn gnss_2m_close_to_targets_and_beats_the_papers_schemes() {
     let ours = score("papers", 1, &EstimatorConfig::default());
     eprintln!("{ours:#?}");
     // Measured on this seed: RMS d 1.16 cm, y_l 0.9, y_r 0.55 cm, drift
-    // ~1 %. The common tread speed factor cannot be learned through 2 m
+    // 0.71 % (pure dead reckoning, up to the first fix after the outage). The common tread speed factor cannot be learned through 2 m
     // GNSS, and soil's alpha = 0.97 biases d by ~1.3 cm there.
     assert!(ours.rms.d <= 0.013, "RMS d {}", ours.rms.d);
     assert!(
@@ -53,7 +53,7 @@ fn gnss_2m_close_to_targets_and_beats_the_papers_schemes() {
         ours.rms
     );
     assert!(
-        ours.drift.is_some_and(|d| d.percent <= 2.5),
+        ours.drift.is_some_and(|d| d.percent <= 1.0),
         "{:?}",
         ours.drift
     );
@@ -69,6 +69,15 @@ fn gnss_2m_close_to_targets_and_beats_the_papers_schemes() {
 #[test]
 fn revisited_terrains_are_recalled_at_once() {
     let c = score("wang4-rtk", 2, &EstimatorConfig::default());
+    let revisits: Vec<_> = c.reconvergence.iter().filter(|r| r.revisit).collect();
+    assert!(revisits.len() >= 2, "{:?}", c.reconvergence);
+    for r in revisits {
+        assert_eq!(r.seconds, Some(0.0), "{r:?}");
+    }
+    // With 2 m GNSS too: what is remembered is the average over the stay,
+    // not the noisy estimate at the moment of leaving (soil's revisit on
+    // seed 1 took 8 s with the latter).
+    let c = score("wang4", 1, &EstimatorConfig::default());
     let revisits: Vec<_> = c.reconvergence.iter().filter(|r| r.revisit).collect();
     assert!(revisits.len() >= 2, "{:?}", c.reconvergence);
     for r in revisits {

@@ -91,14 +91,6 @@ pub fn run(args: Args) -> Result<()> {
         .first()
         .map(|o| (o.start, o.start + o.duration));
 
-    // The row at the outage's end already holds the first fix after it;
-    // the drift is measured up to the last row before that fix.
-    let drift_window = outage.and_then(|(t0, t1)| {
-        let i = log.wheels.partition_point(|w| w.t < t1);
-        let end = log.wheels.get(i.checked_sub(1)?)?.t;
-        (end > t0).then_some((t0, end))
-    });
-
     let presets = EstimatorConfig::presets();
     let bar = ProgressBar::new(presets.len() as u64).with_style(
         ProgressStyle::with_template("{msg:<14} [{bar:30}] {pos}/{len} variants")
@@ -118,7 +110,7 @@ pub fn run(args: Args) -> Result<()> {
             &mut |_, _| {},
         )
         .with_context(|| format!("variant {name}"))?;
-        let card = metrics::scorecard(&run, &log.truth, &log.terrain, drift_window, SETTLE);
+        let card = metrics::scorecard(&run, &log.truth, &log.terrain, outage, SETTLE);
         outcomes.push(Outcome {
             name: name.to_string(),
             run,

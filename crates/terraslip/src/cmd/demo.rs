@@ -428,7 +428,7 @@ fn write_outputs(
     // 4. Dead reckoning through the outage: each variant's path, aligned to
     //    the truth's pose at the start (what the drift metric measures).
     if let Some((t0, t1)) = outage {
-        let tr: Vec<&TruthSample> = truth.iter().filter(|s| s.t >= t0 && s.t <= t1).collect();
+        let tr: Vec<&TruthSample> = truth.iter().filter(|s| s.t >= t0 && s.t < t1).collect();
         if let Some(start) = tr.first() {
             let mut p = LinePlot::new(
                 format!("Dead reckoning through the GNSS outage ({t0:.0}-{t1:.0} s), each variant aligned to the truth at {t0:.0} s"),
@@ -447,7 +447,9 @@ fn write_outputs(
                     .run
                     .rows
                     .iter()
-                    .filter(|r| r.t >= t0 && r.t <= t1)
+                    // The row at t1 has fused the first fix after the
+                    // outage: stop before it, as the drift metric does.
+                    .filter(|r| r.t >= t0 && r.t < t1)
                     .collect();
                 let Some(a) = rows.first() else { continue };
                 let rot = start.yaw - a.yaw;

@@ -480,21 +480,25 @@ pub fn run_with(
                 ));
             }
         }
-        let widen = |filter: &mut Filter, dt: f64| {
+        // One prediction step of `dt` (s) with this row's speeds.
+        let advance = |filter: &mut Filter,
+                       schedule: &mut NoiseSchedule,
+                       stats: &mut RunStats,
+                       dt: f64|
+         -> Result<(), PipelineError> {
             if gap {
                 let reach = max_speed * dt;
                 filter.inflate_pose(reach * reach, std::f64::consts::PI.powi(2));
             }
+            filter.predict(vl, vr, dt).map_err(|e| filter_err(w.t, e))?;
+            schedule.on_predict(filter, dt);
+            stats.predictions += 1;
+            Ok(())
         };
         while pi < pose.len() && pose[pi].t <= w.t {
             let p = pose[pi];
             if i > 0 && p.t > t_cur {
-                widen(&mut filter, p.t - t_cur);
-                filter
-                    .predict(vl, vr, p.t - t_cur)
-                    .map_err(|e| filter_err(w.t, e))?;
-                schedule.on_predict(&filter, p.t - t_cur);
-                stats.predictions += 1;
+                advance(&mut filter, &mut schedule, &mut stats, p.t - t_cur)?;
                 t_cur = p.t;
             }
             if let Some(rep) = fuse(&mut filter, &mut schedule, p, &mut stats) {
@@ -507,12 +511,7 @@ pub fn run_with(
             pi += 1;
         }
         if i > 0 && w.t > t_cur {
-            widen(&mut filter, w.t - t_cur);
-            filter
-                .predict(vl, vr, w.t - t_cur)
-                .map_err(|e| filter_err(w.t, e))?;
-            schedule.on_predict(&filter, w.t - t_cur);
-            stats.predictions += 1;
+            advance(&mut filter, &mut schedule, &mut stats, w.t - t_cur)?;
         }
         t_prev = w.t;
 

@@ -166,6 +166,11 @@ pub struct MeasurementSection {
     /// Encoder resolution on the tread, m per tick; 0 = from meta.toml
     /// (2 pi wheel_radius / ticks_per_rev), or unquantised if that is unknown.
     pub encoder_tick: f64,
+    /// How late the pose stream is against the wheels, s: a pose stamped `t`
+    /// describes the robot at wheel-clock time `t - pose_latency` (a lidar
+    /// localiser stamping on arrival: 0.3-0.5 s on the DRIVE logs). 0 = take
+    /// the latency `terraslip calibrate` stored in the `--init` file, if any.
+    pub pose_latency: f64,
 }
 
 /// `[band]`: multiples of the track width W.
@@ -280,6 +285,7 @@ impl Default for MeasurementSection {
             std_xy: 2.0,
             std_yaw: 1f64.to_radians(),
             encoder_tick: 0.0,
+            pose_latency: 0.0,
         }
     }
 }
@@ -408,6 +414,12 @@ impl EstimatorConfig {
             ("band.max_x_c", self.band.max_x_c),
             ("schedule.boost_factor", self.schedule.boost_factor),
         ];
+        let lat = self.measurement.pose_latency;
+        if !(lat.is_finite() && lat.abs() <= 10.0) {
+            return Err(ConfigError(format!(
+                "measurement.pose_latency = {lat} must be finite and within ±10 s"
+            )));
+        }
         for (name, v) in nonneg {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(ConfigError(format!("{name} = {v} must be finite and >= 0")));

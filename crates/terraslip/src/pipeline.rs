@@ -260,12 +260,19 @@ pub fn run_with(
     };
 
     // Starting pose: the first fix (whatever part it has).
-    let pose: Vec<&PoseObs> = log
+    // Poses move onto the wheels' clock (measurement.pose_latency); the
+    // outage window is in the log's own time.
+    let latency = cfg.measurement.pose_latency;
+    let pose: Vec<PoseObs> = log
         .pose
         .iter()
         .filter(|p| match opts.outage {
             Some((t0, t1)) => !(p.t >= t0 && p.t < t1),
             None => true,
+        })
+        .map(|p| PoseObs {
+            t: p.t - latency,
+            ..*p
         })
         .collect();
     let dropped = log.pose.len() - pose.len();
@@ -501,7 +508,7 @@ pub fn run_with(
                 advance(&mut filter, &mut schedule, &mut stats, p.t - t_cur)?;
                 t_cur = p.t;
             }
-            if let Some(rep) = fuse(&mut filter, &mut schedule, p, &mut stats) {
+            if let Some(rep) = fuse(&mut filter, &mut schedule, &p, &mut stats) {
                 fused |= matches!(rep.position, Fate::Fused | Fate::Reanchored)
                     || matches!(rep.yaw, Fate::Fused | Fate::Reanchored);
                 gated |= rep.position == Fate::Gated || rep.yaw == Fate::Gated;

@@ -158,6 +158,14 @@ pub fn run(args: Args) -> Result<()> {
         Some(p) => Some(ParamsFile::read(p).with_context(|| "--init")?),
         None => None,
     };
+    // The wheel-to-pose latency calibrate found travels with its parameters.
+    if cfg.measurement.pose_latency == 0.0 {
+        if let Some(lat) = init.as_ref().and_then(calibrated_latency) {
+            cfg.measurement.pose_latency = lat;
+            cfg.validate().context("--init time_offset_s")?;
+            eprintln!("pose latency {lat:.3} s from --init (calibrated wheel-to-pose offset)");
+        }
+    }
     let (evidence, evidence_name) = if args.terrain_labels {
         if log.terrain.is_empty() {
             bail!("--terrain-labels: {} has no terrain.csv", log_dir.display());
@@ -240,6 +248,17 @@ pub fn run(args: Args) -> Result<()> {
         println!("{}", serde_json::to_string(&summary)?);
     }
     Ok(())
+}
+
+/// The wheel-to-pose time offset stored by `terraslip calibrate`
+/// (`time_offset_s`, pooled or of the first terrain set that has one).
+fn calibrated_latency(p: &ParamsFile) -> Option<f64> {
+    let get = |extra: &std::collections::BTreeMap<String, serde_json::Value>| {
+        extra.get("time_offset_s").and_then(|v| v.as_f64())
+    };
+    get(&p.extra)
+        .or_else(|| p.terrains.values().find_map(|e| get(&e.extra)))
+        .filter(|v| v.is_finite() && *v != 0.0)
 }
 
 /// Reads only what the estimator uses: wheels, pose, meta and (with

@@ -1,4 +1,4 @@
-//! `estimate --terrain-model`: a trained classifier as terrain evidence.
+//! `estimate` with classifier evidence (`--terrain-model`) and with a late pose stream (`measurement.pose_latency`).
 
 use std::path::Path;
 
@@ -124,4 +124,78 @@ fn missing_model_file_is_a_clear_error_and_writes_nothing() {
         "{err}"
     );
     assert!(!tmp.path().join("est/estimate.csv").exists());
+}
+
+/// A pose stream stamped late (a localiser stamping on arrival) is gated as
+/// inconsistent with the treads; `measurement.pose_latency` puts it back on
+/// the wheels' clock.
+#[test]
+fn pose_latency_realigns_a_late_pose_stream() {
+    let tmp = tempfile::tempdir().unwrap();
+    let log = tmp.path().join("p3");
+    let o = terraslip()
+        .args([
+            "simulate",
+            "p3at-calib",
+            "--no-camera",
+            "--seed",
+            "4",
+            "--out",
+        ])
+        .arg(&log)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // Delay every pose by 0.4 s.
+    let text = std::fs::read_to_string(log.join("pose.csv")).unwrap();
+    let mut lines = text.lines();
+    let mut out = format!("{}\n", lines.next().unwrap());
+    for l in lines {
+        let (t, rest) = l.split_once(',').unwrap();
+        out.push_str(&format!("{},{rest}\n", t.parse::<f64>().unwrap() + 0.4));
+    }
+    std::fs::write(log.join("pose.csv"), out).unwrap();
+
+    let run = |latency: f64| -> serde_json::Value {
+        let cfg = tmp.path().join(format!("lat{latency}.toml"));
+        std::fs::write(&cfg, format!("[measurement]\npose_latency = {latency}\n")).unwrap();
+        let o = terraslip()
+            .arg("estimate")
+            .arg(&log)
+            .arg("--out")
+            .arg(tmp.path().join(format!("est{latency}")))
+            .arg("--config")
+            .arg(&cfg)
+            .arg("--json")
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        serde_json::from_slice(&o.stdout).unwrap()
+    };
+    let gated = |s: &serde_json::Value| s["stats"]["yaw_gated"].as_u64().unwrap();
+    let (late, aligned) = (run(0.0), run(0.4));
+    assert!(
+        gated(&late) > 20,
+        "the late stream should be gated: {}",
+        gated(&late)
+    );
+    assert!(
+        gated(&aligned) * 2 < gated(&late).max(1),
+        "heading fixes gated: {} with latency, {} without",
+        gated(&aligned),
+        gated(&late)
+    );
+    let bad = tmp.path().join("bad.toml");
+    std::fs::write(&bad, "[measurement]\npose_latency = 99.0\n").unwrap();
+    let o = terraslip()
+        .arg("estimate")
+        .arg(&log)
+        .arg("--out")
+        .arg(tmp.path().join("x"))
+        .arg("--config")
+        .arg(&bad)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("pose_latency"));
 }

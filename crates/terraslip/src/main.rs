@@ -13,7 +13,17 @@ mod cmd;
 /// Frames: ROS REP-103 (body x forward, y left; world ENU, yaw counter-clockwise
 /// from east). Units: SI. Log directories follow shared/spec/log-format.md.
 #[derive(Parser)]
-#[command(name = "terraslip", version, propagate_version = true)]
+#[command(
+    name = "terraslip",
+    version,
+    propagate_version = true,
+    after_help = "Start here:
+  terraslip demo                                    # simulate, compare every estimator, write demo-out/report.html
+  terraslip simulate papers --out log               # a log with ground truth (see `simulate --list`)
+  terraslip calibrate log --out params.json         # ICR parameters per terrain from a drive with a pose reference
+  terraslip estimate log --out est --init params.json --terrain-labels
+Each command's --help has more examples; docs/ has the method and the figures."
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

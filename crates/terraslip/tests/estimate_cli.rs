@@ -25,6 +25,23 @@ fn short() -> SynthSpec {
     }
 }
 
+/// A temporary directory holding the short log at `log/` and the output
+/// path `out/` (not created).
+fn short_log() -> (tempfile::TempDir, std::path::PathBuf, std::path::PathBuf) {
+    let tmp = tempfile::tempdir().unwrap();
+    let (log, out) = (tmp.path().join("log"), tmp.path().join("out"));
+    write_log(&log, &short());
+    (tmp, log, out)
+}
+
+/// [`fails`] on `LOG --out OUT` with no other flag.
+fn fails_plain(log: &Path, out: &Path) -> String {
+    fails(
+        &[log.to_str().unwrap(), "--out", out.to_str().unwrap()],
+        out,
+    )
+}
+
 fn estimate() -> Command {
     Command::cargo_bin("terraslip").unwrap()
 }
@@ -55,9 +72,7 @@ fn read_rows(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
 
 #[test]
 fn writes_estimate_and_summary() {
-    let tmp = tempfile::tempdir().unwrap();
-    let (log, out) = (tmp.path().join("log"), tmp.path().join("out"));
-    write_log(&log, &short());
+    let (_tmp, log, out) = short_log();
     let o = estimate()
         .args([
             "estimate",
@@ -131,14 +146,9 @@ fn print_config_is_loadable_toml() {
 
 #[test]
 fn missing_wheels_file_is_named() {
-    let tmp = tempfile::tempdir().unwrap();
-    let (log, out) = (tmp.path().join("log"), tmp.path().join("out"));
-    write_log(&log, &short());
+    let (_tmp, log, out) = short_log();
     fs::remove_file(log.join("wheels.csv")).unwrap();
-    let err = fails(
-        &[log.to_str().unwrap(), "--out", out.to_str().unwrap()],
-        &out,
-    );
+    let err = fails_plain(&log, &out);
     assert!(
         err.contains("wheels.csv") && err.contains("missing"),
         "{err}"
@@ -147,14 +157,9 @@ fn missing_wheels_file_is_named() {
 
 #[test]
 fn missing_column_is_named() {
-    let tmp = tempfile::tempdir().unwrap();
-    let (log, out) = (tmp.path().join("log"), tmp.path().join("out"));
-    write_log(&log, &short());
+    let (_tmp, log, out) = short_log();
     fs::write(log.join("wheels.csv"), "t,v_left\n0,0.1\n0.02,0.1\n").unwrap();
-    let err = fails(
-        &[log.to_str().unwrap(), "--out", out.to_str().unwrap()],
-        &out,
-    );
+    let err = fails_plain(&log, &out);
     assert!(
         err.contains("wheels.csv") && err.contains("v_right"),
         "{err}"
@@ -175,36 +180,26 @@ fn corrupt(path: &Path, line: usize, f: impl Fn(&str) -> String) {
 #[test]
 fn nan_and_text_cells_name_file_and_line() {
     for (cell, why) in [("NaN", "not finite"), ("fast", "not a number")] {
-        let tmp = tempfile::tempdir().unwrap();
-        let (log, out) = (tmp.path().join("log"), tmp.path().join("out"));
-        write_log(&log, &short());
+        let (_tmp, log, out) = short_log();
         corrupt(&log.join("pose.csv"), 7, |l| {
             let mut c: Vec<&str> = l.split(',').collect();
             c[1] = cell;
             c.join(",")
         });
-        let err = fails(
-            &[log.to_str().unwrap(), "--out", out.to_str().unwrap()],
-            &out,
-        );
+        let err = fails_plain(&log, &out);
         assert!(err.contains("pose.csv:7") && err.contains(why), "{err}");
     }
 }
 
 #[test]
 fn time_going_backwards_names_line() {
-    let tmp = tempfile::tempdir().unwrap();
-    let (log, out) = (tmp.path().join("log"), tmp.path().join("out"));
-    write_log(&log, &short());
+    let (_tmp, log, out) = short_log();
     corrupt(&log.join("wheels.csv"), 50, |l| {
         let mut c: Vec<String> = l.split(',').map(String::from).collect();
         c[0] = "0.5".into();
         c.join(",")
     });
-    let err = fails(
-        &[log.to_str().unwrap(), "--out", out.to_str().unwrap()],
-        &out,
-    );
+    let err = fails_plain(&log, &out);
     assert!(
         err.contains("wheels.csv:50") && err.contains("backwards"),
         "{err}"
@@ -213,9 +208,7 @@ fn time_going_backwards_names_line() {
 
 #[test]
 fn duplicate_timestamps_and_empty_pose_rows_warn_and_run() {
-    let tmp = tempfile::tempdir().unwrap();
-    let (log, out) = (tmp.path().join("log"), tmp.path().join("out"));
-    write_log(&log, &short());
+    let (_tmp, log, out) = short_log();
     // Duplicate the 100th wheels row; blank every field of the 5th pose row.
     let wheels = log.join("wheels.csv");
     let text = fs::read_to_string(&wheels).unwrap();
@@ -275,9 +268,7 @@ fn no_motion_warns_and_stays_finite() {
 
 #[test]
 fn bad_flags_and_files_fail_cleanly() {
-    let tmp = tempfile::tempdir().unwrap();
-    let (log, out) = (tmp.path().join("log"), tmp.path().join("out"));
-    write_log(&log, &short());
+    let (tmp, log, out) = short_log();
     let (l, o) = (log.to_str().unwrap(), out.to_str().unwrap());
 
     let err = fails(&[l, "--out", o, "--terrain-model", "m.json"], &out);

@@ -3,7 +3,15 @@
 //! then cross-terrain (calibrated on the first half of row, scored on the
 //! second half of column).
 //!
-//! `cargo run --release -p terraslip-calib --example drive_split -- DATA_DIR [lm|ga|symmetric|all] [--yaw-weight W] [--no-offset] [--no-gate] [--plain] [--cauchy C]`
+//! Each split is scored with the constant ICRs (Mandow's model) and with
+//! the turn-rate dependent model where calibration selected it; both with
+//! the same segments, gate and time offset as the no-slip model.
+//!
+//! `cargo run --release -p terraslip-calib --example drive_split -- DATA_DIR [lm|ga|symmetric|all] [--yaw-weight W] [--no-offset] [--no-gate] [--plain] [--cauchy C] [--rate off|auto|on] [--validation-offset params|auto]`
+//!
+//! `--validation-offset auto` estimates the wheel-to-pose offset of the
+//! validation half on that half itself (model-free, the same for every
+//! model scored) instead of taking the training half's.
 
 use terraslip_calib::*;
 use terraslip_io::DriveLog;
@@ -44,6 +52,27 @@ fn main() {
     if flag("--no-offset") {
         cfg.time_offset = TimeOffset::Fixed(0.0);
     }
+    let word = |n: &str| {
+        args.iter()
+            .position(|a| a == n)
+            .and_then(|i| args.get(i + 1))
+            .map(String::as_str)
+    };
+    cfg.rate_model = match word("--rate") {
+        Some("off") => RateModel::Off,
+        Some("on") => RateModel::On,
+        _ => RateModel::Auto,
+    };
+    let validation_offset = if flag("--no-offset") {
+        OffsetChoice::Fixed(0.0)
+    } else if word("--validation-offset") == Some("auto") {
+        OffsetChoice::Auto {
+            max: 0.5,
+            step: 0.01,
+        }
+    } else {
+        OffsetChoice::FromParams
+    };
     cfg.segment.reference_gate = !flag("--no-gate");
     cfg.segment.drop_mistimed = !flag("--no-gate");
     let mut paths: Vec<_> = match std::fs::read_dir(&dir) {
@@ -62,8 +91,8 @@ fn main() {
         let (a, b) = (log.pose[0].t, log.pose[log.pose.len() - 1].t);
         ((a, 0.5 * (a + b)), (0.5 * (a + b), b))
     };
-    println!("| drive | train -> test | method | y_l | y_r | x_c | alpha_l | alpha_r | offset s | used/dropped | N test | MSE pos calibrated | MSE pos no-slip | ratio |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("| drive | train -> test | method | y_l | y_r | x_c | alpha_l | alpha_r | offset s (train/test) | used/dropped | N test | MSE pos no-slip | MSE pos constant | ratio constant | rate model k_spread, k_alpha (s/m) | MSE pos rate | ratio rate |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let mut first_half = Vec::new();
     for log in &logs {
         let (h1, h2) = halves(log);
@@ -82,30 +111,61 @@ fn main() {
             v.segment.reference_gate = cfg.segment.reference_gate;
             v.segment.drop_mistimed = cfg.segment.drop_mistimed;
             (v.segment.t_min, v.segment.t_max) = test;
-            if flag("--no-offset") {
-                v.time_offset = OffsetChoice::Fixed(0.0);
-            }
+            v.time_offset = validation_offset;
             let s = &cal.sets[0];
             let p = s.best.params;
-            match validate(std::slice::from_ref(log), &pf, &v) {
-                Ok(r) => println!(
-                    "| {} | {name} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.2} | {}/{} | {} | {:.3} | {:.3} | **{:.2}** |",
-                    log.name(),
-                    s.best.method.name(),
-                    p.y_l,
-                    p.y_r,
-                    p.x_c,
-                    p.alpha_l,
-                    p.alpha_r,
-                    s.time_offsets[0].1,
-                    s.segments_used,
-                    s.dropped.len(),
-                    r.segments.len(),
-                    r.mse.position(),
-                    r.nominal_mse.position(),
-                    r.nominal_mse.position() / r.mse.position()
-                ),
-                Err(e) => println!("| {} | {name} | validation error: {e} |", log.name()),
+            let constant = validate(
+                std::slice::from_ref(log),
+                &pf,
+                &ValidateConfig {
+                    model: ModelChoice::Constant,
+                    ..v.clone()
+                },
+            );
+            let rate = validate(std::slice::from_ref(log), &pf, &v);
+            match (constant, rate) {
+                (Ok(c), Ok(r)) => {
+                    let rate_cols = match &s.rate {
+                        Some(x) if x.selected => format!(
+                            "{:.3}, {:.3} | {:.3} | **{:.2}**",
+                            x.fit.slopes.k_spread,
+                            x.fit.slopes.k_alpha,
+                            r.mse.position(),
+                            r.nominal_mse.position() / r.mse.position()
+                        ),
+                        Some(x) => format!(
+                            "not selected: {} ({:.3}±{:.3}, {:.3}±{:.3}; BIC {:+.1}) | - | -",
+                            x.reason.as_deref().unwrap_or(""),
+                            x.fit.slopes.k_spread,
+                            x.fit.std[5],
+                            x.fit.slopes.k_alpha,
+                            x.fit.std[6],
+                            x.bic_rate - x.bic_constant
+                        ),
+                        None => "off | - | -".into(),
+                    };
+                    println!(
+                        "| {} | {name} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.2}/{:.2} | {}/{} | {} | {:.3} | {:.3} | **{:.2}** | {rate_cols} |",
+                        log.name(),
+                        s.best.method.name(),
+                        p.y_l,
+                        p.y_r,
+                        p.x_c,
+                        p.alpha_l,
+                        p.alpha_r,
+                        s.time_offsets[0].1,
+                        c.offsets[0],
+                        s.segments_used,
+                        s.dropped.len(),
+                        c.segments.len(),
+                        c.nominal_mse.position(),
+                        c.mse.position(),
+                        c.nominal_mse.position() / c.mse.position()
+                    )
+                }
+                (Err(e), _) | (_, Err(e)) => {
+                    println!("| {} | {name} | validation error: {e} |", log.name())
+                }
             }
             if name.starts_with("1st") {
                 first_half.push((log.name(), pf, s.time_offsets[0].1));

@@ -6,9 +6,9 @@ use terraslip_core::IcrParams;
 use terraslip_io::{DriveLog, ParamEntry, ParamsFile};
 
 use crate::ga::{self, GaConfig};
-use crate::lm::{self, LmConfig};
+use crate::lm::{self, LmConfig, RateFit, RATE_PARAM_NAMES};
 use crate::model::{self, PARAM_NAMES};
-use crate::offset::estimate_offset;
+use crate::offset::{self, estimate_offset};
 use crate::segment::{SegmentConfig, SegmentStats, Segments};
 use crate::symmetric::{self, SymmetricMissing};
 use crate::CalibError;
@@ -94,6 +94,47 @@ pub struct CalibConfig {
     /// keep those at their no-slip value, fit the rest and list them under
     /// `unidentified`.
     pub allow_partial: bool,
+    /// Whether to fit the turn-rate dependent model ([`RateSlopes`](crate::model::RateSlopes)) next to
+    /// the constant one.
+    pub rate_model: RateModel,
+}
+
+/// Whether the turn-rate dependent ICR model ([`RateSlopes`](crate::model::RateSlopes)) is fitted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RateModel {
+    /// Only Mandow's constant ICRs.
+    Off,
+    /// Fitted, and selected when it lowers the Bayesian information
+    /// criterion over the constant model on the same segments and both
+    /// slopes are identified.
+    Auto,
+    /// Fitted and selected whenever both slopes are identified.
+    On,
+}
+
+impl RateModel {
+    pub fn name(self) -> &'static str {
+        match self {
+            RateModel::Off => "off",
+            RateModel::Auto => "auto",
+            RateModel::On => "on",
+        }
+    }
+}
+
+/// The turn-rate dependent model of one set and why it was (not) selected.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RateChoice {
+    pub fit: RateFit,
+    /// Bayesian information criterion `n ln(J/n) + k ln n` of the constant
+    /// winner and of the rate model, over the same weighted segments
+    /// (`n` = 3 residuals per segment, `k` = free parameters).
+    pub bic_constant: f64,
+    pub bic_rate: f64,
+    /// Whether `validate` and the file use it.
+    pub selected: bool,
+    /// Why it was not selected.
+    pub reason: Option<String>,
 }
 
 impl Default for CalibConfig {
@@ -111,6 +152,7 @@ impl Default for CalibConfig {
             min_segments: 10,
             min_turning_segments: 5,
             allow_partial: false,
+            rate_model: RateModel::Auto,
         }
     }
 }
@@ -158,6 +200,8 @@ pub struct SetCalibration {
     /// Parameters the data could not identify (kept at their start value).
     pub unidentified: Vec<&'static str>,
     pub notes: Vec<String>,
+    /// The turn-rate dependent model, unless `RateModel::Off`.
+    pub rate: Option<RateChoice>,
     pub yaw_weight: f64,
     pub track_width: Option<f64>,
     pub wheel_radius: Option<f64>,
@@ -251,6 +295,9 @@ impl SetCalibration {
                 .collect();
             x.insert("time_offsets".into(), Value::Object(per_log));
         }
+        if let Some(r) = &self.rate {
+            x.insert("rate_model".into(), r.to_json());
+        }
         x.insert("yaw_weight".into(), json!(self.yaw_weight));
         x.insert("sigma_m".into(), json!(self.sigma));
         x.insert("segments_used".into(), json!(self.segments_used));
@@ -315,12 +362,16 @@ fn spread_from_yaw(segs: &Segments) -> Option<f64> {
     (d.is_finite() && d > 0.0).then_some(d)
 }
 
-/// Second stage of the offset search, with the model itself: a quick
-/// per-terrain LM fit at `offset`, then the offset within +-0.15 s (30 ms
-/// steps) that minimises the median segment residual norm under those
-/// parameters. The model-free first stage only sees
-/// symmetric ICRs and pure rotation or translation; this one sees the
-/// whole twist. Returns `offset` unchanged when a fit is not possible.
+/// Second stage of the offset search, with the model itself: the profile
+/// of the fit over the offset. At each offset within +-0.15 s of the
+/// model-free estimate (50 ms steps, the same segments at every one, see
+/// [`offset::common_segments`]) a quick per-terrain LM fit is made, and the
+/// offset whose fit leaves the smallest trimmed residual (mean squared norm
+/// of the best 90 % of segments, so stalled poses do not decide) wins,
+/// refined by a parabola. This is the joint least-squares estimate of the
+/// offset and the parameters; the model-free first stage only sees
+/// symmetric ICRs and pure rotation or translation. Returns `offset`
+/// unchanged when no fit is possible.
 fn refine_offset(
     log: &DriveLog,
     cfg: &SegmentConfig,
@@ -328,63 +379,70 @@ fn refine_offset(
     max: f64,
     yaw_weight: f64,
 ) -> f64 {
-    let segs = Segments::build(&[log], &[offset], cfg);
-    let width = match log.meta.track_width.or_else(|| spread_from_yaw(&segs)) {
+    const STEP: f64 = 0.05;
+    let grid: Vec<f64> = (-3..=3)
+        .map(|k| offset + STEP * k as f64)
+        .filter(|t| t.abs() <= max + 1e-9)
+        .collect();
+    let curve = profile(log, cfg, &grid, yaw_weight);
+    offset::parabolic_minimum(&curve, STEP).unwrap_or(offset)
+}
+
+/// `(offset, trimmed residual)` of a quick per-terrain LM fit at each
+/// offset of `grid`, all on the same segments.
+fn profile(log: &DriveLog, cfg: &SegmentConfig, grid: &[f64], yaw_weight: f64) -> Vec<(f64, f64)> {
+    let all = offset::common_segments(log, grid, cfg);
+    let Some(first) = all.first() else {
+        return Vec::new();
+    };
+    let width = match log.meta.track_width.or_else(|| spread_from_yaw(first)) {
         Some(w) => w,
-        None => return offset,
+        None => return Vec::new(),
     };
     let mut names: Vec<Option<String>> = Vec::new();
-    for s in &segs.segments {
+    for s in &first.segments {
         if !names.contains(&s.terrain) {
             names.push(s.terrain.clone());
         }
     }
     let quick = LmConfig {
-        irls_rounds: 3,
+        irls_rounds: 2,
         ..LmConfig::default()
     };
-    let mut params: Vec<(Option<String>, IcrParams)> = Vec::new();
-    for name in names {
-        let active: Vec<bool> = segs.segments.iter().map(|s| s.terrain == name).collect();
-        if active.iter().filter(|&&a| a).count() < 10 {
+    // Warm start from the previous offset's fit: neighbouring offsets have
+    // neighbouring parameters.
+    let mut starts: Vec<IcrParams> = vec![IcrParams::no_slip(width); names.len()];
+    let mut curve = Vec::new();
+    for (segs, &t) in all.iter().zip(grid) {
+        let mut sq: Vec<f64> = Vec::new();
+        for (name, start) in names.iter().zip(starts.iter_mut()) {
+            let active: Vec<bool> = segs.segments.iter().map(|s| s.terrain == *name).collect();
+            if active.iter().filter(|&&a| a).count() < 10 {
+                continue;
+            }
+            let Some(f) = lm::fit(segs, start, &active, yaw_weight, &quick) else {
+                continue;
+            };
+            *start = f.params;
+            sq.extend(
+                segs.segments
+                    .iter()
+                    .zip(&active)
+                    .filter(|(_, &a)| a)
+                    .map(|(s, _)| {
+                        let r = model::residual(&f.params, segs, s, yaw_weight);
+                        r[0] * r[0] + r[1] * r[1] + r[2] * r[2]
+                    }),
+            );
+        }
+        if sq.len() < 10 {
             continue;
         }
-        if let Some(f) = lm::fit(
-            &segs,
-            &IcrParams::no_slip(width),
-            &active,
-            yaw_weight,
-            &quick,
-        ) {
-            params.push((name, f.params));
-        }
+        sq.sort_by(f64::total_cmp);
+        let keep = (sq.len() * 9).div_ceil(10);
+        curve.push((t, sq[..keep].iter().sum::<f64>() / keep as f64));
     }
-    if params.is_empty() {
-        return offset;
-    }
-    let score = |t: f64| {
-        let sg = Segments::build(&[log], &[t], cfg);
-        let mut norms: Vec<f64> = sg
-            .segments
-            .iter()
-            .filter_map(|s| {
-                let p = params.iter().find(|(n, _)| *n == s.terrain)?.1;
-                let r = model::residual(&p, &sg, s, yaw_weight);
-                Some((r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt())
-            })
-            .collect();
-        if norms.len() < 10 {
-            return f64::INFINITY;
-        }
-        norms.sort_by(f64::total_cmp);
-        norms[norms.len() / 2]
-    };
-    (-5..=5)
-        .map(|k| offset + 0.03 * k as f64)
-        .filter(|t| t.abs() <= max + 1e-9)
-        .map(|t| (t, score(t)))
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .map_or(offset, |(t, _)| t)
+    curve
 }
 
 /// Calibrates from `logs` (each must have `pose.csv`).
@@ -507,6 +565,81 @@ fn unidentified_by_std(std: &[f64; 5], spread: f64, free: &[bool; 5]) -> Vec<&'s
         .filter(|&k| free[k] && (std[k].is_nan() || std[k] > limits[k]))
         .map(|k| PARAM_NAMES[k])
         .collect()
+}
+
+impl RateChoice {
+    /// The `rate_model` entry of the parameter file: the jointly fitted
+    /// ICR parameters and slopes, their 1-sigma, the criterion and whether
+    /// it was selected (only then does `validate` use it).
+    pub fn to_json(&self) -> Value {
+        let f = &self.fit;
+        let std: serde_json::Map<String, Value> = RATE_PARAM_NAMES
+            .iter()
+            .zip(f.std)
+            .map(|(n, s)| (n.to_string(), finite_or_null(s)))
+            .collect();
+        let mut v = json!({
+            "selected": self.selected,
+            "params": params_json(&f.params),
+            "k_spread": f.slopes.k_spread,
+            "k_alpha": f.slopes.k_alpha,
+            "std": std,
+            "cost": f.sse,
+            "bic_constant": self.bic_constant,
+            "bic_rate": self.bic_rate,
+        });
+        if let Some(r) = &self.reason {
+            v["reason"] = json!(r);
+        }
+        v
+    }
+}
+
+/// Fits the turn-rate model from the constant winner over the constant
+/// fit's segment weights and decides whether it is worth its two slopes.
+fn choose_rate(
+    segs: &Segments,
+    best: &MethodFit,
+    weights: &[f64],
+    yaw_weight: f64,
+    lm_cfg: &LmConfig,
+    mode: RateModel,
+) -> Option<RateChoice> {
+    let fit = lm::fit_rate(
+        segs,
+        &best.params,
+        weights,
+        yaw_weight,
+        &lm_cfg.free,
+        lm_cfg.max_iterations,
+    )?;
+    let n = 3.0
+        * weights
+            .iter()
+            .filter(|&&w| w > 0.0)
+            .map(|w| w.min(1.0))
+            .sum::<f64>();
+    let k = lm_cfg.free.iter().filter(|&&f| f).count() as f64;
+    let j0 = model::cost(&best.params, segs, weights, yaw_weight);
+    let bic = |j: f64, k: f64| n * (j.max(1e-300) / n).ln() + k * n.ln();
+    let (bic_constant, bic_rate) = (bic(j0, k), bic(fit.sse, k + 2.0));
+    // A slope is identified when its 1-sigma is under 0.1 s/m: a factor
+    // of 10 % per m/s of tread speed difference.
+    let unidentified = fit.std[5..].iter().any(|s| !(s.is_finite() && *s < 0.1));
+    let reason = if unidentified {
+        Some("the slopes are not identified by these segments (1-sigma over 0.1 s/m)".to_string())
+    } else if mode == RateModel::Auto && bic_rate >= bic_constant {
+        Some("it does not lower the information criterion".to_string())
+    } else {
+        None
+    };
+    Some(RateChoice {
+        fit,
+        bic_constant,
+        bic_rate,
+        selected: reason.is_none(),
+        reason,
+    })
 }
 
 fn calibrate_set(
@@ -672,6 +805,10 @@ fn calibrate_set(
             notes.push(format!("{name} is poorly identified (large uncertainty)"));
         }
     }
+    let rate = match cfg.rate_model {
+        RateModel::Off => None,
+        m => choose_rate(segs, &best, &lm_fit.weights, cfg.yaw_weight, &lm_cfg, m),
+    };
     let dropped = segs
         .segments
         .iter()
@@ -702,5 +839,6 @@ fn calibrate_set(
         track_width,
         wheel_radius: None,
         pioneer: false,
+        rate,
     })
 }

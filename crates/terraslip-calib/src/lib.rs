@@ -33,11 +33,12 @@ pub mod validate;
 use std::path::PathBuf;
 
 pub use calibrate::{
-    calibrate, CalibConfig, Calibration, GaSettings, Method, MethodFit, Progress, SetCalibration,
-    TimeOffset,
+    calibrate, CalibConfig, Calibration, GaSettings, Method, MethodFit, Progress, RateChoice,
+    RateModel, SetCalibration, TimeOffset,
 };
+pub use model::RateSlopes;
 pub use segment::{Increment, SegmentConfig, Segments};
-pub use validate::{validate, Mse, OffsetChoice, ValidateConfig, Validation};
+pub use validate::{validate, ModelChoice, Mse, OffsetChoice, ValidateConfig, Validation};
 
 /// Why a calibration or validation could not be done.
 #[derive(Debug, thiserror::Error)]
@@ -64,6 +65,8 @@ pub enum CalibError {
         params: Vec<&'static str>,
         reason: String,
     },
+    #[error("parameter set `{set}`: rate_model is selected but unusable: {reason}")]
+    BadRateModel { set: String, reason: String },
     #[error("set `{set}`: the symmetric calibration needs {what}, the drive has none")]
     SymmetricNeeds { set: String, what: &'static str },
 }

@@ -18,11 +18,8 @@ use nalgebra::{SMatrix, SVector};
 use terraslip_core::kinematics::MIN_SPREAD;
 use terraslip_core::IcrParams;
 
-use crate::model::{from_vec, residual, to_vec};
-use crate::segment::Segments;
-
-type Mat5 = SMatrix<f64, 5, 5>;
-type Vec5 = SVector<f64, 5>;
+use crate::model::{from_vec, residual, residual_rate, to_vec, RateSlopes};
+use crate::segment::{Segment, Segments};
 
 /// Median of the norm of a 3-D standard normal vector: turns a median
 /// residual norm into a per-component sigma.
@@ -72,149 +69,211 @@ pub struct LmFit {
     pub iterations: usize,
 }
 
-/// Residuals and their Jacobian w.r.t. the parameters (central differences).
-fn residuals_and_jacobian(
-    v: &[f64; 5],
-    segs: &Segments,
-    active: &[bool],
-    yaw_weight: f64,
-    free: &[bool; 5],
-) -> (Vec<[f64; 3]>, Vec<[[f64; 3]; 5]>) {
-    let p = from_vec(v);
-    let n = segs.segments.len();
-    let mut r = vec![[0.0; 3]; n];
-    let mut J = vec![[[0.0; 3]; 5]; n];
-    for (i, s) in segs.segments.iter().enumerate() {
-        if !active[i] {
-            continue;
-        }
-        r[i] = residual(&p, segs, s, yaw_weight);
-        for k in 0..5 {
-            if !free[k] {
-                continue;
-            }
-            let h = 1e-6 * (1.0 + v[k].abs());
-            let (mut vp, mut vm) = (*v, *v);
-            vp[k] += h;
-            vm[k] -= h;
-            let rp = residual(&from_vec(&vp), segs, s, yaw_weight);
-            let rm = residual(&from_vec(&vm), segs, s, yaw_weight);
-            for c in 0..3 {
-                // d(pred)/dp = -d(r)/dp
-                J[i][k][c] = -(rp[c] - rm[c]) / (2.0 * h);
-            }
-        }
-    }
-    (r, J)
+/// A least-squares problem over the segments in `N` parameters: the
+/// segment residual of a parameter vector, and which vectors are usable.
+struct Problem<'a, const N: usize> {
+    segs: &'a Segments,
+    residual: &'a dyn Fn(&[f64; N], &Segment) -> [f64; 3],
+    usable: &'a dyn Fn(&[f64; N]) -> bool,
+    free: [bool; N],
 }
 
-fn weighted_sse(v: &[f64; 5], segs: &Segments, w: &[f64], yaw_weight: f64) -> f64 {
-    let p = from_vec(v);
-    segs.segments
-        .iter()
-        .zip(w)
-        .filter(|(_, &wi)| wi > 0.0)
-        .map(|(s, &wi)| {
-            let r = residual(&p, segs, s, yaw_weight);
-            wi * (r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
-        })
-        .sum()
+impl<const N: usize> Problem<'_, N> {
+    /// Residuals and their Jacobian w.r.t. the parameters (central
+    /// differences), for the segments with positive weight.
+    #[allow(clippy::type_complexity)]
+    fn residuals_and_jacobian(
+        &self,
+        v: &[f64; N],
+        w: &[f64],
+    ) -> (Vec<[f64; 3]>, Vec<[[f64; 3]; N]>) {
+        let n = self.segs.segments.len();
+        let mut r = vec![[0.0; 3]; n];
+        let mut J = vec![[[0.0; 3]; N]; n];
+        for (i, s) in self.segs.segments.iter().enumerate() {
+            if w[i] <= 0.0 {
+                continue;
+            }
+            r[i] = (self.residual)(v, s);
+            for k in 0..N {
+                if !self.free[k] {
+                    continue;
+                }
+                let h = 1e-6 * (1.0 + v[k].abs());
+                let (mut vp, mut vm) = (*v, *v);
+                vp[k] += h;
+                vm[k] -= h;
+                let rp = (self.residual)(&vp, s);
+                let rm = (self.residual)(&vm, s);
+                for c in 0..3 {
+                    // d(pred)/dp = -d(r)/dp
+                    J[i][k][c] = -(rp[c] - rm[c]) / (2.0 * h);
+                }
+            }
+        }
+        (r, J)
+    }
+
+    fn weighted_sse(&self, v: &[f64; N], w: &[f64]) -> f64 {
+        self.segs
+            .segments
+            .iter()
+            .zip(w)
+            .filter(|(_, &wi)| wi > 0.0)
+            .map(|(s, &wi)| {
+                let r = (self.residual)(v, s);
+                wi * (r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
+            })
+            .sum()
+    }
+
+    /// Normal equations `J^T W J` and `J^T W r`, with fixed parameters decoupled.
+    fn normal_equations(
+        &self,
+        r: &[[f64; 3]],
+        J: &[[[f64; 3]; N]],
+        w: &[f64],
+    ) -> (SMatrix<f64, N, N>, SVector<f64, N>) {
+        let mut A = SMatrix::<f64, N, N>::zeros();
+        let mut g = SVector::<f64, N>::zeros();
+        for i in 0..r.len() {
+            if w[i] <= 0.0 {
+                continue;
+            }
+            for a in 0..N {
+                for c in 0..3 {
+                    g[a] += w[i] * J[i][a][c] * r[i][c];
+                }
+                for b in 0..N {
+                    let s: f64 = J[i][a].iter().zip(&J[i][b]).map(|(x, y)| x * y).sum();
+                    A[(a, b)] += w[i] * s;
+                }
+            }
+        }
+        for k in 0..N {
+            if !self.free[k] {
+                for j in 0..N {
+                    A[(k, j)] = 0.0;
+                    A[(j, k)] = 0.0;
+                }
+                A[(k, k)] = 1.0;
+                g[k] = 0.0;
+            }
+        }
+        (A, g)
+    }
+
+    /// Weighted least squares by Levenberg-Marquardt from `v`, weights
+    /// fixed. Returns the iterations used.
+    fn solve(&self, v: &mut [f64; N], w: &[f64], max_iterations: usize) -> usize {
+        let mut lambda = 1e-3;
+        let mut cost = self.weighted_sse(v, w);
+        let mut it = 0;
+        while it < max_iterations {
+            it += 1;
+            let (r, J) = self.residuals_and_jacobian(v, w);
+            let (A, g) = self.normal_equations(&r, &J, w);
+            let mut improved = false;
+            while lambda < 1e12 {
+                let mut D = A;
+                for k in 0..N {
+                    D[(k, k)] += lambda * A[(k, k)].max(1e-12);
+                }
+                let Some(ch) = D.cholesky() else {
+                    lambda *= 10.0;
+                    continue;
+                };
+                let delta = ch.solve(&g);
+                let mut cand = *v;
+                for k in 0..N {
+                    cand[k] += delta[k];
+                }
+                if (self.usable)(&cand) {
+                    let c = self.weighted_sse(&cand, w);
+                    if c.is_finite() && c <= cost {
+                        let rel = (cost - c) / cost.max(1e-300);
+                        let step = delta.norm();
+                        *v = cand;
+                        cost = c;
+                        lambda = (lambda * 0.3).max(1e-12);
+                        improved = true;
+                        if rel < 1e-12 || step < 1e-10 {
+                            return it;
+                        }
+                        break;
+                    }
+                }
+                lambda *= 10.0;
+            }
+            if !improved {
+                break;
+            }
+        }
+        it
+    }
+
+    /// `sqrt(diag(s^2 (J^T W J)^-1))` with `s^2` the weighted residual
+    /// variance. A singular information matrix gives infinite
+    /// uncertainties: those parameters are not identified by the data.
+    fn uncertainties(&self, v: &[f64; N], w: &[f64]) -> [f64; N] {
+        let (r, J) = self.residuals_and_jacobian(v, w);
+        let (A, _) = self.normal_equations(&r, &J, w);
+        let n_free = self.free.iter().filter(|&&f| f).count();
+        let (mut sse, mut wsum) = (0.0, 0.0);
+        for i in 0..r.len() {
+            if w[i] > 0.0 {
+                sse += w[i] * (r[i][0].powi(2) + r[i][1].powi(2) + r[i][2].powi(2));
+                wsum += w[i];
+            }
+        }
+        let dof = 3.0 * wsum - n_free as f64;
+        let s2 = if dof > 0.0 { sse / dof } else { f64::INFINITY };
+        let mut out = [f64::NAN; N];
+        // Scale rows/columns so parameters of different units condition
+        // alike; then the scaled matrix has a unit diagonal, and a diagonal
+        // element of its inverse over 1e12 means an eigenvalue near 1e-12.
+        let mut scale = SVector::<f64, N>::zeros();
+        for k in 0..N {
+            scale[k] = A[(k, k)].abs().sqrt().max(1e-300);
+        }
+        let mut S = A;
+        for a in 0..N {
+            for b in 0..N {
+                S[(a, b)] /= scale[a] * scale[b];
+            }
+        }
+        let inv = S
+            .cholesky()
+            .map(|c| c.inverse())
+            .filter(|m| m.iter().all(|x| x.is_finite()) && (0..N).all(|k| m[(k, k)] < 1e12));
+        for k in 0..N {
+            if !self.free[k] {
+                continue;
+            }
+            out[k] = match &inv {
+                Some(m) if A[(k, k)] > 0.0 => (s2 * m[(k, k)].max(0.0)).sqrt() / scale[k],
+                _ => f64::INFINITY,
+            };
+        }
+        out
+    }
 }
 
 fn usable(v: &[f64; 5]) -> bool {
     v.iter().all(|x| x.is_finite()) && v[0] - v[1] > MIN_SPREAD && v[3] > 0.0 && v[4] > 0.0
 }
 
-/// Normal equations `J^T W J` and `J^T W r`, with fixed parameters decoupled.
-fn normal_equations(
-    r: &[[f64; 3]],
-    J: &[[[f64; 3]; 5]],
-    w: &[f64],
-    free: &[bool; 5],
-) -> (Mat5, Vec5) {
-    let mut A = Mat5::zeros();
-    let mut g = Vec5::zeros();
-    for i in 0..r.len() {
-        if w[i] <= 0.0 {
-            continue;
-        }
-        for a in 0..5 {
-            for c in 0..3 {
-                g[a] += w[i] * J[i][a][c] * r[i][c];
-            }
-            for b in 0..5 {
-                let s: f64 = J[i][a].iter().zip(&J[i][b]).map(|(x, y)| x * y).sum();
-                A[(a, b)] += w[i] * s;
-            }
-        }
+fn constant_problem<'a>(
+    segs: &'a Segments,
+    res: &'a dyn Fn(&[f64; 5], &Segment) -> [f64; 3],
+    free: [bool; 5],
+) -> Problem<'a, 5> {
+    Problem {
+        segs,
+        residual: res,
+        usable: &usable,
+        free,
     }
-    for k in 0..5 {
-        if !free[k] {
-            for j in 0..5 {
-                A[(k, j)] = 0.0;
-                A[(j, k)] = 0.0;
-            }
-            A[(k, k)] = 1.0;
-            g[k] = 0.0;
-        }
-    }
-    (A, g)
-}
-
-/// Weighted least squares by Levenberg-Marquardt from `v`, weights fixed.
-/// Returns the iterations used.
-fn lm_inner(
-    v: &mut [f64; 5],
-    segs: &Segments,
-    w: &[f64],
-    yaw_weight: f64,
-    cfg: &LmConfig,
-) -> usize {
-    let active: Vec<bool> = w.iter().map(|&x| x > 0.0).collect();
-    let mut lambda = 1e-3;
-    let mut cost = weighted_sse(v, segs, w, yaw_weight);
-    let mut it = 0;
-    while it < cfg.max_iterations {
-        it += 1;
-        let (r, J) = residuals_and_jacobian(v, segs, &active, yaw_weight, &cfg.free);
-        let (A, g) = normal_equations(&r, &J, w, &cfg.free);
-        let mut improved = false;
-        while lambda < 1e12 {
-            let mut D = A;
-            for k in 0..5 {
-                D[(k, k)] += lambda * A[(k, k)].max(1e-12);
-            }
-            let Some(ch) = D.cholesky() else {
-                lambda *= 10.0;
-                continue;
-            };
-            let delta = ch.solve(&g);
-            let mut cand = *v;
-            for k in 0..5 {
-                cand[k] += delta[k];
-            }
-            if usable(&cand) {
-                let c = weighted_sse(&cand, segs, w, yaw_weight);
-                if c.is_finite() && c <= cost {
-                    let rel = (cost - c) / cost.max(1e-300);
-                    let step = delta.norm();
-                    *v = cand;
-                    cost = c;
-                    lambda = (lambda * 0.3).max(1e-12);
-                    improved = true;
-                    if rel < 1e-12 || step < 1e-10 {
-                        return it;
-                    }
-                    break;
-                }
-            }
-            lambda *= 10.0;
-        }
-        if !improved {
-            break;
-        }
-    }
-    it
 }
 
 /// Robust LM fit from `start` over the segments with `active[i]`.
@@ -230,13 +289,15 @@ pub fn fit(
     if active.iter().filter(|&&a| a).count() == 0 {
         return None;
     }
+    let res = |v: &[f64; 5], s: &Segment| residual(&from_vec(v), segs, s, yaw_weight);
+    let problem = constant_problem(segs, &res, cfg.free);
     let mut v = to_vec(start);
     let mut w: Vec<f64> = active.iter().map(|&a| if a { 1.0 } else { 0.0 }).collect();
     let mut iterations = 0;
     let mut sigma = f64::NAN;
     for round in 0..cfg.irls_rounds.max(1) {
         let before = v;
-        iterations += lm_inner(&mut v, segs, &w, yaw_weight, cfg);
+        iterations += problem.solve(&mut v, &w, cfg.max_iterations);
         let p = from_vec(&v);
         let norms: Vec<f64> = (0..n)
             .map(|i| {
@@ -271,7 +332,7 @@ pub fn fit(
             break;
         }
     }
-    let std = uncertainties(&v, segs, &w, yaw_weight, &cfg.free);
+    let std = problem.uncertainties(&v, &w);
     Some(LmFit {
         params: from_vec(&v),
         std,
@@ -281,9 +342,10 @@ pub fn fit(
     })
 }
 
-/// `sqrt(diag(s^2 (J^T W J)^-1))` with `s^2` the weighted residual variance.
-/// A singular information matrix gives infinite uncertainties: those
-/// parameters are not identified by the data.
+/// `sqrt(diag(s^2 (J^T W J)^-1))` of the constant model at `v` with
+/// segment weights `w`, `s^2` the weighted residual variance. A singular
+/// information matrix gives infinite uncertainties: those parameters are
+/// not identified by the data. NaN for fixed parameters.
 pub fn uncertainties(
     v: &[f64; 5],
     segs: &Segments,
@@ -291,43 +353,75 @@ pub fn uncertainties(
     yaw_weight: f64,
     free: &[bool; 5],
 ) -> [f64; 5] {
-    let active: Vec<bool> = w.iter().map(|&x| x > 0.0).collect();
-    let (r, J) = residuals_and_jacobian(v, segs, &active, yaw_weight, free);
-    let (A, _) = normal_equations(&r, &J, w, free);
-    let n_free = free.iter().filter(|&&f| f).count();
-    let (mut sse, mut wsum) = (0.0, 0.0);
-    for i in 0..r.len() {
-        if w[i] > 0.0 {
-            sse += w[i] * (r[i][0].powi(2) + r[i][1].powi(2) + r[i][2].powi(2));
-            wsum += w[i];
-        }
+    let res = |v: &[f64; 5], s: &Segment| residual(&from_vec(v), segs, s, yaw_weight);
+    constant_problem(segs, &res, *free).uncertainties(v, w)
+}
+
+/// Parameter order of the turn-rate dependent fit.
+pub const RATE_PARAM_NAMES: [&str; 7] = [
+    "y_l", "y_r", "x_c", "alpha_l", "alpha_r", "k_spread", "k_alpha",
+];
+
+/// The turn-rate dependent model ([`RateSlopes`]) fitted jointly with the
+/// five ICR parameters.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RateFit {
+    pub params: IcrParams,
+    pub slopes: RateSlopes,
+    /// 1-sigma of [`RATE_PARAM_NAMES`]; NaN for fixed parameters.
+    pub std: [f64; 7],
+    /// Weighted eq. 13 sum at the fit.
+    pub sse: f64,
+}
+
+/// Fits the turn-rate dependent model by Levenberg-Marquardt from `start`
+/// (constant ICRs, zero slopes) with the segment weights `w` held fixed
+/// (those of the constant fit, so that both models are judged on the same
+/// segments). `free` says which of the five ICR parameters are fitted; the
+/// slopes always are. `None` when no segment has weight.
+pub fn fit_rate(
+    segs: &Segments,
+    start: &IcrParams,
+    w: &[f64],
+    yaw_weight: f64,
+    free: &[bool; 5],
+    max_iterations: usize,
+) -> Option<RateFit> {
+    if !w.iter().any(|&x| x > 0.0) {
+        return None;
     }
-    let dof = 3.0 * wsum - n_free as f64;
-    let s2 = if dof > 0.0 { sse / dof } else { f64::INFINITY };
-    let mut out = [f64::NAN; 5];
-    // Scale rows/columns so parameters of different units condition alike.
-    let mut scale = Vec5::zeros();
-    for k in 0..5 {
-        scale[k] = A[(k, k)].abs().sqrt().max(1e-300);
-    }
-    let mut S = A;
-    for a in 0..5 {
-        for b in 0..5 {
-            S[(a, b)] /= scale[a] * scale[b];
-        }
-    }
-    let inv = S.try_inverse().filter(|m| m.iter().all(|x| x.is_finite()));
-    let eig_min = S.symmetric_eigenvalues().min();
-    for k in 0..5 {
-        if !free[k] {
-            continue;
-        }
-        out[k] = match &inv {
-            Some(m) if eig_min > 1e-12 && A[(k, k)] > 0.0 => {
-                (s2 * m[(k, k)].max(0.0)).sqrt() / scale[k]
-            }
-            _ => f64::INFINITY,
-        };
-    }
-    out
+    let split = |v: &[f64; 7]| {
+        (
+            from_vec(&[v[0], v[1], v[2], v[3], v[4]]),
+            RateSlopes {
+                k_spread: v[5],
+                k_alpha: v[6],
+            },
+        )
+    };
+    let res = |v: &[f64; 7], s: &Segment| {
+        let (p, k) = split(v);
+        residual_rate(&p, &k, segs, s, yaw_weight)
+    };
+    let ok = |v: &[f64; 7]| {
+        usable(&[v[0], v[1], v[2], v[3], v[4]]) && v[5].is_finite() && v[6].is_finite()
+    };
+    let mut f = [true; 7];
+    f[..5].copy_from_slice(free);
+    let problem = Problem {
+        segs,
+        residual: &res,
+        usable: &ok,
+        free: f,
+    };
+    let p0 = to_vec(start);
+    let mut v = [p0[0], p0[1], p0[2], p0[3], p0[4], 0.0, 0.0];
+    problem.solve(&mut v, w, max_iterations);
+    let (params, slopes) = split(&v);
+    Some(RateFit {
+        params,
+        slopes,
+        std: problem.uncertainties(&v, w),
+        sse: problem.weighted_sse(&v, w),
+    })
 }

@@ -4,6 +4,58 @@ use terraslip_core::{angle, IcrParams, Twist};
 
 use crate::segment::{Increment, Segment, Segments, Step};
 
+/// Turn-rate dependence of the ICR model, past Mandow's constant ICRs.
+///
+/// On the Warthog drives a robot spinning fast turns relatively more, and
+/// drives relatively slower, than one turning gently: the lateral friction
+/// of the treads saturates, so the ICRs move with the turn. With
+/// `dv = |v_r - v_l|` the measured tread speed difference (m/s), the spread
+/// `y_l - y_r` scales by `1 + k_spread dv` and both speed factors by
+/// `1 + k_alpha dv` (slopes in s/m; `x_c` stays). Each factor is kept
+/// within [0.2, 5] so a slope fitted on gentle turns cannot make the model
+/// singular on a faster one. Zero slopes are the constant model.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RateSlopes {
+    /// Relative change of the spread per m/s of tread speed difference, s/m.
+    pub k_spread: f64,
+    /// Relative change of both speed factors per m/s of difference, s/m.
+    pub k_alpha: f64,
+}
+
+impl RateSlopes {
+    /// The constant-ICR model.
+    pub const NONE: RateSlopes = RateSlopes {
+        k_spread: 0.0,
+        k_alpha: 0.0,
+    };
+
+    pub fn is_constant(&self) -> bool {
+        self.k_spread == 0.0 && self.k_alpha == 0.0
+    }
+
+    /// `(yaw and lateral gain, forward gain)` relative to the constant model
+    /// at tread speed difference `dv` (m/s): `omega` and `v_y` scale by the
+    /// first, `v_x` by the second.
+    #[inline(always)]
+    fn gains(&self, dv: f64) -> (f64, f64) {
+        let d = (1.0 + self.k_spread * dv).clamp(0.2, 5.0);
+        let a = (1.0 + self.k_alpha * dv).clamp(0.2, 5.0);
+        (a / d, a)
+    }
+
+    /// Body twist (body frame, m/s and rad/s) of parameters `p` with these
+    /// slopes from measured tread speeds (m/s).
+    pub fn twist(&self, p: &IcrParams, v_left: f64, v_right: f64) -> Twist {
+        let t = p.twist(v_left, v_right);
+        let (turn, fwd) = self.gains((v_right - v_left).abs());
+        Twist {
+            v_x: fwd * t.v_x,
+            v_y: turn * t.v_y,
+            omega: turn * t.omega,
+        }
+    }
+}
+
 /// Integrates the ICR model (lv2019 eq. 3 / Mandow eqs. 6-7) over wheel
 /// steps, starting at the origin with zero heading: the predicted increment
 /// in the frame of the segment start. Each step has a constant twist, so the
@@ -15,17 +67,39 @@ use crate::segment::{Increment, Segment, Segments, Step};
 /// and cosine come from their Taylor series (error below 1e-15 for
 /// half angles under 0.05 rad), larger ones from `sin_cos`.
 pub fn integrate(p: &IcrParams, steps: &[Step]) -> Increment {
-    let (mut x, mut y, mut th) = (0.0f64, 0.0f64, 0.0f64);
-    let (mut c, mut s) = (1.0f64, 0.0f64);
+    integrate_rate(p, &RateSlopes::NONE, steps)
+}
+
+/// [`integrate`] with the turn-rate dependent model ([`RateSlopes`]).
+pub fn integrate_rate(p: &IcrParams, k: &RateSlopes, steps: &[Step]) -> Increment {
     // IcrParams::twist is linear in the tread speeds: take its coefficients
     // once instead of dividing by the spread at every step.
     let (l, r) = (p.twist(1.0, 0.0), p.twist(0.0, 1.0));
+    let linear = |st: &Step| Twist {
+        v_x: l.v_x * st.v_left + r.v_x * st.v_right,
+        v_y: l.v_y * st.v_left + r.v_y * st.v_right,
+        omega: l.omega * st.v_left + r.omega * st.v_right,
+    };
+    if k.is_constant() {
+        return integrate_twists(steps, linear);
+    }
+    integrate_twists(steps, |st| {
+        let t = linear(st);
+        let (turn, fwd) = k.gains((st.v_right - st.v_left).abs());
+        Twist {
+            v_x: fwd * t.v_x,
+            v_y: turn * t.v_y,
+            omega: turn * t.omega,
+        }
+    })
+}
+
+#[inline(always)]
+fn integrate_twists(steps: &[Step], twist: impl Fn(&Step) -> Twist) -> Increment {
+    let (mut x, mut y, mut th) = (0.0f64, 0.0f64, 0.0f64);
+    let (mut c, mut s) = (1.0f64, 0.0f64);
     for st in steps {
-        let tw = Twist {
-            v_x: l.v_x * st.v_left + r.v_x * st.v_right,
-            v_y: l.v_y * st.v_left + r.v_y * st.v_right,
-            omega: l.omega * st.v_left + r.omega * st.v_right,
-        };
+        let tw = twist(st);
         let half = 0.5 * tw.omega * st.dt;
         let h2 = half * half;
         let (sh, ch, sinc) = if half.abs() < 0.05 {
@@ -58,7 +132,18 @@ pub fn integrate(p: &IcrParams, steps: &[Step]) -> Increment {
 /// (m, m, m). The heading error is wrapped, so a segment that turns more than
 /// half a revolution still compares correctly.
 pub fn residual(p: &IcrParams, segs: &Segments, seg: &Segment, yaw_weight: f64) -> [f64; 3] {
-    let pred = integrate(p, segs.steps_of(seg));
+    residual_rate(p, &RateSlopes::NONE, segs, seg, yaw_weight)
+}
+
+/// [`residual`] of the turn-rate dependent model.
+pub fn residual_rate(
+    p: &IcrParams,
+    k: &RateSlopes,
+    segs: &Segments,
+    seg: &Segment,
+    yaw_weight: f64,
+) -> [f64; 3] {
+    let pred = integrate_rate(p, k, segs.steps_of(seg));
     let r = seg.reference;
     [
         r.dx - pred.dx,
@@ -177,6 +262,43 @@ mod tests {
         }
         assert!((fast.dx - x).abs() < 1e-10 && (fast.dy - y).abs() < 1e-10);
         assert!((fast.dyaw - th).abs() < 1e-12);
+    }
+
+    #[test]
+    fn rate_slopes_scale_the_turn_and_the_speed_and_stay_bounded() {
+        let p = IcrParams::no_slip(1.0);
+        let k = RateSlopes {
+            k_spread: -0.1,
+            k_alpha: -0.05,
+        };
+        // Straight: no difference, no change.
+        assert_eq!(k.twist(&p, 1.0, 1.0), p.twist(1.0, 1.0));
+        // A spin with dv = 2 m/s: spread x0.8, speeds x0.9, turn x1.125.
+        let (c, t) = (p.twist(-1.0, 1.0), k.twist(&p, -1.0, 1.0));
+        assert!((t.omega - c.omega * 0.9 / 0.8).abs() < 1e-12);
+        // A slope that would make the spread negative is held at 0.2x.
+        let wild = RateSlopes {
+            k_spread: -10.0,
+            k_alpha: 0.0,
+        };
+        let t = wild.twist(&p, -1.0, 1.0);
+        assert!(t.omega.is_finite() && (t.omega - c.omega * 5.0).abs() < 1e-9);
+        // The integrator agrees with the twist, and with the constant model
+        // for zero slopes.
+        let steps = vec![
+            Step {
+                dt: 0.1,
+                v_left: -1.0,
+                v_right: 1.0,
+            };
+            10
+        ];
+        let a = integrate_rate(&p, &k, &steps);
+        assert!((a.dyaw - k.twist(&p, -1.0, 1.0).omega).abs() < 1e-12);
+        assert_eq!(
+            integrate_rate(&p, &RateSlopes::NONE, &steps),
+            integrate(&p, &steps)
+        );
     }
 
     #[test]

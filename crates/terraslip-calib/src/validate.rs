@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use terraslip_core::IcrParams;
 use terraslip_io::{DriveLog, ParamsFile};
 
-use crate::model::integrate;
+use crate::model::{integrate, integrate_rate, RateSlopes};
 use crate::offset::estimate_offset;
 use crate::segment::{Increment, SegmentConfig, SegmentStats, Segments};
 use crate::CalibError;
@@ -52,11 +52,22 @@ pub enum OffsetChoice {
     Fixed(f64),
 }
 
+/// Which model of a parameter set `validate` scores.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ModelChoice {
+    /// The turn-rate dependent model where the file has one selected at
+    /// calibration (`rate_model.selected`), else the constant ICRs.
+    FromParams,
+    /// Mandow's constant ICRs (the file's `params`) whatever the file holds.
+    Constant,
+}
+
 /// Validation settings.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ValidateConfig {
     pub segment: SegmentConfig,
     pub time_offset: OffsetChoice,
+    pub model: ModelChoice,
 }
 
 impl Default for ValidateConfig {
@@ -64,8 +75,62 @@ impl Default for ValidateConfig {
         Self {
             segment: SegmentConfig::default(),
             time_offset: OffsetChoice::FromParams,
+            model: ModelChoice::FromParams,
         }
     }
+}
+
+/// The model of one set of a parameter file: its constant ICR parameters,
+/// or, with [`ModelChoice::FromParams`], the turn-rate dependent model
+/// stored under `rate_model` when calibration selected it. A `rate_model`
+/// that is selected but malformed is an error naming the set; files
+/// without one (older files) give the constant model.
+pub fn model_for(
+    pf: &ParamsFile,
+    terrain: Option<&str>,
+    choice: ModelChoice,
+) -> Result<Option<(IcrParams, RateSlopes)>, CalibError> {
+    let Some(p) = pf.for_terrain(terrain) else {
+        return Ok(None);
+    };
+    let (set, extra) = match terrain.and_then(|t| pf.terrains.get(t).map(|e| (t, e))) {
+        Some((t, e)) => (t.to_string(), &e.extra),
+        None => ("params".to_string(), &pf.extra),
+    };
+    let rate = match (choice, extra.get("rate_model")) {
+        (ModelChoice::FromParams, Some(r))
+            if r.get("selected") == Some(&serde_json::json!(true)) =>
+        {
+            r
+        }
+        _ => return Ok(Some((p, RateSlopes::NONE))),
+    };
+    let bad = |reason: String| CalibError::BadRateModel {
+        set: set.clone(),
+        reason,
+    };
+    let num = |v: &serde_json::Value, key: &str| {
+        v.get(key)
+            .and_then(|x| x.as_f64())
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| bad(format!("`{key}` is missing or not a finite number")))
+    };
+    let q = rate
+        .get("params")
+        .ok_or_else(|| bad("`params` is missing".into()))?;
+    let params = IcrParams {
+        y_l: num(q, "y_l")?,
+        y_r: num(q, "y_r")?,
+        x_c: num(q, "x_c")?,
+        alpha_l: num(q, "alpha_l")?,
+        alpha_r: num(q, "alpha_r")?,
+    };
+    params.validate().map_err(|e| bad(format!("params: {e}")))?;
+    let slopes = RateSlopes {
+        k_spread: num(rate, "k_spread")?,
+        k_alpha: num(rate, "k_alpha")?,
+    };
+    Ok(Some((params, slopes)))
 }
 
 /// One scored segment.
@@ -76,7 +141,10 @@ pub struct SegmentScore {
     pub t1: f64,
     pub terrain: Option<String>,
     pub reference: Increment,
+    /// The scored model's prediction (the turn-rate model where selected).
     pub predicted: Increment,
+    /// The set's constant ICR model (equal to `predicted` where it is scored).
+    pub constant: Increment,
     pub nominal: Increment,
 }
 
@@ -85,6 +153,9 @@ pub struct SegmentScore {
 pub struct Validation {
     pub segments: Vec<SegmentScore>,
     pub mse: Mse,
+    /// The same segments with each set's constant ICRs (equal to `mse`
+    /// unless a turn-rate model was scored).
+    pub constant_mse: Mse,
     pub nominal_mse: Mse,
     /// Per terrain: (segments, mse, nominal_mse).
     pub per_terrain: BTreeMap<String, (usize, Mse, Mse)>,
@@ -93,6 +164,8 @@ pub struct Validation {
     pub stats: SegmentStats,
     /// Time offset used per log, s.
     pub offsets: Vec<f64>,
+    /// Segments scored with a turn-rate dependent model.
+    pub rate_segments: usize,
 }
 
 fn err(r: &Increment, p: &Increment) -> [f64; 3] {
@@ -148,20 +221,28 @@ pub fn validate(
     let segs = Segments::build(&refs, &offsets, &scfg);
     let mut out = Vec::new();
     let mut no_params = 0;
+    let mut rate_segments = 0;
     for s in &segs.segments {
-        let Some(p) = params.for_terrain(s.terrain.as_deref()) else {
+        let Some((p, k)) = model_for(params, s.terrain.as_deref(), cfg.model)? else {
             no_params += 1;
             continue;
         };
+        rate_segments += usize::from(!k.is_constant());
         let w = logs[s.log].meta.track_width.unwrap_or(1.0);
         let steps = segs.steps_of(s);
+        let predicted = integrate_rate(&p, &k, steps);
+        let constant = match params.for_terrain(s.terrain.as_deref()) {
+            Some(c) if !k.is_constant() => integrate(&c, steps),
+            _ => predicted,
+        };
         out.push(SegmentScore {
             log: s.log,
             t0: s.t0,
             t1: s.t1,
             terrain: s.terrain.clone(),
             reference: s.reference,
-            predicted: integrate(&p, steps),
+            predicted,
+            constant,
             nominal: integrate(&IcrParams::no_slip(w), steps),
         });
     }
@@ -173,6 +254,11 @@ pub fn validate(
         });
     }
     let (mse, nominal_mse) = scores(&out);
+    let constant_mse = Mse::of(
+        &out.iter()
+            .map(|x| err(&x.reference, &x.constant))
+            .collect::<Vec<_>>(),
+    );
     let mut per_terrain = BTreeMap::new();
     let mut names: Vec<String> = out.iter().filter_map(|s| s.terrain.clone()).collect();
     names.sort();
@@ -189,11 +275,13 @@ pub fn validate(
     Ok(Validation {
         segments: out,
         mse,
+        constant_mse,
         nominal_mse,
         per_terrain,
         no_params,
         stats: segs.stats,
         offsets,
+        rate_segments,
     })
 }
 

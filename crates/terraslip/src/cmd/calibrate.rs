@@ -7,8 +7,8 @@ use anyhow::{bail, Context};
 use indicatif::{ProgressBar, ProgressStyle};
 use terraslip_calib::model::PARAM_NAMES;
 use terraslip_calib::{
-    calibrate, validate, CalibConfig, Method, OffsetChoice, Progress, TimeOffset, ValidateConfig,
-    Validation,
+    calibrate, validate, CalibConfig, Method, ModelChoice, OffsetChoice, Progress, RateModel,
+    TimeOffset, ValidateConfig, Validation,
 };
 use terraslip_io::{DriveLog, ParamsFile};
 use terraslip_report::{Figure, LinePlot, Series, SeriesStyle};
@@ -26,6 +26,13 @@ Methods: lm (robust Levenberg-Marquardt from the no-slip model, with 1-sigma
 uncertainties), ga (Mandow's genetic algorithm; --seed, --population,
 --generations, --gene-bits, --bound), symmetric (eqs. 11-12 from spins in
 place and straight runs). Without --method all three run, the best is written.
+
+Past the paper: a turn-rate dependent model (--rate-model, default auto)
+whose ICR spread and speed factors change with the tread speed difference
+is fitted next to the constant one and kept under `rate_model` when it
+lowers the information criterion; `estimate --init` reads the constant
+`params`, `calibrate validate` scores the rate model where it was selected
+(--model constant scores the constant one) and reports both.
 
 The output (JSON) is what `terraslip estimate --init` reads; it also holds
 chi, e, uncertainties, the time offset, dropped segments and, for a Pioneer,
@@ -65,7 +72,8 @@ pub struct Args {
     yaw_weight: f64,
     #[command(flatten)]
     seg: SegmentArgs,
-    /// Wheel/pose time offset: `auto` (searched per log within +-0.5 s) or seconds.
+    /// Wheel/pose time offset: `auto` (searched per log within +-0.5 s, then
+    /// +-0.15 s around that with the model) or seconds.
     #[arg(long, default_value = "auto", value_name = "auto|SECONDS")]
     time_offset: String,
     /// GA random seed (same seed, same result).
@@ -101,9 +109,29 @@ pub struct Args {
     /// `unidentified` instead of failing.
     #[arg(long)]
     allow_partial: bool,
+    /// Turn-rate dependent ICR model next to the constant one: `auto`
+    /// (kept when it lowers the information criterion), `on` (kept when
+    /// its slopes are identified) or `off`.
+    #[arg(long, value_enum, default_value = "auto")]
+    rate_model: RateArg,
     /// Print the configuration used to stderr.
     #[arg(long)]
     print_config: bool,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy)]
+enum RateArg {
+    Off,
+    Auto,
+    On,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy)]
+enum ModelArg {
+    /// The turn-rate model where calibration selected one, else constant.
+    Params,
+    /// The constant ICRs (Mandow's five parameters).
+    Constant,
 }
 
 /// Segment selection shared by calibrate and validate.
@@ -180,6 +208,11 @@ struct ValidateArgs {
     /// (estimated on these logs, without any model parameter) or seconds.
     #[arg(long, default_value = "params", value_name = "params|auto|SECONDS")]
     time_offset: String,
+    /// Which model to score as `calibrated`: `params` (the turn-rate model
+    /// where the file has one selected, else the constant ICRs) or
+    /// `constant`. The constant model's scores are reported either way.
+    #[arg(long, value_enum, default_value = "params")]
+    model: ModelArg,
     /// Draw predicted vs reference segments into this SVG file.
     #[arg(long, value_name = "SVG")]
     plot: Option<PathBuf>,
@@ -243,6 +276,11 @@ fn config(a: &Args) -> anyhow::Result<CalibConfig> {
         }),
         min_segments: a.min_segments.max(3),
         allow_partial: a.allow_partial,
+        rate_model: match a.rate_model {
+            RateArg::Off => RateModel::Off,
+            RateArg::Auto => RateModel::Auto,
+            RateArg::On => RateModel::On,
+        },
         ..Default::default()
     };
     if !(a.yaw_weight.is_finite() && a.yaw_weight > 0.0) {
@@ -377,6 +415,22 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         for n in &s.notes {
             eprintln!("  note: {n}");
         }
+        if let Some(r) = &s.rate {
+            let f = &r.fit;
+            eprintln!(
+                "  turn-rate model: k_spread {:.4} +- {} s/m, k_alpha {:.4} +- {} s/m, BIC {:.1} vs constant {:.1}: {}",
+                f.slopes.k_spread,
+                fmt_std(f.std[5]),
+                f.slopes.k_alpha,
+                fmt_std(f.std[6]),
+                r.bic_rate,
+                r.bic_constant,
+                match &r.reason {
+                    None => "selected".to_string(),
+                    Some(why) => format!("not selected, {why}"),
+                }
+            );
+        }
         if !s.unidentified.is_empty() {
             eprintln!(
                 "  warning: not identified by this data: {}",
@@ -400,6 +454,10 @@ fn run_validate(a: ValidateArgs) -> anyhow::Result<()> {
     let cfg = ValidateConfig {
         segment: a.seg.config()?,
         time_offset: parse_offset(&a.time_offset, "`params`, `auto` or seconds")?,
+        model: match a.model {
+            ModelArg::Params => ModelChoice::FromParams,
+            ModelArg::Constant => ModelChoice::Constant,
+        },
     };
     let logs = read_logs(&a.logs)?;
     let v = validate(&logs, &params, &cfg).context("validation failed")?;
@@ -423,6 +481,12 @@ fn run_validate(a: ValidateArgs) -> anyhow::Result<()> {
         "  calibrated   {:10.5} {:10.5} {:10.5}",
         v.mse.dx, v.mse.dy, v.mse.dyaw
     );
+    if v.rate_segments > 0 {
+        eprintln!(
+            "  constant     {:10.5} {:10.5} {:10.5}   (the calibrated row uses the turn-rate model on {} segments)",
+            v.constant_mse.dx, v.constant_mse.dy, v.constant_mse.dyaw, v.rate_segments
+        );
+    }
     eprintln!(
         "  no-slip      {:10.5} {:10.5} {:10.5}",
         v.nominal_mse.dx, v.nominal_mse.dy, v.nominal_mse.dyaw
@@ -431,6 +495,12 @@ fn run_validate(a: ValidateArgs) -> anyhow::Result<()> {
         "  position MSE ratio no-slip / calibrated = {:.2}",
         ratio(v.nominal_mse.position(), v.mse.position())
     );
+    if v.rate_segments > 0 {
+        eprintln!(
+            "  position MSE ratio no-slip / constant   = {:.2}",
+            ratio(v.nominal_mse.position(), v.constant_mse.position())
+        );
+    }
     for (t, (n, m, nm)) in &v.per_terrain {
         eprintln!(
             "  [{t}] {n} segments: position MSE {:.4} vs no-slip {:.4} ({:.2}x)",
@@ -461,6 +531,9 @@ fn run_validate(a: ValidateArgs) -> anyhow::Result<()> {
             "mse": mse(&v.mse),
             "nominal_mse": mse(&v.nominal_mse),
             "position_mse_ratio": ratio(v.nominal_mse.position(), v.mse.position()),
+            "constant_mse": mse(&v.constant_mse),
+            "constant_position_mse_ratio": ratio(v.nominal_mse.position(), v.constant_mse.position()),
+            "rate_model_segments": v.rate_segments,
             "time_offsets_s": v.offsets,
             "stationary_skipped": v.stats.stationary,
             "implausible_dropped": v.stats.implausible,

@@ -7,6 +7,7 @@ use terraslip_core::IcrParams;
 use terraslip_io::{DriveLog, Meta, PoseObs, TerrainLabel, WheelSample};
 
 use crate::ga::SplitMix64;
+use crate::model::RateSlopes;
 
 /// What kind of motion the synthetic driver commands.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -35,6 +36,8 @@ pub struct SynthConfig {
     pub hold: (f64, f64),
     pub manoeuvres: Manoeuvres,
     pub track_width: f64,
+    /// Turn-rate dependence of the true ICRs (zero: Mandow's constant model).
+    pub rate: RateSlopes,
     pub robot: Option<String>,
     pub wheel_radius: Option<f64>,
     pub seed: u64,
@@ -56,6 +59,7 @@ impl SynthConfig {
             hold: (1.5, 5.0),
             manoeuvres: Manoeuvres::Mixed,
             track_width: 0.4,
+            rate: RateSlopes::NONE,
             robot: Some("pioneer-p3at".into()),
             wheel_radius: Some(0.11),
             seed,
@@ -116,7 +120,7 @@ pub fn drive(patches: &[(&str, IcrParams)], cfg: &SynthConfig) -> DriveLog {
             v_right: vr,
         });
         truth.push((t, x, y, th));
-        let tw = p.1.twist(vl, vr);
+        let tw = cfg.rate.twist(&p.1, vl, vr);
         // Midpoint integration at 100 Hz is exact to well below a millimetre.
         let mid = th + 0.5 * tw.omega * dt;
         x += (mid.cos() * tw.v_x - mid.sin() * tw.v_y) * dt;

@@ -316,7 +316,134 @@ fn validation_prefers_the_true_parameters_over_no_slip() {
     assert!(v.segments.iter().all(|s| s.t1 - s.t0 >= 1.0 - 1e-9));
 }
 
+#[test]
+fn a_turn_rate_dependent_robot_gets_its_slopes_and_a_constant_one_gets_none() {
+    let truth = mandow_table1();
+    let slopes = RateSlopes {
+        k_spread: -0.3,
+        k_alpha: -0.1,
+    };
+    let mut cfg = SynthConfig::p3at(240.0, 5);
+    cfg.rate = slopes;
+    let log = drive(&[("asphalt", truth)], &cfg);
+    let cal = calibrate(std::slice::from_ref(&log), &lm_only(), &|_| {}).expect("calibration");
+    let r = cal.sets[0].rate.as_ref().expect("rate model fitted");
+    assert!(r.selected, "{:?}", r.reason);
+    assert!(r.bic_rate < r.bic_constant);
+    let k = r.fit.slopes;
+    assert!((k.k_spread - slopes.k_spread).abs() < 0.03, "{k:?}");
+    assert!((k.k_alpha - slopes.k_alpha).abs() < 0.01, "{k:?}");
+    // The slopes' 1-sigma cover the error without being vacuous.
+    assert!(
+        r.fit.std[5] < 0.03 && r.fit.std[6] < 0.03,
+        "{:?}",
+        r.fit.std
+    );
+    assert_close(&r.fit.params, &truth, 0.01, 0.02, 0.01);
+    // The file keeps the constant set where `estimate --init` reads it and
+    // the rate model beside it; validate scores the rate model and still
+    // reports the constant one on the same segments.
+    let pf = cal.params_file();
+    let e = &pf.terrains["asphalt"];
+    assert_eq!(e.params, cal.sets[0].best.params);
+    assert_eq!(e.extra["rate_model"]["selected"], serde_json::json!(true));
+    let other = drive(&[("asphalt", truth)], &{
+        let mut c = cfg.clone();
+        c.seed = 6;
+        c.duration = 120.0;
+        c
+    });
+    let v = validate(
+        std::slice::from_ref(&other),
+        &pf,
+        &ValidateConfig::default(),
+    )
+    .expect("validation");
+    assert_eq!(v.rate_segments, v.segments.len());
+    // Headings show it most: the 1 cm reference noise floors positions.
+    assert!(
+        v.mse.dyaw * 5.0 < v.constant_mse.dyaw && v.mse.position() < v.constant_mse.position(),
+        "rate {:?} vs constant {:?}",
+        v.mse,
+        v.constant_mse
+    );
+    let c = validate(
+        std::slice::from_ref(&other),
+        &pf,
+        &ValidateConfig {
+            model: ModelChoice::Constant,
+            ..Default::default()
+        },
+    )
+    .expect("validation");
+    assert_eq!(c.rate_segments, 0);
+    assert_eq!(c.mse, v.constant_mse);
+    // Mandow's constant robot: the slopes do not pay for themselves.
+    let log = drive(&[("asphalt", truth)], &SynthConfig::p3at(240.0, 5));
+    let cal = calibrate(&[log], &lm_only(), &|_| {}).expect("calibration");
+    let r = cal.sets[0].rate.as_ref().expect("rate model fitted");
+    assert!(!r.selected, "slopes {:?}", r.fit.slopes);
+    let off = CalibConfig {
+        rate_model: RateModel::Off,
+        ..lm_only()
+    };
+    let log = drive(&[("asphalt", truth)], &SynthConfig::p3at(60.0, 5));
+    let cal = calibrate(&[log], &off, &|_| {}).expect("calibration");
+    assert!(cal.sets[0].rate.is_none());
+    assert!(!cal.params_file().terrains["asphalt"]
+        .extra
+        .contains_key("rate_model"));
+}
+
+#[test]
+fn offset_candidates_are_scored_on_the_same_segments() {
+    let mut cfg = SynthConfig::p3at(60.0, 4);
+    cfg.pose_latency = 0.2;
+    let log = drive(&[("a", mandow_table1())], &cfg);
+    let scfg = SegmentConfig::default().for_logs(std::slice::from_ref(&log));
+    let sets = offset::common_segments(&log, &[-0.3, 0.0, 0.2, 0.6], &scfg);
+    assert_eq!(sets.len(), 4);
+    assert!(sets[0].len() > 20);
+    for s in &sets[1..] {
+        assert_eq!(s.len(), sets[0].len());
+        for (a, b) in s.segments.iter().zip(&sets[0].segments) {
+            assert_eq!((a.t0, a.t1), (b.t0, b.t1));
+        }
+    }
+    // The wheels moved, the poses did not: the increments are the same,
+    // the wheel steps are not.
+    assert_eq!(sets[0].segments[5].reference, sets[3].segments[5].reference);
+    assert_ne!(sets[0].segments[5].int_mean, sets[3].segments[5].int_mean);
+}
+
 // ---- bad input ----
+
+#[test]
+fn a_malformed_rate_model_is_an_error_and_an_old_file_scores_the_constant_model() {
+    let truth = mandow_table1();
+    let log = drive(&[("asphalt", truth)], &SynthConfig::p3at(60.0, 2));
+    // A file written before the rate model existed.
+    let old = ParamsFile {
+        params: Some(truth),
+        ..Default::default()
+    };
+    let v =
+        validate(std::slice::from_ref(&log), &old, &ValidateConfig::default()).expect("validation");
+    assert_eq!(v.rate_segments, 0);
+    assert_eq!(v.mse, v.constant_mse);
+    let mut bad = old.clone();
+    bad.extra.insert(
+        "rate_model".into(),
+        serde_json::json!({"selected": true, "params": {"y_l": 0.3, "y_r": -0.3, "x_c": 0.0, "alpha_l": 1.0, "alpha_r": 1.0}, "k_spread": -0.1}),
+    );
+    let e = validate(std::slice::from_ref(&log), &bad, &ValidateConfig::default()).unwrap_err();
+    assert!(matches!(e, CalibError::BadRateModel { .. }), "{e}");
+    assert!(e.to_string().contains("k_alpha"), "{e}");
+    // Not selected: ignored, whatever it holds.
+    bad.extra
+        .insert("rate_model".into(), serde_json::json!({"selected": false}));
+    assert!(validate(std::slice::from_ref(&log), &bad, &ValidateConfig::default()).is_ok());
+}
 
 #[test]
 fn no_pose_reference_is_an_error() {

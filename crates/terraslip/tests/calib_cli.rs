@@ -108,6 +108,11 @@ fn calibrate_json_and_validate_json_follow_the_contract() {
         }
     }
     assert!(v["mse"]["dyaw"].as_f64() < v["nominal_mse"]["dyaw"].as_f64());
+    // A constant robot: the turn-rate model is fitted, not selected, and
+    // the constant scores are the calibrated ones.
+    assert_eq!(file["rate_model"]["selected"], serde_json::json!(false));
+    assert_eq!(v["rate_model_segments"], serde_json::json!(0));
+    assert_eq!(v["constant_mse"], v["mse"]);
     let svg_text = std::fs::read_to_string(&svg).expect("plot written");
     assert!(svg_text.contains("<svg"));
 }

@@ -172,7 +172,7 @@ fn main() {
             }
         }
     }
-    println!("\ncross-terrain: no-slip MSE / calibrated MSE of positions on the 2nd half of the column drive, parameters from the 1st half of the row drive\n");
+    println!("\ncross-terrain: no-slip MSE / calibrated MSE of positions on the 2nd half of the column drive, parameters (the turn-rate model where selected) from the 1st half of the row drive\n");
     let mut head = "| calibrated on |".to_string();
     for l in &logs {
         head += &format!(" {} |", l.name());
@@ -183,7 +183,10 @@ fn main() {
         let mut row = format!("| {name} |");
         // Use the set whatever the terrain is called on the other drive.
         let mut any = pf.clone();
-        any.params = pf.terrains.values().next().map(|e| e.params).or(pf.params);
+        if let Some(e) = pf.terrains.values().next() {
+            any.params = Some(e.params);
+            any.extra = e.extra.clone();
+        }
         any.terrains.clear();
         for log in &logs {
             let mut v = ValidateConfig::default();

@@ -6,17 +6,24 @@
 //! 1. [`segment`]: the drive is cut into segments between pose observations
 //!    at least 1 s apart; held (repeated) poses are dropped, stationary
 //!    segments skipped, increments expressed in the frame of each segment start.
-//! 2. [`offset`]: the wheel/pose time offset is estimated per log.
+//! 2. [`offset`]: the wheel/pose time offset is estimated per log (every
+//!    candidate scored on the same segments), then refined by the profile
+//!    of the LM fit.
 //! 3. [`lm`]: a robust Levenberg-Marquardt fit from the no-slip model sets
 //!    the residual scale and drops outlier segments (reported).
 //! 4. The methods minimise eq. 13 (Cauchy-robust, over the inliers):
 //!    [`lm`], the paper's [`ga`], and the symmetric quick calibration
 //!    ([`symmetric`], eqs. 11-12). The lowest robust cost wins.
-//! 5. One set per terrain of `terrain.csv`; steering efficiency, eccentricity,
+//! 5. Past the paper, a turn-rate dependent model ([`model::RateSlopes`]:
+//!    spread and speed factors that change with the tread speed difference)
+//!    is fitted next to the constant winner and kept when it lowers the
+//!    information criterion ([`RateModel`]).
+//! 6. One set per terrain of `terrain.csv`; steering efficiency, eccentricity,
 //!    uncertainties, and Pioneer Ticksmm/Revcount in the output.
 //!
 //! [`validate()`] scores a parameter file on other drives against the no-slip
-//! model, per segment (Mandow Table III).
+//! model, per segment (Mandow Table III), with the turn-rate model where the
+//! file selected one and the constant model alongside.
 //!
 //! Frames: REP-103 (body x forward, y left; world ENU). Units: SI.
 

@@ -127,7 +127,7 @@ fn main() {
                 (Ok(c), Ok(r)) => {
                     let rate_cols = match &s.rate {
                         Some(x) if x.selected => format!(
-                            "{:.3}, {:.3} | {:.3} | **{:.2}**",
+                            "{:.3}, {:.3} | {:.3} | **{:.3}**",
                             x.fit.slopes.k_spread,
                             x.fit.slopes.k_alpha,
                             r.mse.position(),
@@ -145,7 +145,7 @@ fn main() {
                         None => "off | - | -".into(),
                     };
                     println!(
-                        "| {} | {name} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.2}/{:.2} | {}/{} | {} | {:.3} | {:.3} | **{:.2}** | {rate_cols} |",
+                        "| {} | {name} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.2}/{:.2} | {}/{} | {} | {:.3} | {:.3} | **{:.3}** | {rate_cols} |",
                         log.name(),
                         s.best.method.name(),
                         p.y_l,

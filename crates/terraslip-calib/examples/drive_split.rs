@@ -7,7 +7,7 @@
 //! the turn-rate dependent model where calibration selected it; both with
 //! the same segments, gate and time offset as the no-slip model.
 //!
-//! `cargo run --release -p terraslip-calib --example drive_split -- DATA_DIR [lm|ga|symmetric|all] [--yaw-weight W] [--no-offset] [--no-gate] [--plain] [--cauchy C] [--rate off|auto|on] [--validation-offset params|auto]`
+//! `cargo run --release -p terraslip-calib --example drive_split -- DATA_DIR [lm|ga|symmetric|all] [--yaw-weight W] [--no-offset] [--no-gate] [--plain] [--cauchy C] [--rate off|auto|on] [--validation-offset params|auto] [--chained | --stride S]`
 //!
 //! `--validation-offset auto` estimates the wheel-to-pose offset of the
 //! validation half on that half itself (model-free, the same for every
@@ -75,6 +75,12 @@ fn main() {
     };
     cfg.segment.reference_gate = !flag("--no-gate");
     cfg.segment.drop_mistimed = !flag("--no-gate");
+    if flag("--chained") {
+        cfg.segment.overlap = None;
+    }
+    if let Some(stride) = value("--stride") {
+        cfg.segment.overlap = Some(stride);
+    }
     let mut paths: Vec<_> = match std::fs::read_dir(&dir) {
         Ok(d) => d.filter_map(|e| e.ok()).map(|e| e.path()).collect(),
         Err(e) => {
@@ -112,6 +118,7 @@ fn main() {
             v.segment.drop_mistimed = cfg.segment.drop_mistimed;
             (v.segment.t_min, v.segment.t_max) = test;
             v.time_offset = validation_offset;
+            assert!(v.segment.overlap.is_none());
             let s = &cal.sets[0];
             let p = s.best.params;
             let constant = validate(

@@ -72,6 +72,14 @@ pub struct SegmentConfig {
     pub drop_mistimed: bool,
     /// Track width (m) used by the gate's yaw bound; 1 m if unknown.
     pub gate_track_width: Option<f64>,
+    /// `None`: chained segments, each starting where the previous one ended
+    /// (the contract's, what `validate` scores). `Some(stride)`: a segment
+    /// also starts at the first pose at least `stride` s (0: every pose)
+    /// after the previous start, each ending at the first pose at least
+    /// `min_duration` later: every pose then starts and ends segments, which
+    /// uses the data more fully for a fit. The segments overlap, so their
+    /// residuals are correlated (see [`Segments::coverage`]).
+    pub overlap: Option<f64>,
 }
 
 impl Default for SegmentConfig {
@@ -86,6 +94,7 @@ impl Default for SegmentConfig {
             reference_gate: true,
             drop_mistimed: true,
             gate_track_width: None,
+            overlap: None,
         }
     }
 }
@@ -355,7 +364,16 @@ impl Segments {
             }
             let tb = poses[j].0;
             let start = i;
-            i = j;
+            i = match cfg.overlap {
+                None => j,
+                Some(stride) => {
+                    let mut k = i + 1;
+                    while k < j && poses[k].0 - ta < stride {
+                        k += 1;
+                    }
+                    k
+                }
+            };
             if tb - ta > cfg.max_duration || ta < w_first || tb > w_last {
                 stats.gaps += 1;
                 continue;
@@ -452,6 +470,60 @@ impl Segments {
             s.push_log(i, log, offsets.get(i).copied().unwrap_or(0.0), cfg);
         }
         s
+    }
+
+    /// How many segments cover an instant on average: their total duration
+    /// over the length of the union of their time spans (per log). 1 for
+    /// chained segments; about poses-per-`min_duration` with
+    /// [`SegmentConfig::overlap`] = `Some(0)`. Overlapping segments share pose noise, so
+    /// least-squares uncertainties over them are too small by about the
+    /// square root of this, and counts of them overstate the evidence by it.
+    pub fn coverage(&self) -> f64 {
+        let mut spans: Vec<(usize, f64, f64)> =
+            self.segments.iter().map(|s| (s.log, s.t0, s.t1)).collect();
+        spans.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
+        let total: f64 = spans.iter().map(|s| s.2 - s.1).sum();
+        let mut union = 0.0;
+        let mut cur: Option<(usize, f64, f64)> = None;
+        for (log, a, b) in spans {
+            cur = match cur {
+                Some((l, ca, cb)) if l == log && a <= cb => Some((l, ca, cb.max(b))),
+                Some((_, ca, cb)) => {
+                    union += cb - ca;
+                    Some((log, a, b))
+                }
+                None => Some((log, a, b)),
+            };
+        }
+        if let Some((_, a, b)) = cur {
+            union += b - a;
+        }
+        if union > 0.0 {
+            (total / union).max(1.0)
+        } else {
+            1.0
+        }
+    }
+
+    /// A chained subset of (possibly overlapping) segments: in time order per
+    /// log, each kept segment starts at or after the end of the previous one
+    /// kept. All of them for chained segments.
+    pub fn chained_mask(&self) -> Vec<bool> {
+        let mut order: Vec<usize> = (0..self.segments.len()).collect();
+        order.sort_by(|&a, &b| {
+            let (x, y) = (&self.segments[a], &self.segments[b]);
+            x.log.cmp(&y.log).then(x.t0.total_cmp(&y.t0))
+        });
+        let mut keep = vec![false; self.segments.len()];
+        let mut last: Option<(usize, f64)> = None;
+        for i in order {
+            let s = &self.segments[i];
+            if last.is_none_or(|(log, t1)| log != s.log || s.t0 >= t1) {
+                keep[i] = true;
+                last = Some((s.log, s.t1));
+            }
+        }
+        keep
     }
 
     /// The steps of one segment.
@@ -572,6 +644,55 @@ mod tests {
             drop_mistimed(&slow, &log.wheels, 0.0).len(),
             poses.len() - 1
         );
+    }
+
+    #[test]
+    fn overlapping_segments_start_at_every_pose_and_report_their_coverage() {
+        // Poses every 0.1 s, 1 m/s: chained segments are 1 s apart.
+        let log = straight_log(1.0, 20.0);
+        let chained = Segments::build(&[&log], &[0.0], &SegmentConfig::default());
+        assert!((chained.coverage() - 1.0).abs() < 1e-9);
+        assert!(chained.chained_mask().iter().all(|&k| k));
+        let cfg = SegmentConfig {
+            overlap: Some(0.0),
+            ..Default::default()
+        };
+        let s = Segments::build(&[&log], &[0.0], &cfg);
+        assert!(
+            s.len() > 8 * chained.len(),
+            "{} vs {}",
+            s.len(),
+            chained.len()
+        );
+        // Ten segments of 1 s start in every second.
+        assert!((s.coverage() - 10.0).abs() < 0.6, "{}", s.coverage());
+        assert!(s
+            .segments
+            .windows(2)
+            .all(|w| w[1].t0 > w[0].t0 && w[1].t0 < w[0].t1));
+        // Its chained subset is the chained segmentation.
+        let mask = s.chained_mask();
+        let sub: Vec<(f64, f64)> = s
+            .segments
+            .iter()
+            .zip(&mask)
+            .filter(|(_, &k)| k)
+            .map(|(g, _)| (g.t0, g.t1))
+            .collect();
+        let want: Vec<(f64, f64)> = chained.segments.iter().map(|g| (g.t0, g.t1)).collect();
+        assert_eq!(sub, want);
+        // A 0.25 s stride: a start every third pose (0.3 s), four per second.
+        let cfg = SegmentConfig {
+            overlap: Some(0.25),
+            ..Default::default()
+        };
+        let s = Segments::build(&[&log], &[0.0], &cfg);
+        assert!((s.coverage() - 1.0 / 0.3).abs() < 0.3, "{}", s.coverage());
+        assert!(s
+            .segments
+            .windows(2)
+            .all(|w| (w[1].t0 - w[0].t0 - 0.3).abs() < 1e-9));
+        assert_eq!(Segments::default().coverage(), 1.0);
     }
 
     #[test]

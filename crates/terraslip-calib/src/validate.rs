@@ -196,7 +196,12 @@ pub fn validate(
     if logs.is_empty() {
         return Err(CalibError::NoLogs);
     }
-    let scfg = cfg.segment.for_logs(logs);
+    // The score is over chained segments (the contract), whatever the
+    // calibration fitted on.
+    let scfg = SegmentConfig {
+        overlap: None,
+        ..cfg.segment.for_logs(logs)
+    };
     let mut offsets = Vec::new();
     for log in logs {
         if log.pose.is_empty() {

@@ -114,6 +114,15 @@ pub struct Args {
     /// its slopes are identified) or `off`.
     #[arg(long, value_enum, default_value = "auto")]
     rate_model: RateArg,
+    /// Fit segments overlap: one starts at the first pose at least this many
+    /// seconds after the previous start (0: at every pose), each lasting
+    /// --min-segment. `validate` always scores chained segments.
+    #[arg(long, default_value_t = 0.25, value_name = "S")]
+    stride: f64,
+    /// Fit on chained segments only (each starting where the previous one
+    /// ended), as `validate` scores and as before the overlapping fit.
+    #[arg(long)]
+    chained: bool,
     /// Print the configuration used to stderr.
     #[arg(long)]
     print_config: bool,
@@ -283,6 +292,10 @@ fn config(a: &Args) -> anyhow::Result<CalibConfig> {
         },
         ..Default::default()
     };
+    if !(a.stride.is_finite() && a.stride >= 0.0) {
+        bail!("--stride must be a non-negative number of seconds");
+    }
+    c.segment.overlap = (!a.chained).then_some(a.stride);
     if !(a.yaw_weight.is_finite() && a.yaw_weight > 0.0) {
         bail!("--yaw-weight must be a positive number (m/rad)");
     }

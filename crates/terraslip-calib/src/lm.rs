@@ -74,9 +74,36 @@ pub struct LmFit {
 /// segment residual of a parameter vector, and which vectors are usable.
 struct Problem<'a, const N: usize> {
     segs: &'a Segments,
-    residual: &'a dyn Fn(&[f64; N], &Segment) -> [f64; 3],
+    residual: &'a (dyn Fn(&[f64; N], &Segment) -> [f64; 3] + Sync),
     usable: &'a dyn Fn(&[f64; N]) -> bool,
     free: [bool; N],
+}
+
+/// `out[i] = f(i)` for every `i`, evaluated in parallel over contiguous
+/// blocks (all cores; segments are independent). Each entry is computed
+/// alone and callers sum them in index order, so results do not depend on
+/// the number of threads.
+fn par_fill<T: Send>(out: &mut [T], f: &(dyn Fn(usize) -> T + Sync)) {
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(out.len() / 128)
+        .max(1);
+    if threads == 1 {
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = f(i);
+        }
+        return;
+    }
+    let chunk = out.len().div_ceil(threads);
+    std::thread::scope(|scope| {
+        for (c, block) in out.chunks_mut(chunk).enumerate() {
+            scope.spawn(move || {
+                for (k, o) in block.iter_mut().enumerate() {
+                    *o = f(c * chunk + k);
+                }
+            });
+        }
+    });
 }
 
 impl<const N: usize> Problem<'_, N> {
@@ -90,42 +117,44 @@ impl<const N: usize> Problem<'_, N> {
         v: &[f64; N],
         w: &[f64],
     ) -> (Vec<[f64; 3]>, Vec<[[f64; 3]; N]>) {
-        let n = self.segs.segments.len();
-        let mut r = vec![[0.0; 3]; n];
-        let mut J = vec![[[0.0; 3]; N]; n];
-        for (i, s) in self.segs.segments.iter().enumerate() {
+        let (segs, residual, free) = (self.segs, self.residual, self.free);
+        let mut rj = vec![([0.0; 3], [[0.0; 3]; N]); segs.segments.len()];
+        par_fill(&mut rj, &|i| {
+            let mut J = [[0.0; 3]; N];
             if w[i] <= 0.0 {
-                continue;
+                return ([0.0; 3], J);
             }
-            r[i] = (self.residual)(v, s);
+            let s = &segs.segments[i];
+            let r = residual(v, s);
             for k in 0..N {
-                if !self.free[k] {
+                if !free[k] {
                     continue;
                 }
                 let h = 1e-6 * (1.0 + v[k].abs());
                 let mut vp = *v;
                 vp[k] += h;
-                let rp = (self.residual)(&vp, s);
+                let rp = residual(&vp, s);
                 for c in 0..3 {
                     // d(pred)/dp = -d(r)/dp
-                    J[i][k][c] = -(rp[c] - r[i][c]) / h;
+                    J[k][c] = -(rp[c] - r[c]) / h;
                 }
             }
-        }
-        (r, J)
+            (r, J)
+        });
+        rj.into_iter().unzip()
     }
 
     fn weighted_sse(&self, v: &[f64; N], w: &[f64]) -> f64 {
-        self.segs
-            .segments
-            .iter()
-            .zip(w)
-            .filter(|(_, &wi)| wi > 0.0)
-            .map(|(s, &wi)| {
-                let r = (self.residual)(v, s);
-                wi * (r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
-            })
-            .sum()
+        let (segs, residual) = (self.segs, self.residual);
+        let mut terms = vec![0.0; segs.segments.len()];
+        par_fill(&mut terms, &|i| {
+            if w[i] <= 0.0 {
+                return 0.0;
+            }
+            let r = residual(v, &segs.segments[i]);
+            w[i] * (r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
+        });
+        terms.iter().sum()
     }
 
     /// Normal equations `J^T W J` and `J^T W r`, with fixed parameters decoupled.
@@ -198,7 +227,7 @@ impl<const N: usize> Problem<'_, N> {
                         cost = c;
                         lambda = (lambda * 0.3).max(1e-12);
                         improved = true;
-                        if rel < 1e-12 || step < 1e-10 {
+                        if rel < 1e-10 || step < 1e-10 {
                             return it;
                         }
                         break;
@@ -266,7 +295,7 @@ fn usable(v: &[f64; 5]) -> bool {
 
 fn constant_problem<'a>(
     segs: &'a Segments,
-    res: &'a dyn Fn(&[f64; 5], &Segment) -> [f64; 3],
+    res: &'a (dyn Fn(&[f64; 5], &Segment) -> [f64; 3] + Sync),
     free: [bool; 5],
 ) -> Problem<'a, 5> {
     Problem {

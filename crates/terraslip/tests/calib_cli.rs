@@ -241,4 +241,15 @@ fn bad_flags_are_reported() {
     );
     assert!(String::from_utf8_lossy(&out.stderr)
         .contains("--time-offset `params`: expected `auto` or seconds"));
+    let out = terraslip(
+        &[
+            s("calibrate"),
+            log.as_os_str(),
+            s("--out"),
+            s("/dev/null"),
+            s("--stride=-1"),
+        ],
+        false,
+    );
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--stride"));
 }

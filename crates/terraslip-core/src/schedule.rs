@@ -56,6 +56,14 @@ pub struct ScheduleConfig {
     pub boost_updates: u32,
     /// Covariance reset `P_B` at a change to an unlearned terrain.
     pub reset: Option<IcrStd>,
+    /// The reset leaves the tread speed factor difference `alpha_l -
+    /// alpha_r` as learned (its estimate and variance; `P_B`'s entry is
+    /// unused): it belongs to the robot (tyre pressure, wear, gearing), not to
+    /// the ground, which acts on both treads alike. Re-inflating it makes a
+    /// steady turn after a change ambiguous: there the heading rate sees
+    /// `(alpha (v_r - v_l) - (alpha_l - alpha_r)(v_r + v_l)/2) / d`, and with
+    /// both speeds constant the difference and `d` trade off freely.
+    pub reset_keeps_alpha_diff: bool,
     /// Recall learned ICRs when a terrain is revisited.
     pub memory: bool,
     /// Seconds on a terrain (while moving) before what was learned there is
@@ -79,6 +87,7 @@ impl Default for ScheduleConfig {
             boost_factor: 1.0,
             boost_updates: 0,
             reset: None,
+            reset_keeps_alpha_diff: false,
             memory: false,
             memory_min_dwell: 20.0,
             memory_average: 0.0,
@@ -238,7 +247,14 @@ impl NoiseSchedule {
         if first {
             return Ok(ChangeAction::Learning);
         }
-        if let Some(pb) = self.cfg.reset {
+        if let Some(mut pb) = self.cfg.reset {
+            if self.cfg.reset_keeps_alpha_diff {
+                let p = filter.covariance();
+                let (l, r) = (model::ALPHA_L, model::ALPHA_R);
+                let var = p[(l, l)] + p[(r, r)] - 2.0 * p[(l, r)];
+                // Floored so that the reset block stays positive-definite.
+                pb.alpha_diff = libm::sqrt(var.max(0.0)).max(1e-9);
+            }
             filter.reset_icr(None, &pb.to_slip_cov())?;
         }
         if self.cfg.boost_factor > 1.0 && self.cfg.boost_updates > 0 {
@@ -327,6 +343,42 @@ mod tests {
         let var_d = p[(3, 3)] + p[(4, 4)] - 2.0 * p[(3, 4)];
         assert!((var_d - 0.01).abs() < 1e-12);
         assert!((p[(5, 5)] - 0.0025).abs() < 1e-12);
+    }
+
+    #[test]
+    fn reset_can_keep_the_learned_factor_difference() {
+        let pb = IcrStd {
+            spread: 0.1,
+            centre: 0.02,
+            x_c: 0.05,
+            alpha: 0.01,
+            alpha_diff: 0.01,
+        };
+        let var_e = |f: &Filter| {
+            let p = f.covariance();
+            p[(6, 6)] + p[(7, 7)] - 2.0 * p[(6, 7)]
+        };
+        for keep in [false, true] {
+            let mut f = filter();
+            let before = var_e(&f);
+            let mut s = NoiseSchedule::new(ScheduleConfig {
+                reset: Some(pb),
+                reset_keeps_alpha_diff: keep,
+                ..Default::default()
+            });
+            s.on_terrain(&mut f, 0).unwrap();
+            s.on_terrain(&mut f, 1).unwrap();
+            let p = f.covariance();
+            let var_d = p[(3, 3)] + p[(4, 4)] - 2.0 * p[(3, 4)];
+            assert!((var_d - 0.01).abs() < 1e-12, "d is reset either way");
+            let want = if keep { before } else { 1e-4 };
+            assert!(
+                (var_e(&f) - want).abs() < 1e-12,
+                "keep {keep}: {}",
+                var_e(&f)
+            );
+            assert!(p.cholesky().is_some());
+        }
     }
 
     #[test]

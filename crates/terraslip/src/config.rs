@@ -203,6 +203,10 @@ pub struct ScheduleSection {
     pub reset: bool,
     /// Reset std (chen2023's P_B).
     pub reset_std: SlipStd,
+    /// The reset keeps the learned tread speed factor difference
+    /// alpha_l - alpha_r (a property of the robot, not of the ground);
+    /// `reset_std.alpha_diff` is then unused.
+    pub reset_keeps_alpha_diff: bool,
     /// Recall learned ICRs when a terrain is revisited.
     pub memory: bool,
     /// Seconds of driving on a terrain before its ICRs are remembered.
@@ -316,6 +320,7 @@ impl Default for ScheduleSection {
                 alpha: 0.02,
                 alpha_diff: 0.01,
             },
+            reset_keeps_alpha_diff: true,
             memory: true,
             memory_min_dwell: 20.0,
             memory_average: 40.0,
@@ -526,6 +531,7 @@ impl EstimatorConfig {
             boost_factor: s.boost_factor,
             boost_updates: s.boost_updates,
             reset: s.reset.then(|| s.reset_std.to_core()),
+            reset_keeps_alpha_diff: s.reset_keeps_alpha_diff,
             memory: s.memory,
             memory_min_dwell: s.memory_min_dwell,
             memory_average: s.memory_average,

@@ -236,7 +236,17 @@ impl NoiseSchedule {
         self.averaged = 0.0;
         if self.cfg.memory {
             if let Some(Some(m)) = self.memory.get(terrain) {
-                filter.reset_icr(Some(&m.icr), &m.cov)?;
+                let (mut icr, mut cov) = (m.icr, m.cov);
+                if self.cfg.reset_keeps_alpha_diff {
+                    // The robot's factor difference as learned now, on the
+                    // remembered common factor of this ground.
+                    let (e, var_e) = alpha_diff_of(filter);
+                    let a = 0.5 * (icr.alpha_l + icr.alpha_r);
+                    icr.alpha_l = a + 0.5 * e;
+                    icr.alpha_r = a - 0.5 * e;
+                    cov = with_alpha_diff(&cov, var_e);
+                }
+                filter.reset_icr(Some(&icr), &cov)?;
                 self.boost_left = 0;
                 filter.set_schedule_scale(1.0);
                 return Ok(ChangeAction::Recalled);
@@ -247,15 +257,12 @@ impl NoiseSchedule {
         if first {
             return Ok(ChangeAction::Learning);
         }
-        if let Some(mut pb) = self.cfg.reset {
+        if let Some(pb) = self.cfg.reset {
+            let mut cov = pb.to_slip_cov();
             if self.cfg.reset_keeps_alpha_diff {
-                let p = filter.covariance();
-                let (l, r) = (model::ALPHA_L, model::ALPHA_R);
-                let var = p[(l, l)] + p[(r, r)] - 2.0 * p[(l, r)];
-                // Floored so that the reset block stays positive-definite.
-                pb.alpha_diff = libm::sqrt(var.max(0.0)).max(1e-9);
+                cov = with_alpha_diff(&cov, alpha_diff_of(filter).1);
             }
-            filter.reset_icr(None, &pb.to_slip_cov())?;
+            filter.reset_icr(None, &cov)?;
         }
         if self.cfg.boost_factor > 1.0 && self.cfg.boost_updates > 0 {
             self.boost_left = self.cfg.boost_updates;
@@ -263,6 +270,44 @@ impl NoiseSchedule {
         }
         Ok(ChangeAction::Learning)
     }
+}
+
+/// The filter's tread speed factor difference `alpha_l - alpha_r` and its
+/// variance.
+fn alpha_diff_of(filter: &Filter) -> (f64, f64) {
+    let (l, r) = (model::ALPHA_L, model::ALPHA_R);
+    let (x, p) = (filter.state(), filter.covariance());
+    (x[l] - x[r], p[(l, l)] + p[(r, r)] - 2.0 * p[(l, r)])
+}
+
+/// `cov` (on `y_l, y_r, x_c, alpha_l, alpha_r`) with the factor difference
+/// `e = alpha_l - alpha_r` given variance `var_e` (floored at 1e-18 so the
+/// result stays positive-definite) and no correlation with the rest; the
+/// common factor `(alpha_l + alpha_r)/2` and the ICRs keep theirs.
+fn with_alpha_diff(cov: &SlipCov, var_e: f64) -> SlipCov {
+    // (alpha_l, alpha_r) = (a + e/2, a - e/2): J maps to (.., a, e), Ji back.
+    let mut J = SlipCov::identity();
+    J[(3, 3)] = 0.5;
+    J[(3, 4)] = 0.5;
+    J[(4, 3)] = 1.0;
+    J[(4, 4)] = -1.0;
+    let mut Ji = SlipCov::identity();
+    Ji[(3, 3)] = 1.0;
+    Ji[(3, 4)] = 0.5;
+    Ji[(4, 3)] = 1.0;
+    Ji[(4, 4)] = -0.5;
+    let mut m = J * cov * J.transpose();
+    for k in 0..K {
+        m[(4, k)] = 0.0;
+        m[(k, 4)] = 0.0;
+    }
+    m[(4, 4)] = if var_e.is_finite() {
+        var_e.max(1e-18)
+    } else {
+        1e-18
+    };
+    let back = Ji * m * Ji.transpose();
+    0.5 * (back + back.transpose())
 }
 
 /// Raises the variances of `cov` (in `(d, c, x_c)` coordinates) to at least
@@ -379,6 +424,27 @@ mod tests {
             );
             assert!(p.cholesky().is_some());
         }
+    }
+
+    #[test]
+    fn alpha_diff_swap_keeps_the_rest() {
+        let pb = IcrStd {
+            spread: 0.1,
+            centre: 0.02,
+            x_c: 0.05,
+            alpha: 0.01,
+            alpha_diff: 0.01,
+        };
+        let swapped = with_alpha_diff(&pb.to_slip_cov(), 1e-6);
+        let want = IcrStd {
+            alpha_diff: 1e-3,
+            ..pb
+        }
+        .to_slip_cov();
+        assert!((swapped - want).amax() < 1e-15);
+        assert!(with_alpha_diff(&pb.to_slip_cov(), f64::NAN)
+            .cholesky()
+            .is_some());
     }
 
     #[test]

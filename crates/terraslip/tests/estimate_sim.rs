@@ -96,3 +96,46 @@ fn revisited_terrains_are_recalled_at_once() {
         c.reconvergence
     );
 }
+
+#[test]
+fn reset_keeping_the_factor_difference_settles_a_steady_turn() {
+    // papers seed 5, soil -> grass at 120 s: the robot turns steadily at
+    // ~0.25 rad/s from the change on. There the heading rate sees
+    // (alpha (v_r - v_l) - (alpha_l - alpha_r)(v_r + v_l)/2) / d, so a reset
+    // that re-inflates the factor difference lets it trade off against d
+    // (measured: 12.6 s to settle); keeping the learned difference (a
+    // property of the robot, not of the ground) settles it in 2.0 s.
+    let grass = |c: &Scorecard| {
+        c.reconvergence
+            .iter()
+            .find(|r| r.terrain == "grass")
+            .and_then(|r| r.seconds)
+    };
+    let ours = score("papers", 5, &EstimatorConfig::default());
+    let mut old = EstimatorConfig::default();
+    old.schedule.reset_keeps_alpha_diff = false;
+    let before = score("papers", 5, &old);
+    assert!(
+        grass(&ours).is_some_and(|s| s <= 5.0),
+        "{:?}",
+        ours.reconvergence
+    );
+    assert!(
+        grass(&before).is_some_and(|s| s > 10.0),
+        "{:?}",
+        before.reconvergence
+    );
+}
+
+#[test]
+fn papers_icr3_meets_the_2m_rms_targets() {
+    // The papers' own slip model (alpha = 1 on every terrain), 2 m GNSS:
+    // issue 2's RMS targets hold here (5 seeds: d 0.71 cm); on `papers`
+    // (alpha < 1, which 2 m GNSS cannot observe) RMS d stays ~1 cm.
+    for seed in [1, 2] {
+        let c = score("papers-icr3", seed, &EstimatorConfig::default());
+        eprintln!("seed {seed}: {:?}", c.rms);
+        assert!(c.rms.d <= 0.008, "seed {seed}: RMS d {}", c.rms.d);
+        assert!(c.rms.y_l <= 0.025 && c.rms.y_r <= 0.025, "{:?}", c.rms);
+    }
+}

@@ -132,10 +132,13 @@ fn papers_icr3_meets_the_2m_rms_targets() {
     // The papers' own slip model (alpha = 1 on every terrain), 2 m GNSS:
     // issue 2's RMS targets hold here (5 seeds: d 0.71 cm); on `papers`
     // (alpha < 1, which 2 m GNSS cannot observe) RMS d stays ~1 cm.
-    for seed in [1, 2] {
+    // Pooled over three seeds like the figures (one seed alone: 0.70-0.79 cm).
+    let mut sq = 0.0;
+    for seed in 1..=3 {
         let c = score("papers-icr3", seed, &EstimatorConfig::default());
         eprintln!("seed {seed}: {:?}", c.rms);
-        assert!(c.rms.d <= 0.008, "seed {seed}: RMS d {}", c.rms.d);
         assert!(c.rms.y_l <= 0.025 && c.rms.y_r <= 0.025, "{:?}", c.rms);
+        sq += c.rms.d * c.rms.d / 3.0;
     }
+    assert!(sq.sqrt() <= 0.008, "RMS d {}", sq.sqrt());
 }

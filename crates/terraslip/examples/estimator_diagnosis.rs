@@ -77,9 +77,13 @@ fn main() -> anyhow::Result<()> {
         println!("Per terrain stretch, from 20 s after its start: bias = mean of d_est - d_true, spread = its std, RMS (cm); true and estimated mean common speed factor.\n");
         println!("| variant | seed | terrain | bias (cm) | spread (cm) | RMS (cm) | alpha true | alpha est | re-conv (s) | turned 0.3 rad at (s) |");
         println!("|---|---|---|---|---|---|---|---|---|---|");
-        let mut totals: Vec<(String, f64, f64, f64, usize, f64)> = Vec::new();
+        let mut totals: Vec<(String, f64, f64, f64, f64, String, f64)> = Vec::new();
         for (vname, cfg, oracle) in &variants {
             let (mut sb, mut ss, mut n, mut worst) = (0.0, 0.0, 0usize, 0.0f64);
+            // Changes scored, of them slower than 10 s, of those where the
+            // robot had not turned 0.3 rad by 5 s before it settled; the
+            // worst time from the first informative turn to settling.
+            let (mut nchanges, mut slow, mut slow_straight, mut after_turn) = (0, 0, 0, 0.0f64);
             let mut sum_sq = 0.0;
             for seed in 1..=seeds {
                 let sim = simulate(&sc, seed)?;
@@ -144,7 +148,7 @@ fn main() -> anyhow::Result<()> {
                     // by 0.3 rad (17°) in total, counted from 2 s after the
                     // change (the ICRs blend over the border until then).
                     let mut turned = 0.0;
-                    let mut turn = "-".to_string();
+                    let mut turn_t = None;
                     for w in sim
                         .truth
                         .windows(2)
@@ -152,9 +156,20 @@ fn main() -> anyhow::Result<()> {
                     {
                         turned += (w[1].t - w[0].t) * w[0].twist.omega.abs();
                         if turned >= 0.3 {
-                            turn = format!("{:.1}", w[1].t - t0);
+                            turn_t = Some(w[1].t - t0);
                             break;
                         }
+                    }
+                    let turn = turn_t.map_or("-".into(), |x| format!("{x:.1}"));
+                    if let Some(s) = rec.and_then(|r| r.seconds) {
+                        nchanges += 1;
+                        if s > 10.0 {
+                            slow += 1;
+                            if turn_t.is_none_or(|x| x >= s - 5.0) {
+                                slow_straight += 1;
+                            }
+                        }
+                        after_turn = after_turn.max(s - turn_t.unwrap_or(s).min(s));
                     }
                     if std::env::var("SLOW").is_ok()
                         && rec.and_then(|r| r.seconds).is_some_and(|s| s <= 10.0)
@@ -177,14 +192,15 @@ fn main() -> anyhow::Result<()> {
                 100.0 * (sb / nn).sqrt(),
                 100.0 * (ss / nn).sqrt(),
                 100.0 * (sum_sq / nn).sqrt(),
-                n,
                 worst,
+                format!("{slow} of {nchanges} ({slow_straight} before the first turn)"),
+                after_turn,
             ));
         }
-        println!("\n| variant | RMS of bias (cm) | RMS of spread (cm) | RMS d (cm) | worst re-convergence (s) |");
-        println!("|---|---|---|---|---|");
-        for (v, b, s, r, _, w) in totals {
-            println!("| {v} | {b:.2} | {s:.2} | {r:.2} | {w:.1} |");
+        println!("\n| variant | RMS of bias (cm) | RMS of spread (cm) | RMS d (cm) | worst re-convergence (s) | changes > 10 s | worst from first turn (s) |");
+        println!("|---|---|---|---|---|---|---|");
+        for (v, b, s, r, w, slow, at) in totals {
+            println!("| {v} | {b:.2} | {s:.2} | {r:.2} | {w:.1} | {slow} | {at:.1} |");
         }
     }
     Ok(())

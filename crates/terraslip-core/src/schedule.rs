@@ -487,6 +487,40 @@ mod tests {
     }
 
     #[test]
+    fn recall_keeps_the_robots_factor_difference() {
+        let mut f = filter();
+        let mut s = NoiseSchedule::new(ScheduleConfig {
+            memory: true,
+            memory_min_dwell: 1.0,
+            reset_keeps_alpha_diff: true,
+            ..Default::default()
+        });
+        s.on_terrain(&mut f, 0).unwrap();
+        // Terrain 0 learned with common factor 0.95 and no difference.
+        let mut p = IcrParams::new(0.4, -0.38, 0.0);
+        (p.alpha_l, p.alpha_r) = (0.95, 0.95);
+        f.reset_icr(Some(&p), &SlipCov::from_diagonal_element(1e-6))
+            .unwrap();
+        for _ in 0..100 {
+            f.predict(0.5, 0.5, 0.02).unwrap();
+            s.on_predict(&f, 0.02);
+        }
+        s.on_terrain(&mut f, 1).unwrap();
+        // Meanwhile the robot's difference is learned as 0.01.
+        (p.alpha_l, p.alpha_r) = (1.005, 0.995);
+        f.reset_icr(Some(&p), &SlipCov::from_diagonal_element(4e-6))
+            .unwrap();
+        assert_eq!(s.on_terrain(&mut f, 0).unwrap(), ChangeAction::Recalled);
+        let x = f.state();
+        let (a, e) = (0.5 * (x[6] + x[7]), x[6] - x[7]);
+        assert!((a - 0.95).abs() < 1e-9, "common factor from memory: {a}");
+        assert!((e - 0.01).abs() < 1e-9, "difference kept: {e}");
+        let pc = f.covariance();
+        let var_e = pc[(6, 6)] + pc[(7, 7)] - 2.0 * pc[(6, 7)];
+        assert!((var_e - 8e-6).abs() < 1e-12, "{var_e}");
+    }
+
+    #[test]
     fn memory_keeps_the_average_over_the_stay_not_the_last_value() {
         let mut f = filter();
         let mut s = NoiseSchedule::new(ScheduleConfig {

@@ -334,6 +334,21 @@ mod tests {
     use crate::kinematics::IcrParams;
     use crate::model::{MatN, State, Y_L, Y_R};
 
+    /// A reset `P_B` used by several tests.
+    const PB: IcrStd = IcrStd {
+        spread: 0.1,
+        centre: 0.02,
+        x_c: 0.05,
+        alpha: 0.01,
+        alpha_diff: 0.01,
+    };
+
+    /// Variance of `x[i] - x[j]`.
+    fn var_of_difference(f: &Filter, i: usize, j: usize) -> f64 {
+        let p = f.covariance();
+        p[(i, i)] + p[(j, j)] - 2.0 * p[(i, j)]
+    }
+
     fn filter() -> Filter {
         let mut c = FilterConfig::for_track(0.5);
         c.variant = Variant::Ekf;
@@ -369,15 +384,8 @@ mod tests {
             f.predict(0.2, 0.6, 0.02).unwrap();
         }
         assert!(f.covariance()[(2, 3)].abs() > 0.0);
-        let pb = IcrStd {
-            spread: 0.1,
-            centre: 0.02,
-            x_c: 0.05,
-            alpha: 0.01,
-            alpha_diff: 0.01,
-        };
         let mut s = NoiseSchedule::new(ScheduleConfig {
-            reset: Some(pb),
+            reset: Some(PB),
             ..Default::default()
         });
         s.on_terrain(&mut f, 0).unwrap();
@@ -385,36 +393,24 @@ mod tests {
         let p = f.covariance();
         assert_eq!(p[(2, 3)], 0.0);
         // var(d) = var(y_l) + var(y_r) - 2 cov = 0.01
-        let var_d = p[(3, 3)] + p[(4, 4)] - 2.0 * p[(3, 4)];
-        assert!((var_d - 0.01).abs() < 1e-12);
+        assert!((var_of_difference(&f, 3, 4) - 0.01).abs() < 1e-12);
         assert!((p[(5, 5)] - 0.0025).abs() < 1e-12);
     }
 
     #[test]
     fn reset_can_keep_the_learned_factor_difference() {
-        let pb = IcrStd {
-            spread: 0.1,
-            centre: 0.02,
-            x_c: 0.05,
-            alpha: 0.01,
-            alpha_diff: 0.01,
-        };
-        let var_e = |f: &Filter| {
-            let p = f.covariance();
-            p[(6, 6)] + p[(7, 7)] - 2.0 * p[(6, 7)]
-        };
+        let var_e = |f: &Filter| var_of_difference(f, 6, 7);
         for keep in [false, true] {
             let mut f = filter();
             let before = var_e(&f);
             let mut s = NoiseSchedule::new(ScheduleConfig {
-                reset: Some(pb),
+                reset: Some(PB),
                 reset_keeps_alpha_diff: keep,
                 ..Default::default()
             });
             s.on_terrain(&mut f, 0).unwrap();
             s.on_terrain(&mut f, 1).unwrap();
-            let p = f.covariance();
-            let var_d = p[(3, 3)] + p[(4, 4)] - 2.0 * p[(3, 4)];
+            let var_d = var_of_difference(&f, 3, 4);
             assert!((var_d - 0.01).abs() < 1e-12, "d is reset either way");
             let want = if keep { before } else { 1e-4 };
             assert!(
@@ -422,27 +418,20 @@ mod tests {
                 "keep {keep}: {}",
                 var_e(&f)
             );
-            assert!(p.cholesky().is_some());
+            assert!(f.covariance().cholesky().is_some());
         }
     }
 
     #[test]
     fn alpha_diff_swap_keeps_the_rest() {
-        let pb = IcrStd {
-            spread: 0.1,
-            centre: 0.02,
-            x_c: 0.05,
-            alpha: 0.01,
-            alpha_diff: 0.01,
-        };
-        let swapped = with_alpha_diff(&pb.to_slip_cov(), 1e-6);
+        let swapped = with_alpha_diff(&PB.to_slip_cov(), 1e-6);
         let want = IcrStd {
             alpha_diff: 1e-3,
-            ..pb
+            ..PB
         }
         .to_slip_cov();
         assert!((swapped - want).amax() < 1e-15);
-        assert!(with_alpha_diff(&pb.to_slip_cov(), f64::NAN)
+        assert!(with_alpha_diff(&PB.to_slip_cov(), f64::NAN)
             .cholesky()
             .is_some());
     }
@@ -453,13 +442,7 @@ mod tests {
         let mut s = NoiseSchedule::new(ScheduleConfig {
             memory: true,
             memory_min_dwell: 1.0,
-            reset: Some(IcrStd {
-                spread: 0.1,
-                centre: 0.02,
-                x_c: 0.05,
-                alpha: 0.01,
-                alpha_diff: 0.01,
-            }),
+            reset: Some(PB),
             ..Default::default()
         });
         s.on_terrain(&mut f, 2).unwrap();
@@ -481,9 +464,7 @@ mod tests {
         let st = f.state();
         assert!((st[Y_L] - 0.4).abs() < 1e-12 && (st[Y_R] + 0.38).abs() < 1e-12);
         // Recalled spread std is at least the floor.
-        let p = f.covariance();
-        let var_d = p[(3, 3)] + p[(4, 4)] - 2.0 * p[(3, 4)];
-        assert!(var_d >= 0.004f64.powi(2));
+        assert!(var_of_difference(&f, 3, 4) >= 0.004f64.powi(2));
     }
 
     #[test]
@@ -515,8 +496,7 @@ mod tests {
         let (a, e) = (0.5 * (x[6] + x[7]), x[6] - x[7]);
         assert!((a - 0.95).abs() < 1e-9, "common factor from memory: {a}");
         assert!((e - 0.01).abs() < 1e-9, "difference kept: {e}");
-        let pc = f.covariance();
-        let var_e = pc[(6, 6)] + pc[(7, 7)] - 2.0 * pc[(6, 7)];
+        let var_e = var_of_difference(&f, 6, 7);
         assert!((var_e - 8e-6).abs() < 1e-12, "{var_e}");
     }
 

@@ -1,7 +1,13 @@
 //! The estimator's quality figures (issue 2 "How good") on simulated drives:
-//! every preset on `papers` (2 m GNSS) and `papers-rtk`, several seeds.
+//! every preset on `papers` (2 m GNSS) and `papers-rtk` by default, several
+//! seeds. The documented run (docs/benchmarks-estimator.md):
 //!
-//!     cargo run -p terraslip --release --example estimator_figures -- [SCENARIO...] [--seeds N]
+//!     cargo run -p terraslip --release --example estimator_figures -- --seeds 5 papers papers-rtk papers-icr3 papers-icr3-rtk wang4 wang4-rtk
+//!
+//! Options: `--seeds N`, `--preset NAME` (one variant); `TUNE=file.toml`
+//! adds the default overridden by that file's keys as `tuned`; `VERBOSE=1`
+//! prints every change's re-convergence and the drift details;
+//! `TRACE=seed,t0,t1` prints the spread error, factors and tread speeds.
 //!
 //! Prints one table per scenario: worst re-convergence after a first visit
 //! and after a revisit (s), steady-state RMS of d, y_l, y_r (cm), and the

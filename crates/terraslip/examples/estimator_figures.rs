@@ -70,8 +70,8 @@ fn main() -> anyhow::Result<()> {
                             }
                             if let Some(t) = log.truth.iter().find(|x| x.t >= r.t) {
                                 eprintln!(
-                                    "{pname} t {:.1} d_err {:+.4} std_d {:.4} alpha {:.4} q {:.1} yaw {:+.3} truth_yaw {:+.3} alpha_diff {:+.4} std_alpha {:.4} {:.4} vl {:.3} vr {:.3}",
-                                    r.t, (r.y_l - r.y_r) - (t.y_l - t.y_r), r.std_spread, 0.5 * (r.alpha_l + r.alpha_r), r.q_scale, r.yaw, t.yaw, r.alpha_l - r.alpha_r, r.std[6], r.std[7], log.wheels.iter().find(|w| w.t >= r.t).map_or(0.0, |w| w.v_left), log.wheels.iter().find(|w| w.t >= r.t).map_or(0.0, |w| w.v_right)
+                                    "{pname} t {:.1} d {:.4} d_true {:.4} d_err {:+.4} std_d {:.4} alpha {:.4} q {:.1} yaw {:+.3} truth_yaw {:+.3} alpha_diff {:+.4} std_alpha {:.4} {:.4} vl {:.3} vr {:.3}",
+                                    r.t, r.y_l - r.y_r, t.y_l - t.y_r, (r.y_l - r.y_r) - (t.y_l - t.y_r), r.std_spread, 0.5 * (r.alpha_l + r.alpha_r), r.q_scale, r.yaw, t.yaw, r.alpha_l - r.alpha_r, r.std[6], r.std[7], log.wheels.iter().find(|w| w.t >= r.t).map_or(0.0, |w| w.v_left), log.wheels.iter().find(|w| w.t >= r.t).map_or(0.0, |w| w.v_right)
                                 );
                             }
                         }

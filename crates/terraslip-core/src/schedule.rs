@@ -57,8 +57,8 @@ pub struct ScheduleConfig {
     /// Covariance reset `P_B` at a change to an unlearned terrain.
     pub reset: Option<IcrStd>,
     /// The reset leaves the tread speed factor difference `alpha_l -
-    /// alpha_r` as learned (its estimate and variance; `P_B`'s entry is
-    /// unused): it belongs to the robot (tyre pressure, wear, gearing), not to
+    /// alpha_r` as learned (its estimate and variance, in the filter's
+    /// [`crate::model::FactorCoords`]; `P_B`'s entry is unused): it belongs to the robot (tyre pressure, wear, gearing), not to
     /// the ground, which acts on both treads alike. Re-inflating it makes a
     /// steady turn after a change ambiguous: there the heading rate sees
     /// `(alpha (v_r - v_l) - (alpha_l - alpha_r)(v_r + v_l)/2) / d`, and with
@@ -213,7 +213,7 @@ impl NoiseSchedule {
                         .covariance()
                         .fixed_view::<K, K>(SLIP, SLIP)
                         .into_owned();
-                    let mut icr = model::icr_of(filter.state());
+                    let mut icr = model::icr_of(&filter.state());
                     if self.averaged > 0.0 && self.average.iter().all(|v| v.is_finite()) {
                         let m = &self.average;
                         icr = IcrParams {
@@ -236,17 +236,13 @@ impl NoiseSchedule {
         self.averaged = 0.0;
         if self.cfg.memory {
             if let Some(Some(m)) = self.memory.get(terrain) {
-                let (mut icr, mut cov) = (m.icr, m.cov);
                 if self.cfg.reset_keeps_alpha_diff {
                     // The robot's factor difference as learned now, on the
                     // remembered common factor of this ground.
-                    let (e, var_e) = alpha_diff_of(filter);
-                    let a = 0.5 * (icr.alpha_l + icr.alpha_r);
-                    icr.alpha_l = a + 0.5 * e;
-                    icr.alpha_r = a - 0.5 * e;
-                    cov = with_alpha_diff(&cov, var_e);
+                    filter.reset_icr_keeping_factor_difference(Some(&m.icr), &m.cov)?;
+                } else {
+                    filter.reset_icr(Some(&m.icr), &m.cov)?;
                 }
-                filter.reset_icr(Some(&icr), &cov)?;
                 self.boost_left = 0;
                 filter.set_schedule_scale(1.0);
                 return Ok(ChangeAction::Recalled);
@@ -258,11 +254,11 @@ impl NoiseSchedule {
             return Ok(ChangeAction::Learning);
         }
         if let Some(pb) = self.cfg.reset {
-            let mut cov = pb.to_slip_cov();
             if self.cfg.reset_keeps_alpha_diff {
-                cov = with_alpha_diff(&cov, alpha_diff_of(filter).1);
+                filter.reset_icr_keeping_factor_difference(None, &pb.to_slip_cov())?;
+            } else {
+                filter.reset_icr(None, &pb.to_slip_cov())?;
             }
-            filter.reset_icr(None, &cov)?;
         }
         if self.cfg.boost_factor > 1.0 && self.cfg.boost_updates > 0 {
             self.boost_left = self.cfg.boost_updates;
@@ -270,44 +266,6 @@ impl NoiseSchedule {
         }
         Ok(ChangeAction::Learning)
     }
-}
-
-/// The filter's tread speed factor difference `alpha_l - alpha_r` and its
-/// variance.
-fn alpha_diff_of(filter: &Filter) -> (f64, f64) {
-    let (l, r) = (model::ALPHA_L, model::ALPHA_R);
-    let (x, p) = (filter.state(), filter.covariance());
-    (x[l] - x[r], p[(l, l)] + p[(r, r)] - 2.0 * p[(l, r)])
-}
-
-/// `cov` (on `y_l, y_r, x_c, alpha_l, alpha_r`) with the factor difference
-/// `e = alpha_l - alpha_r` given variance `var_e` (floored at 1e-18 so the
-/// result stays positive-definite) and no correlation with the rest; the
-/// common factor `(alpha_l + alpha_r)/2` and the ICRs keep theirs.
-fn with_alpha_diff(cov: &SlipCov, var_e: f64) -> SlipCov {
-    // (alpha_l, alpha_r) = (a + e/2, a - e/2): J maps to (.., a, e), Ji back.
-    let mut J = SlipCov::identity();
-    J[(3, 3)] = 0.5;
-    J[(3, 4)] = 0.5;
-    J[(4, 3)] = 1.0;
-    J[(4, 4)] = -1.0;
-    let mut Ji = SlipCov::identity();
-    Ji[(3, 3)] = 1.0;
-    Ji[(3, 4)] = 0.5;
-    Ji[(4, 3)] = 1.0;
-    Ji[(4, 4)] = -0.5;
-    let mut m = J * cov * J.transpose();
-    for k in 0..K {
-        m[(4, k)] = 0.0;
-        m[(k, 4)] = 0.0;
-    }
-    m[(4, 4)] = if var_e.is_finite() {
-        var_e.max(1e-18)
-    } else {
-        1e-18
-    };
-    let back = Ji * m * Ji.transpose();
-    0.5 * (back + back.transpose())
 }
 
 /// Raises the variances of `cov` (in `(d, c, x_c)` coordinates) to at least
@@ -332,7 +290,7 @@ mod tests {
     use super::*;
     use crate::filter::{FilterConfig, Variant};
     use crate::kinematics::IcrParams;
-    use crate::model::{MatN, State, Y_L, Y_R};
+    use crate::model::{FactorCoords, MatN, State, FACTOR_DIFF, Y_L, Y_R};
 
     /// A reset `P_B` used by several tests.
     const PB: IcrStd = IcrStd {
@@ -350,8 +308,13 @@ mod tests {
     }
 
     fn filter() -> Filter {
+        filter_in(FactorCoords::PerSpread)
+    }
+
+    fn filter_in(coords: FactorCoords) -> Filter {
         let mut c = FilterConfig::for_track(0.5);
         c.variant = Variant::Ekf;
+        c.factor_coords = coords;
         let x0 = crate::model::state(0.0, 0.0, 0.0, &IcrParams::no_slip(0.5));
         let p0 = MatN::from_diagonal(&State::from([1.0, 1.0, 0.01, 1e-4, 1e-4, 1e-4, 1e-6, 1e-6]));
         Filter::new(x0, p0, c).unwrap()
@@ -403,6 +366,7 @@ mod tests {
         for keep in [false, true] {
             let mut f = filter();
             let before = var_e(&f);
+            let z_before = f.factor_difference();
             let mut s = NoiseSchedule::new(ScheduleConfig {
                 reset: Some(PB),
                 reset_keeps_alpha_diff: keep,
@@ -410,6 +374,7 @@ mod tests {
             });
             s.on_terrain(&mut f, 0).unwrap();
             s.on_terrain(&mut f, 1).unwrap();
+            assert_eq!(keep, f.factor_difference() == z_before);
             let var_d = var_of_difference(&f, 3, 4);
             assert!((var_d - 0.01).abs() < 1e-12, "d is reset either way");
             let want = if keep { before } else { 1e-4 };
@@ -420,20 +385,6 @@ mod tests {
             );
             assert!(f.covariance().cholesky().is_some());
         }
-    }
-
-    #[test]
-    fn alpha_diff_swap_keeps_the_rest() {
-        let swapped = with_alpha_diff(&PB.to_slip_cov(), 1e-6);
-        let want = IcrStd {
-            alpha_diff: 1e-3,
-            ..PB
-        }
-        .to_slip_cov();
-        assert!((swapped - want).amax() < 1e-15);
-        assert!(with_alpha_diff(&PB.to_slip_cov(), f64::NAN)
-            .cholesky()
-            .is_some());
     }
 
     #[test]
@@ -469,35 +420,45 @@ mod tests {
 
     #[test]
     fn recall_keeps_the_robots_factor_difference() {
-        let mut f = filter();
-        let mut s = NoiseSchedule::new(ScheduleConfig {
-            memory: true,
-            memory_min_dwell: 1.0,
-            reset_keeps_alpha_diff: true,
-            ..Default::default()
-        });
-        s.on_terrain(&mut f, 0).unwrap();
-        // Terrain 0 learned with common factor 0.95 and no difference.
-        let mut p = IcrParams::new(0.4, -0.38, 0.0);
-        (p.alpha_l, p.alpha_r) = (0.95, 0.95);
-        f.reset_icr(Some(&p), &SlipCov::from_diagonal_element(1e-6))
-            .unwrap();
-        for _ in 0..100 {
-            f.predict(0.5, 0.5, 0.02).unwrap();
-            s.on_predict(&f, 0.02);
+        for coords in [FactorCoords::Difference, FactorCoords::PerSpread] {
+            let mut f = filter_in(coords);
+            let mut s = NoiseSchedule::new(ScheduleConfig {
+                memory: true,
+                memory_min_dwell: 1.0,
+                reset_keeps_alpha_diff: true,
+                ..Default::default()
+            });
+            s.on_terrain(&mut f, 0).unwrap();
+            // Terrain 0 learned with common factor 0.95 and no difference.
+            let mut p = IcrParams::new(0.4, -0.38, 0.0);
+            (p.alpha_l, p.alpha_r) = (0.95, 0.95);
+            f.reset_icr(Some(&p), &SlipCov::from_diagonal_element(1e-6))
+                .unwrap();
+            for _ in 0..100 {
+                f.predict(0.5, 0.5, 0.02).unwrap();
+                s.on_predict(&f, 0.02);
+            }
+            s.on_terrain(&mut f, 1).unwrap();
+            // Meanwhile the robot's difference is learned as 0.01.
+            (p.alpha_l, p.alpha_r) = (1.005, 0.995);
+            f.reset_icr(Some(&p), &SlipCov::from_diagonal_element(4e-6))
+                .unwrap();
+            let (z, var_z) = f.factor_difference();
+            assert_eq!(s.on_terrain(&mut f, 0).unwrap(), ChangeAction::Recalled);
+            let x = f.state();
+            let (a, e) = (0.5 * (x[6] + x[7]), x[6] - x[7]);
+            assert!((a - 0.95).abs() < 1e-9, "common factor from memory: {a}");
+            // Same spread on both terrains here, so e is kept in either form.
+            assert!((e - 0.01).abs() < 1e-9, "{coords:?}: difference kept: {e}");
+            assert_eq!(f.factor_difference(), (z, var_z), "{coords:?}");
+            let k = FACTOR_DIFF;
+            let p = f.filter_covariance();
+            assert!((0..model::N).all(|j| j == k || p[(k, j)] == 0.0));
+            if coords == FactorCoords::Difference {
+                let var_e = var_of_difference(&f, 6, 7);
+                assert!((var_e - 8e-6).abs() < 1e-12, "{var_e}");
+            }
         }
-        s.on_terrain(&mut f, 1).unwrap();
-        // Meanwhile the robot's difference is learned as 0.01.
-        (p.alpha_l, p.alpha_r) = (1.005, 0.995);
-        f.reset_icr(Some(&p), &SlipCov::from_diagonal_element(4e-6))
-            .unwrap();
-        assert_eq!(s.on_terrain(&mut f, 0).unwrap(), ChangeAction::Recalled);
-        let x = f.state();
-        let (a, e) = (0.5 * (x[6] + x[7]), x[6] - x[7]);
-        assert!((a - 0.95).abs() < 1e-9, "common factor from memory: {a}");
-        assert!((e - 0.01).abs() < 1e-9, "difference kept: {e}");
-        let var_e = var_of_difference(&f, 6, 7);
-        assert!((var_e - 8e-6).abs() < 1e-12, "{var_e}");
     }
 
     #[test]

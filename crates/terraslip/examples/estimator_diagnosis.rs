@@ -18,7 +18,8 @@
 //!     cargo run -p terraslip --release --example estimator_diagnosis -- [SCENARIO...] [--seeds N]
 //!
 //! `TUNE=file.toml` replaces the default variant by the default overridden
-//! with that file's keys.
+//! with that file's keys; `ONLY=default` (or `alpha=1`, `oracle`) runs one
+//! variant.
 
 use terraslip::config::EstimatorConfig;
 use terraslip::metrics;
@@ -71,6 +72,12 @@ fn main() -> anyhow::Result<()> {
         ("alpha=1", frozen_alpha(base.clone()), false),
         ("oracle", frozen_alpha(base.clone()), true),
     ];
+    // ONLY=default runs the default variant alone (the 20-seed counts).
+    let only = std::env::var("ONLY").ok();
+    let variants: Vec<_> = variants
+        .into_iter()
+        .filter(|v| only.as_deref().is_none_or(|o| o == v.0))
+        .collect();
     for name in &scenarios {
         let sc = Scenario::resolve(name)?;
         println!("\n## {name} ({seeds} seeds)\n");

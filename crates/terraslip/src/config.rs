@@ -6,6 +6,7 @@
 
 use serde::{Deserialize, Serialize};
 use terraslip_core::filter::{FilterConfig, IcrBand, IcrNoise, Variant};
+use terraslip_core::model::FactorCoords;
 use terraslip_core::schedule::{IcrStd, ScheduleConfig};
 use terraslip_core::terrain_belief::BeliefConfig;
 
@@ -37,6 +38,18 @@ pub enum FilterVariant {
     Iekf,
     /// terraslip default: textbook gain, innovation-adapted bounded ICR noise.
     Adaptive,
+}
+
+/// How the filter carries the tread speed factors (`[filter] factor_coords`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FactorCoordsName {
+    /// Common factor and difference `alpha_l - alpha_r` (before `est2`'s
+    /// per-spread form; the same filter as on `alpha_l, alpha_r`).
+    Difference,
+    /// Common factor and `(alpha_l - alpha_r) / d`, 1/m: what the heading
+    /// sees on a straight, so a straight does not move `d` (default).
+    PerSpread,
 }
 
 /// Standard deviations of the slip parameters in the coordinates the data
@@ -112,6 +125,11 @@ pub struct FilterSection {
     pub q_alpha: f64,
     /// Random walk of the speed factor difference alpha_l - alpha_r, 1/s.
     pub q_alpha_diff: f64,
+    /// Coordinates of the factor difference inside the filter:
+    /// `per-spread` ((alpha_l - alpha_r)/d, 1/m; default) or `difference`
+    /// (alpha_l - alpha_r). `q_alpha_diff` and `init.std_alpha_diff` are on
+    /// alpha_l - alpha_r either way.
+    pub factor_coords: FactorCoordsName,
     /// Chi-square gate on the 2-dof position innovation (13.8 = 99.9 %; 0 = off).
     pub gate_position: f64,
     /// Chi-square gate on the 1-dof heading innovation (10.8 = 99.9 %; 0 = off).
@@ -249,6 +267,7 @@ impl Default for FilterSection {
             q_x_c: 1e-7,
             q_alpha: 1e-8,
             q_alpha_diff: 1e-7,
+            factor_coords: FactorCoordsName::PerSpread,
             gate_position: 13.8,
             gate_yaw: 10.8,
             max_rejections: 10,
@@ -520,6 +539,10 @@ impl EstimatorConfig {
                 max_centre: self.band.max_centre * w,
                 max_x_c: self.band.max_x_c * w,
                 alpha_range: (self.band.min_alpha, self.band.max_alpha),
+            },
+            factor_coords: match f.factor_coords {
+                FactorCoordsName::Difference => FactorCoords::Difference,
+                FactorCoordsName::PerSpread => FactorCoords::PerSpread,
             },
         }
     }

@@ -667,6 +667,16 @@ mod tests {
         assert!(e.to_string().contains("iekf_window"), "{e}");
         let e = EstimatorConfig::from_toml("[band]\nmin_spread = 5.0\n").unwrap_err();
         assert!(e.to_string().contains("min_spread"), "{e}");
+        let e = EstimatorConfig::from_toml("[filter]\nfactor_coords = \"ratio\"\n").unwrap_err();
+        assert!(e.to_string().contains("ratio"), "{e}");
+    }
+
+    #[test]
+    fn factor_coordinates_are_selectable() {
+        let c = EstimatorConfig::default();
+        assert_eq!(c.filter_config(0.5).factor_coords, FactorCoords::PerSpread);
+        let c = EstimatorConfig::from_toml("[filter]\nfactor_coords = \"difference\"\n").unwrap();
+        assert_eq!(c.filter_config(0.5).factor_coords, FactorCoords::Difference);
     }
 
     #[test]

@@ -262,7 +262,7 @@ impl FilterConfig {
                 centre: 1e-7,
                 x_c: 1e-7,
                 alpha: 1e-8,
-                alpha_diff: 1e-7,
+                alpha_diff: 1e-8,
             },
             learn_icr: true,
             learn_alpha: true,

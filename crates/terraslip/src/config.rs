@@ -124,6 +124,9 @@ pub struct FilterSection {
     /// Random walk of the common speed factor (alpha_l + alpha_r)/2, 1/s.
     pub q_alpha: f64,
     /// Random walk of the speed factor difference alpha_l - alpha_r, 1/s.
+    /// A property of the robot (tyres, wear), not of the ground: it changes
+    /// slowly (1e-8: 0.1 % per 100 s of std growth; 1e-7 before `est2`
+    /// session 2).
     pub q_alpha_diff: f64,
     /// Coordinates of the factor difference inside the filter:
     /// `per-spread` ((alpha_l - alpha_r)/d, 1/m; default) or `difference`
@@ -266,7 +269,7 @@ impl Default for FilterSection {
             q_centre: 1e-7,
             q_x_c: 1e-7,
             q_alpha: 1e-8,
-            q_alpha_diff: 1e-7,
+            q_alpha_diff: 1e-8,
             factor_coords: FactorCoordsName::PerSpread,
             gate_position: 13.8,
             gate_yaw: 10.8,

@@ -362,7 +362,8 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    fn central_difference(s: &State, u: TreadInput, dt: f64) -> MatN {
+    /// Central differences of `step` at `s` (yaw differences wrapped).
+    fn central_difference_of(s: &State, step: impl Fn(&State) -> State) -> MatN {
         let mut f = MatN::zeros();
         for j in 0..N {
             let h = 1e-6;
@@ -370,11 +371,15 @@ mod tests {
             let mut sm = *s;
             sp[j] += h;
             sm[j] -= h;
-            let mut col = predict(&sp, u, dt) - predict(&sm, u, dt);
+            let mut col = step(&sp) - step(&sm);
             col[YAW] = angle::wrap(col[YAW]);
             f.set_column(j, &(col / (2.0 * h)));
         }
         f
+    }
+
+    fn central_difference(s: &State, u: TreadInput, dt: f64) -> MatN {
+        central_difference_of(s, |x| predict(x, u, dt))
     }
 
     #[test]
@@ -432,18 +437,7 @@ mod tests {
     }
 
     fn central_difference_in(s: &State, u: TreadInput, dt: f64, c: FactorCoords) -> MatN {
-        let mut f = MatN::zeros();
-        for j in 0..N {
-            let h = 1e-6;
-            let mut sp = *s;
-            let mut sm = *s;
-            sp[j] += h;
-            sm[j] -= h;
-            let mut col = predict_in(&sp, u, dt, c) - predict_in(&sm, u, dt, c);
-            col[YAW] = angle::wrap(col[YAW]);
-            f.set_column(j, &(col / (2.0 * h)));
-        }
-        f
+        central_difference_of(s, |x| predict_in(x, u, dt, c))
     }
 
     #[test]
@@ -472,7 +466,7 @@ mod tests {
 
     proptest! {
         #[test]
-        fn filter_coordinates_round_trip_and_jacobians_match(
+        fn jacobians_match_central_differences_in_both_coordinates(
             e in -100.0f64..100.0, n in -100.0f64..100.0, yaw in -3.1f64..3.1,
             y_l in 0.1f64..1.2, y_r in -1.2f64..-0.1, x_c in -0.3f64..0.3,
             a_l in 0.8f64..1.2, a_r in 0.8f64..1.2,
@@ -489,13 +483,17 @@ mod tests {
             let a = from_filter(&predict_in(&s, u, dt, c), c);
             let b = predict(&ext, u, dt);
             prop_assert!((a - b).amax() < 1e-9);
-            let (_, fa) = predict_with_jacobian_in(&s, u, u, dt, c);
-            let fd = central_difference_in(&s, u, dt, c);
-            for i in 0..N {
-                for j in 0..N {
-                    let tol = 1e-6 * (1.0 + fa[(i, j)].abs());
-                    prop_assert!((fa[(i, j)] - fd[(i, j)]).abs() < tol,
-                        "{:?} F[{},{}] analytic {} numeric {}", c, i, j, fa[(i, j)], fd[(i, j)]);
+            // Public Jacobian, and the filter's (chain rule) in `c`.
+            for (fa, fd) in [
+                (jacobian(&ext, u, dt), central_difference(&ext, u, dt)),
+                (predict_with_jacobian_in(&s, u, u, dt, c).1, central_difference_in(&s, u, dt, c)),
+            ] {
+                for i in 0..N {
+                    for j in 0..N {
+                        let tol = 1e-6 * (1.0 + fa[(i, j)].abs());
+                        prop_assert!((fa[(i, j)] - fd[(i, j)]).abs() < tol,
+                            "{:?} F[{},{}] analytic {} numeric {}", c, i, j, fa[(i, j)], fd[(i, j)]);
+                    }
                 }
             }
             // The conversion Jacobians are each other's inverse (rows 6, 7).
@@ -508,26 +506,6 @@ mod tests {
             let p = MatN::from_fn(|i, j| 0.01 / (1.0 + (i as f64 - j as f64).abs()));
             let want = jf * p * jf.transpose();
             prop_assert!((transform_cov(&p, &from_filter_rows(&s, c)) - want).amax() < 1e-12);
-        }
-
-        #[test]
-        fn jacobian_matches_central_differences(
-            e in -100.0f64..100.0, n in -100.0f64..100.0, yaw in -3.1f64..3.1,
-            y_l in 0.1f64..1.2, y_r in -1.2f64..-0.1, x_c in -0.3f64..0.3,
-            a_l in 0.8f64..1.2, a_r in 0.8f64..1.2,
-            vl in -2.0f64..2.0, vr in -2.0f64..2.0, dt in 0.001f64..0.5,
-        ) {
-            let s = State::from([e, n, yaw, y_l, y_r, x_c, a_l, a_r]);
-            let u = TreadInput { v_left: vl, v_right: vr };
-            let fa = jacobian(&s, u, dt);
-            let fd = central_difference(&s, u, dt);
-            for i in 0..N {
-                for j in 0..N {
-                    let tol = 1e-6 * (1.0 + fa[(i, j)].abs());
-                    prop_assert!((fa[(i, j)] - fd[(i, j)]).abs() < tol,
-                        "F[{},{}] analytic {} numeric {}", i, j, fa[(i, j)], fd[(i, j)]);
-                }
-            }
         }
     }
 }

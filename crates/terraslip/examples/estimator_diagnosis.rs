@@ -151,22 +151,12 @@ fn main() -> anyhow::Result<()> {
                     if let Some(s) = rec.and_then(|r| r.seconds) {
                         worst = worst.max(s);
                     }
-                    // The first informative turn: when the heading has turned
-                    // by 0.3 rad (17°) in total, counted from 2 s after the
-                    // change (the ICRs blend over the border until then).
-                    let mut turned = 0.0;
-                    let mut turn_t = None;
-                    for w in sim
-                        .truth
-                        .windows(2)
-                        .filter(|w| w[0].t >= t0 + 2.0 && w[1].t < t1)
-                    {
-                        turned += (w[1].t - w[0].t) * w[0].twist.omega.abs();
-                        if turned >= 0.3 {
-                            turn_t = Some(w[1].t - t0);
-                            break;
-                        }
-                    }
+                    // The first informative turn (metrics::first_turn, as
+                    // in the scorecard): 0.3 rad in all, from 2 s after
+                    // the change (the ICRs blend over the border until then).
+                    let spec = metrics::ReconvergenceSpec::default();
+                    let turn_t =
+                        metrics::first_turn(&log.truth, *t0, t1, spec.turn_angle, spec.turn_delay);
                     let turn = turn_t.map_or("-".into(), |x| format!("{x:.1}"));
                     if let Some(s) = rec.and_then(|r| r.seconds) {
                         nchanges += 1;

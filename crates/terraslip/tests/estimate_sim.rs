@@ -43,9 +43,10 @@ fn rtk_reference_meets_issue_targets() {
 fn gnss_2m_close_to_targets_and_beats_the_papers_schemes() {
     let ours = score("papers", 1, &EstimatorConfig::default());
     eprintln!("{ours:#?}");
-    // Measured on this seed: RMS d 1.07 cm, y_l 0.83, y_r 0.55 cm, drift
-    // 0.63 % (pure dead reckoning, up to the first fix after the outage;
-    // with `factor_coords = "difference"`: 1.15, 0.89, 0.56 cm, 0.70 %).
+    // Measured on this seed: RMS d 1.04 cm, y_l 0.82, y_r 0.55 cm, drift
+    // 0.56 % (pure dead reckoning, up to the first fix after the outage;
+    // before est2 session 2, `factor_coords = "difference"` and
+    // `q_alpha_diff = 1e-7`: 1.15, 0.89, 0.56 cm, 0.70 %).
     // The common tread speed factor cannot be learned through 2 m GNSS, and
     // soil's alpha = 0.97 biases d there (with alpha known, RMS d on
     // `papers` is 0.74 cm; see papers_icr3_meets_the_2m_rms_targets).

@@ -27,6 +27,11 @@
 //! is rejected, not fused), re-anchoring after too many consecutive
 //! rejections (so a real jump, e.g. after an outage, is accepted eventually),
 //! no ICR learning while standing still, and a physical band on the ICRs.
+//!
+//! The filter carries the tread speed factors in its own coordinates
+//! (common factor and difference, by default per unit spread:
+//! [`crate::model::FactorCoords`]); [`Filter::state`] and
+//! [`Filter::covariance`] give the public `alpha_l, alpha_r`.
 
 use core::ops::AddAssign;
 
@@ -36,8 +41,8 @@ use crate::kinematics::IcrParams;
 
 use crate::angle;
 use crate::model::{
-    self, FactorCoords, MatN, SlipCov, State, TreadInput, ALPHA_L, ALPHA_R, EAST, FACTOR_DIFF, K,
-    N, NORTH, SLIP, X_C, YAW, Y_L, Y_R,
+    self, FactorCoords, MatN, SlipCov, State, TreadInput, ALPHA_L, ALPHA_R, EAST, FACTOR_DIFF,
+    FACTOR_MEAN, K, N, NORTH, SLIP, X_C, YAW, Y_L, Y_R,
 };
 
 /// Largest innovation window of the IEKF variant.
@@ -431,14 +436,15 @@ impl Filter {
         // In (y_l, y_r, x_c) as configured; the factors' noise is diagonal
         // in (common, difference).
         let mut q_slip = q.to_slip_cov();
+        let (m, e) = (FACTOR_MEAN - SLIP, FACTOR_DIFF - SLIP);
         for i in 0..K {
-            q_slip[(3, i)] = 0.0;
-            q_slip[(4, i)] = 0.0;
-            q_slip[(i, 3)] = 0.0;
-            q_slip[(i, 4)] = 0.0;
+            for j in [m, e] {
+                q_slip[(j, i)] = 0.0;
+                q_slip[(i, j)] = 0.0;
+            }
         }
-        q_slip[(3, 3)] = q.alpha;
-        q_slip[(4, 4)] = q.alpha_diff;
+        q_slip[(m, m)] = q.alpha;
+        q_slip[(e, e)] = q.alpha_diff;
         Ok(Self {
             x,
             P,

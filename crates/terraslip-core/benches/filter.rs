@@ -28,7 +28,7 @@ fn bench(c: &mut Criterion) {
             b.iter(|| {
                 t += 0.02;
                 let _ = f.predict(black_box(0.4), black_box(0.6), 0.02);
-                let s = *f.state();
+                let s = f.state();
                 let fix = PoseFix {
                     position: Some((s[0] + 0.3, s[1] - 0.2)),
                     yaw: Some(s[2] + 0.01),

@@ -27,6 +27,11 @@
 //! is rejected, not fused), re-anchoring after too many consecutive
 //! rejections (so a real jump, e.g. after an outage, is accepted eventually),
 //! no ICR learning while standing still, and a physical band on the ICRs.
+//!
+//! The filter carries the tread speed factors in its own coordinates
+//! (common factor and difference, by default per unit spread:
+//! [`crate::model::FactorCoords`]); [`Filter::state`] and
+//! [`Filter::covariance`] give the public `alpha_l, alpha_r`.
 
 use core::ops::AddAssign;
 
@@ -36,8 +41,8 @@ use crate::kinematics::IcrParams;
 
 use crate::angle;
 use crate::model::{
-    self, MatN, SlipCov, State, TreadInput, ALPHA_L, ALPHA_R, EAST, K, N, NORTH, SLIP, X_C, YAW,
-    Y_L, Y_R,
+    self, FactorCoords, MatN, SlipCov, State, TreadInput, ALPHA_L, ALPHA_R, EAST, FACTOR_DIFF,
+    FACTOR_MEAN, K, N, NORTH, SLIP, X_C, YAW, Y_L, Y_R,
 };
 
 /// Largest innovation window of the IEKF variant.
@@ -238,6 +243,12 @@ pub struct FilterConfig {
     pub jump_threshold: f64,
     /// Physical band of the ICRs.
     pub band: IcrBand,
+    /// Coordinates of the tread speed factors inside the filter (the
+    /// public state is always `alpha_l, alpha_r`). With
+    /// [`FactorCoords::PerSpread`] the random walk of the difference,
+    /// `q_icr.alpha_diff` (per second, on `alpha_l - alpha_r`), is divided
+    /// by the current `d^2`.
+    pub factor_coords: FactorCoords,
 }
 
 impl FilterConfig {
@@ -256,7 +267,7 @@ impl FilterConfig {
                 centre: 1e-7,
                 x_c: 1e-7,
                 alpha: 1e-8,
-                alpha_diff: 1e-7,
+                alpha_diff: 1e-8,
             },
             learn_icr: true,
             learn_alpha: true,
@@ -269,6 +280,7 @@ impl FilterConfig {
             adapt_max_scale: 50.0,
             jump_threshold: 4.0,
             band: IcrBand::around_track(w),
+            factor_coords: FactorCoords::PerSpread,
         }
     }
 }
@@ -345,10 +357,15 @@ pub struct UpdateReport {
 /// The estimator: state, covariance and the adaptation memory.
 #[derive(Debug, Clone)]
 pub struct Filter {
+    /// State in the filter's coordinates ([`FactorCoords`]: slots 6, 7 hold
+    /// the common factor and the difference, not `alpha_l, alpha_r`).
     x: State,
+    /// Its covariance, in the same coordinates.
     P: MatN,
     cfg: FilterConfig,
-    /// Slip process noise per second (learned parameters only).
+    /// Slip process noise per second (learned parameters only), in the
+    /// filter's coordinates (with `PerSpread`, the difference's entry is
+    /// still per `(alpha_l - alpha_r)^2` and is divided by `d^2` in predict).
     q_slip: SlipCov,
     /// Its spread part alone (what the adaptation scales).
     q_spread: SlipCov,
@@ -400,9 +417,15 @@ impl Filter {
         if !cfg.q_icr.is_valid() || !spread_ok || !tick_ok {
             return Err(FilterError::BadInput("ICR noise or band invalid"));
         }
-        let mut x = x0;
-        x[YAW] = angle::wrap(x[YAW]);
-        cfg.band.project(&mut x);
+        let mut x0 = x0;
+        x0[YAW] = angle::wrap(x0[YAW]);
+        cfg.band.project(&mut x0);
+        let c = cfg.factor_coords;
+        let x = model::to_filter(&x0, c);
+        let P = model::transform_cov(
+            &(0.5 * (P0 + P0.transpose())),
+            &model::to_filter_rows(&x0, c),
+        );
         let mut q = cfg.q_icr;
         if !cfg.learn_icr {
             (q.spread, q.centre, q.x_c) = (0.0, 0.0, 0.0);
@@ -410,11 +433,23 @@ impl Filter {
         if !cfg.learn_alpha {
             (q.alpha, q.alpha_diff) = (0.0, 0.0);
         }
+        // In (y_l, y_r, x_c) as configured; the factors' noise is diagonal
+        // in (common, difference).
+        let mut q_slip = q.to_slip_cov();
+        let (m, e) = (FACTOR_MEAN - SLIP, FACTOR_DIFF - SLIP);
+        for i in 0..K {
+            for j in [m, e] {
+                q_slip[(j, i)] = 0.0;
+                q_slip[(i, j)] = 0.0;
+            }
+        }
+        q_slip[(m, m)] = q.alpha;
+        q_slip[(e, e)] = q.alpha_diff;
         Ok(Self {
             x,
-            P: 0.5 * (P0 + P0.transpose()),
+            P,
             cfg,
-            q_slip: q.to_slip_cov(),
+            q_slip,
             q_spread: IcrNoise {
                 spread: q.spread,
                 centre: 0.0,
@@ -438,13 +473,39 @@ impl Filter {
     }
 
     /// Current state `[east, north, yaw, y_l, y_r, x_c, alpha_l, alpha_r]`.
-    pub fn state(&self) -> &State {
+    pub fn state(&self) -> State {
+        model::from_filter(&self.x, self.cfg.factor_coords)
+    }
+
+    /// Current covariance of [`Self::state`] (to first order in the
+    /// factors' coordinates).
+    pub fn covariance(&self) -> MatN {
+        model::transform_cov(
+            &self.P,
+            &model::from_filter_rows(&self.x, self.cfg.factor_coords),
+        )
+    }
+
+    /// The state as the filter carries it: slots 6, 7 hold the common
+    /// factor `(alpha_l + alpha_r)/2` and the difference in
+    /// [`FilterConfig::factor_coords`].
+    pub fn filter_state(&self) -> &State {
         &self.x
     }
 
-    /// Current covariance.
-    pub fn covariance(&self) -> &MatN {
+    /// Covariance of [`Self::filter_state`].
+    pub fn filter_covariance(&self) -> &MatN {
         &self.P
+    }
+
+    /// Projects a filter-coordinate state into the band (in the public
+    /// coordinates, where the band is defined).
+    fn project(&self, x: &mut State) {
+        let c = self.cfg.factor_coords;
+        let mut ext = model::from_filter(x, c);
+        if self.cfg.band.project(&mut ext) {
+            *x = model::to_filter(&ext, c);
+        }
     }
 
     /// The settings in use.
@@ -454,14 +515,15 @@ impl Filter {
 
     /// Current slip-parameter estimate.
     pub fn icr(&self) -> IcrParams {
-        model::icr_of(&self.x)
+        model::icr_of(&self.state())
     }
 
     /// Standard deviations of the six states.
     pub fn std(&self) -> [f64; N] {
         let mut out = [0.0; N];
+        let P = self.covariance();
         for (i, o) in out.iter_mut().enumerate() {
-            *o = libm::sqrt(self.P[(i, i)].max(0.0));
+            *o = libm::sqrt(P[(i, i)].max(0.0));
         }
         out
     }
@@ -497,29 +559,86 @@ impl Filter {
     /// chen2023 and the terrain-memory recall. `cov` is on `(y_l, y_r, x_c,
     /// alpha_l, alpha_r)`.
     pub fn reset_icr(&mut self, icr: Option<&IcrParams>, cov: &SlipCov) -> Result<(), FilterError> {
+        self.reset_slip(icr, cov, false)
+    }
+
+    /// [`Self::reset_icr`], except that the tread speed factor difference
+    /// keeps its current estimate and variance (uncorrelated with the rest),
+    /// in the filter's own coordinates ([`FilterConfig::factor_coords`]):
+    /// `icr` and `cov` give the ICRs and the common factor only.
+    pub fn reset_icr_keeping_factor_difference(
+        &mut self,
+        icr: Option<&IcrParams>,
+        cov: &SlipCov,
+    ) -> Result<(), FilterError> {
+        self.reset_slip(icr, cov, true)
+    }
+
+    /// Current factor difference in the filter's coordinates (`alpha_l -
+    /// alpha_r`, or that per unit spread, 1/m) and its variance.
+    pub fn factor_difference(&self) -> (f64, f64) {
+        (self.x[FACTOR_DIFF], self.P[(FACTOR_DIFF, FACTOR_DIFF)])
+    }
+
+    fn reset_slip(
+        &mut self,
+        icr: Option<&IcrParams>,
+        cov: &SlipCov,
+        keep_diff: bool,
+    ) -> Result<(), FilterError> {
         if !finite_mat(cov) || cov.cholesky().is_none() {
             return Err(FilterError::BadInput(
                 "slip covariance not positive-definite",
             ));
         }
+        let c = self.cfg.factor_coords;
+        let (z, var_z) = self.factor_difference();
+        let mut ext = self.state();
         if let Some(p) = icr {
             let v = [p.y_l, p.y_r, p.x_c, p.alpha_l, p.alpha_r];
             if v.iter().any(|x| !x.is_finite()) {
                 return Err(FilterError::BadInput("slip parameter not finite"));
             }
             for (i, x) in v.into_iter().enumerate() {
-                self.x[SLIP + i] = x;
+                ext[SLIP + i] = x;
             }
-            self.cfg.band.project(&mut self.x);
         }
+        let mut x = model::to_filter(&ext, c);
+        if keep_diff {
+            x[FACTOR_DIFF] = z;
+        }
+        self.project(&mut x);
+        // The given block, in the filter's coordinates at the new state.
+        let mut full = MatN::zeros();
+        full.fixed_view_mut::<K, K>(SLIP, SLIP)
+            .copy_from(&(0.5 * (cov + cov.transpose())));
+        let mut blk =
+            model::transform_cov(&full, &model::to_filter_rows(&model::from_filter(&x, c), c))
+                .fixed_view::<K, K>(SLIP, SLIP)
+                .into_owned();
+        if keep_diff {
+            let k = FACTOR_DIFF - SLIP;
+            for j in 0..K {
+                blk[(k, j)] = 0.0;
+                blk[(j, k)] = 0.0;
+            }
+            blk[(k, k)] = if var_z.is_finite() {
+                var_z.max(1e-18)
+            } else {
+                1e-18
+            };
+        }
+        if !finite_mat(&blk) || !finite_mat(&x) {
+            return Err(FilterError::NonFinite);
+        }
+        self.x = x;
         for i in 0..SLIP {
             for j in SLIP..N {
                 self.P[(i, j)] = 0.0;
                 self.P[(j, i)] = 0.0;
             }
         }
-        let sym = 0.5 * (cov + cov.transpose());
-        self.P.fixed_view_mut::<K, K>(SLIP, SLIP).copy_from(&sym);
+        self.P.fixed_view_mut::<K, K>(SLIP, SLIP).copy_from(&blk);
         self.nis_avg = 1.0;
         Ok(())
     }
@@ -567,7 +686,8 @@ impl Filter {
             None => self.u_smooth = Some(u),
         }
         let u_slip = self.u_smooth.unwrap_or(u);
-        let (x, F) = model::predict_with_jacobian(&self.x, u, u_slip, dt);
+        let (x, F) =
+            model::predict_with_jacobian_in(&self.x, u, u_slip, dt, self.cfg.factor_coords);
 
         // F = I + E with E non-zero only in rows east, north, yaw and
         // columns yaw.. (a 3x6 block B): F P F' = P1 + P1 E' with
@@ -599,6 +719,11 @@ impl Filter {
             let k = dt * self.schedule_scale;
             let mut blk = P.fixed_view_mut::<K, K>(SLIP, SLIP);
             blk += self.q_slip * k + self.q_spread * (k * (self.adapt_scale() - 1.0));
+            if self.cfg.factor_coords == FactorCoords::PerSpread {
+                // The configured walk is on alpha_l - alpha_r = z d.
+                let j = FACTOR_DIFF - SLIP;
+                blk[(j, j)] += self.q_slip[(j, j)] * k * (1.0 / (d * d) - 1.0);
+            }
         }
         if !finite_mat(&x) || (0..N).any(|i| !P[(i, i)].is_finite()) {
             return Err(FilterError::NonFinite);
@@ -828,7 +953,7 @@ impl Filter {
         if (0..N).any(|i| P[(i, i)] < 0.0) {
             return Err(FilterError::LostDefiniteness);
         }
-        self.cfg.band.project(&mut x);
+        self.project(&mut x);
         self.x = x;
         self.P = P;
         Ok(())
@@ -929,7 +1054,7 @@ mod tests {
         assert_eq!(fates[10], Fate::Reanchored);
         assert_eq!(fates[11], Fate::Fused);
         assert!((f.state()[EAST] - 40.0).abs() < 1e-9);
-        assert!(is_spd(f.covariance()));
+        assert!(is_spd(&f.covariance()));
     }
 
     #[test]
@@ -950,7 +1075,7 @@ mod tests {
         assert_eq!(rep.yaw, Fate::Fused);
         // 0.083 rad of true difference, not 6.2
         let yaw = f.state()[YAW];
-        assert!(yaw > 3.1 || yaw < -3.1, "yaw {yaw}");
+        assert!(!(-3.1..=3.1).contains(&yaw), "yaw {yaw}");
     }
 
     #[test]
@@ -987,12 +1112,57 @@ mod tests {
                         },
                     )
                     .unwrap();
-                    assert!(is_spd(f.covariance()));
+                    assert!(is_spd(&f.covariance()));
                 }
             }
             let d = f.state()[Y_L] - f.state()[Y_R];
             assert!((d - 0.68).abs() < 0.01, "{variant:?}: d = {d}");
         }
+    }
+
+    #[test]
+    fn per_spread_straight_teaches_the_difference_not_the_spread() {
+        // A robot whose right tread is 0.4 % slow drives straight; the
+        // compass sees it turn right. The spread is 10 cm uncertain (as
+        // after a reset) and has no effect on a straight.
+        let mut truth = IcrParams::no_slip(0.5);
+        truth.alpha_r = 0.996;
+        let moved = |coords: FactorCoords| {
+            let mut c = cfg(Variant::Ekf);
+            c.factor_coords = coords;
+            let x0 = model::state(0.0, 0.0, 0.0, &IcrParams::no_slip(0.5));
+            let p0 = MatN::from_diagonal(&State::from([
+                1.0, 1.0, 1e-4, 2.5e-3, 2.5e-3, 1e-4, 1e-4, 1e-4,
+            ]));
+            let mut f = Filter::new(x0, p0, c).unwrap();
+            let mut s = model::state(0.0, 0.0, 0.0, &truth);
+            let u = TreadInput {
+                v_left: 1.0,
+                v_right: 1.0,
+            };
+            for k in 1..=1500 {
+                s = model::predict(&s, u, 0.02);
+                f.predict(1.0, 1.0, 0.02).unwrap();
+                if k % 50 == 0 {
+                    let fix = PoseFix {
+                        position: None,
+                        yaw: Some(s[YAW]),
+                        std_xy: 1.0,
+                        std_yaw: 0.005,
+                    };
+                    f.update(k as f64 * 0.02, &fix).unwrap();
+                    assert!(is_spd(&f.covariance()));
+                }
+            }
+            let x = f.state();
+            ((x[Y_L] - x[Y_R]) - 0.5, x[ALPHA_L] - x[ALPHA_R])
+        };
+        let (dd, e) = moved(FactorCoords::PerSpread);
+        assert!(dd.abs() < 1e-9, "per-spread: d moved by {dd}");
+        assert!((e - 0.004).abs() < 0.0008, "per-spread: difference {e}");
+        let (dd, e) = moved(FactorCoords::Difference);
+        assert!(dd.abs() > 3e-4, "difference: d moved by {dd} only");
+        assert!((e - 0.004).abs() < 0.002, "difference: {e}");
     }
 
     #[test]
@@ -1033,7 +1203,7 @@ mod tests {
     #[test]
     fn bad_inputs_are_errors_and_leave_state_alone() {
         let mut f = start(Variant::Ekf);
-        let x = *f.state();
+        let x = f.state();
         assert!(matches!(
             f.predict(f64::NAN, 0.0, 0.02),
             Err(FilterError::BadInput(_))
@@ -1066,7 +1236,7 @@ mod tests {
             ),
             Err(FilterError::BadInput(_))
         ));
-        assert_eq!(*f.state(), x);
+        assert_eq!(f.state(), x);
         let bad_p = -MatN::identity();
         assert!(Filter::new(x, bad_p, cfg(Variant::Ekf)).is_err());
         assert!(Filter::new(x, p0(), cfg(Variant::Iekf { window: 0 })).is_err());
@@ -1080,7 +1250,7 @@ mod tests {
         let mut lost = false;
         for k in 0..10 {
             f.predict(0.3, 0.3, 0.02).unwrap();
-            let s = *f.state();
+            let s = f.state();
             let eps = 1e-4 * (k as f64 + 1.0);
             let r = f.update(k as f64, &fix(s[0] + eps, s[1] - eps, s[2] + 1e-5));
             if f.covariance().cholesky().is_none()

@@ -187,12 +187,183 @@ pub fn predict_with_jacobian(
     (out, f)
 }
 
+/// How the filter carries the two tread speed factors internally (its own
+/// state: `[east, north, yaw, y_l, y_r, x_c, a, z]` with the common factor
+/// `a = (alpha_l + alpha_r)/2` in slot 6 and `z` in slot 7). The public
+/// [`State`] always holds `alpha_l, alpha_r`; [`to_filter`] and
+/// [`from_filter`] convert.
+///
+/// The heading rate is `omega = a (V_r - V_l)/d - (alpha_l - alpha_r) V / d`
+/// (`V` the mean tread speed). On a straight (`V_r = V_l`) it sees only the
+/// ratio `(alpha_l - alpha_r)/d`; carried as two states, a heading update
+/// there moves both along that ratio, so `d` drifts on straights with no
+/// information about it. [`FactorCoords::PerSpread`] carries the ratio
+/// itself, and a straight teaches it alone.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FactorCoords {
+    /// `z = alpha_l - alpha_r` (dimensionless): a linear change of the
+    /// tread-factor coordinates, so the filter behaves exactly as on
+    /// `(alpha_l, alpha_r)` (branch `est2` before the per-spread form).
+    Difference,
+    /// `z = (alpha_l - alpha_r) / d` (1/m): minus the heading change per
+    /// metre of straight driving. On a straight `d` has no partial at all.
+    #[default]
+    PerSpread,
+}
+
+/// Spread `y_l - y_r` with the division guard of [`spread`].
+#[inline]
+fn raw_spread(y_l: f64, y_r: f64) -> f64 {
+    let d = y_l - y_r;
+    if d > MIN_SPREAD {
+        d
+    } else {
+        MIN_SPREAD
+    }
+}
+
+/// Slot of the common factor in the filter's state.
+pub const FACTOR_MEAN: usize = ALPHA_L;
+/// Slot of the factor difference (in [`FactorCoords`]) in the filter's state.
+pub const FACTOR_DIFF: usize = ALPHA_R;
+
+/// A public state (`alpha_l, alpha_r`) in the filter's coordinates.
+pub fn to_filter(s: &State, c: FactorCoords) -> State {
+    let mut out = *s;
+    let e = s[ALPHA_L] - s[ALPHA_R];
+    out[FACTOR_MEAN] = 0.5 * (s[ALPHA_L] + s[ALPHA_R]);
+    out[FACTOR_DIFF] = match c {
+        FactorCoords::Difference => e,
+        FactorCoords::PerSpread => e / raw_spread(s[Y_L], s[Y_R]),
+    };
+    out
+}
+
+/// A filter state back in the public coordinates (`alpha_l, alpha_r`).
+pub fn from_filter(s: &State, c: FactorCoords) -> State {
+    let mut out = *s;
+    let e = match c {
+        FactorCoords::Difference => s[FACTOR_DIFF],
+        FactorCoords::PerSpread => s[FACTOR_DIFF] * raw_spread(s[Y_L], s[Y_R]),
+    };
+    out[ALPHA_L] = s[FACTOR_MEAN] + 0.5 * e;
+    out[ALPHA_R] = s[FACTOR_MEAN] - 0.5 * e;
+    out
+}
+
+/// Rows `alpha_l, alpha_r` of `d from_filter / d s` at the filter state `s`
+/// (the other rows are the identity's).
+pub fn from_filter_rows(s: &State, c: FactorCoords) -> SMatrix<f64, 2, N> {
+    let mut r = SMatrix::<f64, 2, N>::zeros();
+    let (half_z, half_s) = match c {
+        FactorCoords::Difference => (0.0, 0.5),
+        FactorCoords::PerSpread => (0.5 * s[FACTOR_DIFF], 0.5 * raw_spread(s[Y_L], s[Y_R])),
+    };
+    // alpha_l = a + e/2, alpha_r = a - e/2, e = z (or z d with d = y_l - y_r)
+    r[(0, Y_L)] = half_z;
+    r[(0, Y_R)] = -half_z;
+    r[(0, FACTOR_MEAN)] = 1.0;
+    r[(0, FACTOR_DIFF)] = half_s;
+    r[(1, Y_L)] = -half_z;
+    r[(1, Y_R)] = half_z;
+    r[(1, FACTOR_MEAN)] = 1.0;
+    r[(1, FACTOR_DIFF)] = -half_s;
+    r
+}
+
+/// Rows `a, z` of `d to_filter / d s` at the public state `s`.
+pub fn to_filter_rows(s: &State, c: FactorCoords) -> SMatrix<f64, 2, N> {
+    let mut r = SMatrix::<f64, 2, N>::zeros();
+    r[(0, ALPHA_L)] = 0.5;
+    r[(0, ALPHA_R)] = 0.5;
+    match c {
+        FactorCoords::Difference => {
+            r[(1, ALPHA_L)] = 1.0;
+            r[(1, ALPHA_R)] = -1.0;
+        }
+        FactorCoords::PerSpread => {
+            let inv_d = 1.0 / raw_spread(s[Y_L], s[Y_R]);
+            let e_d2 = (s[ALPHA_L] - s[ALPHA_R]) * inv_d * inv_d;
+            r[(1, Y_L)] = -e_d2;
+            r[(1, Y_R)] = e_d2;
+            r[(1, ALPHA_L)] = inv_d;
+            r[(1, ALPHA_R)] = -inv_d;
+        }
+    }
+    r
+}
+
+/// `J P J'` where `J` is the identity except rows 6 and 7, which are
+/// `rows` (from [`from_filter_rows`] or [`to_filter_rows`]): the
+/// covariance in the other coordinates, to first order. Symmetric.
+pub fn transform_cov(p: &MatN, rows: &SMatrix<f64, 2, N>) -> MatN {
+    let rp: SMatrix<f64, 2, N> = rows * p;
+    let corner = rp * rows.transpose();
+    let mut out = *p;
+    for k in 0..2 {
+        for i in 0..ALPHA_L {
+            out[(ALPHA_L + k, i)] = rp[(k, i)];
+            out[(i, ALPHA_L + k)] = rp[(k, i)];
+        }
+    }
+    out[(ALPHA_L, ALPHA_L)] = corner[(0, 0)];
+    out[(ALPHA_R, ALPHA_R)] = corner[(1, 1)];
+    let off = 0.5 * (corner[(0, 1)] + corner[(1, 0)]);
+    out[(ALPHA_L, ALPHA_R)] = off;
+    out[(ALPHA_R, ALPHA_L)] = off;
+    out
+}
+
+/// [`predict_with_jacobian`] on the filter's state (see [`FactorCoords`]):
+/// the next filter state and its Jacobian by the filter state.
+pub fn predict_with_jacobian_in(
+    s: &State,
+    u: TreadInput,
+    u_slip: TreadInput,
+    dt: f64,
+    c: FactorCoords,
+) -> (State, MatN) {
+    let ext = from_filter(s, c);
+    let (next, fe) = predict_with_jacobian(&ext, u, u_slip, dt);
+    let mut out = *s;
+    out[EAST] = next[EAST];
+    out[NORTH] = next[NORTH];
+    out[YAW] = next[YAW];
+    // Chain rule: only the pose rows differ from the identity, and
+    // d ext / d s only in rows alpha_l, alpha_r.
+    let r = from_filter_rows(s, c);
+    let mut f = fe;
+    for i in 0..3 {
+        let (gl, gr) = (fe[(i, ALPHA_L)], fe[(i, ALPHA_R)]);
+        for j in [Y_L, Y_R, FACTOR_MEAN, FACTOR_DIFF] {
+            let base = if j == FACTOR_MEAN || j == FACTOR_DIFF {
+                0.0
+            } else {
+                fe[(i, j)]
+            };
+            f[(i, j)] = base + gl * r[(0, j)] + gr * r[(1, j)];
+        }
+    }
+    (out, f)
+}
+
+/// `f` on the filter's state (no Jacobian).
+pub fn predict_in(s: &State, u: TreadInput, dt: f64, c: FactorCoords) -> State {
+    let next = predict(&from_filter(s, c), u, dt);
+    let mut out = *s;
+    out[EAST] = next[EAST];
+    out[NORTH] = next[NORTH];
+    out[YAW] = next[YAW];
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    fn central_difference(s: &State, u: TreadInput, dt: f64) -> MatN {
+    /// Central differences of `step` at `s` (yaw differences wrapped).
+    fn central_difference_of(s: &State, step: impl Fn(&State) -> State) -> MatN {
         let mut f = MatN::zeros();
         for j in 0..N {
             let h = 1e-6;
@@ -200,11 +371,15 @@ mod tests {
             let mut sm = *s;
             sp[j] += h;
             sm[j] -= h;
-            let mut col = predict(&sp, u, dt) - predict(&sm, u, dt);
+            let mut col = step(&sp) - step(&sm);
             col[YAW] = angle::wrap(col[YAW]);
             f.set_column(j, &(col / (2.0 * h)));
         }
         f
+    }
+
+    fn central_difference(s: &State, u: TreadInput, dt: f64) -> MatN {
+        central_difference_of(s, |x| predict(x, u, dt))
     }
 
     #[test]
@@ -261,25 +436,76 @@ mod tests {
         assert!((s2[NORTH] + 0.02).abs() < 1e-12);
     }
 
+    fn central_difference_in(s: &State, u: TreadInput, dt: f64, c: FactorCoords) -> MatN {
+        central_difference_of(s, |x| predict_in(x, u, dt, c))
+    }
+
+    #[test]
+    fn per_spread_straight_leaves_spread_without_partial() {
+        // On a straight the heading sees z = (alpha_l - alpha_r)/d alone.
+        let icr = IcrParams {
+            y_l: 0.3,
+            y_r: -0.35,
+            x_c: 0.0,
+            alpha_l: 0.98,
+            alpha_r: 0.975,
+        };
+        let s = to_filter(&state(0.0, 0.0, 0.4, &icr), FactorCoords::PerSpread);
+        let u = TreadInput {
+            v_left: 0.8,
+            v_right: 0.8,
+        };
+        let (_, f) = predict_with_jacobian_in(&s, u, u, 0.1, FactorCoords::PerSpread);
+        assert!(f[(YAW, Y_L)].abs() < 1e-15 && f[(YAW, Y_R)].abs() < 1e-15);
+        assert!((f[(YAW, FACTOR_DIFF)] + 0.1 * 0.8).abs() < 1e-12);
+        // ... which the difference coordinates do not give.
+        let s = to_filter(&state(0.0, 0.0, 0.4, &icr), FactorCoords::Difference);
+        let (_, f) = predict_with_jacobian_in(&s, u, u, 0.1, FactorCoords::Difference);
+        assert!(f[(YAW, Y_L)].abs() > 1e-4);
+    }
+
     proptest! {
         #[test]
-        fn jacobian_matches_central_differences(
+        fn jacobians_match_central_differences_in_both_coordinates(
             e in -100.0f64..100.0, n in -100.0f64..100.0, yaw in -3.1f64..3.1,
             y_l in 0.1f64..1.2, y_r in -1.2f64..-0.1, x_c in -0.3f64..0.3,
             a_l in 0.8f64..1.2, a_r in 0.8f64..1.2,
             vl in -2.0f64..2.0, vr in -2.0f64..2.0, dt in 0.001f64..0.5,
+            per_spread in any::<bool>(),
         ) {
-            let s = State::from([e, n, yaw, y_l, y_r, x_c, a_l, a_r]);
+            let c = if per_spread { FactorCoords::PerSpread } else { FactorCoords::Difference };
+            let ext = State::from([e, n, yaw, y_l, y_r, x_c, a_l, a_r]);
+            let s = to_filter(&ext, c);
+            let back = from_filter(&s, c);
+            prop_assert!((back - ext).amax() < 1e-12);
+            // The filter's step is the public step.
             let u = TreadInput { v_left: vl, v_right: vr };
-            let fa = jacobian(&s, u, dt);
-            let fd = central_difference(&s, u, dt);
-            for i in 0..N {
-                for j in 0..N {
-                    let tol = 1e-6 * (1.0 + fa[(i, j)].abs());
-                    prop_assert!((fa[(i, j)] - fd[(i, j)]).abs() < tol,
-                        "F[{},{}] analytic {} numeric {}", i, j, fa[(i, j)], fd[(i, j)]);
+            let a = from_filter(&predict_in(&s, u, dt, c), c);
+            let b = predict(&ext, u, dt);
+            prop_assert!((a - b).amax() < 1e-9);
+            // Public Jacobian, and the filter's (chain rule) in `c`.
+            for (fa, fd) in [
+                (jacobian(&ext, u, dt), central_difference(&ext, u, dt)),
+                (predict_with_jacobian_in(&s, u, u, dt, c).1, central_difference_in(&s, u, dt, c)),
+            ] {
+                for i in 0..N {
+                    for j in 0..N {
+                        let tol = 1e-6 * (1.0 + fa[(i, j)].abs());
+                        prop_assert!((fa[(i, j)] - fd[(i, j)]).abs() < tol,
+                            "{:?} F[{},{}] analytic {} numeric {}", c, i, j, fa[(i, j)], fd[(i, j)]);
+                    }
                 }
             }
+            // The conversion Jacobians are each other's inverse (rows 6, 7).
+            let mut jf = MatN::identity();
+            jf.fixed_rows_mut::<2>(ALPHA_L).copy_from(&from_filter_rows(&s, c));
+            let mut jt = MatN::identity();
+            jt.fixed_rows_mut::<2>(ALPHA_L).copy_from(&to_filter_rows(&ext, c));
+            prop_assert!((jf * jt - MatN::identity()).amax() < 1e-9);
+            // And transform_cov is J P J'.
+            let p = MatN::from_fn(|i, j| 0.01 / (1.0 + (i as f64 - j as f64).abs()));
+            let want = jf * p * jf.transpose();
+            prop_assert!((transform_cov(&p, &from_filter_rows(&s, c)) - want).amax() < 1e-12);
         }
     }
 }

@@ -56,6 +56,14 @@ pub struct ScheduleConfig {
     pub boost_updates: u32,
     /// Covariance reset `P_B` at a change to an unlearned terrain.
     pub reset: Option<IcrStd>,
+    /// The reset leaves the tread speed factor difference `alpha_l -
+    /// alpha_r` as learned (its estimate and variance, in the filter's
+    /// [`crate::model::FactorCoords`]; `P_B`'s entry is unused): it belongs to the robot (tyre pressure, wear, gearing), not to
+    /// the ground, which acts on both treads alike. Re-inflating it makes a
+    /// steady turn after a change ambiguous: there the heading rate sees
+    /// `(alpha (v_r - v_l) - (alpha_l - alpha_r)(v_r + v_l)/2) / d`, and with
+    /// both speeds constant the difference and `d` trade off freely.
+    pub reset_keeps_alpha_diff: bool,
     /// Recall learned ICRs when a terrain is revisited.
     pub memory: bool,
     /// Seconds on a terrain (while moving) before what was learned there is
@@ -79,6 +87,7 @@ impl Default for ScheduleConfig {
             boost_factor: 1.0,
             boost_updates: 0,
             reset: None,
+            reset_keeps_alpha_diff: false,
             memory: false,
             memory_min_dwell: 20.0,
             memory_average: 0.0,
@@ -204,7 +213,7 @@ impl NoiseSchedule {
                         .covariance()
                         .fixed_view::<K, K>(SLIP, SLIP)
                         .into_owned();
-                    let mut icr = model::icr_of(filter.state());
+                    let mut icr = model::icr_of(&filter.state());
                     if self.averaged > 0.0 && self.average.iter().all(|v| v.is_finite()) {
                         let m = &self.average;
                         icr = IcrParams {
@@ -227,7 +236,13 @@ impl NoiseSchedule {
         self.averaged = 0.0;
         if self.cfg.memory {
             if let Some(Some(m)) = self.memory.get(terrain) {
-                filter.reset_icr(Some(&m.icr), &m.cov)?;
+                if self.cfg.reset_keeps_alpha_diff {
+                    // The robot's factor difference as learned now, on the
+                    // remembered common factor of this ground.
+                    filter.reset_icr_keeping_factor_difference(Some(&m.icr), &m.cov)?;
+                } else {
+                    filter.reset_icr(Some(&m.icr), &m.cov)?;
+                }
                 self.boost_left = 0;
                 filter.set_schedule_scale(1.0);
                 return Ok(ChangeAction::Recalled);
@@ -239,7 +254,11 @@ impl NoiseSchedule {
             return Ok(ChangeAction::Learning);
         }
         if let Some(pb) = self.cfg.reset {
-            filter.reset_icr(None, &pb.to_slip_cov())?;
+            if self.cfg.reset_keeps_alpha_diff {
+                filter.reset_icr_keeping_factor_difference(None, &pb.to_slip_cov())?;
+            } else {
+                filter.reset_icr(None, &pb.to_slip_cov())?;
+            }
         }
         if self.cfg.boost_factor > 1.0 && self.cfg.boost_updates > 0 {
             self.boost_left = self.cfg.boost_updates;
@@ -271,11 +290,31 @@ mod tests {
     use super::*;
     use crate::filter::{FilterConfig, Variant};
     use crate::kinematics::IcrParams;
-    use crate::model::{MatN, State, Y_L, Y_R};
+    use crate::model::{FactorCoords, MatN, State, FACTOR_DIFF, Y_L, Y_R};
+
+    /// A reset `P_B` used by several tests.
+    const PB: IcrStd = IcrStd {
+        spread: 0.1,
+        centre: 0.02,
+        x_c: 0.05,
+        alpha: 0.01,
+        alpha_diff: 0.01,
+    };
+
+    /// Variance of `x[i] - x[j]`.
+    fn var_of_difference(f: &Filter, i: usize, j: usize) -> f64 {
+        let p = f.covariance();
+        p[(i, i)] + p[(j, j)] - 2.0 * p[(i, j)]
+    }
 
     fn filter() -> Filter {
+        filter_in(FactorCoords::PerSpread)
+    }
+
+    fn filter_in(coords: FactorCoords) -> Filter {
         let mut c = FilterConfig::for_track(0.5);
         c.variant = Variant::Ekf;
+        c.factor_coords = coords;
         let x0 = crate::model::state(0.0, 0.0, 0.0, &IcrParams::no_slip(0.5));
         let p0 = MatN::from_diagonal(&State::from([1.0, 1.0, 0.01, 1e-4, 1e-4, 1e-4, 1e-6, 1e-6]));
         Filter::new(x0, p0, c).unwrap()
@@ -308,15 +347,8 @@ mod tests {
             f.predict(0.2, 0.6, 0.02).unwrap();
         }
         assert!(f.covariance()[(2, 3)].abs() > 0.0);
-        let pb = IcrStd {
-            spread: 0.1,
-            centre: 0.02,
-            x_c: 0.05,
-            alpha: 0.01,
-            alpha_diff: 0.01,
-        };
         let mut s = NoiseSchedule::new(ScheduleConfig {
-            reset: Some(pb),
+            reset: Some(PB),
             ..Default::default()
         });
         s.on_terrain(&mut f, 0).unwrap();
@@ -324,9 +356,35 @@ mod tests {
         let p = f.covariance();
         assert_eq!(p[(2, 3)], 0.0);
         // var(d) = var(y_l) + var(y_r) - 2 cov = 0.01
-        let var_d = p[(3, 3)] + p[(4, 4)] - 2.0 * p[(3, 4)];
-        assert!((var_d - 0.01).abs() < 1e-12);
+        assert!((var_of_difference(&f, 3, 4) - 0.01).abs() < 1e-12);
         assert!((p[(5, 5)] - 0.0025).abs() < 1e-12);
+    }
+
+    #[test]
+    fn reset_can_keep_the_learned_factor_difference() {
+        let var_e = |f: &Filter| var_of_difference(f, 6, 7);
+        for keep in [false, true] {
+            let mut f = filter();
+            let before = var_e(&f);
+            let z_before = f.factor_difference();
+            let mut s = NoiseSchedule::new(ScheduleConfig {
+                reset: Some(PB),
+                reset_keeps_alpha_diff: keep,
+                ..Default::default()
+            });
+            s.on_terrain(&mut f, 0).unwrap();
+            s.on_terrain(&mut f, 1).unwrap();
+            assert_eq!(keep, f.factor_difference() == z_before);
+            let var_d = var_of_difference(&f, 3, 4);
+            assert!((var_d - 0.01).abs() < 1e-12, "d is reset either way");
+            let want = if keep { before } else { 1e-4 };
+            assert!(
+                (var_e(&f) - want).abs() < 1e-12,
+                "keep {keep}: {}",
+                var_e(&f)
+            );
+            assert!(f.covariance().cholesky().is_some());
+        }
     }
 
     #[test]
@@ -335,13 +393,7 @@ mod tests {
         let mut s = NoiseSchedule::new(ScheduleConfig {
             memory: true,
             memory_min_dwell: 1.0,
-            reset: Some(IcrStd {
-                spread: 0.1,
-                centre: 0.02,
-                x_c: 0.05,
-                alpha: 0.01,
-                alpha_diff: 0.01,
-            }),
+            reset: Some(PB),
             ..Default::default()
         });
         s.on_terrain(&mut f, 2).unwrap();
@@ -363,9 +415,50 @@ mod tests {
         let st = f.state();
         assert!((st[Y_L] - 0.4).abs() < 1e-12 && (st[Y_R] + 0.38).abs() < 1e-12);
         // Recalled spread std is at least the floor.
-        let p = f.covariance();
-        let var_d = p[(3, 3)] + p[(4, 4)] - 2.0 * p[(3, 4)];
-        assert!(var_d >= 0.004f64.powi(2));
+        assert!(var_of_difference(&f, 3, 4) >= 0.004f64.powi(2));
+    }
+
+    #[test]
+    fn recall_keeps_the_robots_factor_difference() {
+        for coords in [FactorCoords::Difference, FactorCoords::PerSpread] {
+            let mut f = filter_in(coords);
+            let mut s = NoiseSchedule::new(ScheduleConfig {
+                memory: true,
+                memory_min_dwell: 1.0,
+                reset_keeps_alpha_diff: true,
+                ..Default::default()
+            });
+            s.on_terrain(&mut f, 0).unwrap();
+            // Terrain 0 learned with common factor 0.95 and no difference.
+            let mut p = IcrParams::new(0.4, -0.38, 0.0);
+            (p.alpha_l, p.alpha_r) = (0.95, 0.95);
+            f.reset_icr(Some(&p), &SlipCov::from_diagonal_element(1e-6))
+                .unwrap();
+            for _ in 0..100 {
+                f.predict(0.5, 0.5, 0.02).unwrap();
+                s.on_predict(&f, 0.02);
+            }
+            s.on_terrain(&mut f, 1).unwrap();
+            // Meanwhile the robot's difference is learned as 0.01.
+            (p.alpha_l, p.alpha_r) = (1.005, 0.995);
+            f.reset_icr(Some(&p), &SlipCov::from_diagonal_element(4e-6))
+                .unwrap();
+            let (z, var_z) = f.factor_difference();
+            assert_eq!(s.on_terrain(&mut f, 0).unwrap(), ChangeAction::Recalled);
+            let x = f.state();
+            let (a, e) = (0.5 * (x[6] + x[7]), x[6] - x[7]);
+            assert!((a - 0.95).abs() < 1e-9, "common factor from memory: {a}");
+            // Same spread on both terrains here, so e is kept in either form.
+            assert!((e - 0.01).abs() < 1e-9, "{coords:?}: difference kept: {e}");
+            assert_eq!(f.factor_difference(), (z, var_z), "{coords:?}");
+            let k = FACTOR_DIFF;
+            let p = f.filter_covariance();
+            assert!((0..model::N).all(|j| j == k || p[(k, j)] == 0.0));
+            if coords == FactorCoords::Difference {
+                let var_e = var_of_difference(&f, 6, 7);
+                assert!((var_e - 8e-6).abs() < 1e-12, "{var_e}");
+            }
+        }
     }
 
     #[test]

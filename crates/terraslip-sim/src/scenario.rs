@@ -17,6 +17,7 @@ use crate::SimError;
 /// [`Scenario::with_rtk`].
 const BUILTINS: &[(&str, &str)] = &[
     ("papers", include_str!("../scenarios/papers.toml")),
+    ("papers-icr3", include_str!("../scenarios/papers-icr3.toml")),
     ("wang4", include_str!("../scenarios/wang4.toml")),
     ("p3at-calib", include_str!("../scenarios/p3at-calib.toml")),
     (
@@ -799,6 +800,30 @@ mod tests {
             r.gnss.outages,
             Scenario::builtin("papers").unwrap().gnss.outages
         );
+    }
+
+    #[test]
+    fn papers_icr3_is_papers_with_unit_alpha() {
+        let p = Scenario::builtin("papers").unwrap();
+        let q = Scenario::builtin("papers-icr3").unwrap();
+        for seg in &p.segments {
+            let (a, b) = (
+                p.terrain(&seg.terrain).unwrap(),
+                q.terrain(&seg.terrain).unwrap(),
+            );
+            assert!(a.alpha_l < 1.0 && a.alpha_r < 1.0, "{}", seg.terrain);
+            assert_eq!((b.alpha_l, b.alpha_r), (1.0, 1.0), "{}", seg.terrain);
+            let robot = &p.robot;
+            let (ia, ib) = (a.icr(robot), b.icr(robot));
+            assert_eq!((ia.y_l, ia.y_r, ia.x_c), (ib.y_l, ib.y_r, ib.x_c));
+        }
+        // Everything but the name, description and terrain overrides is the same.
+        let mut q2 = q.clone();
+        q2.name = p.name.clone();
+        q2.description = p.description.clone();
+        q2.terrains = p.terrains.clone();
+        assert_eq!(q2, p);
+        assert!(builtin_names().iter().any(|(n, _)| n == "papers-icr3-rtk"));
     }
 
     #[test]

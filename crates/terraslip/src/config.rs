@@ -6,6 +6,7 @@
 
 use serde::{Deserialize, Serialize};
 use terraslip_core::filter::{FilterConfig, IcrBand, IcrNoise, Variant};
+use terraslip_core::model::FactorCoords;
 use terraslip_core::schedule::{IcrStd, ScheduleConfig};
 use terraslip_core::terrain_belief::BeliefConfig;
 
@@ -37,6 +38,18 @@ pub enum FilterVariant {
     Iekf,
     /// terraslip default: textbook gain, innovation-adapted bounded ICR noise.
     Adaptive,
+}
+
+/// How the filter carries the tread speed factors (`[filter] factor_coords`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FactorCoordsName {
+    /// Common factor and difference `alpha_l - alpha_r` (before `est2`'s
+    /// per-spread form; the same filter as on `alpha_l, alpha_r`).
+    Difference,
+    /// Common factor and `(alpha_l - alpha_r) / d`, 1/m: what the heading
+    /// sees on a straight, so a straight does not move `d` (default).
+    PerSpread,
 }
 
 /// Standard deviations of the slip parameters in the coordinates the data
@@ -111,7 +124,15 @@ pub struct FilterSection {
     /// Random walk of the common speed factor (alpha_l + alpha_r)/2, 1/s.
     pub q_alpha: f64,
     /// Random walk of the speed factor difference alpha_l - alpha_r, 1/s.
+    /// A property of the robot (tyres, wear), not of the ground: it changes
+    /// slowly (1e-8: 0.1 % per 100 s of std growth; 1e-7 before `est2`
+    /// session 2).
     pub q_alpha_diff: f64,
+    /// Coordinates of the factor difference inside the filter:
+    /// `per-spread` ((alpha_l - alpha_r)/d, 1/m; default) or `difference`
+    /// (alpha_l - alpha_r). `q_alpha_diff` and `init.std_alpha_diff` are on
+    /// alpha_l - alpha_r either way.
+    pub factor_coords: FactorCoordsName,
     /// Chi-square gate on the 2-dof position innovation (13.8 = 99.9 %; 0 = off).
     pub gate_position: f64,
     /// Chi-square gate on the 1-dof heading innovation (10.8 = 99.9 %; 0 = off).
@@ -203,6 +224,10 @@ pub struct ScheduleSection {
     pub reset: bool,
     /// Reset std (chen2023's P_B).
     pub reset_std: SlipStd,
+    /// The reset keeps the learned tread speed factor difference
+    /// alpha_l - alpha_r (a property of the robot, not of the ground);
+    /// `reset_std.alpha_diff` is then unused.
+    pub reset_keeps_alpha_diff: bool,
     /// Recall learned ICRs when a terrain is revisited.
     pub memory: bool,
     /// Seconds of driving on a terrain before its ICRs are remembered.
@@ -244,7 +269,8 @@ impl Default for FilterSection {
             q_centre: 1e-7,
             q_x_c: 1e-7,
             q_alpha: 1e-8,
-            q_alpha_diff: 1e-7,
+            q_alpha_diff: 1e-8,
+            factor_coords: FactorCoordsName::PerSpread,
             gate_position: 13.8,
             gate_yaw: 10.8,
             max_rejections: 10,
@@ -316,6 +342,7 @@ impl Default for ScheduleSection {
                 alpha: 0.02,
                 alpha_diff: 0.01,
             },
+            reset_keeps_alpha_diff: true,
             memory: true,
             memory_min_dwell: 20.0,
             memory_average: 40.0,
@@ -516,6 +543,10 @@ impl EstimatorConfig {
                 max_x_c: self.band.max_x_c * w,
                 alpha_range: (self.band.min_alpha, self.band.max_alpha),
             },
+            factor_coords: match f.factor_coords {
+                FactorCoordsName::Difference => FactorCoords::Difference,
+                FactorCoordsName::PerSpread => FactorCoords::PerSpread,
+            },
         }
     }
 
@@ -526,6 +557,7 @@ impl EstimatorConfig {
             boost_factor: s.boost_factor,
             boost_updates: s.boost_updates,
             reset: s.reset.then(|| s.reset_std.to_core()),
+            reset_keeps_alpha_diff: s.reset_keeps_alpha_diff,
             memory: s.memory,
             memory_min_dwell: s.memory_min_dwell,
             memory_average: s.memory_average,
@@ -638,6 +670,16 @@ mod tests {
         assert!(e.to_string().contains("iekf_window"), "{e}");
         let e = EstimatorConfig::from_toml("[band]\nmin_spread = 5.0\n").unwrap_err();
         assert!(e.to_string().contains("min_spread"), "{e}");
+        let e = EstimatorConfig::from_toml("[filter]\nfactor_coords = \"ratio\"\n").unwrap_err();
+        assert!(e.to_string().contains("ratio"), "{e}");
+    }
+
+    #[test]
+    fn factor_coordinates_are_selectable() {
+        let c = EstimatorConfig::default();
+        assert_eq!(c.filter_config(0.5).factor_coords, FactorCoords::PerSpread);
+        let c = EstimatorConfig::from_toml("[filter]\nfactor_coords = \"difference\"\n").unwrap();
+        assert_eq!(c.filter_config(0.5).factor_coords, FactorCoords::Difference);
     }
 
     #[test]

@@ -51,6 +51,14 @@ pub struct Reconvergence {
     pub seconds: Option<f64>,
     /// Seconds until the next change (the most `seconds` can be).
     pub segment: f64,
+    /// Seconds after the change at which the true heading had turned by
+    /// [`ReconvergenceSpec::turn_angle`] in all (the first informative
+    /// turn: on a straight `d` has no effect on any measurement); `None` if
+    /// it never did before the next change.
+    pub first_turn: Option<f64>,
+    /// `seconds` counted from the first informative turn (0 if it settled
+    /// before the turn); `None` if it never settled or never turned.
+    pub from_turn: Option<f64>,
 }
 
 /// Settings of [`reconvergence`].
@@ -60,6 +68,11 @@ pub struct ReconvergenceSpec {
     pub tolerance: f64,
     /// Averaging window, s (issue 2: 5).
     pub window: f64,
+    /// Total heading change (rad) that makes the first informative turn.
+    pub turn_angle: f64,
+    /// Seconds after the change before turning is counted (the simulated
+    /// ICRs blend over the border until then).
+    pub turn_delay: f64,
 }
 
 impl Default for ReconvergenceSpec {
@@ -67,8 +80,24 @@ impl Default for ReconvergenceSpec {
         Self {
             tolerance: 0.02,
             window: 5.0,
+            turn_angle: 0.3,
+            turn_delay: 2.0,
         }
     }
+}
+
+/// Seconds after `t0` at which the truth's heading has turned by `angle`
+/// (rad, sum of absolute changes) counted from `t0 + delay`, before `t1`.
+pub fn first_turn(truth: &[TruthSample], t0: f64, t1: f64, angle: f64, delay: f64) -> Option<f64> {
+    let start = truth.partition_point(|s| s.t < t0 + delay);
+    let mut turned = 0.0;
+    for w in truth[start..].windows(2).take_while(|w| w[1].t < t1) {
+        turned += angle::wrap(w[1].yaw - w[0].yaw).abs();
+        if turned >= angle {
+            return Some(w[1].t - t0);
+        }
+    }
+    None
 }
 
 /// Spread errors `d_est - d_true` at the run's rows within `[t0, t1)`.
@@ -104,12 +133,15 @@ pub fn reconvergence(
         let revisit = labels[..k].iter().any(|l| l.terrain == lab.terrain);
         let errs = spread_errors(run, truth, lab.t, t_next);
         let seconds = settle_time(&errs, lab.t, spec);
+        let turn = first_turn(truth, lab.t, t_next, spec.turn_angle, spec.turn_delay);
         out.push(Reconvergence {
             t_change: lab.t,
             terrain: lab.terrain.clone(),
             revisit,
             seconds,
             segment: t_next - lab.t,
+            first_turn: turn,
+            from_turn: seconds.zip(turn).map(|(s, t)| (s - t).max(0.0)),
         });
     }
     out
@@ -356,6 +388,7 @@ mod tests {
         let spec = ReconvergenceSpec {
             tolerance: 0.02,
             window: 1.0,
+            ..Default::default()
         };
         // error 0.1 for t < 3, then 0: settled from the first window
         // starting after the last bad one.
@@ -371,6 +404,33 @@ mod tests {
         let errs: Vec<(f64, f64)> = (0..100).map(|k| (k as f64 * 0.1, 0.1)).collect();
         assert_eq!(settle_time(&errs, 0.0, spec), None);
         assert_eq!(settle_time(&[], 0.0, spec), None);
+    }
+
+    #[test]
+    fn first_turn_counts_heading_change_after_the_delay() {
+        // Straight for 10 s, then 0.1 rad/s to the left, across +-pi.
+        let tr: Vec<TruthSample> = (0..300)
+            .map(|k| {
+                let t = k as f64 * 0.1;
+                let yaw = if t < 10.0 {
+                    3.0
+                } else {
+                    3.0 + 0.1 * (t - 10.0)
+                };
+                TruthSample {
+                    t,
+                    yaw: angle::wrap(yaw),
+                    ..Default::default()
+                }
+            })
+            .collect();
+        let t = first_turn(&tr, 0.0, 30.0, 0.3, 2.0).unwrap();
+        assert!((t - 13.0).abs() < 0.15, "{t}");
+        // Turning before the delay does not count; nor does anything after t1.
+        let t = first_turn(&tr, 9.0, 30.0, 0.3, 5.0).unwrap();
+        assert!((t - 8.0).abs() < 0.15, "{t}");
+        assert_eq!(first_turn(&tr, 0.0, 12.5, 0.3, 2.0), None);
+        assert_eq!(first_turn(&[], 0.0, 12.5, 0.3, 2.0), None);
     }
 
     #[test]

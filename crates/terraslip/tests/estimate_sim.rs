@@ -43,9 +43,13 @@ fn rtk_reference_meets_issue_targets() {
 fn gnss_2m_close_to_targets_and_beats_the_papers_schemes() {
     let ours = score("papers", 1, &EstimatorConfig::default());
     eprintln!("{ours:#?}");
-    // Measured on this seed: RMS d 1.16 cm, y_l 0.9, y_r 0.55 cm, drift
-    // 0.71 % (pure dead reckoning, up to the first fix after the outage). The common tread speed factor cannot be learned through 2 m
-    // GNSS, and soil's alpha = 0.97 biases d by ~1.3 cm there.
+    // Measured on this seed: RMS d 1.04 cm, y_l 0.82, y_r 0.55 cm, drift
+    // 0.56 % (pure dead reckoning, up to the first fix after the outage;
+    // before est2 session 2, `factor_coords = "difference"` and
+    // `q_alpha_diff = 1e-7`: 1.15, 0.89, 0.56 cm, 0.70 %).
+    // The common tread speed factor cannot be learned through 2 m GNSS, and
+    // soil's alpha = 0.97 biases d there (with alpha known, RMS d on
+    // `papers` is 0.74 cm; see papers_icr3_meets_the_2m_rms_targets).
     assert!(ours.rms.d <= 0.013, "RMS d {}", ours.rms.d);
     assert!(
         ours.rms.y_l <= 0.025 && ours.rms.y_r <= 0.025,
@@ -95,4 +99,50 @@ fn revisited_terrains_are_recalled_at_once() {
         "{:?}",
         c.reconvergence
     );
+}
+
+#[test]
+fn reset_keeping_the_factor_difference_settles_a_steady_turn() {
+    // papers seed 5, soil -> grass at 120 s: the robot turns steadily at
+    // ~0.25 rad/s from the change on. There the heading rate sees
+    // (alpha (v_r - v_l) - (alpha_l - alpha_r)(v_r + v_l)/2) / d, so a reset
+    // that re-inflates the factor difference lets it trade off against d
+    // (measured: 12.6 s to settle); keeping the learned difference (a
+    // property of the robot, not of the ground) settles it in 2.0 s.
+    let grass = |c: &Scorecard| {
+        c.reconvergence
+            .iter()
+            .find(|r| r.terrain == "grass")
+            .and_then(|r| r.seconds)
+    };
+    let ours = score("papers", 5, &EstimatorConfig::default());
+    let mut old = EstimatorConfig::default();
+    old.schedule.reset_keeps_alpha_diff = false;
+    let before = score("papers", 5, &old);
+    assert!(
+        grass(&ours).is_some_and(|s| s <= 5.0),
+        "{:?}",
+        ours.reconvergence
+    );
+    assert!(
+        grass(&before).is_some_and(|s| s > 10.0),
+        "{:?}",
+        before.reconvergence
+    );
+}
+
+#[test]
+fn papers_icr3_meets_the_2m_rms_targets() {
+    // The papers' own slip model (alpha = 1 on every terrain), 2 m GNSS:
+    // issue 2's RMS targets hold here (5 seeds: d 0.71 cm); on `papers`
+    // (alpha < 1, which 2 m GNSS cannot observe) RMS d stays ~1 cm.
+    // Pooled over three seeds like the figures (one seed alone: 0.70-0.79 cm).
+    let mut sq = 0.0;
+    for seed in 1..=3 {
+        let c = score("papers-icr3", seed, &EstimatorConfig::default());
+        eprintln!("seed {seed}: {:?}", c.rms);
+        assert!(c.rms.y_l <= 0.025 && c.rms.y_r <= 0.025, "{:?}", c.rms);
+        sq += c.rms.d * c.rms.d / 3.0;
+    }
+    assert!(sq.sqrt() <= 0.008, "RMS d {}", sq.sqrt());
 }

@@ -179,7 +179,14 @@ fn bad_input_is_one_line_and_non_zero() {
     let text = std::fs::read_to_string(&model).unwrap();
     std::fs::write(
         &old,
-        text.replacen("\"format_version\": 1", "\"format_version\": 7", 1),
+        text.replacen(
+            &format!(
+                "\"format_version\": {}",
+                terraslip_terrain::MODEL_FORMAT_VERSION
+            ),
+            "\"format_version\": 7",
+            1,
+        ),
     )
     .unwrap();
     eval_fails(Path::new(&runs[0]), &old, &plots, "version 7");

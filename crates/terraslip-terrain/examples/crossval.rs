@@ -96,22 +96,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         rep.chained_filtered.accuracy(),
         100.0 * (1.0 - rep.chained_filtered.accuracy())
     );
-    println!(
-        "{:<24} {:>5} {:>6} {:>6} {:>11} {:>6} {:>6}  {:?}",
-        "run", "wins", "raw%", "filt%", "read as", "v m/s", "|wz|", rep.raw.classes
-    );
-    for r in &rep.runs {
-        println!(
-            "{:<24} {:>5} {:>6.1} {:>6.1} {:>11} {:>6.2} {:>6.2}  {:?}",
-            r.log,
-            r.frames,
-            100.0 * r.raw_accuracy,
-            100.0 * r.filtered_accuracy,
-            r.most_predicted,
-            r.mean_tread_speed,
-            r.mean_abs_yaw_rate,
-            r.predicted_counts
-        );
-    }
+    print!("{}", rep.runs_table());
     Ok(())
 }

@@ -322,6 +322,32 @@ pub struct CrossvalReport {
     pub runs: Vec<RunScore>,
 }
 
+impl CrossvalReport {
+    /// One line per held-out run: windows, raw and filtered accuracy, what
+    /// it was read as most, mean tread speed and |yaw rate|, and how often
+    /// each class was named (in the order of the header's classes).
+    pub fn runs_table(&self) -> String {
+        let mut s = format!(
+            "{:<28} {:>6} {:>6} {:>6} {:>12} {:>6} {:>6}  named {:?}\n",
+            "run", "frames", "raw %", "filt %", "read as", "v m/s", "|wz|", self.raw.classes
+        );
+        for r in &self.runs {
+            s += &format!(
+                "{:<28} {:>6} {:>6.1} {:>6.1} {:>12} {:>6.2} {:>6.2}  {:?}\n",
+                r.log,
+                r.frames,
+                100.0 * r.raw_accuracy,
+                100.0 * r.filtered_accuracy,
+                r.most_predicted,
+                r.mean_tread_speed,
+                r.mean_abs_yaw_rate,
+                r.predicted_counts
+            );
+        }
+        s
+    }
+}
+
 /// How one held-out run was read, with what the robot did in it (to tell
 /// whether whole-run errors follow the manoeuvre rather than the terrain).
 #[derive(Debug, Clone, PartialEq, Serialize)]

@@ -508,12 +508,13 @@ pub(crate) fn speed_stats(
     let (mut sxy, mut sxx) = (0.0, 0.0);
     // Steering efficiency: a slope over the whole window, not a mean of
     // per-sample ratios (those blow up whenever the command nears zero).
-    let (mut cc, mut cg, mut gg) = (0.0, 0.0, 0.0);
+    let (mut cmd2, mut cc, mut cg, mut gg) = (0.0, 0.0, 0.0, 0.0);
     for (k, w) in slice.iter().enumerate() {
         s.speed += 0.5 * (w.v_left.abs() + w.v_right.abs());
         s.diff += (w.v_right - w.v_left).abs();
         let cmd = (w.v_right - w.v_left) / b;
         s.yaw_rate += cmd;
+        cmd2 += cmd * cmd;
         let sum = w.v_left.abs() + w.v_right.abs();
         if sum > 1e-6 {
             s.spin_share += (w.v_right - w.v_left).abs() / sum;
@@ -531,8 +532,8 @@ pub(crate) fn speed_stats(
     s.yaw_rate /= n;
     s.spin_share /= n;
     s.accel = if sxx > 1e-9 { sxy / sxx } else { 0.0 };
-    s.yaw_excitation = (cc / n).sqrt();
-    if s.yaw_excitation >= MIN_YAW_EXCITATION && !gyro_at_wheels.is_empty() {
+    s.yaw_excitation = (cmd2 / n).sqrt();
+    if s.yaw_excitation >= MIN_YAW_EXCITATION && cc > 0.0 {
         // Clamped: a gain far outside [-1, 2] is a sensor fault, not slip.
         s.yaw_gain = (cg / cc).clamp(-1.0, 2.0);
         s.yaw_fit = if gg > 1e-12 {
@@ -722,7 +723,8 @@ mod tests {
         assert!(s.yaw_gain.abs() < 1e-12 && (s.spin_share - 1.0).abs() < 1e-12);
         // No gyro: the gain stays neutral rather than reading as full slip.
         let s = speed_stats(&spin, &[], 0.0, 6.0, b);
-        assert_eq!(s.yaw_gain, 1.0);
+        assert_eq!((s.yaw_gain, s.yaw_fit), (1.0, 0.0));
+        assert!((s.yaw_excitation - 0.8).abs() < 1e-12);
         assert!(gyro_at_wheels(&imu_t, &[], &spin).is_empty());
     }
 

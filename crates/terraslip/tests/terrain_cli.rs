@@ -142,6 +142,17 @@ fn crossval_reports_leave_runs_out_accuracy() {
         v["spliced_accuracy_filtered"].as_f64().unwrap() > 0.85,
         "{v}"
     );
+    assert!(
+        v["chained_accuracy_filtered"].as_f64().unwrap() > 0.85,
+        "{v}"
+    );
+    assert!(v["chained_changes"].as_u64().unwrap() > 0, "{v}");
+    // One entry per run, each named after its log directory.
+    let per_run = v["runs"].as_array().unwrap();
+    assert_eq!(per_run.len(), runs.len());
+    assert!(per_run
+        .iter()
+        .all(|r| r["frames"].as_u64().unwrap() > 0 && r["log"].is_string()));
 }
 
 fn fails_with(cmd: &mut Command, needle: &str) {

@@ -106,7 +106,7 @@ struct TrainSettings {
     #[arg(long, default_value_t = 5)]
     k: usize,
     /// Trees of the random forest.
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = 300)]
     trees: usize,
     /// Seed of the random forest (bootstrap samples and feature subsets).
     /// Leave-run-out figures on BorealTC move by about ±1 point with it.
@@ -487,35 +487,16 @@ fn run_crossval(a: CrossvalArgs) -> anyhow::Result<()> {
         100.0 * (1.0 - rep.spliced_filtered.accuracy()),
         rep.spliced_filtered.to_table()
     );
-    let mut text = format!(
+    let text = format!(
         "{text}spliced logs: {} terrain changes; filtered without the windows straddling a change: {:.1} %\n\
-         held-out outputs of all folds chained ({} terrain changes), filtered: {:.1} % (misclassification {:.2} %)\n\
-         {:<28} {:>6} {:>6} {:>6} {:>12} {:>6} {:>6}\n",
+         held-out outputs of all folds chained ({} terrain changes), filtered: {:.1} % (misclassification {:.2} %)\n{}",
         rep.spliced_changes,
         100.0 * rep.spliced_filtered_settled.accuracy(),
         rep.chained_changes,
         100.0 * rep.chained_filtered.accuracy(),
         100.0 * (1.0 - rep.chained_filtered.accuracy()),
-        "run",
-        "frames",
-        "raw %",
-        "filt %",
-        "read as",
-        "v m/s",
-        "|wz|"
+        rep.runs_table()
     );
-    for r in &rep.runs {
-        text += &format!(
-            "{:<28} {:>6} {:>6.1} {:>6.1} {:>12} {:>6.2} {:>6.2}\n",
-            r.log,
-            r.frames,
-            100.0 * r.raw_accuracy,
-            100.0 * r.filtered_accuracy,
-            r.most_predicted,
-            r.mean_tread_speed,
-            r.mean_abs_yaw_rate
-        );
-    }
     let text = if opts.source == Source::Camera {
         format!(
             "{text}change detector: {} of {} changes within one frame, {} false alarms\n",

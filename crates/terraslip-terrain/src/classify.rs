@@ -337,7 +337,10 @@ pub struct ForestParams {
 impl Default for ForestParams {
     fn default() -> Self {
         Self {
-            n_trees: 100,
+            // 300 rather than 100: on BorealTC leave-run-out the spread
+            // over forest seeds shrinks from ~2 to ~0.7 points (spliced
+            // misclassification) and the mean improves by ~0.5.
+            n_trees: 300,
             tree: TreeParams {
                 criterion: Criterion::Gini,
                 max_depth: 20,

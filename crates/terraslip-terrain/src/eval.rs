@@ -6,7 +6,7 @@ use serde::Serialize;
 use terraslip_io::{DriveLog, TerrainLabel};
 
 use crate::error::{Result, TerrainError};
-use crate::model::{FilteredFrame, TerrainModel, TrainOptions};
+use crate::model::{FilteredFrame, TerrainModel, TerrainTimeline, TrainOptions};
 
 /// Rows = true class, columns = predicted class, in the order of `classes`.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -167,6 +167,11 @@ pub fn score_log(model: &TerrainModel, log: &DriveLog) -> Result<LogScore> {
         return Err(TerrainError::MissingLabels { log: log.name() });
     }
     let tl = model.classify_log(log)?;
+    Ok(score_timeline(model, log, &tl))
+}
+
+/// [`score_log`] of a timeline already classified by `model`.
+fn score_timeline(model: &TerrainModel, log: &DriveLog, tl: &TerrainTimeline) -> LogScore {
     let frames = tl.filter(&model.belief);
     let times: Vec<f64> = tl.frames.iter().map(|f| f.0).collect();
     let change = if model.source == crate::model::Source::Camera {
@@ -189,14 +194,14 @@ pub fn score_log(model: &TerrainModel, log: &DriveLog) -> Result<LogScore> {
             filtered.add(t, f.filtered);
         }
     }
-    Ok(LogScore {
+    LogScore {
         log: log.name(),
         truth,
         frames,
         raw,
         filtered,
         change,
-    })
+    }
 }
 
 /// One log made of several runs back to back: each run's clock is shifted
@@ -293,8 +298,112 @@ pub struct CrossvalReport {
     pub spliced_raw: Confusion,
     /// Same, after the Bayesian filter.
     pub spliced_filtered: Confusion,
+    /// `spliced_filtered` without the windows that straddle a terrain change
+    /// (IMU windows that began on the previous terrain; for camera frames,
+    /// which have no length, the same as `spliced_filtered`).
+    pub spliced_filtered_settled: Confusion,
+    /// Terrain changes inside the spliced logs. With one run per fold
+    /// (leave-one-run-out) there are none, and the spliced figures are
+    /// those of single runs: see `chained_filtered` instead.
+    pub spliced_changes: usize,
+    /// Every run's held-out classifier output (from the model of its own
+    /// fold), chained across folds in an order that changes terrain at
+    /// every seam where it can, then filtered by the HMM as one sequence.
+    /// Unlike the spliced logs this is defined for any number of folds;
+    /// it holds no window straddling two runs (each run was classified
+    /// alone), so it measures the filter's lag and the classifier's
+    /// errors but not the window's own latency at a change.
+    pub chained_filtered: Confusion,
+    /// Terrain changes in the chained sequence.
+    pub chained_changes: usize,
     /// Camera change detector on the held-out runs and the spliced logs.
     pub change: ChangeScore,
+    /// Every held-out run on its own, in the order of the input logs.
+    pub runs: Vec<RunScore>,
+}
+
+impl CrossvalReport {
+    /// One line per held-out run: windows, raw and filtered accuracy, what
+    /// it was read as most, mean tread speed and |yaw rate|, and how often
+    /// each class was named (in the order of the header's classes).
+    pub fn runs_table(&self) -> String {
+        let mut s = format!(
+            "{:<28} {:>6} {:>6} {:>6} {:>12} {:>6} {:>6}  named {:?}\n",
+            "run", "frames", "raw %", "filt %", "read as", "v m/s", "|wz|", self.raw.classes
+        );
+        for r in &self.runs {
+            s += &format!(
+                "{:<28} {:>6} {:>6.1} {:>6.1} {:>12} {:>6.2} {:>6.2}  {:?}\n",
+                r.log,
+                r.frames,
+                100.0 * r.raw_accuracy,
+                100.0 * r.filtered_accuracy,
+                r.most_predicted,
+                r.mean_tread_speed,
+                r.mean_abs_yaw_rate,
+                r.predicted_counts
+            );
+        }
+        s
+    }
+}
+
+/// How one held-out run was read, with what the robot did in it (to tell
+/// whether whole-run errors follow the manoeuvre rather than the terrain).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RunScore {
+    pub log: String,
+    /// The run's (first) terrain label.
+    pub terrain: String,
+    /// Scored windows/frames.
+    pub frames: usize,
+    /// Raw classifier accuracy on the run, 0..1.
+    pub raw_accuracy: f64,
+    /// Accuracy after the Bayesian filter (the run alone), 0..1.
+    pub filtered_accuracy: f64,
+    /// The class the raw classifier named most often.
+    pub most_predicted: String,
+    /// How often the raw classifier named each class (order of the classes).
+    pub predicted_counts: Vec<u64>,
+    /// Mean of (|v_left| + |v_right|) / 2 over wheels.csv, m/s.
+    pub mean_tread_speed: f64,
+    /// Mean |gyro_z| over imu.csv (body yaw rate), rad/s; 0 without gyro_z.
+    pub mean_abs_yaw_rate: f64,
+}
+
+impl RunScore {
+    fn new(log: &DriveLog, s: &LogScore) -> Self {
+        let k = s.raw.classes.len();
+        let mut votes = vec![0u64; k];
+        for r in &s.raw.counts {
+            for (v, c) in votes.iter_mut().zip(r) {
+                *v += c;
+            }
+        }
+        let best = (0..k).max_by_key(|&i| votes[i]).unwrap_or(0);
+        let n_w = log.wheels.len().max(1) as f64;
+        let gz: Vec<f64> = log.imu.iter().filter_map(|s| s.gyro_z).collect();
+        Self {
+            log: s.log.clone(),
+            terrain: log
+                .terrain
+                .first()
+                .map(|l| l.terrain.clone())
+                .unwrap_or_default(),
+            frames: s.raw.total() as usize,
+            raw_accuracy: s.raw.accuracy(),
+            filtered_accuracy: s.filtered.accuracy(),
+            most_predicted: s.raw.classes.get(best).cloned().unwrap_or_default(),
+            predicted_counts: votes,
+            mean_tread_speed: log
+                .wheels
+                .iter()
+                .map(|w| 0.5 * (w.v_left.abs() + w.v_right.abs()))
+                .sum::<f64>()
+                / n_w,
+            mean_abs_yaw_rate: gz.iter().map(|g| g.abs()).sum::<f64>() / gz.len().max(1) as f64,
+        }
+    }
 }
 
 /// Leave-runs-out cross-validation: a model is trained without the runs of
@@ -321,8 +430,15 @@ pub fn crossval(
         filtered: Confusion::new(&classes),
         spliced_raw: Confusion::new(&classes),
         spliced_filtered: Confusion::new(&classes),
+        spliced_filtered_settled: Confusion::new(&classes),
+        spliced_changes: 0,
+        chained_filtered: Confusion::new(&classes),
+        chained_changes: 0,
         change: ChangeScore::default(),
+        runs: Vec::new(),
     };
+    let mut runs: Vec<(usize, RunScore)> = Vec::with_capacity(logs.len());
+    let mut held_out: Vec<Option<(TerrainTimeline, Vec<Option<usize>>)>> = vec![None; logs.len()];
     for (fi, fold) in folds.iter().enumerate() {
         progress(fi, folds.len());
         let train: Vec<DriveLog> = (0..logs.len())
@@ -331,21 +447,69 @@ pub fn crossval(
             .collect();
         let model = TerrainModel::train_classes(&train, &classes, opts)?;
         for &i in fold {
-            let s = score_log(&model, &logs[i])?;
+            if logs[i].terrain.is_empty() {
+                return Err(TerrainError::MissingLabels {
+                    log: logs[i].name(),
+                });
+            }
+            let tl = model.classify_log(&logs[i])?;
+            let s = score_timeline(&model, &logs[i], &tl);
             rep.raw.merge(&s.raw);
             rep.filtered.merge(&s.filtered);
             rep.change.merge(&s.change);
+            runs.push((i, RunScore::new(&logs[i], &s)));
+            held_out[i] = Some((tl, s.truth));
         }
         let order = interleave_by_terrain(logs, fold);
         let runs: Vec<&DriveLog> = order.iter().map(|&i| &logs[i]).collect();
         let spliced = splice(&runs, 0.0);
         let s = score_log(&model, &spliced)?;
+        rep.spliced_changes += label_changes(&spliced);
         rep.spliced_raw.merge(&s.raw);
         rep.spliced_filtered.merge(&s.filtered);
+        let span = model.window_s();
+        for (f, t) in s.frames.iter().zip(&s.truth) {
+            if let Some(t) = *t {
+                if spliced.terrain_at(f.t - span) == spliced.terrain_at(f.t) {
+                    rep.spliced_filtered_settled.add(t, f.filtered);
+                }
+            }
+        }
         rep.change.merge(&s.change);
     }
     progress(folds.len(), folds.len());
+    let all: Vec<usize> = (0..logs.len()).collect();
+    let mut chained = TerrainTimeline {
+        classes: classes.clone(),
+        ..Default::default()
+    };
+    let mut truth = Vec::new();
+    for i in interleave_by_terrain(logs, &all) {
+        if let Some((tl, t)) = held_out[i].take() {
+            chained.frames.extend(tl.frames);
+            chained.changes.extend(tl.changes);
+            truth.extend(t);
+        }
+    }
+    let mut prev = None;
+    for (f, t) in chained.filter(&opts.belief).iter().zip(&truth) {
+        if let Some(t) = *t {
+            rep.chained_filtered.add(t, f.filtered);
+            rep.chained_changes += usize::from(prev.is_some_and(|p| p != t));
+            prev = Some(t);
+        }
+    }
+    runs.sort_by_key(|r| r.0);
+    rep.runs = runs.into_iter().map(|r| r.1).collect();
     Ok(rep)
+}
+
+/// Number of label changes between consecutive different terrains.
+fn label_changes(log: &DriveLog) -> usize {
+    log.terrain
+        .windows(2)
+        .filter(|w| w[0].terrain != w[1].terrain)
+        .count()
 }
 
 /// The runs `runs` grouped by their first terrain label, groups in order of

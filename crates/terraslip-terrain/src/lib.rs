@@ -24,7 +24,9 @@ pub mod vision;
 
 pub use classify::{Classifier, ClassifierKind, ClassifierParams};
 pub use error::{Result, TerrainError};
-pub use eval::{crossval, score_log, splice, ChangeScore, Confusion, CrossvalReport, LogScore};
+pub use eval::{
+    crossval, score_log, splice, ChangeScore, Confusion, CrossvalReport, LogScore, RunScore,
+};
 pub use model::{
     BeliefSettings, Features, FilteredFrame, Source, TerrainModel, TerrainTimeline, TrainOptions,
     MIN_INFORMATIVE_SPEED, MODEL_FORMAT_VERSION,

@@ -15,7 +15,9 @@ use crate::vibration::{self, VibrationConfig};
 use crate::vision::{self, VisionConfig};
 
 /// Version of the model file format; a file of another version is refused.
-pub const MODEL_FORMAT_VERSION: u32 = 1;
+/// 2: the `full` vibration set gained the steering-efficiency (slip) and
+/// manoeuvre features.
+pub const MODEL_FORMAT_VERSION: u32 = 2;
 
 /// The sensor a model reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -465,6 +467,15 @@ impl TerrainModel {
                 samples_per_class,
             },
         })
+    }
+
+    /// Length of the span of data behind one output, s: the IMU window, 0
+    /// for camera frames.
+    pub fn window_s(&self) -> f64 {
+        match &self.features {
+            Features::Vibration { config, .. } => config.window_s,
+            Features::Vision { .. } => 0.0,
+        }
     }
 
     /// Class probabilities of every window (IMU) or frame (camera) of a log.

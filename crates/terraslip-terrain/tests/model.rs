@@ -88,13 +88,21 @@ fn model_from_another_version_or_other_classes_is_refused() {
     let path = dir.path().join("m.json");
     m.save(&path).unwrap();
     let text = std::fs::read_to_string(&path).unwrap();
-    let old = text.replacen("\"format_version\": 1", "\"format_version\": 0", 1);
+    let current = format!("\"format_version\": {MODEL_FORMAT_VERSION}");
+    let old = text.replacen(&current, "\"format_version\": 1", 1);
     assert_ne!(old, text);
     let p0 = dir.path().join("old.json");
     std::fs::write(&p0, old).unwrap();
     let e = TerrainModel::load(&p0).unwrap_err();
     assert!(
-        matches!(e, TerrainError::ModelVersion { found: 0, .. }),
+        matches!(
+            e,
+            TerrainError::ModelVersion {
+                found: 1,
+                expected: MODEL_FORMAT_VERSION,
+                ..
+            }
+        ),
         "{e}"
     );
     assert!(e.to_string().contains("old.json"));
@@ -112,7 +120,7 @@ fn model_from_another_version_or_other_classes_is_refused() {
         TerrainModel::load(&p1),
         Err(TerrainError::ModelFile { .. })
     ));
-    std::fs::write(&p1, "{\"format_version\": 1}").unwrap();
+    std::fs::write(&p1, format!("{{{current}}}")).unwrap();
     assert!(matches!(
         TerrainModel::load(&p1),
         Err(TerrainError::ModelFile { .. })
@@ -277,4 +285,29 @@ fn crossval_leaves_whole_runs_out() {
         rep.raw.total() as usize,
         rep.raw.counts.iter().flatten().sum::<u64>() as usize
     );
+    // One score per run, in input order, adding up to the raw confusion.
+    assert_eq!(rep.runs.len(), runs.len());
+    assert!(rep.runs.iter().zip(&runs).all(|(s, r)| s.log == r.name()));
+    let frames: usize = rep.runs.iter().map(|s| s.frames).sum();
+    assert_eq!(frames, rep.raw.total() as usize);
+    assert!(rep
+        .runs
+        .iter()
+        .all(|s| s.raw_accuracy > 0.8 && s.terrain == s.most_predicted));
+    // Two folds of three terrains: two changes spliced into each fold's log;
+    // the chained outputs change terrain at every seam (a b c a b c).
+    assert_eq!(rep.spliced_changes, 4);
+    assert_eq!(rep.chained_changes, 5);
+    assert_eq!(rep.chained_filtered.total(), rep.raw.total());
+    assert!(rep.chained_filtered.accuracy() > 0.9);
+    assert!(rep.spliced_filtered_settled.total() < rep.spliced_filtered.total());
+    assert!(rep.spliced_filtered_settled.accuracy() >= rep.spliced_filtered.accuracy());
+
+    // Leave-one-run-out: a spliced "log" is a single run, no change to
+    // test; the chained outputs still change terrain at every seam.
+    let loo = crossval(&runs, &fast_opts(), runs.len(), |_, _| {}).unwrap();
+    assert_eq!(loo.folds, runs.len());
+    assert_eq!(loo.spliced_changes, 0);
+    assert_eq!(loo.chained_changes, 5);
+    assert_eq!(loo.spliced_filtered_settled, loo.spliced_filtered);
 }

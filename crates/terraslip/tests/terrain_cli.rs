@@ -142,6 +142,17 @@ fn crossval_reports_leave_runs_out_accuracy() {
         v["spliced_accuracy_filtered"].as_f64().unwrap() > 0.85,
         "{v}"
     );
+    assert!(
+        v["chained_accuracy_filtered"].as_f64().unwrap() > 0.85,
+        "{v}"
+    );
+    assert!(v["chained_changes"].as_u64().unwrap() > 0, "{v}");
+    // One entry per run, each named after its log directory.
+    let per_run = v["runs"].as_array().unwrap();
+    assert_eq!(per_run.len(), runs.len());
+    assert!(per_run
+        .iter()
+        .all(|r| r["frames"].as_u64().unwrap() > 0 && r["log"].is_string()));
 }
 
 fn fails_with(cmd: &mut Command, needle: &str) {
@@ -179,7 +190,14 @@ fn bad_input_is_one_line_and_non_zero() {
     let text = std::fs::read_to_string(&model).unwrap();
     std::fs::write(
         &old,
-        text.replacen("\"format_version\": 1", "\"format_version\": 7", 1),
+        text.replacen(
+            &format!(
+                "\"format_version\": {}",
+                terraslip_terrain::MODEL_FORMAT_VERSION
+            ),
+            "\"format_version\": 7",
+            1,
+        ),
     )
     .unwrap();
     eval_fails(Path::new(&runs[0]), &old, &plots, "version 7");

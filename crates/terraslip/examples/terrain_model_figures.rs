@@ -51,13 +51,7 @@ fn main() -> anyhow::Result<()> {
         let timeline = model.estimator_evidence(&log)?;
         let runs = [
             (&cfg, TerrainEvidence::Labels(log.terrain.clone())),
-            (
-                &model_cfg,
-                TerrainEvidence::Likelihoods {
-                    classes: timeline.classes.clone(),
-                    frames: timeline.frames.clone(),
-                },
-            ),
+            (&model_cfg, TerrainEvidence::from(timeline)),
         ];
         let mut cards = Vec::new();
         for (c, ev) in &runs {

@@ -27,7 +27,21 @@ pub enum TerrainEvidence {
     Likelihoods {
         classes: Vec<String>,
         frames: Vec<(f64, Vec<f64>)>,
+        /// Times (s) at which a camera change detector fired (lv2019). The
+        /// next frame after one is fused as after an innovation jump (lower
+        /// stay probability), so the belief follows the change sooner.
+        changes: Vec<f64>,
     },
+}
+
+impl From<terraslip_terrain::TerrainTimeline> for TerrainEvidence {
+    fn from(t: terraslip_terrain::TerrainTimeline) -> Self {
+        TerrainEvidence::Likelihoods {
+            classes: t.classes,
+            frames: t.frames,
+            changes: t.changes,
+        }
+    }
 }
 
 /// Options of one run besides the configuration.
@@ -365,6 +379,7 @@ pub fn run_with(
     let mut li = 0usize; // next label / frame
     let mut current_terrain: Option<usize> = None;
     let mut jump_since_frame = false;
+    let mut ci = 0usize; // next camera change detection
     let mut t_prev = log.wheels[0].t;
     // Fixes before the first wheels row are fused at the start.
     let total = log.wheels.len();
@@ -446,9 +461,17 @@ pub fn run_with(
                     }
                 }
             }
-            TerrainEvidence::Likelihoods { frames, .. } => {
+            TerrainEvidence::Likelihoods {
+                frames,
+                changes: detections,
+                ..
+            } => {
                 if let Some(b) = belief.as_mut() {
                     while li < frames.len() && frames[li].0 <= w.t {
+                        while ci < detections.len() && detections[ci] <= frames[li].0 {
+                            jump_since_frame = true;
+                            ci += 1;
+                        }
                         if let Some(k) = b.update(&frames[li].1, jump_since_frame) {
                             let action = schedule
                                 .on_terrain(&mut filter, k)

@@ -186,3 +186,58 @@ fn wheel_gap_is_not_integrated_with_held_speeds() {
     assert!(err < 0.5, "position error after the gap {err}");
     assert_eq!(run.stats.position_gated, 0, "{:?}", run.stats);
 }
+
+/// A weak classifier (0.65 on the true terrain, a frame a second) with and
+/// without camera change detections half a second after each change: the
+/// detections lower the belief's stay probability for the next frame, so each
+/// change is declared a frame sooner (the λ-vote still has the last word),
+/// and no change is declared where there is none.
+#[test]
+fn camera_change_detections_speed_up_the_belief() {
+    let log = drive(&SynthSpec::default());
+    let classes = vec!["asphalt".to_string(), "grass".to_string()];
+    let frames: Vec<(f64, Vec<f64>)> = (1..300)
+        .map(|s| {
+            let t = s as f64;
+            let grass = (100.0..200.0).contains(&t);
+            (
+                t,
+                if grass {
+                    vec![0.35, 0.65]
+                } else {
+                    vec![0.65, 0.35]
+                },
+            )
+        })
+        .collect();
+    let declared = |changes: Vec<f64>| {
+        let ev = TerrainEvidence::Likelihoods {
+            classes: classes.clone(),
+            frames: frames.clone(),
+            changes,
+        };
+        let run = pipeline::run(&log, &EstimatorConfig::default(), &ev, None).unwrap();
+        assert!(all_finite(&run));
+        run.changes
+            .iter()
+            .map(|c| (c.t, c.terrain))
+            .collect::<Vec<_>>()
+    };
+    let without = declared(Vec::new());
+    let with = declared(vec![100.5, 200.5]);
+    eprintln!("without {without:?}\nwith {with:?}");
+    // Both declare asphalt at the start, then grass, then asphalt again.
+    let terrains = |d: &[(f64, usize)]| d.iter().map(|c| c.1).collect::<Vec<_>>();
+    assert_eq!(terrains(&without), vec![0, 1, 0]);
+    assert_eq!(terrains(&with), vec![0, 1, 0]);
+    for k in 1..3 {
+        let true_t = 100.0 * k as f64;
+        assert!(with[k].0 >= true_t, "{with:?}");
+        assert!(
+            with[k].0 + 1.0 <= without[k].0,
+            "change {k}: {} s with detections, {} s without",
+            with[k].0,
+            without[k].0
+        );
+    }
+}

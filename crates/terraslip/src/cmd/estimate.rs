@@ -183,19 +183,20 @@ pub fn run(args: Args) -> Result<()> {
         cfg.belief.stay_prob = model.belief.stay_prob;
         cfg.belief.stay_prob_on_jump = model.belief.stay_prob_on_jump;
         cfg.belief.vote_lambda = model.belief.vote_lambda;
-        let frames = timeline.frames;
         eprintln!(
-            "terrain: {} {:?} classifier, {} windows over classes {}",
+            "terrain: {} {:?} classifier, {} windows{} over classes {}",
             path.display(),
             model.source,
-            frames.len(),
+            timeline.frames.len(),
+            if timeline.changes.is_empty() {
+                String::new()
+            } else {
+                format!(", {} camera change detections", timeline.changes.len())
+            },
             timeline.classes.join(", ")
         );
         (
-            TerrainEvidence::Likelihoods {
-                classes: timeline.classes.clone(),
-                frames,
-            },
+            TerrainEvidence::from(timeline),
             format!("model {} ({:?})", path.display(), model.source),
         )
     } else {

@@ -346,7 +346,38 @@ impl Segments {
             return;
         }
         let (w_first, w_last) = (w[0].t + time_offset, w[w.len() - 1].t + time_offset);
+        // The log's timeline: one step between consecutive knots, the knots
+        // being every wheel sample and every pose time on the wheel clock.
+        // Each segment is a contiguous run of it, so the whole drive can be
+        // integrated once per parameter vector and every segment's increment
+        // read off that trajectory (`model::residuals_rate`), however much
+        // the segments overlap.
+        let base = self.steps.len();
+        let mut knots: Vec<f64> = w.iter().map(|s| s.t).collect();
+        knots.extend(
+            poses
+                .iter()
+                .map(|p| p.0 - time_offset)
+                .filter(|&t| t >= w[0].t && t <= w[w.len() - 1].t),
+        );
+        knots.sort_by(f64::total_cmp);
+        knots.dedup();
         let mut hint = 0usize;
+        let mut prev = wheel_at(w, knots[0], &mut hint);
+        for p in knots.windows(2) {
+            let next = wheel_at(w, p[1], &mut hint);
+            // Trapezoid: the mean speed over the interval.
+            self.steps.push(Step {
+                dt: p[1] - p[0],
+                v_left: 0.5 * (prev.0 + next.0),
+                v_right: 0.5 * (prev.1 + next.1),
+            });
+            prev = next;
+        }
+        let knot_index = |t: f64| {
+            let k = knots.partition_point(|&x| x < t);
+            (k < knots.len() && knots[k] == t).then_some(base + k)
+        };
         let mut i = 0usize;
         while i < poses.len() {
             let (ta, ..) = poses[i];
@@ -388,22 +419,26 @@ impl Segments {
                 }
                 la.map(str::to_string)
             };
-            // Wheel steps between ta and tb on the wheel clock.
+            // Wheel samples between ta and tb on the wheel clock: a gap
+            // between them (not between timeline knots, which include the
+            // pose times) means the treads were not observed.
             let (wa, wb) = (ta - time_offset, tb - time_offset);
-            let first_step = self.steps.len();
-            let mut knots: Vec<f64> = vec![wa];
             let k0 = w.partition_point(|s| s.t <= wa);
-            let mut k = k0;
-            while k < w.len() && w[k].t < wb {
-                knots.push(w[k].t);
-                k += 1;
-            }
-            knots.push(wb);
-            if knots.windows(2).any(|p| p[1] - p[0] > cfg.max_wheel_gap) {
+            let k1 = w.partition_point(|s| s.t < wb);
+            let gap = std::iter::once(wa)
+                .chain(w[k0..k1.max(k0)].iter().map(|s| s.t))
+                .chain(std::iter::once(wb))
+                .collect::<Vec<_>>()
+                .windows(2)
+                .any(|p| p[1] - p[0] > cfg.max_wheel_gap);
+            let (Some(sa), Some(sb)) = (knot_index(wa), knot_index(wb)) else {
+                stats.gaps += 1;
+                continue;
+            };
+            if gap || sb <= sa {
                 stats.gaps += 1;
                 continue;
             }
-            hint = hint.min(k0.saturating_sub(1));
             let mut seg = Segment {
                 log: log_index,
                 t0: ta,
@@ -413,43 +448,24 @@ impl Segments {
                     (poses[j].1, poses[j].2, poses[j].3),
                 ),
                 terrain,
-                steps: 0..0,
+                steps: sa..sb,
                 tread_travel: 0.0,
                 int_diff: 0.0,
                 int_mean: 0.0,
             };
-            let mut prev = wheel_at(w, knots[0], &mut hint);
-            for p in knots.windows(2) {
-                let dt = p[1] - p[0];
-                let next = wheel_at(w, p[1], &mut hint);
-                if dt <= 0.0 {
-                    prev = next;
-                    continue;
-                }
-                // Trapezoid: the mean speed over the interval.
-                let vl = 0.5 * (prev.0 + next.0);
-                let vr = 0.5 * (prev.1 + next.1);
-                seg.tread_travel += (vl.abs() + vr.abs()) * dt;
-                seg.int_diff += (vr - vl) * dt;
-                seg.int_mean += 0.5 * (vr + vl) * dt;
-                self.steps.push(Step {
-                    dt,
-                    v_left: vl,
-                    v_right: vr,
-                });
-                prev = next;
+            for st in &self.steps[sa..sb] {
+                seg.tread_travel += (st.v_left.abs() + st.v_right.abs()) * st.dt;
+                seg.int_diff += (st.v_right - st.v_left) * st.dt;
+                seg.int_mean += 0.5 * (st.v_right + st.v_left) * st.dt;
             }
             if seg.tread_travel < cfg.stationary_travel {
                 stats.stationary += 1;
-                self.steps.truncate(first_step);
                 continue;
             }
-            if cfg.reference_gate && !plausible(&seg, &self.steps[first_step..], cfg) {
+            if cfg.reference_gate && !plausible(&seg, &self.steps[sa..sb], cfg) {
                 stats.implausible += 1;
-                self.steps.truncate(first_step);
                 continue;
             }
-            seg.steps = first_step..self.steps.len();
             self.segments.push(seg);
         }
         self.record(log_index, &stats);

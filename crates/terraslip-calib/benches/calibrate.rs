@@ -34,6 +34,16 @@ fn bench(c: &mut Criterion) {
     g.bench_function("lm_chained", |b| {
         b.iter(|| calibrate(&logs, &lm_chained, &|_| {}).expect("lm"))
     });
+    let lm_every_pose = CalibConfig {
+        segment: terraslip_calib::SegmentConfig {
+            overlap: Some(0.0),
+            ..lm.segment.clone()
+        },
+        ..lm.clone()
+    };
+    g.bench_function("lm_every_pose", |b| {
+        b.iter(|| calibrate(&logs, &lm_every_pose, &|_| {}).expect("lm"))
+    });
     let lm_auto = CalibConfig {
         method: Some(Method::Lm),
         ..Default::default()

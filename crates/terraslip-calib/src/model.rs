@@ -217,11 +217,38 @@ pub fn residuals_rate(
     segs: &Segments,
     yaw_weight: f64,
 ) -> Vec<[f64; 3]> {
-    let traj = trajectory_rate(p, k, &segs.steps);
+    // Only the poses at segment boundaries are kept: a pose per step would
+    // be megabytes per evaluation on a long drive.
+    let mut need: Vec<usize> = segs
+        .segments
+        .iter()
+        .flat_map(|s| [s.steps.start, s.steps.end])
+        .collect();
+    need.sort_unstable();
+    need.dedup();
+    let mut at = Vec::with_capacity(need.len());
+    let mut next = 0usize;
+    if need.first() == Some(&0) {
+        at.push(Pose::ORIGIN);
+        next = 1;
+    }
+    let last = need.last().copied().unwrap_or(0);
+    let mut i = 0usize;
+    walk(p, k, &segs.steps[..last.min(segs.steps.len())], |q| {
+        i += 1;
+        if need.get(next) == Some(&i) {
+            at.push(q);
+            next += 1;
+        }
+    });
+    let pose = |i: usize| need.binary_search(&i).ok().and_then(|j| at.get(j));
     segs.segments
         .iter()
         .map(|seg| {
-            let pred = traj[seg.steps.start].to(&traj[seg.steps.end]);
+            let (Some(a), Some(b)) = (pose(seg.steps.start), pose(seg.steps.end)) else {
+                return [f64::NAN; 3];
+            };
+            let pred = a.to(b);
             let r = seg.reference;
             [
                 r.dx - pred.dx,

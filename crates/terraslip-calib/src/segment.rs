@@ -41,7 +41,8 @@ pub struct Segment {
     pub reference: Increment,
     /// Terrain label in force over the whole segment, if the log has labels.
     pub terrain: Option<String>,
-    /// Range of this segment's steps in [`Segments::steps`].
+    /// Range of this segment's steps in [`Segments::steps`] (a run of its
+    /// log's timeline, shared with overlapping segments).
     pub steps: std::ops::Range<usize>,
     /// `int |v_l| + |v_r| dt`, m: how much the treads moved.
     pub tread_travel: f64,
@@ -73,11 +74,12 @@ pub struct SegmentConfig {
     /// Track width (m) used by the gate's yaw bound; 1 m if unknown.
     pub gate_track_width: Option<f64>,
     /// `None`: chained segments, each starting where the previous one ended
-    /// (the contract's, what `validate` scores). `Some(stride)`: a segment
-    /// also starts at the first pose at least `stride` s (0: every pose)
-    /// after the previous start, each ending at the first pose at least
-    /// `min_duration` later: every pose then starts and ends segments, which
-    /// uses the data more fully for a fit. The segments overlap, so their
+    /// (the contract's, what `validate` scores). `Some(stride)`: chains of
+    /// segments interleaved: a segment starts at every pose where an earlier
+    /// one ended, and a new chain at the first pose at least `stride` s
+    /// after the previous start (0: every pose starts a segment). Every
+    /// start is then also an end, so each pose's noise enters the fit from
+    /// both sides and largely cancels. The segments overlap, so their
     /// residuals are correlated (see [`Segments::coverage`]).
     pub overlap: Option<f64>,
 }
@@ -147,6 +149,8 @@ impl SegmentStats {
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Segments {
     pub segments: Vec<Segment>,
+    /// Each log's timeline, one after the other: a step between every two
+    /// consecutive wheel samples or pose times (wheel clock).
     pub steps: Vec<Step>,
     /// Totals over all logs.
     pub stats: SegmentStats,
@@ -284,6 +288,25 @@ pub fn plausible(seg: &Segment, steps: &[Step], cfg: &SegmentConfig) -> bool {
     r.dyaw.abs() <= 1.5 * yaw_free + 0.3
 }
 
+/// The union of two ascending sequences, ascending (a linear merge: the
+/// offset search builds segments dozens of times per log). Falls back to a
+/// sort if either is out of order.
+fn merge_sorted(a: impl Iterator<Item = f64>, b: &[f64]) -> Vec<f64> {
+    let mut out = Vec::with_capacity(b.len() + a.size_hint().0);
+    let mut b = b.iter().copied().peekable();
+    for x in a {
+        while let Some(y) = b.next_if(|&y| y < x) {
+            out.push(y);
+        }
+        out.push(x);
+    }
+    out.extend(b);
+    if !out.windows(2).all(|p| p[0] <= p[1]) {
+        out.sort_by(f64::total_cmp);
+    }
+    out
+}
+
 /// Linear interpolation of wheel speeds at `t` (clamped at the ends).
 /// `hint` is an index at or before `t`, advanced as the caller walks forward.
 fn wheel_at(w: &[WheelSample], t: f64, hint: &mut usize) -> (f64, f64) {
@@ -353,14 +376,12 @@ impl Segments {
         // read off that trajectory (`model::residuals_rate`), however much
         // the segments overlap.
         let base = self.steps.len();
-        let mut knots: Vec<f64> = w.iter().map(|s| s.t).collect();
-        knots.extend(
-            poses
-                .iter()
-                .map(|p| p.0 - time_offset)
-                .filter(|&t| t >= w[0].t && t <= w[w.len() - 1].t),
-        );
-        knots.sort_by(f64::total_cmp);
+        let pose_knots: Vec<f64> = poses
+            .iter()
+            .map(|p| p.0 - time_offset)
+            .filter(|&t| t >= w[0].t && t <= w[w.len() - 1].t)
+            .collect();
+        let mut knots = merge_sorted(w.iter().map(|s| s.t), &pose_knots);
         knots.dedup();
         let mut hint = 0usize;
         let mut prev = wheel_at(w, knots[0], &mut hint);

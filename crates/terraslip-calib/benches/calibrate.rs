@@ -34,15 +34,15 @@ fn bench(c: &mut Criterion) {
     g.bench_function("lm_chained", |b| {
         b.iter(|| calibrate(&logs, &lm_chained, &|_| {}).expect("lm"))
     });
-    let lm_every_pose = CalibConfig {
+    let lm_stride = CalibConfig {
         segment: terraslip_calib::SegmentConfig {
-            overlap: Some(0.0),
+            overlap: Some(0.25),
             ..lm.segment.clone()
         },
         ..lm.clone()
     };
-    g.bench_function("lm_every_pose", |b| {
-        b.iter(|| calibrate(&logs, &lm_every_pose, &|_| {}).expect("lm"))
+    g.bench_function("lm_stride_0.25", |b| {
+        b.iter(|| calibrate(&logs, &lm_stride, &|_| {}).expect("lm"))
     });
     let lm_auto = CalibConfig {
         method: Some(Method::Lm),

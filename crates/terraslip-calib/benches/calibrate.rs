@@ -24,6 +24,26 @@ fn bench(c: &mut Criterion) {
     g.bench_function("lm", |b| {
         b.iter(|| calibrate(&logs, &lm, &|_| {}).expect("lm"))
     });
+    let lm_chained = CalibConfig {
+        segment: terraslip_calib::SegmentConfig {
+            overlap: None,
+            ..lm.segment.clone()
+        },
+        ..lm.clone()
+    };
+    g.bench_function("lm_chained", |b| {
+        b.iter(|| calibrate(&logs, &lm_chained, &|_| {}).expect("lm"))
+    });
+    let lm_stride = CalibConfig {
+        segment: terraslip_calib::SegmentConfig {
+            overlap: Some(0.25),
+            ..lm.segment.clone()
+        },
+        ..lm.clone()
+    };
+    g.bench_function("lm_stride_0.25", |b| {
+        b.iter(|| calibrate(&logs, &lm_stride, &|_| {}).expect("lm"))
+    });
     let lm_auto = CalibConfig {
         method: Some(Method::Lm),
         ..Default::default()

@@ -140,13 +140,13 @@ pub struct RateChoice {
 impl Default for CalibConfig {
     fn default() -> Self {
         Self {
-            // Fit on overlapping segments, one starting every 0.25 s or so
-            // (see `SegmentConfig::overlap`): on the Warthog drives it
-            // predicted every held-out half at least as well as chained
-            // segments (docs/benchmarks-calib.md); the stride bounds the
-            // cost at about 4x the chained fit's whatever the pose rate.
+            // Fit on a segment from every pose (see `SegmentConfig::overlap`):
+            // it uses all the data, and on simulated drives it recovers the
+            // true parameters best of all the segmentations tried
+            // (docs/benchmarks-calib.md, `fit_segments`). Overlap costs
+            // little: the LM integrates each drive once per parameter vector.
             segment: SegmentConfig {
-                overlap: Some(0.25),
+                overlap: Some(0.0),
                 ..SegmentConfig::default()
             },
             yaw_weight: 0.5,

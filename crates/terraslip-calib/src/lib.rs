@@ -6,6 +6,9 @@
 //! 1. [`segment`]: the drive is cut into segments between pose observations
 //!    at least 1 s apart; held (repeated) poses are dropped, stationary
 //!    segments skipped, increments expressed in the frame of each segment start.
+//!    The fit uses a segment from every pose (overlapping); each log's
+//!    wheel steps form one timeline that the segments share, so the LM
+//!    integrates a drive once per parameter vector ([`model::residuals_rate`]).
 //! 2. [`offset`]: the wheel/pose time offset is estimated per log (every
 //!    candidate scored on the same segments), then refined by the profile
 //!    of the LM fit.

@@ -19,8 +19,8 @@ use nalgebra::{SMatrix, SVector};
 use terraslip_core::kinematics::MIN_SPREAD;
 use terraslip_core::IcrParams;
 
-use crate::model::{from_vec, residual, residual_rate, to_vec, RateSlopes};
-use crate::segment::{Segment, Segments};
+use crate::model::{from_vec, residuals_rate, to_vec, RateSlopes};
+use crate::segment::Segments;
 
 /// Median of the norm of a 3-D standard normal vector: turns a median
 /// residual norm into a per-component sigma.
@@ -71,22 +71,21 @@ pub struct LmFit {
 }
 
 /// A least-squares problem over the segments in `N` parameters: the
-/// segment residual of a parameter vector, and which vectors are usable.
+/// residuals of every segment for a parameter vector, and which vectors are
+/// usable.
 struct Problem<'a, const N: usize> {
     segs: &'a Segments,
-    residual: &'a (dyn Fn(&[f64; N], &Segment) -> [f64; 3] + Sync),
+    residuals: &'a (dyn Fn(&[f64; N]) -> Vec<[f64; 3]> + Sync),
     usable: &'a dyn Fn(&[f64; N]) -> bool,
     free: [bool; N],
 }
 
-/// `out[i] = f(i)` for every `i`, evaluated in parallel over contiguous
-/// blocks (all cores; segments are independent). Each entry is computed
-/// alone and callers sum them in index order, so results do not depend on
-/// the number of threads.
+/// `out[i] = f(i)` for every `i`, on all cores (contiguous blocks). Each
+/// entry is computed alone, so results do not depend on the thread count.
 fn par_fill<T: Send>(out: &mut [T], f: &(dyn Fn(usize) -> T + Sync)) {
     let threads = std::thread::available_parallelism()
         .map_or(1, |n| n.get())
-        .min(out.len() / 128)
+        .min(out.len())
         .max(1);
     if threads == 1 {
         for (i, o) in out.iter_mut().enumerate() {
@@ -108,53 +107,59 @@ fn par_fill<T: Send>(out: &mut [T], f: &(dyn Fn(usize) -> T + Sync)) {
 
 impl<const N: usize> Problem<'_, N> {
     /// Residuals and their Jacobian w.r.t. the parameters (forward
-    /// differences, step 1e-6 relative: N + 1 model evaluations per segment
+    /// differences, step 1e-6 relative: N + 1 integrations of the drive
     /// instead of 2N + 1, with a truncation error far below the residual
-    /// noise), for the segments with positive weight.
+    /// noise, evaluated on all cores), zero for segments without weight.
     #[allow(clippy::type_complexity)]
     fn residuals_and_jacobian(
         &self,
         v: &[f64; N],
         w: &[f64],
     ) -> (Vec<[f64; 3]>, Vec<[[f64; 3]; N]>) {
-        let (segs, residual, free) = (self.segs, self.residual, self.free);
-        let mut rj = vec![([0.0; 3], [[0.0; 3]; N]); segs.segments.len()];
-        par_fill(&mut rj, &|i| {
-            let mut J = [[0.0; 3]; N];
-            if w[i] <= 0.0 {
-                return ([0.0; 3], J);
+        let free = self.free;
+        // Column 0: the residuals at v; column k + 1: v with parameter k moved.
+        let mut cols: Vec<Vec<[f64; 3]>> = vec![Vec::new(); N + 1];
+        par_fill(&mut cols, &|c| {
+            if c == 0 {
+                return (self.residuals)(v);
             }
-            let s = &segs.segments[i];
-            let r = residual(v, s);
+            let k = c - 1;
+            if !free[k] {
+                return Vec::new();
+            }
+            let mut vp = *v;
+            vp[k] += 1e-6 * (1.0 + v[k].abs());
+            (self.residuals)(&vp)
+        });
+        let n = self.segs.segments.len();
+        let mut r = std::mem::take(&mut cols[0]);
+        let mut J = vec![[[0.0; 3]; N]; n];
+        for i in 0..n {
+            if w[i] <= 0.0 {
+                r[i] = [0.0; 3];
+                continue;
+            }
             for k in 0..N {
                 if !free[k] {
                     continue;
                 }
                 let h = 1e-6 * (1.0 + v[k].abs());
-                let mut vp = *v;
-                vp[k] += h;
-                let rp = residual(&vp, s);
                 for c in 0..3 {
                     // d(pred)/dp = -d(r)/dp
-                    J[k][c] = -(rp[c] - r[c]) / h;
+                    J[i][k][c] = -(cols[k + 1][i][c] - r[i][c]) / h;
                 }
             }
-            (r, J)
-        });
-        rj.into_iter().unzip()
+        }
+        (r, J)
     }
 
     fn weighted_sse(&self, v: &[f64; N], w: &[f64]) -> f64 {
-        let (segs, residual) = (self.segs, self.residual);
-        let mut terms = vec![0.0; segs.segments.len()];
-        par_fill(&mut terms, &|i| {
-            if w[i] <= 0.0 {
-                return 0.0;
-            }
-            let r = residual(v, &segs.segments[i]);
-            w[i] * (r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
-        });
-        terms.iter().sum()
+        (self.residuals)(v)
+            .iter()
+            .zip(w)
+            .filter(|(_, &w)| w > 0.0)
+            .map(|(r, &w)| w * (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]))
+            .sum()
     }
 
     /// Normal equations `J^T W J` and `J^T W r`, with fixed parameters decoupled.
@@ -295,12 +300,12 @@ fn usable(v: &[f64; 5]) -> bool {
 
 fn constant_problem<'a>(
     segs: &'a Segments,
-    res: &'a (dyn Fn(&[f64; 5], &Segment) -> [f64; 3] + Sync),
+    res: &'a (dyn Fn(&[f64; 5]) -> Vec<[f64; 3]> + Sync),
     free: [bool; 5],
 ) -> Problem<'a, 5> {
     Problem {
         segs,
-        residual: res,
+        residuals: res,
         usable: &usable,
         free,
     }
@@ -319,7 +324,7 @@ pub fn fit(
     if active.iter().filter(|&&a| a).count() == 0 {
         return None;
     }
-    let res = |v: &[f64; 5], s: &Segment| residual(&from_vec(v), segs, s, yaw_weight);
+    let res = |v: &[f64; 5]| residuals_rate(&from_vec(v), &RateSlopes::NONE, segs, yaw_weight);
     let problem = constant_problem(segs, &res, cfg.free);
     let mut v = to_vec(start);
     let mut w: Vec<f64> = active.iter().map(|&a| if a { 1.0 } else { 0.0 }).collect();
@@ -328,11 +333,11 @@ pub fn fit(
     for round in 0..cfg.irls_rounds.max(1) {
         let before = v;
         iterations += problem.solve(&mut v, &w, cfg.max_iterations);
-        let p = from_vec(&v);
-        let norms: Vec<f64> = (0..n)
-            .map(|i| {
-                if active[i] {
-                    let r = residual(&p, segs, &segs.segments[i], yaw_weight);
+        let norms: Vec<f64> = res(&v)
+            .iter()
+            .zip(active)
+            .map(|(r, &a)| {
+                if a {
                     (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt()
                 } else {
                     f64::NAN
@@ -383,7 +388,7 @@ pub fn uncertainties(
     yaw_weight: f64,
     free: &[bool; 5],
 ) -> [f64; 5] {
-    let res = |v: &[f64; 5], s: &Segment| residual(&from_vec(v), segs, s, yaw_weight);
+    let res = |v: &[f64; 5]| residuals_rate(&from_vec(v), &RateSlopes::NONE, segs, yaw_weight);
     constant_problem(segs, &res, *free).uncertainties(v, w)
 }
 
@@ -429,9 +434,9 @@ pub fn fit_rate(
             },
         )
     };
-    let res = |v: &[f64; 7], s: &Segment| {
+    let res = |v: &[f64; 7]| {
         let (p, k) = split(v);
-        residual_rate(&p, &k, segs, s, yaw_weight)
+        residuals_rate(&p, &k, segs, yaw_weight)
     };
     let ok = |v: &[f64; 7]| {
         usable(&[v[0], v[1], v[2], v[3], v[4]]) && v[5].is_finite() && v[6].is_finite()
@@ -440,7 +445,7 @@ pub fn fit_rate(
     f[..5].copy_from_slice(free);
     let problem = Problem {
         segs,
-        residual: &res,
+        residuals: &res,
         usable: &ok,
         free: f,
     };

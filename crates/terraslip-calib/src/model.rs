@@ -72,6 +72,62 @@ pub fn integrate(p: &IcrParams, steps: &[Step]) -> Increment {
 
 /// [`integrate`] with the turn-rate dependent model ([`RateSlopes`]).
 pub fn integrate_rate(p: &IcrParams, k: &RateSlopes, steps: &[Step]) -> Increment {
+    let mut end = Pose::ORIGIN;
+    walk(p, k, steps, |q| end = q);
+    Increment {
+        dx: end.x,
+        dy: end.y,
+        dyaw: end.th,
+    }
+}
+
+/// A pose of an integrated trajectory: position (m) and heading, the
+/// heading both accumulated (`th`, rad, unwrapped) and as its unit complex
+/// number (`c`, `s`), in the frame the integration started in.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pose {
+    pub x: f64,
+    pub y: f64,
+    pub th: f64,
+    pub c: f64,
+    pub s: f64,
+}
+
+impl Pose {
+    pub const ORIGIN: Pose = Pose {
+        x: 0.0,
+        y: 0.0,
+        th: 0.0,
+        c: 1.0,
+        s: 0.0,
+    };
+
+    /// The motion from `self` to `b` in the frame of `self`: what
+    /// [`integrate`] gives over the steps between them.
+    pub fn to(&self, b: &Pose) -> Increment {
+        let (de, dn) = (b.x - self.x, b.y - self.y);
+        Increment {
+            dx: self.c * de + self.s * dn,
+            dy: -self.s * de + self.c * dn,
+            dyaw: b.th - self.th,
+        }
+    }
+}
+
+/// The trajectory of the model over all of `steps`, from the origin: the
+/// pose before each step and after the last (`steps.len() + 1` poses).
+/// The increment of any run of steps `a..b` is `traj[a].to(&traj[b])`, equal
+/// to integrating that run alone up to rounding (below 1e-9 m on a 600 s drive).
+pub fn trajectory_rate(p: &IcrParams, k: &RateSlopes, steps: &[Step]) -> Vec<Pose> {
+    let mut out = Vec::with_capacity(steps.len() + 1);
+    out.push(Pose::ORIGIN);
+    walk(p, k, steps, |q| out.push(q));
+    out
+}
+
+/// Integrates the model over `steps`, handing each pose after a step to `visit`.
+#[inline(always)]
+fn walk(p: &IcrParams, k: &RateSlopes, steps: &[Step], visit: impl FnMut(Pose)) {
     // IcrParams::twist is linear in the tread speeds: take its coefficients
     // once instead of dividing by the spread at every step.
     let (l, r) = (p.twist(1.0, 0.0), p.twist(0.0, 1.0));
@@ -81,21 +137,25 @@ pub fn integrate_rate(p: &IcrParams, k: &RateSlopes, steps: &[Step]) -> Incremen
         omega: l.omega * st.v_left + r.omega * st.v_right,
     };
     if k.is_constant() {
-        return integrate_twists(steps, linear);
+        return integrate_twists(steps, linear, visit);
     }
-    integrate_twists(steps, |st| {
-        let t = linear(st);
-        let (turn, fwd) = k.gains((st.v_right - st.v_left).abs());
-        Twist {
-            v_x: fwd * t.v_x,
-            v_y: turn * t.v_y,
-            omega: turn * t.omega,
-        }
-    })
+    integrate_twists(
+        steps,
+        |st| {
+            let t = linear(st);
+            let (turn, fwd) = k.gains((st.v_right - st.v_left).abs());
+            Twist {
+                v_x: fwd * t.v_x,
+                v_y: turn * t.v_y,
+                omega: turn * t.omega,
+            }
+        },
+        visit,
+    )
 }
 
 #[inline(always)]
-fn integrate_twists(steps: &[Step], twist: impl Fn(&Step) -> Twist) -> Increment {
+fn integrate_twists(steps: &[Step], twist: impl Fn(&Step) -> Twist, mut visit: impl FnMut(Pose)) {
     let (mut x, mut y, mut th) = (0.0f64, 0.0f64, 0.0f64);
     let (mut c, mut s) = (1.0f64, 0.0f64);
     for st in steps {
@@ -120,11 +180,7 @@ fn integrate_twists(steps: &[Step], twist: impl Fn(&Step) -> Twist) -> Increment
         y += (sm * tw.v_x + cm * tw.v_y) * k;
         (c, s) = (cm * ch - sm * sh, sm * ch + cm * sh);
         th += tw.omega * st.dt;
-    }
-    Increment {
-        dx: x,
-        dy: y,
-        dyaw: th,
+        visit(Pose { x, y, th, c, s });
     }
 }
 
@@ -150,6 +206,57 @@ pub fn residual_rate(
         r.dy - pred.dy,
         yaw_weight * angle::wrap(r.dyaw - pred.dyaw),
     ]
+}
+
+/// [`residual_rate`] of every segment of `segs`, in order, from one
+/// integration of all the steps: overlapping segments share their steps, so
+/// this costs one pass over the drive whatever the overlap.
+pub fn residuals_rate(
+    p: &IcrParams,
+    k: &RateSlopes,
+    segs: &Segments,
+    yaw_weight: f64,
+) -> Vec<[f64; 3]> {
+    // Only the poses at segment boundaries are kept: a pose per step would
+    // be megabytes per evaluation on a long drive.
+    let mut need: Vec<usize> = segs
+        .segments
+        .iter()
+        .flat_map(|s| [s.steps.start, s.steps.end])
+        .collect();
+    need.sort_unstable();
+    need.dedup();
+    let mut at = Vec::with_capacity(need.len());
+    let mut next = 0usize;
+    if need.first() == Some(&0) {
+        at.push(Pose::ORIGIN);
+        next = 1;
+    }
+    let last = need.last().copied().unwrap_or(0);
+    let mut i = 0usize;
+    walk(p, k, &segs.steps[..last.min(segs.steps.len())], |q| {
+        i += 1;
+        if need.get(next) == Some(&i) {
+            at.push(q);
+            next += 1;
+        }
+    });
+    let pose = |i: usize| need.binary_search(&i).ok().and_then(|j| at.get(j));
+    segs.segments
+        .iter()
+        .map(|seg| {
+            let (Some(a), Some(b)) = (pose(seg.steps.start), pose(seg.steps.end)) else {
+                return [f64::NAN; 3];
+            };
+            let pred = a.to(b);
+            let r = seg.reference;
+            [
+                r.dx - pred.dx,
+                r.dy - pred.dy,
+                yaw_weight * angle::wrap(r.dyaw - pred.dyaw),
+            ]
+        })
+        .collect()
 }
 
 /// Mandow et al. eq. 13: the sum over segments of squared increment errors,
@@ -299,6 +406,55 @@ mod tests {
             integrate_rate(&p, &RateSlopes::NONE, &steps),
             integrate(&p, &steps)
         );
+    }
+
+    #[test]
+    fn trajectory_increments_equal_per_segment_integration() {
+        use crate::segment::SegmentConfig;
+        use crate::synthetic::{drive, mandow_table1, SynthConfig};
+        // A 600 s drive (the bench's): rounding grows along the trajectory.
+        let log = drive(
+            &[("asphalt", mandow_table1())],
+            &SynthConfig::p3at(600.0, 3),
+        );
+        let cfg = SegmentConfig {
+            overlap: Some(0.0),
+            ..Default::default()
+        };
+        let segs = Segments::build(&[&log], &[0.03], &cfg);
+        assert!(segs.len() > 2000, "{}", segs.len());
+        let p = IcrParams {
+            y_l: 0.3,
+            y_r: -0.25,
+            x_c: 0.04,
+            alpha_l: 0.93,
+            alpha_r: 0.95,
+        };
+        for k in [
+            RateSlopes::NONE,
+            RateSlopes {
+                k_spread: -0.1,
+                k_alpha: -0.05,
+            },
+        ] {
+            let all = residuals_rate(&p, &k, &segs, 0.5);
+            let mut worst = 0.0f64;
+            for (seg, r) in segs.segments.iter().zip(&all) {
+                let one = residual_rate(&p, &k, &segs, seg, 0.5);
+                for c in 0..3 {
+                    worst = worst.max((one[c] - r[c]).abs());
+                }
+            }
+            assert!(worst < 1e-9, "{worst}");
+        }
+        // A segment that does not start at the beginning of the drive
+        // really is read relative to its start: a wrong pose index would
+        // be off by metres.
+        let traj = trajectory_rate(&p, &RateSlopes::NONE, &segs.steps);
+        let s = &segs.segments[segs.len() / 2];
+        let wrong = traj[0].to(&traj[s.steps.end]);
+        let right = integrate(&p, segs.steps_of(s));
+        assert!((wrong.dx - right.dx).abs() + (wrong.dy - right.dy).abs() > 0.1);
     }
 
     #[test]

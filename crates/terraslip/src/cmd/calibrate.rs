@@ -114,10 +114,11 @@ pub struct Args {
     /// its slopes are identified) or `off`.
     #[arg(long, value_enum, default_value = "auto")]
     rate_model: RateArg,
-    /// Fit segments overlap: one starts at the first pose at least this many
-    /// seconds after the previous start (0: at every pose), each lasting
-    /// --min-segment. `validate` always scores chained segments.
-    #[arg(long, default_value_t = 0.25, value_name = "S")]
+    /// Fit segments overlap, each lasting --min-segment: one starts at every
+    /// pose where an earlier one ended, and at the first pose at least this
+    /// many seconds after the previous start (0: at every pose, the
+    /// default). `validate` always scores chained segments.
+    #[arg(long, default_value_t = 0.0, value_name = "S")]
     stride: f64,
     /// Fit on chained segments only (each starting where the previous one
     /// ended), as `validate` scores and as before the overlapping fit.

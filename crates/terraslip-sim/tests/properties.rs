@@ -497,7 +497,7 @@ fn edge_scenarios_run_and_stay_finite() {
         assert!(!log.wheels.is_empty(), "{extra}");
         assert!(log.wheels.iter().all(|w| w.v_left.is_finite() && w.v_right.is_finite()), "{extra}");
         assert!(run.truth.iter().all(|s| s.east.is_finite() && s.north.is_finite() && s.yaw.is_finite()), "{extra}");
-        assert!(log.pose.iter().all(|p| p.east.map_or(true, f64::is_finite)), "{extra}");
+        assert!(log.pose.iter().all(|p| p.east.is_none_or(f64::is_finite)), "{extra}");
         assert!(log.imu.iter().all(|m| m.accel_z.is_finite()), "{extra}");
         let last = log.wheels.last().unwrap().t;
         assert!((last - 12.0).abs() < 0.01, "{extra}: ends at {last}");

@@ -9,7 +9,8 @@
 //!
 //! Prints, per segmentation, the RMS over seeds of the error of y_l, y_r,
 //! x_c (mm) and of the alphas (%), the worst single error, and the mean
-//! wall time of one `calibrate()`.
+//! wall time of one `calibrate()`; then, for the noisy drives, the mean
+//! reported 1-sigma next to the RMS error per parameter, and their ratio.
 
 use terraslip_calib::synthetic::{drive, mandow_table1, SynthConfig};
 use terraslip_calib::*;
@@ -27,6 +28,7 @@ fn main() {
         ("stride 0.25 s", Some(0.25)),
         ("every pose", Some(0.0)),
     ];
+    let mut honesty = Vec::new();
     println!("| pose noise | fit segments | RMS y_l, y_r, x_c (mm) | RMS alpha_l, alpha_r (%) | worst (mm) | s per fit |");
     println!("|---|---|---|---|---|---|");
     for noisy in [true, false] {
@@ -51,6 +53,7 @@ fn main() {
                 ..Default::default()
             };
             let mut sq = [0.0f64; 5];
+            let mut sd = [0.0f64; 5];
             let mut worst = 0.0f64;
             let t = std::time::Instant::now();
             for log in &logs {
@@ -69,13 +72,20 @@ fn main() {
                     1e2 * (p.alpha_l / truth.alpha_l - 1.0),
                     1e2 * (p.alpha_r / truth.alpha_r - 1.0),
                 ];
+                let std = cal.sets[0].best.std;
+                let unit = [1e3, 1e3, 1e3, 1e2 / truth.alpha_l, 1e2 / truth.alpha_r];
                 for k in 0..5 {
                     sq[k] += e[k] * e[k];
+                    sd[k] += unit[k] * std[k];
                 }
                 worst = worst.max(e[0].abs()).max(e[1].abs()).max(e[2].abs());
             }
             let secs = t.elapsed().as_secs_f64() / logs.len() as f64;
             let rms: Vec<f64> = sq.iter().map(|s| (s / logs.len() as f64).sqrt()).collect();
+            if noisy {
+                let mean: Vec<f64> = sd.iter().map(|s| s / logs.len() as f64).collect();
+                honesty.push((name, mean, rms.clone()));
+            }
             println!(
                 "| {} | {name} | {:.2}, {:.2}, {:.2} | {:.3}, {:.3} | {:.2} | {:.2} |",
                 if noisy { "1 cm, 0.005 rad" } else { "none" },
@@ -88,5 +98,21 @@ fn main() {
                 secs
             );
         }
+    }
+    println!();
+    println!("| fit segments | reported 1-sigma / RMS error: y_l, y_r, x_c (mm) | alpha_l, alpha_r (%) | ratio per parameter |");
+    println!("|---|---|---|---|");
+    for (name, mean, rms) in honesty {
+        let f = |k: usize, d: usize| format!("{:.*} / {:.*}", d, mean[k], d, rms[k]);
+        let ratio: Vec<String> = (0..5).map(|k| format!("{:.2}", mean[k] / rms[k])).collect();
+        println!(
+            "| {name} | {}, {}, {} | {}, {} | {} |",
+            f(0, 2),
+            f(1, 2),
+            f(2, 2),
+            f(3, 3),
+            f(4, 3),
+            ratio.join(", ")
+        );
     }
 }

@@ -175,7 +175,8 @@ pub struct MethodFit {
     /// Cauchy-robust eq. 13 over the inlier segments (what the methods are
     /// compared by).
     pub robust_cost: f64,
-    /// 1-sigma uncertainties from the weighted Jacobian at `params`.
+    /// 1-sigma uncertainties at `params`: the sandwich estimate of
+    /// [`crate::sandwich`] over the LM fit's segment weights.
     pub std: [f64; 5],
 }
 
@@ -211,8 +212,11 @@ pub struct SetCalibration {
     /// The turn-rate dependent model, unless `RateModel::Off`.
     pub rate: Option<RateChoice>,
     /// Mean number of segments covering an instant ([`Segments::coverage`]):
-    /// 1 for chained segments; uncertainties and counts are corrected by it.
+    /// 1 for chained segments; counts are corrected by it.
     pub coverage: f64,
+    /// The residual noise (pose reference and excess) the uncertainties
+    /// assume, estimated at the LM fit.
+    pub noise: crate::sandwich::ResidualNoise,
     pub yaw_weight: f64,
     pub track_width: Option<f64>,
     pub wheel_radius: Option<f64>,
@@ -311,6 +315,15 @@ impl SetCalibration {
         }
         x.insert("yaw_weight".into(), json!(self.yaw_weight));
         x.insert("sigma_m".into(), json!(self.sigma));
+        x.insert(
+            "residual_noise".into(),
+            json!({
+                "pose_xy_m": self.noise.pose_xy,
+                "pose_yaw_rad": self.noise.pose_yaw,
+                "excess_xy_m_per_sqrt_s": self.noise.excess_xy,
+                "excess_yaw_rad_per_sqrt_s": self.noise.excess_yaw,
+            }),
+        );
         x.insert("segments_used".into(), json!(self.segments_used));
         if self.coverage > 1.0 {
             x.insert("segment_coverage".into(), json!(self.coverage));
@@ -626,7 +639,7 @@ fn choose_rate(
     mode: RateModel,
     coverage: f64,
 ) -> Option<RateChoice> {
-    let mut fit = lm::fit_rate(
+    let fit = lm::fit_rate(
         segs,
         &best.params,
         weights,
@@ -634,9 +647,6 @@ fn choose_rate(
         &lm_cfg.free,
         lm_cfg.max_iterations,
     )?;
-    for s in &mut fit.std {
-        *s *= coverage.sqrt();
-    }
     // Residuals of overlapping segments are not independent: count the
     // chained equivalent.
     let n = 3.0
@@ -759,8 +769,7 @@ fn calibrate_set(
             &lm_fit.weights,
             cfg.yaw_weight,
             &lm_cfg.free,
-        )
-        .map(|s| s * coverage.sqrt()),
+        ),
     };
     let mut fits = Vec::new();
     let wants = |m: Method| cfg.method.is_none() || cfg.method == Some(m);
@@ -883,6 +892,7 @@ fn calibrate_set(
         dropped,
         stats: SegmentStats::default(),
         sigma: lm_fit.sigma,
+        noise: lm_fit.noise,
         time_offsets: Vec::new(),
         unidentified,
         notes,

@@ -35,6 +35,7 @@ pub mod ga;
 pub mod lm;
 pub mod model;
 pub mod offset;
+pub mod sandwich;
 pub mod segment;
 pub mod symmetric;
 pub mod synthetic;

@@ -20,6 +20,7 @@ use terraslip_core::kinematics::MIN_SPREAD;
 use terraslip_core::IcrParams;
 
 use crate::model::{from_vec, residuals_rate, to_vec, RateSlopes};
+use crate::sandwich::{self, ResidualNoise};
 use crate::segment::Segments;
 
 /// Median of the norm of a 3-D standard normal vector: turns a median
@@ -59,9 +60,11 @@ impl Default for LmConfig {
 #[derive(Debug, Clone, PartialEq)]
 pub struct LmFit {
     pub params: IcrParams,
-    /// 1-sigma uncertainties of (y_l, y_r, x_c, alpha_l, alpha_r) from the
-    /// weighted Jacobian, `sqrt(diag(s^2 (J^T W J)^-1))`; NaN for fixed ones.
+    /// 1-sigma uncertainties of (y_l, y_r, x_c, alpha_l, alpha_r), the
+    /// sandwich estimate of [`crate::sandwich`]; NaN for fixed ones.
     pub std: [f64; 5],
+    /// The residual noise that estimate assumed.
+    pub noise: ResidualNoise,
     /// Final per-segment weights (0 = dropped as an outlier).
     pub weights: Vec<f64>,
     /// Robust per-component residual scale, m.
@@ -78,6 +81,8 @@ struct Problem<'a, const N: usize> {
     residuals: &'a (dyn Fn(&[f64; N]) -> Vec<[f64; 3]> + Sync),
     usable: &'a dyn Fn(&[f64; N]) -> bool,
     free: [bool; N],
+    /// m/rad, to map heading noise into the weighted residual.
+    yaw_weight: f64,
 }
 
 /// `out[i] = f(i)` for every `i`, on all cores (contiguous blocks). Each
@@ -247,22 +252,25 @@ impl<const N: usize> Problem<'_, N> {
         it
     }
 
-    /// `sqrt(diag(s^2 (J^T W J)^-1))` with `s^2` the weighted residual
-    /// variance. A singular information matrix gives infinite
-    /// uncertainties: those parameters are not identified by the data.
-    fn uncertainties(&self, v: &[f64; N], w: &[f64]) -> [f64; N] {
+    /// 1-sigma of every parameter, the sandwich `A⁻¹ Var(g) A⁻¹` of
+    /// [`crate::sandwich`], and the residual noise it assumed. A singular
+    /// information matrix gives infinite uncertainties: those parameters are
+    /// not identified by the data. NaN for fixed parameters.
+    fn uncertainties(&self, v: &[f64; N], w: &[f64]) -> ([f64; N], ResidualNoise) {
         let (r, J) = self.residuals_and_jacobian(v, w);
         let (A, _) = self.normal_equations(&r, &J, w);
-        let n_free = self.free.iter().filter(|&&f| f).count();
-        let (mut sse, mut wsum) = (0.0, 0.0);
-        for i in 0..r.len() {
-            if w[i] > 0.0 {
-                sse += w[i] * (r[i][0].powi(2) + r[i][1].powi(2) + r[i][2].powi(2));
-                wsum += w[i];
-            }
-        }
-        let dof = 3.0 * wsum - n_free as f64;
-        let s2 = if dof > 0.0 { sse / dof } else { f64::INFINITY };
+        let noise = sandwich::estimate_noise(self.segs, &r, w, self.yaw_weight);
+        let M = sandwich::meat(self.segs, &J, w, self.yaw_weight, &noise);
+        // The excess and pose noise are estimated from residuals at the fit,
+        // which the fit has shrunk by about k of n degrees of freedom.
+        let n_free = self.free.iter().filter(|&&f| f).count() as f64;
+        let wsum: f64 = w.iter().filter(|&&x| x > 0.0).map(|x| x.min(1.0)).sum();
+        let dof = 3.0 * wsum - n_free;
+        let inflate = if dof > 0.0 {
+            3.0 * wsum / dof
+        } else {
+            f64::INFINITY
+        };
         let mut out = [f64::NAN; N];
         // Scale rows/columns so parameters of different units condition
         // alike; then the scaled matrix has a unit diagonal, and a diagonal
@@ -281,16 +289,26 @@ impl<const N: usize> Problem<'_, N> {
             .cholesky()
             .map(|c| c.inverse())
             .filter(|m| m.iter().all(|x| x.is_finite()) && (0..N).all(|k| m[(k, k)] < 1e12));
+        // cov = A⁻¹ M A⁻¹ with A⁻¹ = D⁻¹ S⁻¹ D⁻¹, D = diag(scale).
+        let cov = inv.map(|m| {
+            let mut Ms = M;
+            for a in 0..N {
+                for b in 0..N {
+                    Ms[(a, b)] /= scale[a] * scale[b];
+                }
+            }
+            m * Ms * m
+        });
         for k in 0..N {
             if !self.free[k] {
                 continue;
             }
-            out[k] = match &inv {
-                Some(m) if A[(k, k)] > 0.0 => (s2 * m[(k, k)].max(0.0)).sqrt() / scale[k],
+            out[k] = match &cov {
+                Some(c) if A[(k, k)] > 0.0 => (inflate * c[(k, k)].max(0.0)).sqrt() / scale[k],
                 _ => f64::INFINITY,
             };
         }
-        out
+        (out, noise)
     }
 }
 
@@ -302,12 +320,14 @@ fn constant_problem<'a>(
     segs: &'a Segments,
     res: &'a (dyn Fn(&[f64; 5]) -> Vec<[f64; 3]> + Sync),
     free: [bool; 5],
+    yaw_weight: f64,
 ) -> Problem<'a, 5> {
     Problem {
         segs,
         residuals: res,
         usable: &usable,
         free,
+        yaw_weight,
     }
 }
 
@@ -325,7 +345,7 @@ pub fn fit(
         return None;
     }
     let res = |v: &[f64; 5]| residuals_rate(&from_vec(v), &RateSlopes::NONE, segs, yaw_weight);
-    let problem = constant_problem(segs, &res, cfg.free);
+    let problem = constant_problem(segs, &res, cfg.free, yaw_weight);
     let mut v = to_vec(start);
     let mut w: Vec<f64> = active.iter().map(|&a| if a { 1.0 } else { 0.0 }).collect();
     let mut iterations = 0;
@@ -367,18 +387,19 @@ pub fn fit(
             break;
         }
     }
-    let std = problem.uncertainties(&v, &w);
+    let (std, noise) = problem.uncertainties(&v, &w);
     Some(LmFit {
         params: from_vec(&v),
         std,
+        noise,
         weights: w,
         sigma,
         iterations,
     })
 }
 
-/// `sqrt(diag(s^2 (J^T W J)^-1))` of the constant model at `v` with
-/// segment weights `w`, `s^2` the weighted residual variance. A singular
+/// 1-sigma of the constant model's parameters at `v` with segment weights
+/// `w`: the sandwich estimate of [`crate::sandwich`]. A singular
 /// information matrix gives infinite uncertainties: those parameters are
 /// not identified by the data. NaN for fixed parameters.
 pub fn uncertainties(
@@ -389,7 +410,9 @@ pub fn uncertainties(
     free: &[bool; 5],
 ) -> [f64; 5] {
     let res = |v: &[f64; 5]| residuals_rate(&from_vec(v), &RateSlopes::NONE, segs, yaw_weight);
-    constant_problem(segs, &res, *free).uncertainties(v, w)
+    constant_problem(segs, &res, *free, yaw_weight)
+        .uncertainties(v, w)
+        .0
 }
 
 /// Parameter order of the turn-rate dependent fit.
@@ -448,6 +471,7 @@ pub fn fit_rate(
         residuals: &res,
         usable: &ok,
         free: f,
+        yaw_weight,
     };
     let p0 = to_vec(start);
     let mut v = [p0[0], p0[1], p0[2], p0[3], p0[4], 0.0, 0.0];
@@ -456,7 +480,7 @@ pub fn fit_rate(
     Some(RateFit {
         params,
         slopes,
-        std: problem.uncertainties(&v, w),
+        std: problem.uncertainties(&v, w).0,
         sse: problem.weighted_sse(&v, w),
     })
 }

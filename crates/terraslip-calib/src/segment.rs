@@ -80,7 +80,7 @@ pub struct SegmentConfig {
     /// after the previous start (0: every pose starts a segment). Every
     /// start is then also an end, so each pose's noise enters the fit from
     /// both sides and largely cancels. The segments overlap, so their
-    /// residuals are correlated (see [`Segments::coverage`]).
+    /// residuals are correlated (see [`crate::sandwich`]).
     pub overlap: Option<f64>,
 }
 
@@ -512,9 +512,9 @@ impl Segments {
     /// How many segments cover an instant on average: their total duration
     /// over the length of the union of their time spans (per log). 1 for
     /// chained segments; about poses-per-`min_duration` with
-    /// [`SegmentConfig::overlap`] = `Some(0)`. Overlapping segments share pose noise, so
-    /// least-squares uncertainties over them are too small by about the
-    /// square root of this, and counts of them overstate the evidence by it.
+    /// [`SegmentConfig::overlap`] = `Some(0)`. Overlapping segments share
+    /// pose noise, so counts of them overstate the evidence by about this
+    /// (the uncertainties model the sharing itself, [`crate::sandwich`]).
     pub fn coverage(&self) -> f64 {
         let mut spans: Vec<(usize, f64, f64)> =
             self.segments.iter().map(|s| (s.log, s.t0, s.t1)).collect();

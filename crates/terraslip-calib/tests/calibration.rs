@@ -398,35 +398,120 @@ fn a_turn_rate_dependent_robot_gets_its_slopes_and_a_constant_one_gets_none() {
         .contains_key("rate_model"));
 }
 
+/// Errors over `seeds` 200 s drives in units of the reported 1-sigma
+/// (one entry per seed and parameter), and the mean reported sigmas.
+fn normalised_errors(
+    overlap: Option<f64>,
+    wheel_noise: f64,
+    seeds: std::ops::RangeInclusive<u64>,
+) -> (Vec<[f64; 5]>, [f64; 5]) {
+    let truth = mandow_table1();
+    let mut cfg = lm_only();
+    cfg.time_offset = TimeOffset::Fixed(0.0);
+    cfg.rate_model = RateModel::Off;
+    cfg.segment.overlap = overlap;
+    let (mut z, mut mean) = (Vec::new(), [0.0; 5]);
+    let n = seeds.clone().count() as f64;
+    for seed in seeds {
+        let mut log = drive(&[("asphalt", truth)], &SynthConfig::p3at(200.0, seed));
+        // White noise on the 100 Hz tread speeds: an excess that grows
+        // along each segment and is shared by overlapping ones.
+        let mut state = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+        let mut uniform = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        };
+        for w in &mut log.wheels {
+            let (u, v) = (uniform(), uniform());
+            let g = (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos();
+            let h = (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).sin();
+            w.v_left += wheel_noise * g;
+            w.v_right += wheel_noise * h;
+        }
+        let cal = calibrate(std::slice::from_ref(&log), &cfg, &|_| {}).expect("calibration");
+        let s = &cal.sets[0];
+        let (p, t) = (model::to_vec(&s.best.params), model::to_vec(&truth));
+        let mut e = [0.0; 5];
+        for k in 0..5 {
+            assert!(s.best.std[k].is_finite() && s.best.std[k] > 0.0);
+            e[k] = (p[k] - t[k]) / s.best.std[k];
+            mean[k] += s.best.std[k] / n;
+        }
+        z.push(e);
+    }
+    (z, mean)
+}
+
+/// RMS of the normalised errors per parameter and pooled.
+fn rms_z(z: &[[f64; 5]]) -> ([f64; 5], f64) {
+    let mut per = [0.0; 5];
+    for e in z {
+        for k in 0..5 {
+            per[k] += e[k] * e[k] / z.len() as f64;
+        }
+    }
+    let pooled = (per.iter().sum::<f64>() / 5.0).sqrt();
+    (per.map(f64::sqrt), pooled)
+}
+
 #[test]
-fn overlapping_fit_segments_keep_honest_uncertainties() {
+fn reported_uncertainties_match_the_actual_errors() {
+    // Pose noise only (1 cm, 0.005 rad at 5 Hz): chained segments and a
+    // segment from every pose, which share poses and telescope their
+    // noise. The reported sigma must be the size of the actual error,
+    // neither the 2-4x too large of the independent-residual formula with
+    // its coverage correction nor too small.
+    let (zc, sc) = normalised_errors(None, 0.0, 1..=6);
+    let (zo, so) = normalised_errors(Some(0.0), 0.0, 1..=6);
+    for (name, z) in [("chained", &zc), ("every pose", &zo)] {
+        let (per, pooled) = rms_z(z);
+        assert!((0.6..1.6).contains(&pooled), "{name}: {pooled} {per:?}");
+        for (k, r) in per.iter().enumerate() {
+            assert!((0.4..2.5).contains(r), "{name} {k}: {per:?}");
+        }
+    }
+    // A pose from every segment is more informative, and says so.
+    for k in 0..5 {
+        assert!(so[k] < 0.8 * sc[k], "{k}: {so:?} vs {sc:?}");
+    }
+    // With tread speed noise on top (0.02 m/s at 100 Hz), the excess
+    // shared by overlapping segments is counted too.
+    let (zw, sw) = normalised_errors(Some(0.0), 0.02, 1..=6);
+    let (per, pooled) = rms_z(&zw);
+    assert!(
+        (0.6..1.6).contains(&pooled),
+        "wheel noise: {pooled} {per:?}"
+    );
+    assert!(sw.iter().zip(&so).all(|(a, b)| a > b), "{sw:?} vs {so:?}");
+}
+
+#[test]
+fn residual_noise_is_split_into_pose_noise_and_excess() {
     let truth = mandow_table1();
     let log = drive(&[("asphalt", truth)], &SynthConfig::p3at(200.0, 8));
-    let logs = std::slice::from_ref(&log);
-    let overlap = calibrate(logs, &lm_only(), &|_| {}).expect("calibration");
-    let mut chained_cfg = lm_only();
-    chained_cfg.segment.overlap = None;
-    let chained = calibrate(logs, &chained_cfg, &|_| {}).expect("calibration");
-    let (o, c) = (&overlap.sets[0], &chained.sets[0]);
-    assert!(
-        o.coverage > 2.0 && c.coverage == 1.0,
-        "{} {}",
-        o.coverage,
-        c.coverage
-    );
-    assert!(o.segments_used as f64 > 2.0 * c.segments_used as f64);
-    assert_close(&o.best.params, &truth, 0.01, 0.02, 0.01);
-    // Without the coverage correction the overlapping fit would claim
-    // about sqrt(2.5) times smaller uncertainties from the same poses.
-    for k in 0..5 {
-        let q = o.best.std[k] / c.best.std[k];
-        assert!((0.7..1.4).contains(&q), "{k}: {q}");
-    }
-    assert_eq!(
-        o.entry().extra["segment_coverage"].as_f64(),
-        Some(o.coverage)
-    );
-    assert!(!c.entry().extra.contains_key("segment_coverage"));
+    let mut cfg = lm_only();
+    cfg.time_offset = TimeOffset::Fixed(0.0);
+    let cal = calibrate(std::slice::from_ref(&log), &cfg, &|_| {}).expect("calibration");
+    let n = cal.sets[0].noise;
+    assert!((n.pose_xy - 0.01).abs() < 0.002, "{n:?}");
+    assert!((n.pose_yaw - 0.005).abs() < 0.001, "{n:?}");
+    assert!(n.excess_xy < 0.003 && n.excess_yaw < 0.003, "{n:?}");
+    assert!(n.pairs > 500, "{n:?}");
+    let x = &cal.params_file().terrains["asphalt"].extra["residual_noise"];
+    assert_eq!(x["pose_xy_m"].as_f64(), Some(n.pose_xy));
+    // Every other chained segment: they share no pose, nothing tells pose
+    // noise from excess, all of it is excess and the estimate falls back
+    // to independent residuals.
+    let mut scfg = SegmentConfig::default().for_logs(std::slice::from_ref(&log));
+    scfg.overlap = None;
+    let segs = Segments::build(&[&log], &[0.0], &scfg);
+    let keep: Vec<f64> = (0..segs.len()).map(|i| (i % 2) as f64).collect();
+    let r = model::residuals_rate(&truth, &RateSlopes::NONE, &segs, 0.5);
+    let e = terraslip_calib::sandwich::estimate_noise(&segs, &r, &keep, 0.5);
+    assert_eq!((e.pairs, e.pose_xy, e.pose_yaw), (0, 0.0, 0.0));
+    assert!(e.excess_xy > 0.01 && e.excess_yaw > 0.005, "{e:?}");
 }
 
 #[test]

@@ -7,7 +7,7 @@
 //! the turn-rate dependent model where calibration selected it; both with
 //! the same segments, gate and time offset as the no-slip model.
 //!
-//! `cargo run --release -p terraslip-calib --example drive_split -- DATA_DIR [lm|ga|symmetric|all] [--yaw-weight W] [--no-offset] [--no-gate] [--plain] [--cauchy C] [--rate off|auto|on] [--validation-offset params|auto] [--chained | --stride S]`
+//! `cargo run --release -p terraslip-calib --example drive_split -- DATA_DIR [lm|ga|symmetric|all] [--yaw-weight W] [--no-offset] [--no-gate] [--plain] [--cauchy C] [--rate off|auto|on] [--validation-offset params|auto] [--chained | --stride S] [--traction off|auto|on [--signed]]`
 //!
 //! `--validation-offset auto` estimates the wheel-to-pose offset of the
 //! validation half on that half itself (model-free, the same for every
@@ -63,6 +63,12 @@ fn main() {
         Some("on") => RateModel::On,
         _ => RateModel::Auto,
     };
+    cfg.traction = match word("--traction") {
+        Some("auto") => RateModel::Auto,
+        Some("on") => RateModel::On,
+        _ => RateModel::Off,
+    };
+    cfg.traction_signed = flag("--signed");
     let validation_offset = if flag("--no-offset") {
         OffsetChoice::Fixed(0.0)
     } else if word("--validation-offset") == Some("auto") {
@@ -103,6 +109,9 @@ fn main() {
     for log in &logs {
         let (h1, h2) = halves(log);
         for (name, train, test) in [("1st -> 2nd", h1, h2), ("2nd -> 1st", h2, h1)] {
+            // `--in-sample`: score on the training half itself (how far the
+            // model family can reach there, not a held-out figure).
+            let test = if flag("--in-sample") { train } else { test };
             let mut c = cfg.clone();
             (c.segment.t_min, c.segment.t_max) = train;
             let cal = match calibrate(std::slice::from_ref(log), &c, &|_| {}) {
@@ -132,16 +141,29 @@ fn main() {
             let rate = validate(std::slice::from_ref(log), &pf, &v);
             match (constant, rate) {
                 (Ok(c), Ok(r)) => {
+                    let traction = match s.rate.as_ref().and_then(|x| x.traction.as_ref().map(|t| (x, t))) {
+                        Some((x, (t, b))) => format!(
+                            "; traction {}: k_acc {:.3}±{:.3}, k_dir {:.3}±{:.3}, BIC {:+.1} vs rate {:+.1}",
+                            if x.traction_selected { "selected" } else { "not selected" },
+                            t.slopes.k_acc,
+                            t.std[7],
+                            t.slopes.k_dir,
+                            t.std[8],
+                            b - x.bic_constant,
+                            x.bic_rate - x.bic_constant
+                        ),
+                        None => String::new(),
+                    };
                     let rate_cols = match &s.rate {
                         Some(x) if x.selected => format!(
-                            "{:.3}, {:.3} | {:.3} | **{:.3}**",
-                            x.fit.slopes.k_spread,
-                            x.fit.slopes.k_alpha,
+                            "{:.3}, {:.3}{traction} | {:.3} | **{:.3}**",
+                            x.written().slopes.k_spread,
+                            x.written().slopes.k_alpha,
                             r.mse.position(),
                             r.nominal_mse.position() / r.mse.position()
                         ),
                         Some(x) => format!(
-                            "not selected: {} ({:.3}±{:.3}, {:.3}±{:.3}; BIC {:+.1}) | - | -",
+                            "not selected: {} ({:.3}±{:.3}, {:.3}±{:.3}; BIC {:+.1}){traction} | - | -",
                             x.reason.as_deref().unwrap_or(""),
                             x.fit.slopes.k_spread,
                             x.fit.std[5],

@@ -97,6 +97,12 @@ pub struct CalibConfig {
     /// Whether to fit the turn-rate dependent model ([`RateSlopes`](crate::model::RateSlopes)) next to
     /// the constant one.
     pub rate_model: RateModel,
+    /// Whether to fit the traction term (`k_acc`, and `k_dir` with
+    /// `traction_signed`) on top of the turn-rate model. `Auto` selects it
+    /// by the same information criterion; `Off` unless `rate_model` is on.
+    pub traction: RateModel,
+    /// Let the traction term differ between accelerating and braking.
+    pub traction_signed: bool,
 }
 
 /// Whether the turn-rate dependent ICR model ([`RateSlopes`](crate::model::RateSlopes)) is fitted.
@@ -125,13 +131,21 @@ impl RateModel {
 /// The turn-rate dependent model of one set and why it was (not) selected.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RateChoice {
+    /// The turn-rate model (slopes `k_spread`, `k_alpha`).
     pub fit: RateFit,
     /// Bayesian information criterion `n ln(J/n) + k ln n` of the constant
     /// winner and of the rate model, over the same weighted segments
     /// (`n` = 3 residuals per segment, `k` = free parameters).
     pub bic_constant: f64,
     pub bic_rate: f64,
-    /// Whether `validate` and the file use it.
+    /// The turn-rate model with the traction term, when it was fitted, and
+    /// its criterion.
+    pub traction: Option<(RateFit, f64)>,
+    /// Whether the traction model is the one written (implies `selected`).
+    pub traction_selected: bool,
+    /// Why the traction model was not selected, when it was fitted.
+    pub traction_reason: Option<String>,
+    /// Whether `validate` and the file use a variable model.
     pub selected: bool,
     /// Why it was not selected.
     pub reason: Option<String>,
@@ -161,6 +175,8 @@ impl Default for CalibConfig {
             min_turning_segments: 5,
             allow_partial: false,
             rate_model: RateModel::Auto,
+            traction: RateModel::Auto,
+            traction_signed: false,
         }
     }
 }
@@ -605,10 +621,12 @@ impl RateChoice {
     /// ICR parameters and slopes, their 1-sigma, the criterion and whether
     /// it was selected (only then does `validate` use it).
     pub fn to_json(&self) -> Value {
-        let f = &self.fit;
+        let f = self.written();
         let std: serde_json::Map<String, Value> = RATE_PARAM_NAMES
             .iter()
             .zip(f.std)
+            .take(5 + if f.slopes.has_traction() { 4 } else { 2 })
+            .filter(|(_, s)| !s.is_nan())
             .map(|(n, s)| (n.to_string(), finite_or_null(s)))
             .collect();
         let mut v = json!({
@@ -621,15 +639,42 @@ impl RateChoice {
             "bic_constant": self.bic_constant,
             "bic_rate": self.bic_rate,
         });
+        if self.traction_selected {
+            v["k_acc"] = json!(f.slopes.k_acc);
+            v["k_dir"] = json!(f.slopes.k_dir);
+        }
+        if let Some((t, b)) = &self.traction {
+            v["traction"] = json!({
+                "selected": self.traction_selected,
+                "k_acc": t.slopes.k_acc,
+                "k_dir": t.slopes.k_dir,
+                "std_k_acc": finite_or_null(t.std[7]),
+                "std_k_dir": finite_or_null(t.std[8]),
+                "bic": b,
+            });
+            if let Some(r) = &self.traction_reason {
+                v["traction"]["reason"] = json!(r);
+            }
+        }
         if let Some(r) = &self.reason {
             v["reason"] = json!(r);
         }
         v
     }
+
+    /// The variable model the file holds: the traction model when it was
+    /// selected, else the turn-rate model.
+    pub fn written(&self) -> &RateFit {
+        match &self.traction {
+            Some((t, _)) if self.traction_selected => t,
+            _ => &self.fit,
+        }
+    }
 }
 
 /// Fits the turn-rate model from the constant winner over the constant
 /// fit's segment weights and decides whether it is worth its two slopes.
+#[allow(clippy::too_many_arguments)]
 fn choose_rate(
     segs: &Segments,
     best: &MethodFit,
@@ -637,14 +682,17 @@ fn choose_rate(
     yaw_weight: f64,
     lm_cfg: &LmConfig,
     mode: RateModel,
+    traction: (RateModel, bool),
     coverage: f64,
 ) -> Option<RateChoice> {
     let fit = lm::fit_rate(
         segs,
         &best.params,
+        &model::RateSlopes::NONE,
         weights,
         yaw_weight,
         &lm_cfg.free,
+        &lm::TURN_RATE,
         lm_cfg.max_iterations,
     )?;
     // Residuals of overlapping segments are not independent: count the
@@ -662,7 +710,7 @@ fn choose_rate(
     let (bic_constant, bic_rate) = (bic(j0, k), bic(fit.sse / coverage, k + 2.0));
     // A slope is identified when its 1-sigma is under 0.1 s/m: a factor
     // of 10 % per m/s of tread speed difference.
-    let unidentified = fit.std[5..].iter().any(|s| !(s.is_finite() && *s < 0.1));
+    let unidentified = fit.std[5..7].iter().any(|s| !(s.is_finite() && *s < 0.1));
     let reason = if unidentified {
         Some("the slopes are not identified by these segments (1-sigma over 0.1 s/m)".to_string())
     } else if mode == RateModel::Auto && bic_rate >= bic_constant {
@@ -670,12 +718,58 @@ fn choose_rate(
     } else {
         None
     };
+    // The traction term is fitted on top of the turn-rate model, from it,
+    // over the same weights, and must beat whichever of the constant and
+    // turn-rate models is selected.
+    let (mut t_fit, mut t_selected, mut t_reason) = (None, false, None);
+    if traction.0 != RateModel::Off && !unidentified {
+        let free_slopes = if traction.1 {
+            lm::TURN_RATE_TRACTION_SIGNED
+        } else {
+            lm::TURN_RATE_TRACTION
+        };
+        if let Some(t) = lm::fit_rate(
+            segs,
+            &fit.params,
+            &fit.slopes,
+            weights,
+            yaw_weight,
+            &lm_cfg.free,
+            &free_slopes,
+            lm_cfg.max_iterations,
+        ) {
+            let b = bic(t.sse / coverage, k + t.n_slopes() as f64);
+            let floor = if reason.is_none() {
+                bic_rate
+            } else {
+                bic_constant
+            };
+            // Identified: 1-sigma under 0.05 s^2/m, a 5 % change of the speed
+            // factors per m/s^2 of tread acceleration.
+            let n_t = t.n_slopes();
+            t_reason = if t.std[5..5 + n_t].iter().any(|s| !(s.is_finite() && *s < 0.1))
+                || t.std[7..5 + n_t].iter().any(|s| !(*s < 0.05))
+            {
+                Some("the traction slopes are not identified (1-sigma over 0.05 s^2/m)".to_string())
+            } else if traction.0 == RateModel::Auto && b >= floor {
+                Some("it does not lower the information criterion".to_string())
+            } else {
+                None
+            };
+            t_selected = t_reason.is_none();
+            t_fit = Some((t, b));
+        }
+    }
+    let selected = reason.is_none() || t_selected;
     Some(RateChoice {
         fit,
         bic_constant,
         bic_rate,
-        selected: reason.is_none(),
-        reason,
+        traction: t_fit,
+        traction_selected: t_selected,
+        traction_reason: t_reason,
+        selected,
+        reason: if selected { None } else { reason },
     })
 }
 
@@ -866,6 +960,7 @@ fn calibrate_set(
             cfg.yaw_weight,
             &lm_cfg,
             m,
+            (cfg.traction, cfg.traction_signed),
             coverage,
         ),
     };

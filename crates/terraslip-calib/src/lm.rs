@@ -415,57 +415,78 @@ pub fn uncertainties(
         .0
 }
 
-/// Parameter order of the turn-rate dependent fit.
-pub const RATE_PARAM_NAMES: [&str; 7] = [
-    "y_l", "y_r", "x_c", "alpha_l", "alpha_r", "k_spread", "k_alpha",
+/// Parameter order of the turn-rate dependent fit (and its traction term).
+pub const RATE_PARAM_NAMES: [&str; 9] = [
+    "y_l", "y_r", "x_c", "alpha_l", "alpha_r", "k_spread", "k_alpha", "k_acc", "k_dir",
 ];
 
-/// The turn-rate dependent model ([`RateSlopes`]) fitted jointly with the
-/// five ICR parameters.
+/// Which slopes of [`RateSlopes`] a variable-ICR fit frees, in the order
+/// (k_spread, k_alpha, k_acc, k_dir).
+pub const TURN_RATE: [bool; 4] = [true, true, false, false];
+/// The turn-rate model with the symmetric traction term `k_acc`.
+pub const TURN_RATE_TRACTION: [bool; 4] = [true, true, true, false];
+/// The turn-rate model with traction differing when accelerating and braking.
+pub const TURN_RATE_TRACTION_SIGNED: [bool; 4] = [true, true, true, true];
+
+/// A variable-ICR model ([`RateSlopes`]) fitted jointly with the five ICR
+/// parameters.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RateFit {
     pub params: IcrParams,
     pub slopes: RateSlopes,
     /// 1-sigma of [`RATE_PARAM_NAMES`]; NaN for fixed parameters.
-    pub std: [f64; 7],
+    pub std: [f64; 9],
     /// Weighted eq. 13 sum at the fit.
     pub sse: f64,
+    /// Which slopes were fitted (order of [`TURN_RATE`]).
+    pub free_slopes: [bool; 4],
 }
 
-/// Fits the turn-rate dependent model by Levenberg-Marquardt from `start`
-/// (constant ICRs, zero slopes) with the segment weights `w` held fixed
-/// (those of the constant fit, so that both models are judged on the same
-/// segments). `free` says which of the five ICR parameters are fitted; the
-/// slopes always are. `None` when no segment has weight.
+impl RateFit {
+    /// Number of fitted slopes.
+    pub fn n_slopes(&self) -> usize {
+        self.free_slopes.iter().filter(|&&f| f).count()
+    }
+}
+
+/// Fits a variable-ICR model by Levenberg-Marquardt from `start` and
+/// `start_slopes` (slopes not in `free_slopes` keep their start value,
+/// normally 0) with the segment weights `w` held fixed (those of the
+/// constant fit, so that every model is judged on the same segments).
+/// `free` says which of the five ICR parameters are fitted. `None` when no
+/// segment has weight.
 pub fn fit_rate(
     segs: &Segments,
     start: &IcrParams,
+    start_slopes: &RateSlopes,
     w: &[f64],
     yaw_weight: f64,
     free: &[bool; 5],
+    free_slopes: &[bool; 4],
     max_iterations: usize,
 ) -> Option<RateFit> {
     if !w.iter().any(|&x| x > 0.0) {
         return None;
     }
-    let split = |v: &[f64; 7]| {
+    let split = |v: &[f64; 9]| {
         (
             from_vec(&[v[0], v[1], v[2], v[3], v[4]]),
             RateSlopes {
                 k_spread: v[5],
                 k_alpha: v[6],
+                k_acc: v[7],
+                k_dir: v[8],
             },
         )
     };
-    let res = |v: &[f64; 7]| {
+    let res = |v: &[f64; 9]| {
         let (p, k) = split(v);
         residuals_rate(&p, &k, segs, yaw_weight)
     };
-    let ok = |v: &[f64; 7]| {
-        usable(&[v[0], v[1], v[2], v[3], v[4]]) && v[5].is_finite() && v[6].is_finite()
-    };
-    let mut f = [true; 7];
+    let ok = |v: &[f64; 9]| usable(&[v[0], v[1], v[2], v[3], v[4]]) && v[5..].iter().all(|x| x.is_finite());
+    let mut f = [false; 9];
     f[..5].copy_from_slice(free);
+    f[5..].copy_from_slice(free_slopes);
     let problem = Problem {
         segs,
         residuals: &res,
@@ -474,7 +495,10 @@ pub fn fit_rate(
         yaw_weight,
     };
     let p0 = to_vec(start);
-    let mut v = [p0[0], p0[1], p0[2], p0[3], p0[4], 0.0, 0.0];
+    let k0 = start_slopes;
+    let mut v = [
+        p0[0], p0[1], p0[2], p0[3], p0[4], k0.k_spread, k0.k_alpha, k0.k_acc, k0.k_dir,
+    ];
     problem.solve(&mut v, w, max_iterations);
     let (params, slopes) = split(&v);
     Some(RateFit {
@@ -482,5 +506,6 @@ pub fn fit_rate(
         slopes,
         std: problem.uncertainties(&v, w).0,
         sse: problem.weighted_sse(&v, w),
+        free_slopes: *free_slopes,
     })
 }

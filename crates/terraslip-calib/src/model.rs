@@ -20,6 +20,13 @@ pub struct RateSlopes {
     pub k_spread: f64,
     /// Relative change of both speed factors per m/s of difference, s/m.
     pub k_alpha: f64,
+    /// Traction term: relative loss of both speed factors per m/s^2 of
+    /// tread acceleration `a` ([`Step::acc`], > 0 when speeding up), s^2/m:
+    /// the factors scale by `1 - k_acc |a| - k_dir a` (`k_dir` makes
+    /// accelerating and braking differ). Zero in Mandow's and the
+    /// turn-rate model.
+    pub k_acc: f64,
+    pub k_dir: f64,
 }
 
 impl RateSlopes {
@@ -27,27 +34,37 @@ impl RateSlopes {
     pub const NONE: RateSlopes = RateSlopes {
         k_spread: 0.0,
         k_alpha: 0.0,
+        k_acc: 0.0,
+        k_dir: 0.0,
     };
 
     pub fn is_constant(&self) -> bool {
-        self.k_spread == 0.0 && self.k_alpha == 0.0
+        *self == Self::NONE
+    }
+
+    /// Whether the traction term is on.
+    pub fn has_traction(&self) -> bool {
+        self.k_acc != 0.0 || self.k_dir != 0.0
     }
 
     /// `(yaw and lateral gain, forward gain)` relative to the constant model
-    /// at tread speed difference `dv` (m/s): `omega` and `v_y` scale by the
-    /// first, `v_x` by the second.
+    /// at tread speed difference `dv` (m/s) and tread acceleration `acc`
+    /// (m/s^2, [`Step::acc`]): `omega` and `v_y` scale by the first, `v_x`
+    /// by the second.
     #[inline(always)]
-    fn gains(&self, dv: f64) -> (f64, f64) {
+    fn gains(&self, dv: f64, acc: f64) -> (f64, f64) {
         let d = (1.0 + self.k_spread * dv).clamp(0.2, 5.0);
-        let a = (1.0 + self.k_alpha * dv).clamp(0.2, 5.0);
+        let traction = (1.0 - self.k_acc * acc.abs() - self.k_dir * acc).clamp(0.2, 5.0);
+        let a = (1.0 + self.k_alpha * dv).clamp(0.2, 5.0) * traction;
         (a / d, a)
     }
 
     /// Body twist (body frame, m/s and rad/s) of parameters `p` with these
-    /// slopes from measured tread speeds (m/s).
-    pub fn twist(&self, p: &IcrParams, v_left: f64, v_right: f64) -> Twist {
+    /// slopes from measured tread speeds (m/s) and the tread acceleration
+    /// `acc` (m/s^2, [`Step::acc`]).
+    pub fn twist(&self, p: &IcrParams, v_left: f64, v_right: f64, acc: f64) -> Twist {
         let t = p.twist(v_left, v_right);
-        let (turn, fwd) = self.gains((v_right - v_left).abs());
+        let (turn, fwd) = self.gains((v_right - v_left).abs(), acc);
         Twist {
             v_x: fwd * t.v_x,
             v_y: turn * t.v_y,
@@ -143,7 +160,7 @@ fn walk(p: &IcrParams, k: &RateSlopes, steps: &[Step], visit: impl FnMut(Pose)) 
         steps,
         |st| {
             let t = linear(st);
-            let (turn, fwd) = k.gains((st.v_right - st.v_left).abs());
+            let (turn, fwd) = k.gains((st.v_right - st.v_left).abs(), st.acc);
             Twist {
                 v_x: fwd * t.v_x,
                 v_y: turn * t.v_y,
@@ -331,6 +348,7 @@ mod tests {
                 dt: if k == 6 { 0.2 } else { 0.3 },
                 v_left: vl,
                 v_right: vr,
+                acc: 0.0,
             })
             .collect();
         let inc = integrate(&p, &steps);
@@ -354,6 +372,7 @@ mod tests {
                 dt: 0.005 + 0.03 * ((k * 7 % 11) as f64 / 11.0),
                 v_left: (k as f64 * 0.05).sin(),
                 v_right: 1.2 * (k as f64 * 0.031).cos(),
+                acc: 0.0,
             })
             .collect();
         let fast = integrate(&p, &steps);
@@ -377,19 +396,40 @@ mod tests {
         let k = RateSlopes {
             k_spread: -0.1,
             k_alpha: -0.05,
+            ..Default::default()
         };
         // Straight: no difference, no change.
-        assert_eq!(k.twist(&p, 1.0, 1.0), p.twist(1.0, 1.0));
+        assert_eq!(k.twist(&p, 1.0, 1.0, 0.0), p.twist(1.0, 1.0));
         // A spin with dv = 2 m/s: spread x0.8, speeds x0.9, turn x1.125.
-        let (c, t) = (p.twist(-1.0, 1.0), k.twist(&p, -1.0, 1.0));
+        let (c, t) = (p.twist(-1.0, 1.0), k.twist(&p, -1.0, 1.0, 0.0));
         assert!((t.omega - c.omega * 0.9 / 0.8).abs() < 1e-12);
         // A slope that would make the spread negative is held at 0.2x.
         let wild = RateSlopes {
             k_spread: -10.0,
-            k_alpha: 0.0,
+            ..Default::default()
         };
-        let t = wild.twist(&p, -1.0, 1.0);
+        let t = wild.twist(&p, -1.0, 1.0, 0.0);
         assert!(t.omega.is_finite() && (t.omega - c.omega * 5.0).abs() < 1e-9);
+        // Traction: both speed factors lose k_acc |a| + k_dir a, whatever
+        // the turn; accelerating (a > 0) and braking differ through k_dir.
+        let tr = RateSlopes {
+            k_acc: 0.1,
+            k_dir: 0.02,
+            ..Default::default()
+        };
+        let s = p.twist(0.5, 1.5);
+        for (acc, f) in [(2.0, 0.76), (-2.0, 0.84), (0.0, 1.0)] {
+            let t = tr.twist(&p, 0.5, 1.5, acc);
+            assert!((t.v_x - f * s.v_x).abs() < 1e-12, "{acc}");
+            assert!((t.omega - f * s.omega).abs() < 1e-12, "{acc}");
+        }
+        assert!(tr.has_traction() && !k.has_traction() && !tr.is_constant());
+        // A slope that would reverse the motion is held at 0.2x.
+        let slip = RateSlopes {
+            k_acc: 10.0,
+            ..Default::default()
+        };
+        assert!((slip.twist(&p, 1.0, 1.0, 3.0).v_x - 0.2).abs() < 1e-12);
         // The integrator agrees with the twist, and with the constant model
         // for zero slopes.
         let steps = vec![
@@ -397,11 +437,12 @@ mod tests {
                 dt: 0.1,
                 v_left: -1.0,
                 v_right: 1.0,
+                acc: 0.0,
             };
             10
         ];
         let a = integrate_rate(&p, &k, &steps);
-        assert!((a.dyaw - k.twist(&p, -1.0, 1.0).omega).abs() < 1e-12);
+        assert!((a.dyaw - k.twist(&p, -1.0, 1.0, 0.0).omega).abs() < 1e-12);
         assert_eq!(
             integrate_rate(&p, &RateSlopes::NONE, &steps),
             integrate(&p, &steps)
@@ -435,6 +476,8 @@ mod tests {
             RateSlopes {
                 k_spread: -0.1,
                 k_alpha: -0.05,
+                k_acc: 0.1,
+                k_dir: 0.02,
             },
         ] {
             let all = residuals_rate(&p, &k, &segs, 0.5);

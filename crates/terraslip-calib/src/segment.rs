@@ -22,12 +22,23 @@ pub struct Increment {
 }
 
 /// One wheel interval of constant measured tread speeds (m/s) lasting `dt` s.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Step {
     pub dt: f64,
     pub v_left: f64,
     pub v_right: f64,
+    /// Acceleration of the mean tread speed `(v_l + v_r)/2` at mid-step,
+    /// m/s^2, made positive when speeding up in the driving direction
+    /// (`d|v|/dt`): a central difference over [`ACC_HALF_WINDOW`] each side,
+    /// because the Warthog's encoders hold each tread speed for 0.25 s.
+    /// Only the traction term of [`crate::model::RateSlopes`] reads it.
+    pub acc: f64,
 }
+
+/// Half width (s) of the central difference that gives [`Step::acc`]:
+/// one hold period of the Warthog's tread speeds (0.25 s), so a speed step
+/// shows as one acceleration pulse instead of a spike.
+pub const ACC_HALF_WINDOW: f64 = 0.25;
 
 /// The motion between two pose observations.
 #[derive(Debug, Clone, PartialEq)]
@@ -384,14 +395,23 @@ impl Segments {
         let mut knots = merge_sorted(w.iter().map(|s| s.t), &pose_knots);
         knots.dedup();
         let mut hint = 0usize;
+        let (mut lo, mut hi) = (0usize, 0usize);
         let mut prev = wheel_at(w, knots[0], &mut hint);
         for p in knots.windows(2) {
             let next = wheel_at(w, p[1], &mut hint);
+            let mid = 0.5 * (p[0] + p[1]);
+            let (a, b) = (
+                wheel_at(w, mid - ACC_HALF_WINDOW, &mut lo),
+                wheel_at(w, mid + ACC_HALF_WINDOW, &mut hi),
+            );
             // Trapezoid: the mean speed over the interval.
+            let (v_left, v_right) = (0.5 * (prev.0 + next.0), 0.5 * (prev.1 + next.1));
             self.steps.push(Step {
                 dt: p[1] - p[0],
-                v_left: 0.5 * (prev.0 + next.0),
-                v_right: 0.5 * (prev.1 + next.1),
+                v_left,
+                v_right,
+                acc: (0.5 * (b.0 + b.1) - 0.5 * (a.0 + a.1)) / (2.0 * ACC_HALF_WINDOW)
+                    * (v_left + v_right).signum(),
             });
             prev = next;
         }

@@ -8,6 +8,7 @@ use terraslip_io::{DriveLog, Meta, PoseObs, TerrainLabel, WheelSample};
 
 use crate::ga::SplitMix64;
 use crate::model::RateSlopes;
+use crate::segment::ACC_HALF_WINDOW;
 
 /// What kind of motion the synthetic driver commands.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -36,7 +37,8 @@ pub struct SynthConfig {
     pub hold: (f64, f64),
     pub manoeuvres: Manoeuvres,
     pub track_width: f64,
-    /// Turn-rate dependence of the true ICRs (zero: Mandow's constant model).
+    /// Turn-rate dependence and traction term of the true ICRs (zero:
+    /// Mandow's constant model).
     pub rate: RateSlopes,
     pub robot: Option<String>,
     pub wheel_radius: Option<f64>,
@@ -90,6 +92,7 @@ pub fn drive(patches: &[(&str, IcrParams)], cfg: &SynthConfig) -> DriveLog {
         ..Default::default()
     };
     let mut truth: Vec<(f64, f64, f64, f64)> = Vec::with_capacity(n + 1);
+    let mut params: Vec<IcrParams> = Vec::with_capacity(n + 1);
     let (mut v_cmd, mut w_cmd, mut until) = (0.0, 0.0, 0.0);
     for k in 0..=n {
         let t = k as f64 * dt;
@@ -119,8 +122,19 @@ pub fn drive(patches: &[(&str, IcrParams)], cfg: &SynthConfig) -> DriveLog {
             v_left: vl,
             v_right: vr,
         });
-        truth.push((t, x, y, th));
-        let tw = cfg.rate.twist(&p.1, vl, vr);
+        params.push(p.1);
+    }
+    // The traction term reads the tread acceleration the calibration
+    // computes (`segment::Step::acc`): a central difference of the mean
+    // tread speed over `ACC_HALF_WINDOW` each side, positive when speeding up.
+    let h = (ACC_HALF_WINDOW * cfg.wheel_rate).round().max(1.0) as usize;
+    let w = &log.wheels;
+    let mean = |i: usize| 0.5 * (w[i].v_left + w[i].v_right);
+    for k in 0..=n {
+        let (a, b) = (k.saturating_sub(h), (k + h).min(n));
+        let acc = (mean(b) - mean(a)) / (2.0 * h as f64 * dt) * mean(k).signum();
+        truth.push((w[k].t, x, y, th));
+        let tw = cfg.rate.twist(&params[k], w[k].v_left, w[k].v_right, acc);
         // Midpoint integration at 100 Hz is exact to well below a millimetre.
         let mid = th + 0.5 * tw.omega * dt;
         x += (mid.cos() * tw.v_x - mid.sin() * tw.v_y) * dt;

@@ -126,9 +126,17 @@ pub fn model_for(
         alpha_r: num(q, "alpha_r")?,
     };
     params.validate().map_err(|e| bad(format!("params: {e}")))?;
+    // The traction slopes are optional: files written before they existed
+    // hold the turn-rate model alone.
+    let optional = |key: &str| match rate.get(key) {
+        None | Some(serde_json::Value::Null) => Ok(0.0),
+        Some(_) => num(rate, key),
+    };
     let slopes = RateSlopes {
         k_spread: num(rate, "k_spread")?,
         k_alpha: num(rate, "k_alpha")?,
+        k_acc: optional("k_acc")?,
+        k_dir: optional("k_dir")?,
     };
     Ok(Some((params, slopes)))
 }

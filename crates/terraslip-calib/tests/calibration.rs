@@ -322,6 +322,7 @@ fn a_turn_rate_dependent_robot_gets_its_slopes_and_a_constant_one_gets_none() {
     let slopes = RateSlopes {
         k_spread: -0.3,
         k_alpha: -0.1,
+        ..Default::default()
     };
     let mut cfg = SynthConfig::p3at(240.0, 5);
     cfg.rate = slopes;
@@ -386,6 +387,7 @@ fn a_turn_rate_dependent_robot_gets_its_slopes_and_a_constant_one_gets_none() {
     let cal = calibrate(&[log], &lm_only(), &|_| {}).expect("calibration");
     let r = cal.sets[0].rate.as_ref().expect("rate model fitted");
     assert!(!r.selected, "slopes {:?}", r.fit.slopes);
+    assert!(!r.traction_selected, "{:?}", r.traction);
     let off = CalibConfig {
         rate_model: RateModel::Off,
         ..lm_only()
@@ -396,6 +398,85 @@ fn a_turn_rate_dependent_robot_gets_its_slopes_and_a_constant_one_gets_none() {
     assert!(!cal.params_file().terrains["asphalt"]
         .extra
         .contains_key("rate_model"));
+}
+
+#[test]
+fn a_robot_that_slips_when_accelerating_gets_its_traction_term() {
+    let truth = mandow_table1();
+    let slopes = RateSlopes {
+        k_acc: 0.15,
+        ..Default::default()
+    };
+    let mut cfg = SynthConfig::p3at(240.0, 8);
+    cfg.rate = slopes;
+    let log = drive(&[("asphalt", truth)], &cfg);
+    let cal = calibrate(std::slice::from_ref(&log), &lm_only(), &|_| {}).expect("calibration");
+    let r = cal.sets[0].rate.as_ref().expect("rate model fitted");
+    let (t, bic) = r.traction.as_ref().expect("traction fitted");
+    assert!(r.selected && r.traction_selected, "{:?}", r.traction_reason);
+    assert!(*bic < r.bic_constant.min(r.bic_rate));
+    let k = t.slopes;
+    assert!((k.k_acc - 0.15).abs() < 0.03, "{k:?}");
+    assert!((k.k_acc - 0.15).abs() < 3.0 * t.std[7] && t.std[7] < 0.03, "{:?}", t.std);
+    // Only the symmetric term was fitted.
+    assert_eq!(k.k_dir, 0.0);
+    assert!(t.std[8].is_nan());
+    assert!(k.k_spread.abs() < 0.05 && k.k_alpha.abs() < 0.03, "{k:?}");
+    assert_close(&t.params, &truth, 0.01, 0.02, 0.01);
+    // The file holds it under `rate_model`; validate reads it back and it
+    // predicts another drive of the same robot better than the constant ICRs.
+    let pf = cal.params_file();
+    let rm = &pf.terrains["asphalt"].extra["rate_model"];
+    assert_eq!(rm["k_acc"].as_f64(), Some(k.k_acc));
+    assert_eq!(rm["traction"]["selected"], serde_json::json!(true));
+    let other = drive(&[("asphalt", truth)], &{
+        let mut c = cfg.clone();
+        c.seed = 9;
+        c.duration = 120.0;
+        c
+    });
+    let v = validate(
+        std::slice::from_ref(&other),
+        &pf,
+        &ValidateConfig::default(),
+    )
+    .expect("validation");
+    assert_eq!(v.rate_segments, v.segments.len());
+    // Headings show it most: the 1 cm reference noise floors positions.
+    assert!(
+        v.mse.dyaw * 3.0 < v.constant_mse.dyaw && v.mse.position() < v.constant_mse.position(),
+        "traction {:?} vs constant {:?}",
+        v.mse,
+        v.constant_mse
+    );
+    // Without the traction term the turn-rate model cannot stand in for it.
+    let off = CalibConfig {
+        traction: RateModel::Off,
+        ..lm_only()
+    };
+    let cal = calibrate(std::slice::from_ref(&log), &off, &|_| {}).expect("calibration");
+    let r = cal.sets[0].rate.as_ref().expect("rate model fitted");
+    assert!(r.traction.is_none() && !r.traction_selected);
+    let v_off = validate(
+        std::slice::from_ref(&other),
+        &cal.params_file(),
+        &ValidateConfig::default(),
+    )
+    .expect("validation");
+    assert!(
+        v.mse.dyaw * 3.0 < v_off.mse.dyaw,
+        "{:?} vs {:?}",
+        v.mse,
+        v_off.mse
+    );
+    // A malformed traction slope in a file is an error naming the set.
+    let mut bad = pf.clone();
+    let rm = bad.terrains.get_mut("asphalt").unwrap().extra.get_mut("rate_model");
+    rm.expect("rate_model")["k_acc"] = serde_json::json!("fast");
+    let e = validate(std::slice::from_ref(&other), &bad, &ValidateConfig::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("asphalt") && e.contains("k_acc"), "{e}");
 }
 
 /// Errors over `seeds` 200 s drives in units of the reported 1-sigma

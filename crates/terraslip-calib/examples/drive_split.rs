@@ -66,7 +66,8 @@ fn main() {
     cfg.traction = match word("--traction") {
         Some("auto") => RateModel::Auto,
         Some("on") => RateModel::On,
-        _ => RateModel::Off,
+        Some("off") => RateModel::Off,
+        _ => cfg.traction,
     };
     cfg.traction_signed = flag("--signed");
     let validation_offset = if flag("--no-offset") {

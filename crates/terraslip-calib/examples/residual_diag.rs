@@ -18,8 +18,8 @@
 //!
 //! `cargo run --release -p terraslip-calib --example residual_diag -- DATA_DIR [DRIVE_SUBSTRING] [N_WORST]`
 
-use terraslip_calib::*;
 use terraslip_calib::validate as validate_mod;
+use terraslip_calib::*;
 use terraslip_io::DriveLog;
 
 #[derive(Default, Clone, Copy)]
@@ -53,7 +53,10 @@ fn too_far(f: &Feat) -> bool {
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let dir = args.first().cloned().unwrap_or("../shared/data/drive".into());
+    let dir = args
+        .first()
+        .cloned()
+        .unwrap_or("../shared/data/drive".into());
     let only = args.get(1).cloned().unwrap_or_default();
     let n_worst: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(25);
     let mut paths: Vec<_> = std::fs::read_dir(&dir)
@@ -75,7 +78,10 @@ fn main() {
         }
         let (a, b) = (log.pose[0].t, log.pose[log.pose.len() - 1].t);
         let mid = 0.5 * (a + b);
-        for (name, train, test) in [("1st -> 2nd", (a, mid), (mid, b)), ("2nd -> 1st", (mid, b), (a, mid))] {
+        for (name, train, test) in [
+            ("1st -> 2nd", (a, mid), (mid, b)),
+            ("2nd -> 1st", (mid, b), (a, mid)),
+        ] {
             let mut c = CalibConfig {
                 method: Some(Method::Lm),
                 ..Default::default()
@@ -91,16 +97,18 @@ fn main() {
                 continue;
             };
             let off = val.offsets[0];
-            let feats: Vec<Feat> = val
-                .segments
-                .iter()
-                .map(|s| features(log, s, off))
-                .collect();
+            let feats: Vec<Feat> = val.segments.iter().map(|s| features(log, s, off)).collect();
             let mut order: Vec<usize> = (0..feats.len()).collect();
             order.sort_by(|&i, &j| feats[j].err2.total_cmp(&feats[i].err2));
             let total: f64 = feats.iter().map(|f| f.err2).sum();
-            let worst: Vec<Feat> = order[..n_worst.min(order.len())].iter().map(|&i| feats[i]).collect();
-            let rest: Vec<Feat> = order[n_worst.min(order.len())..].iter().map(|&i| feats[i]).collect();
+            let worst: Vec<Feat> = order[..n_worst.min(order.len())]
+                .iter()
+                .map(|&i| feats[i])
+                .collect();
+            let rest: Vec<Feat> = order[n_worst.min(order.len())..]
+                .iter()
+                .map(|&i| feats[i])
+                .collect();
             let share = worst.iter().map(|f| f.err2).sum::<f64>() / total;
             let summary = |fs: &[Feat]| {
                 let n = fs.len().max(1) as f64;

@@ -483,7 +483,9 @@ pub fn fit_rate(
         let (p, k) = split(v);
         residuals_rate(&p, &k, segs, yaw_weight)
     };
-    let ok = |v: &[f64; 9]| usable(&[v[0], v[1], v[2], v[3], v[4]]) && v[5..].iter().all(|x| x.is_finite());
+    let ok = |v: &[f64; 9]| {
+        usable(&[v[0], v[1], v[2], v[3], v[4]]) && v[5..].iter().all(|x| x.is_finite())
+    };
     let mut f = [false; 9];
     f[..5].copy_from_slice(free);
     f[5..].copy_from_slice(free_slopes);
@@ -497,7 +499,15 @@ pub fn fit_rate(
     let p0 = to_vec(start);
     let k0 = start_slopes;
     let mut v = [
-        p0[0], p0[1], p0[2], p0[3], p0[4], k0.k_spread, k0.k_alpha, k0.k_acc, k0.k_dir,
+        p0[0],
+        p0[1],
+        p0[2],
+        p0[3],
+        p0[4],
+        k0.k_spread,
+        k0.k_alpha,
+        k0.k_acc,
+        k0.k_dir,
     ];
     problem.solve(&mut v, w, max_iterations);
     let (params, slopes) = split(&v);

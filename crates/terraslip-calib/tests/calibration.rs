@@ -417,7 +417,11 @@ fn a_robot_that_slips_when_accelerating_gets_its_traction_term() {
     assert!(*bic < r.bic_constant.min(r.bic_rate));
     let k = t.slopes;
     assert!((k.k_acc - 0.15).abs() < 0.03, "{k:?}");
-    assert!((k.k_acc - 0.15).abs() < 3.0 * t.std[7] && t.std[7] < 0.03, "{:?}", t.std);
+    assert!(
+        (k.k_acc - 0.15).abs() < 3.0 * t.std[7] && t.std[7] < 0.03,
+        "{:?}",
+        t.std
+    );
     // Only the symmetric term was fitted.
     assert_eq!(k.k_dir, 0.0);
     assert!(t.std[8].is_nan());
@@ -471,11 +475,20 @@ fn a_robot_that_slips_when_accelerating_gets_its_traction_term() {
     );
     // A malformed traction slope in a file is an error naming the set.
     let mut bad = pf.clone();
-    let rm = bad.terrains.get_mut("asphalt").unwrap().extra.get_mut("rate_model");
+    let rm = bad
+        .terrains
+        .get_mut("asphalt")
+        .unwrap()
+        .extra
+        .get_mut("rate_model");
     rm.expect("rate_model")["k_acc"] = serde_json::json!("fast");
-    let e = validate(std::slice::from_ref(&other), &bad, &ValidateConfig::default())
-        .unwrap_err()
-        .to_string();
+    let e = validate(
+        std::slice::from_ref(&other),
+        &bad,
+        &ValidateConfig::default(),
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("asphalt") && e.contains("k_acc"), "{e}");
 }
 

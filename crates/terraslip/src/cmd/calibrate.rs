@@ -30,7 +30,9 @@ place and straight runs). Without --method all three run, the best is written.
 Past the paper: a turn-rate dependent model (--rate-model, default auto)
 whose ICR spread and speed factors change with the tread speed difference
 is fitted next to the constant one and kept under `rate_model` when it
-lowers the information criterion; `estimate --init` reads the constant
+lowers the information criterion; on top of it a traction term
+(--traction, default auto) lowers both speed factors by k_acc per m/s^2 of
+tread acceleration, kept by the same criterion. `estimate --init` reads the constant
 `params`, `calibrate validate` scores the rate model where it was selected
 (--model constant scores the constant one) and reports both.
 
@@ -114,6 +116,16 @@ pub struct Args {
     /// its slopes are identified) or `off`.
     #[arg(long, value_enum, default_value = "auto")]
     rate_model: RateArg,
+    /// Traction term on top of the turn-rate model (both speed factors
+    /// scale by `1 - k_acc |a|`, `a` the tread acceleration): `auto` (kept
+    /// when it lowers the information criterion further), `on` (kept when
+    /// identified) or `off`.
+    #[arg(long, value_enum, default_value = "auto")]
+    traction: RateArg,
+    /// Let the traction term differ between accelerating and braking
+    /// (adds `k_dir`: the factors scale by `1 - k_acc |a| - k_dir a`).
+    #[arg(long)]
+    traction_signed: bool,
     /// Fit segments overlap, each lasting --min-segment: one starts at every
     /// pose where an earlier one ended, and at the first pose at least this
     /// many seconds after the previous start (0: at every pose, the
@@ -291,6 +303,12 @@ fn config(a: &Args) -> anyhow::Result<CalibConfig> {
             RateArg::Auto => RateModel::Auto,
             RateArg::On => RateModel::On,
         },
+        traction: match a.traction {
+            RateArg::Off => RateModel::Off,
+            RateArg::Auto => RateModel::Auto,
+            RateArg::On => RateModel::On,
+        },
+        traction_signed: a.traction_signed,
         ..Default::default()
     };
     if !(a.stride.is_finite() && a.stride >= 0.0) {
@@ -440,10 +458,25 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 r.bic_rate,
                 r.bic_constant,
                 match &r.reason {
+                    None if r.traction_selected => "superseded by the traction model".to_string(),
                     None => "selected".to_string(),
                     Some(why) => format!("not selected, {why}"),
                 }
             );
+            if let Some((t, bic)) = &r.traction {
+                eprintln!(
+                    "  traction term: k_acc {:.4} +- {} s^2/m, k_dir {:.4} +- {} s^2/m, BIC {:.1}: {}",
+                    t.slopes.k_acc,
+                    fmt_std(t.std[7]),
+                    t.slopes.k_dir,
+                    fmt_std(t.std[8]),
+                    bic,
+                    match &r.traction_reason {
+                        None => "selected".to_string(),
+                        Some(why) => format!("not selected, {why}"),
+                    }
+                );
+            }
         }
         if !s.unidentified.is_empty() {
             eprintln!(

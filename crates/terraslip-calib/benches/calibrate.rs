@@ -24,6 +24,14 @@ fn bench(c: &mut Criterion) {
     g.bench_function("lm", |b| {
         b.iter(|| calibrate(&logs, &lm, &|_| {}).expect("lm"))
     });
+    // What the traction term's fit costs (a third LM fit, 8 free parameters).
+    let lm_no_traction = CalibConfig {
+        traction: terraslip_calib::RateModel::Off,
+        ..lm.clone()
+    };
+    g.bench_function("lm_no_traction", |b| {
+        b.iter(|| calibrate(&logs, &lm_no_traction, &|_| {}).expect("lm"))
+    });
     let lm_chained = CalibConfig {
         segment: terraslip_calib::SegmentConfig {
             overlap: None,

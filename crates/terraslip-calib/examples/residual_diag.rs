@@ -71,6 +71,7 @@ fn main() {
     println!("| drive | split | N | worst-N share of MSE | worst-N: acc, v, dv, ref/tread, gap, jump>1.4 | rest: acc, v, dv, ref/tread, gap, jump>1.4 | corr(err2, acc) | corr(along err, signed acc) |");
     println!("|---|---|---|---|---|---|---|---|");
     let mut detail = String::new();
+    let mut accel = String::from("\nStraight segments (|v_r - v_l| < 0.3 m/s): median reference distance over mean tread travel, steady (|a| < 0.1 m/s^2) vs accelerating or braking (|a| > 0.5), and the mean longest pose interval\n\n| drive | split | N steady | ref/tread steady | pose gap steady s | N accelerating | ref/tread accelerating | pose gap accelerating s |\n|---|---|---|---|---|---|---|---|\n");
     let mut protocol = String::from("\nScoring protocol: all segments vs without those whose reference moved over 1.2x the faster tread's travel + 0.2 m\n\n| drive | split | N | flagged | flagged share of written-model MSE | ratio, all segments | ratio, without flagged |\n|---|---|---|---|---|---|---|\n");
     for log in &logs {
         if log.name().contains("grass") {
@@ -144,6 +145,28 @@ fn main() {
                 100.0 * (1.0 - sum(&kept, &|f| f.err2) / sum(&all, &|f| f.err2)),
                 sum(&all, &|f| f.nom2) / sum(&all, &|f| f.err2),
                 sum(&kept, &|f| f.nom2) / sum(&kept, &|f| f.err2),
+            );
+            let straight = |lo: f64, hi: f64| {
+                let mut v: Vec<&Feat> = feats
+                    .iter()
+                    .filter(|f| f.dv < 0.3 && f.acc >= lo && f.acc < hi)
+                    .collect();
+                v.sort_by(|a, b| a.ratio.total_cmp(&b.ratio));
+                let n = v.len();
+                let med = v.get(n / 2).map_or(f64::NAN, |f| f.ratio);
+                let gap = v.iter().map(|f| f.gap).sum::<f64>() / n.max(1) as f64;
+                (n, med, gap)
+            };
+            let (s0, s1) = (straight(0.0, 0.1), straight(0.5, f64::INFINITY));
+            accel += &format!(
+                "| {} | {name} | {} | {:.2} | {:.2} | {} | {:.2} | {:.2} |\n",
+                log.name(),
+                s0.0,
+                s0.1,
+                s0.2,
+                s1.0,
+                s1.1,
+                s1.2
             );
             if log.name().contains("asphalt") && name.starts_with("1st") {
                 detail += &format!(
@@ -225,6 +248,7 @@ fn main() {
     }
     println!("{detail}");
     println!("{protocol}");
+    println!("{accel}");
 }
 
 fn corr(f: &[Feat], x: impl Fn(&Feat) -> f64, y: impl Fn(&Feat) -> f64) -> f64 {

@@ -4,7 +4,7 @@
 //! describes every scored segment by what the wheels and the reference did:
 //!
 //! * `acc`: mean |d/dt| of the mean tread speed over the segment (m/s^2,
-//!   central differences of the wheel stream, 0.25 s moving mean);
+//!   differences across five wheel samples, 0.25 s at 20 Hz);
 //! * `v`: mean |mean tread speed| (m/s), `dv`: mean |v_r - v_l| (m/s),
 //!   `turn`: sign of `int (v_r - v_l) dt`;
 //! * `ref/tread`: reference distance over `int |v_mean| dt`;
@@ -98,6 +98,7 @@ fn main() {
                 continue;
             };
             let off = val.offsets[0];
+
             let feats: Vec<Feat> = val.segments.iter().map(|s| features(log, s, off)).collect();
             let mut order: Vec<usize> = (0..feats.len()).collect();
             order.sort_by(|&i, &j| feats[j].err2.total_cmp(&feats[i].err2));
@@ -290,8 +291,8 @@ fn features(log: &DriveLog, s: &validate_mod::SegmentScore, off: f64) -> Feat {
     let (mut f, mut n) = (Feat::default(), 0.0);
     let (mut dist, mut idiff) = (0.0, 0.0);
     let mut prev_t = None;
-    for i in 0..w.len() {
-        if w[i].t < wa || w[i].t > wb {
+    for (i, x) in w.iter().enumerate() {
+        if x.t < wa || x.t > wb {
             continue;
         }
         let a = acc_at(i);

@@ -747,10 +747,11 @@ fn choose_rate(
             // Identified: 1-sigma under 0.05 s^2/m, a 5 % change of the speed
             // factors per m/s^2 of tread acceleration.
             let n_t = t.n_slopes();
-            t_reason = if t.std[5..5 + n_t]
+            let sd = &t.std[5..5 + n_t];
+            t_reason = if sd
                 .iter()
-                .any(|s| !(s.is_finite() && *s < 0.1))
-                || t.std[7..5 + n_t].iter().any(|s| !(*s < 0.05))
+                .enumerate()
+                .any(|(i, s)| !(s.is_finite() && *s < if i < 2 { 0.1 } else { 0.05 }))
             {
                 Some("the traction slopes are not identified (1-sigma over 0.05 s^2/m)".to_string())
             } else if traction.0 == RateModel::Auto && b >= floor {

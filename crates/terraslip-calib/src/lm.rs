@@ -455,6 +455,7 @@ impl RateFit {
 /// constant fit, so that every model is judged on the same segments).
 /// `free` says which of the five ICR parameters are fitted. `None` when no
 /// segment has weight.
+#[allow(clippy::too_many_arguments)]
 pub fn fit_rate(
     segs: &Segments,
     start: &IcrParams,

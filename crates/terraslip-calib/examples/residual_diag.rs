@@ -68,7 +68,7 @@ fn main() {
         .filter(|p| p.to_string_lossy().contains(&only))
         .filter_map(|p| DriveLog::read(p).ok())
         .collect();
-    println!("| drive | split | N | worst-N share of MSE | worst-N: acc, v, dv, ref/tread, gap, jump>1.4 | rest: acc, v, dv, ref/tread, gap, jump>1.4 | corr(err2, acc) | corr(along err, signed acc) |");
+    println!("| drive | split | N | worst-N share of MSE | worst-N: acc, v, dv, ref/tread, gap, jump>1.4, left turns | rest: acc, v, dv, ref/tread, gap, jump>1.4, left turns | corr(err2, acc) | corr(along err, signed acc) |");
     println!("|---|---|---|---|---|---|---|---|");
     let mut detail = String::new();
     let mut accel = String::from("\nStraight segments (|v_r - v_l| < 0.3 m/s): median reference distance over mean tread travel, steady (|a| < 0.1 m/s^2) vs accelerating or braking (|a| > 0.5), and the mean longest pose interval\n\n| drive | split | N steady | ref/tread steady | pose gap steady s | N accelerating | ref/tread accelerating | pose gap accelerating s |\n|---|---|---|---|---|---|---|---|\n");
@@ -116,13 +116,14 @@ fn main() {
                 let n = fs.len().max(1) as f64;
                 let m = |g: &dyn Fn(&Feat) -> f64| fs.iter().map(g).sum::<f64>() / n;
                 format!(
-                    "{:.2}, {:.2}, {:.2}, {:.2}, {:.2}, {:.0} %",
+                    "{:.2}, {:.2}, {:.2}, {:.2}, {:.2}, {:.0} %, {:.0} %",
                     m(&|f| f.acc),
                     m(&|f| f.v),
                     m(&|f| f.dv),
                     m(&|f| f.ratio),
                     m(&|f| f.gap),
-                    100.0 * m(&|f| f64::from(u8::from(f.jump > 1.4)))
+                    100.0 * m(&|f| f64::from(u8::from(f.jump > 1.4))),
+                    100.0 * m(&|f| f64::from(u8::from(f.turn > 0.0)))
                 )
             };
             println!(

@@ -2,7 +2,7 @@
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use terraslip_core::filter::{Filter, FilterConfig, PoseFix, Variant};
 use terraslip_core::model::{self, MatN, State};
-use terraslip_core::IcrParams;
+use terraslip_core::{IcrParams, TurnRateSlopes};
 
 fn filter(variant: Variant) -> Filter {
     let mut cfg = FilterConfig::for_track(0.5);
@@ -15,6 +15,16 @@ fn filter(variant: Variant) -> Filter {
 fn bench(c: &mut Criterion) {
     let mut f = filter(Variant::Adaptive);
     c.bench_function("predict", |b| {
+        b.iter(|| f.predict(black_box(0.4), black_box(0.6), black_box(0.02)))
+    });
+    let mut f = filter(Variant::Adaptive);
+    let mut cfg = *f.config();
+    cfg.rate = TurnRateSlopes {
+        k_spread: 0.15,
+        k_alpha: -0.02,
+    };
+    let mut f = Filter::new(f.state(), f.covariance(), cfg).expect("valid start");
+    c.bench_function("predict turn-rate law", |b| {
         b.iter(|| f.predict(black_box(0.4), black_box(0.6), black_box(0.02)))
     });
     for (name, variant) in [

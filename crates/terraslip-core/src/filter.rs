@@ -37,7 +37,7 @@ use core::ops::AddAssign;
 
 use nalgebra::{Matrix3, SMatrix, Vector3};
 
-use crate::kinematics::IcrParams;
+use crate::kinematics::{IcrParams, TurnRateSlopes};
 
 use crate::angle;
 use crate::model::{
@@ -249,6 +249,11 @@ pub struct FilterConfig {
     /// `q_icr.alpha_diff` (per second, on `alpha_l - alpha_r`), is divided
     /// by the current `d^2`.
     pub factor_coords: FactorCoords,
+    /// Turn-rate law of the ICRs ([`TurnRateSlopes`]; slopes in s/m, fixed,
+    /// e.g. from the calibration's `rate_model`). The state then holds the
+    /// straight-line ICRs and factors; [`Filter::icr_at`] gives those in
+    /// effect at a turn. [`TurnRateSlopes::NONE`] = the constant model.
+    pub rate: TurnRateSlopes,
 }
 
 impl FilterConfig {
@@ -281,6 +286,7 @@ impl FilterConfig {
             jump_threshold: 4.0,
             band: IcrBand::around_track(w),
             factor_coords: FactorCoords::PerSpread,
+            rate: TurnRateSlopes::NONE,
         }
     }
 }
@@ -400,6 +406,9 @@ impl Filter {
         if !(x0[ALPHA_L] > 0.0 && x0[ALPHA_R] > 0.0) {
             return Err(FilterError::BadInput("alpha must be > 0"));
         }
+        if !cfg.rate.is_finite() {
+            return Err(FilterError::BadInput("turn-rate slopes not finite"));
+        }
         if P0.cholesky().is_none() {
             return Err(FilterError::BadInput(
                 "initial covariance not positive-definite",
@@ -513,9 +522,22 @@ impl Filter {
         &self.cfg
     }
 
-    /// Current slip-parameter estimate.
+    /// Current slip-parameter estimate (straight-line values when a
+    /// turn-rate law is configured: see [`Self::icr_at`]).
     pub fn icr(&self) -> IcrParams {
         model::icr_of(&self.state())
+    }
+
+    /// The ICRs in effect at measured tread speeds (m/s) under the
+    /// configured turn-rate law, and their factors `(spread, speed)` (both
+    /// 1 for the constant model), by which the standard deviations of
+    /// `y_l, y_r` and of the speed factors scale.
+    pub fn icr_at(&self, v_left: f64, v_right: f64) -> (IcrParams, (f64, f64)) {
+        let g = self.cfg.rate.gains(v_left, v_right);
+        (
+            crate::kinematics::scaled(&self.icr(), g.0, g.1),
+            g,
+        )
     }
 
     /// Standard deviations of the six states.
@@ -686,8 +708,14 @@ impl Filter {
             None => self.u_smooth = Some(u),
         }
         let u_slip = self.u_smooth.unwrap_or(u);
-        let (x, F) =
-            model::predict_with_jacobian_in(&self.x, u, u_slip, dt, self.cfg.factor_coords);
+        let (x, F) = model::predict_with_jacobian_rate_in(
+            &self.x,
+            u,
+            u_slip,
+            dt,
+            self.cfg.factor_coords,
+            &self.cfg.rate,
+        );
 
         // F = I + E with E non-zero only in rows east, north, yaw and
         // columns yaw.. (a 3x6 block B): F P F' = P1 + P1 E' with

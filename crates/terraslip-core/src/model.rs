@@ -26,7 +26,7 @@
 use nalgebra::{SMatrix, SVector};
 
 use crate::angle;
-use crate::kinematics::{IcrParams, MIN_SPREAD};
+use crate::kinematics::{IcrParams, TurnRateSlopes, MIN_SPREAD};
 
 /// Dimension of the state.
 pub const N: usize = 8;
@@ -323,12 +323,37 @@ pub fn predict_with_jacobian_in(
     dt: f64,
     c: FactorCoords,
 ) -> (State, MatN) {
-    let ext = from_filter(s, c);
-    let (next, fe) = predict_with_jacobian(&ext, u, u_slip, dt);
+    predict_with_jacobian_rate_in(s, u, u_slip, dt, c, &TurnRateSlopes::NONE)
+}
+
+/// [`predict_with_jacobian_in`] with a turn-rate law: the state's ICRs and
+/// factors are the straight-line values, the step uses those in effect at
+/// the measured speeds `u` ([`TurnRateSlopes::at`]). The law's factors
+/// depend on `u` only, so the Jacobian is the constant model's at the
+/// scaled parameters with the `y` columns times the spread factor and the
+/// factor columns times the speed factor.
+pub fn predict_with_jacobian_rate_in(
+    s: &State,
+    u: TreadInput,
+    u_slip: TreadInput,
+    dt: f64,
+    c: FactorCoords,
+    rate: &TurnRateSlopes,
+) -> (State, MatN) {
+    let mut ext = from_filter(s, c);
+    let (gs, ga) = rate.gains(u.v_left, u.v_right);
+    scale_slip(&mut ext, gs, ga);
+    let (next, mut fe) = predict_with_jacobian(&ext, u, u_slip, dt);
     let mut out = *s;
     out[EAST] = next[EAST];
     out[NORTH] = next[NORTH];
     out[YAW] = next[YAW];
+    for i in 0..3 {
+        fe[(i, Y_L)] *= gs;
+        fe[(i, Y_R)] *= gs;
+        fe[(i, ALPHA_L)] *= ga;
+        fe[(i, ALPHA_R)] *= ga;
+    }
     // Chain rule: only the pose rows differ from the identity, and
     // d ext / d s only in rows alpha_l, alpha_r.
     let r = from_filter_rows(s, c);
@@ -347,9 +372,33 @@ pub fn predict_with_jacobian_in(
     (out, f)
 }
 
+/// The public state's ICRs scaled by a turn-rate law's factors
+/// ([`crate::kinematics::scaled`]).
+#[inline]
+fn scale_slip(s: &mut State, gs: f64, ga: f64) {
+    s[Y_L] *= gs;
+    s[Y_R] *= gs;
+    s[ALPHA_L] *= ga;
+    s[ALPHA_R] *= ga;
+}
+
 /// `f` on the filter's state (no Jacobian).
 pub fn predict_in(s: &State, u: TreadInput, dt: f64, c: FactorCoords) -> State {
-    let next = predict(&from_filter(s, c), u, dt);
+    predict_rate_in(s, u, dt, c, &TurnRateSlopes::NONE)
+}
+
+/// [`predict_in`] with a turn-rate law (see [`predict_with_jacobian_rate_in`]).
+pub fn predict_rate_in(
+    s: &State,
+    u: TreadInput,
+    dt: f64,
+    c: FactorCoords,
+    rate: &TurnRateSlopes,
+) -> State {
+    let mut ext = from_filter(s, c);
+    let (gs, ga) = rate.gains(u.v_left, u.v_right);
+    scale_slip(&mut ext, gs, ga);
+    let next = predict(&ext, u, dt);
     let mut out = *s;
     out[EAST] = next[EAST];
     out[NORTH] = next[NORTH];
@@ -472,6 +521,7 @@ mod tests {
             a_l in 0.8f64..1.2, a_r in 0.8f64..1.2,
             vl in -2.0f64..2.0, vr in -2.0f64..2.0, dt in 0.001f64..0.5,
             per_spread in any::<bool>(),
+            k_spread in -0.5f64..0.5, k_alpha in -0.2f64..0.2,
         ) {
             let c = if per_spread { FactorCoords::PerSpread } else { FactorCoords::Difference };
             let ext = State::from([e, n, yaw, y_l, y_r, x_c, a_l, a_r]);
@@ -483,10 +533,23 @@ mod tests {
             let a = from_filter(&predict_in(&s, u, dt, c), c);
             let b = predict(&ext, u, dt);
             prop_assert!((a - b).amax() < 1e-9);
-            // Public Jacobian, and the filter's (chain rule) in `c`.
+            // With a turn-rate law: the step is the constant model's at the
+            // ICRs in effect at this turn.
+            let rate = TurnRateSlopes { k_spread, k_alpha };
+            let now = rate.at(&icr_of(&ext), vl, vr);
+            let want = predict(&state(e, n, yaw, &now), u, dt);
+            let got = predict_rate_in(&s, u, dt, c, &rate);
+            prop_assert!((got.fixed_rows::<3>(0) - want.fixed_rows::<3>(0)).amax() < 1e-9);
+            prop_assert!((predict_with_jacobian_rate_in(&s, u, u, dt, c, &rate).0 - got).amax() < 1e-12);
+            // Public Jacobian, and the filter's (chain rule) in `c`, without
+            // and with the law.
             for (fa, fd) in [
                 (jacobian(&ext, u, dt), central_difference(&ext, u, dt)),
                 (predict_with_jacobian_in(&s, u, u, dt, c).1, central_difference_in(&s, u, dt, c)),
+                (
+                    predict_with_jacobian_rate_in(&s, u, u, dt, c, &rate).1,
+                    central_difference_of(&s, |x| predict_rate_in(x, u, dt, c, &rate)),
+                ),
             ] {
                 for i in 0..N {
                     for j in 0..N {

@@ -6,6 +6,7 @@
 
 use serde::{Deserialize, Serialize};
 use terraslip_core::filter::{FilterConfig, IcrBand, IcrNoise, Variant};
+use terraslip_core::kinematics::TurnRateSlopes;
 use terraslip_core::model::FactorCoords;
 use terraslip_core::schedule::{IcrStd, ScheduleConfig};
 use terraslip_core::terrain_belief::BeliefConfig;
@@ -150,6 +151,33 @@ pub struct FilterSection {
     pub adapt_max_scale: f64,
     /// Heading-NIS average above which the filter reports an innovation jump.
     pub jump_threshold: f64,
+    /// Turn-rate law of the ICRs (the calibration's `rate_model`): relative
+    /// change of the spread y_l - y_r per m/s of tread speed difference
+    /// |V_r - V_l|, s/m (0 = constant ICRs; the papers' model).
+    pub rate_k_spread: f64,
+    /// Same law: relative change of both tread speed factors per m/s of
+    /// difference, s/m.
+    pub rate_k_alpha: f64,
+    /// With `--init`, take the slopes (and the straight-line ICRs they go
+    /// with) from the parameter file's `rate_model` when calibration
+    /// selected it, in place of `rate_k_spread` / `rate_k_alpha`.
+    pub rate_from_init: bool,
+    /// What estimate.csv's `y_l, y_r, x_c, alpha_l, alpha_r` (and `d`) are
+    /// when a turn-rate law is in use: `instantaneous` (default; those in
+    /// effect at the row's tread speeds, what the plain ICR formula needs to
+    /// give the filter's twist, and what a simulator's truth holds) or
+    /// `straight` (the straight-line values the filter carries).
+    pub report_icr: ReportIcr,
+}
+
+/// Which ICRs estimate.csv reports under a turn-rate law (`[filter] report_icr`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ReportIcr {
+    /// Those in effect at the row's tread speeds (default).
+    Instantaneous,
+    /// The straight-line values (`|V_r - V_l| = 0`).
+    Straight,
 }
 
 /// `[init]`
@@ -279,6 +307,10 @@ impl Default for FilterSection {
             adapt_time_constant: 5.0,
             adapt_max_scale: 50.0,
             jump_threshold: 4.0,
+            rate_k_spread: 0.0,
+            rate_k_alpha: 0.0,
+            rate_from_init: true,
+            report_icr: ReportIcr::Instantaneous,
         }
     }
 }
@@ -497,6 +529,16 @@ impl EstimatorConfig {
         if !self.schedule.memory_average.is_finite() || self.schedule.memory_average < 0.0 {
             return Err(ConfigError("schedule.memory_average must be >= 0".into()));
         }
+        for (key, k) in [
+            ("filter.rate_k_spread", self.filter.rate_k_spread),
+            ("filter.rate_k_alpha", self.filter.rate_k_alpha),
+        ] {
+            if !(k.is_finite() && k.abs() <= 10.0) {
+                return Err(ConfigError(format!(
+                    "{key} = {k} must be a finite slope within +-10 s/m"
+                )));
+            }
+        }
         Ok(())
     }
 
@@ -547,6 +589,10 @@ impl EstimatorConfig {
                 FactorCoordsName::Difference => FactorCoords::Difference,
                 FactorCoordsName::PerSpread => FactorCoords::PerSpread,
             },
+            rate: TurnRateSlopes {
+                k_spread: f.rate_k_spread,
+                k_alpha: f.rate_k_alpha,
+            },
         }
     }
 
@@ -596,6 +642,7 @@ impl EstimatorConfig {
             // The papers' six-state model: fixed speed factors (at 1, with
             // no uncertainty of their own), a vague ICR prior, no memory.
             c.filter.learn_alpha = false;
+            c.filter.rate_from_init = false;
             c.filter.slip_from_position_max_std = 1e9;
             c.init.std_alpha = 1e-6;
             c.init.std_alpha_diff = 1e-6;
@@ -670,6 +717,14 @@ mod tests {
         assert!(e.to_string().contains("iekf_window"), "{e}");
         let e = EstimatorConfig::from_toml("[band]\nmin_spread = 5.0\n").unwrap_err();
         assert!(e.to_string().contains("min_spread"), "{e}");
+        let e = EstimatorConfig::from_toml("[filter]\nrate_k_spread = 20.0\n").unwrap_err();
+        assert!(e.to_string().contains("rate_k_spread"), "{e}");
+        let e = EstimatorConfig::from_toml("[filter]\nreport_icr = \"mean\"\n").unwrap_err();
+        assert!(e.to_string().contains("mean"), "{e}");
+        let c = EstimatorConfig::from_toml("[filter]\nrate_k_spread = 0.15\nrate_k_alpha = -0.02\n")
+            .unwrap();
+        let r = c.filter_config(0.5).rate;
+        assert_eq!((r.k_spread, r.k_alpha), (0.15, -0.02));
         let e = EstimatorConfig::from_toml("[filter]\nfactor_coords = \"ratio\"\n").unwrap_err();
         assert!(e.to_string().contains("ratio"), "{e}");
     }

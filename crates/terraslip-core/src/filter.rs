@@ -42,7 +42,7 @@ use crate::kinematics::{IcrParams, TurnRateSlopes};
 use crate::angle;
 use crate::model::{
     self, FactorCoords, MatN, SlipCov, State, TreadInput, ALPHA_L, ALPHA_R, EAST, FACTOR_DIFF,
-    FACTOR_MEAN, K, N, NORTH, SLIP, X_C, YAW, Y_L, Y_R,
+    FACTOR_MEAN, K, N, NORTH, RATE_K, SLIP, X_C, YAW, Y_L, Y_R,
 };
 
 /// Largest innovation window of the IEKF variant.
@@ -50,6 +50,8 @@ pub const MAX_WINDOW: usize = 64;
 
 type Mat3xN = SMatrix<f64, 3, N>;
 type MatNx3 = SMatrix<f64, N, 3>;
+/// Columns `yaw..` of the state: where the prediction Jacobian differs from the identity.
+const NB: usize = N - YAW;
 
 /// Which gain rule the filter uses. See the module documentation.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -249,11 +251,20 @@ pub struct FilterConfig {
     /// `q_icr.alpha_diff` (per second, on `alpha_l - alpha_r`), is divided
     /// by the current `d^2`.
     pub factor_coords: FactorCoords,
-    /// Turn-rate law of the ICRs ([`TurnRateSlopes`]; slopes in s/m, fixed,
-    /// e.g. from the calibration's `rate_model`). The state then holds the
-    /// straight-line ICRs and factors; [`Filter::icr_at`] gives those in
-    /// effect at a turn. [`TurnRateSlopes::NONE`] = the constant model.
-    pub rate: TurnRateSlopes,
+    /// Turn-rate slope of the speed factors, s/m ([`TurnRateSlopes::k_alpha`],
+    /// fixed; e.g. from the calibration's `rate_model`). The slope of the
+    /// spread is the state [`model::RATE_K`] (its start value and std come
+    /// with the initial state). The state holds the straight-line ICRs and
+    /// factors; [`Filter::icr_at`] gives those in effect at a turn.
+    pub rate_k_alpha: f64,
+    /// Learn the spread's turn-rate slope (false: a consider state, its
+    /// uncertainty counted but never corrected).
+    pub learn_rate_k_spread: bool,
+    /// Random walk of the spread's turn-rate slope, (s/m)^2/s (a robot
+    /// property: 0 or tiny).
+    pub q_rate_k_spread: f64,
+    /// The spread's turn-rate slope is kept within +- this, s/m.
+    pub max_rate_k_spread: f64,
 }
 
 impl FilterConfig {
@@ -286,7 +297,10 @@ impl FilterConfig {
             jump_threshold: 4.0,
             band: IcrBand::around_track(w),
             factor_coords: FactorCoords::PerSpread,
-            rate: TurnRateSlopes::NONE,
+            rate_k_alpha: 0.0,
+            learn_rate_k_spread: false,
+            q_rate_k_spread: 0.0,
+            max_rate_k_spread: 1.0,
         }
     }
 }
@@ -406,8 +420,16 @@ impl Filter {
         if !(x0[ALPHA_L] > 0.0 && x0[ALPHA_R] > 0.0) {
             return Err(FilterError::BadInput("alpha must be > 0"));
         }
-        if !cfg.rate.is_finite() {
-            return Err(FilterError::BadInput("turn-rate slopes not finite"));
+        if !(cfg.rate_k_alpha.is_finite()
+            && cfg.q_rate_k_spread.is_finite()
+            && cfg.q_rate_k_spread >= 0.0
+            && cfg.max_rate_k_spread.is_finite()
+            && cfg.max_rate_k_spread >= 0.0
+            && x0[RATE_K].abs() <= cfg.max_rate_k_spread)
+        {
+            return Err(FilterError::BadInput(
+                "turn-rate slopes not finite or outside max_rate_k_spread",
+            ));
         }
         if P0.cholesky().is_none() {
             return Err(FilterError::BadInput(
@@ -510,6 +532,8 @@ impl Filter {
     /// Projects a filter-coordinate state into the band (in the public
     /// coordinates, where the band is defined).
     fn project(&self, x: &mut State) {
+        let m = self.cfg.max_rate_k_spread;
+        x[RATE_K] = x[RATE_K].clamp(-m, m);
         let c = self.cfg.factor_coords;
         let mut ext = model::from_filter(x, c);
         if self.cfg.band.project(&mut ext) {
@@ -528,12 +552,21 @@ impl Filter {
         model::icr_of(&self.state())
     }
 
+    /// The turn-rate law in use: the spread's slope as estimated, the
+    /// factors' as configured (s/m).
+    pub fn rate(&self) -> TurnRateSlopes {
+        TurnRateSlopes {
+            k_spread: self.x[RATE_K],
+            k_alpha: self.cfg.rate_k_alpha,
+        }
+    }
+
     /// The ICRs in effect at measured tread speeds (m/s) under the
     /// configured turn-rate law, and their factors `(spread, speed)` (both
     /// 1 for the constant model), by which the standard deviations of
     /// `y_l, y_r` and of the speed factors scale.
     pub fn icr_at(&self, v_left: f64, v_right: f64) -> (IcrParams, (f64, f64)) {
-        let g = self.cfg.rate.gains(v_left, v_right);
+        let g = self.rate().gains(v_left, v_right);
         (
             crate::kinematics::scaled(&self.icr(), g.0, g.1),
             g,
@@ -654,8 +687,10 @@ impl Filter {
             return Err(FilterError::NonFinite);
         }
         self.x = x;
-        for i in 0..SLIP {
-            for j in SLIP..N {
+        // The new block is independent of everything else (the pose and the
+        // turn-rate slope, which is the robot's and stays).
+        for i in (0..N).filter(|i| !(SLIP..SLIP + K).contains(i)) {
+            for j in SLIP..SLIP + K {
                 self.P[(i, j)] = 0.0;
                 self.P[(j, i)] = 0.0;
             }
@@ -714,18 +749,18 @@ impl Filter {
             u_slip,
             dt,
             self.cfg.factor_coords,
-            &self.cfg.rate,
+            self.cfg.rate_k_alpha,
         );
 
         // F = I + E with E non-zero only in rows east, north, yaw and
-        // columns yaw.. (a 3x6 block B): F P F' = P1 + P1 E' with
-        // P1 = P + E P. Two 3x6-by-6x8 products instead of two 8x8x8.
-        let mut B: SMatrix<f64, 3, 6> = F.fixed_view::<3, 6>(0, YAW).into_owned();
+        // columns yaw.. (a 3x7 block B): F P F' = P1 + P1 E' with
+        // P1 = P + E P. Two 3x7-by-7x9 products instead of two 9x9x9.
+        let mut B: SMatrix<f64, 3, NB> = F.fixed_view::<3, NB>(0, YAW).into_owned();
         B[(YAW, 0)] -= 1.0;
-        let EP: Mat3xN = B * self.P.fixed_view::<6, N>(YAW, 0);
+        let EP: Mat3xN = B * self.P.fixed_view::<NB, N>(YAW, 0);
         let mut P = self.P;
         P.fixed_rows_mut::<3>(0).add_assign(&EP);
-        let PEt: MatNx3 = P.fixed_view::<N, 6>(0, YAW) * B.transpose();
+        let PEt: MatNx3 = P.fixed_view::<N, NB>(0, YAW) * B.transpose();
         P.fixed_columns_mut::<3>(0).add_assign(&PEt);
 
         let d = (x[Y_L] - x[Y_R]).max(crate::kinematics::MIN_SPREAD);
@@ -752,6 +787,7 @@ impl Filter {
                 let j = FACTOR_DIFF - SLIP;
                 blk[(j, j)] += self.q_slip[(j, j)] * k * (1.0 / (d * d) - 1.0);
             }
+            P[(RATE_K, RATE_K)] += dt * self.cfg.q_rate_k_spread;
         }
         if !finite_mat(&x) || (0..N).any(|i| !P[(i, i)].is_finite()) {
             return Err(FilterError::NonFinite);
@@ -943,7 +979,9 @@ impl Filter {
         let slip_from_position = libm::sqrt(r[0]) <= self.cfg.slip_from_position_max_std;
         for row in SLIP..N {
             let learn = !self.still
-                && if row >= ALPHA_L {
+                && if row == RATE_K {
+                    self.cfg.learn_rate_k_spread
+                } else if row >= ALPHA_L {
                     self.cfg.learn_alpha
                 } else {
                     self.cfg.learn_icr
@@ -1039,7 +1077,7 @@ mod tests {
     }
 
     fn p0() -> MatN {
-        MatN::from_diagonal(&State::from([1.0, 1.0, 0.01, 0.01, 0.01, 0.01, 1e-4, 1e-4]))
+        MatN::from_diagonal(&State::from([1.0, 1.0, 0.01, 0.01, 0.01, 0.01, 1e-4, 1e-4, 1e-12]))
     }
 
     fn start(variant: Variant) -> Filter {
@@ -1160,7 +1198,7 @@ mod tests {
             c.factor_coords = coords;
             let x0 = model::state(0.0, 0.0, 0.0, &IcrParams::no_slip(0.5));
             let p0 = MatN::from_diagonal(&State::from([
-                1.0, 1.0, 1e-4, 2.5e-3, 2.5e-3, 1e-4, 1e-4, 1e-4,
+                1.0, 1.0, 1e-4, 2.5e-3, 2.5e-3, 1e-4, 1e-4, 1e-4, 1e-12,
             ]));
             let mut f = Filter::new(x0, p0, c).unwrap();
             let mut s = model::state(0.0, 0.0, 0.0, &truth);

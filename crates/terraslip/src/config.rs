@@ -6,7 +6,6 @@
 
 use serde::{Deserialize, Serialize};
 use terraslip_core::filter::{FilterConfig, IcrBand, IcrNoise, Variant};
-use terraslip_core::kinematics::TurnRateSlopes;
 use terraslip_core::model::FactorCoords;
 use terraslip_core::schedule::{IcrStd, ScheduleConfig};
 use terraslip_core::terrain_belief::BeliefConfig;
@@ -158,6 +157,14 @@ pub struct FilterSection {
     /// Same law: relative change of both tread speed factors per m/s of
     /// difference, s/m.
     pub rate_k_alpha: f64,
+    /// Learn the spread's slope online (a filter state, from
+    /// `rate_k_spread` with std `init.std_rate_k_spread`; a robot property,
+    /// so terrain resets and recalls leave it alone). false: fixed.
+    pub learn_rate_k_spread: bool,
+    /// Random walk of the learned spread slope, (s/m)^2/s.
+    pub q_rate_k_spread: f64,
+    /// The spread slope is kept within +- this, s/m.
+    pub max_rate_k_spread: f64,
     /// With `--init`, take the slopes (and the straight-line ICRs they go
     /// with) from the parameter file's `rate_model` when calibration
     /// selected it, in place of `rate_k_spread` / `rate_k_alpha`.
@@ -202,6 +209,9 @@ pub struct InitSection {
     pub calibrated_std: SlipStd,
     /// Initial yaw std when the first fix has no heading, rad.
     pub std_yaw_unknown: f64,
+    /// Prior std of the spread's turn-rate slope when it is learned
+    /// (`filter.learn_rate_k_spread`), s/m.
+    pub std_rate_k_spread: f64,
 }
 
 /// `[measurement]`
@@ -309,6 +319,9 @@ impl Default for FilterSection {
             jump_threshold: 4.0,
             rate_k_spread: 0.0,
             rate_k_alpha: 0.0,
+            learn_rate_k_spread: false,
+            q_rate_k_spread: 0.0,
+            max_rate_k_spread: 1.0,
             rate_from_init: true,
             report_icr: ReportIcr::Instantaneous,
         }
@@ -333,6 +346,7 @@ impl Default for InitSection {
                 alpha_diff: 0.003,
             },
             std_yaw_unknown: std::f64::consts::PI,
+            std_rate_k_spread: 0.1,
         }
     }
 }
@@ -539,6 +553,26 @@ impl EstimatorConfig {
                 )));
             }
         }
+        let f = &self.filter;
+        if !(f.max_rate_k_spread.is_finite()
+            && f.max_rate_k_spread >= 0.0
+            && f.rate_k_spread.abs() <= f.max_rate_k_spread)
+        {
+            return Err(ConfigError(format!(
+                "filter.max_rate_k_spread = {} must be >= 0 and >= |rate_k_spread| = {}",
+                f.max_rate_k_spread,
+                f.rate_k_spread.abs()
+            )));
+        }
+        if !(f.q_rate_k_spread.is_finite() && f.q_rate_k_spread >= 0.0) {
+            return Err(ConfigError("filter.q_rate_k_spread must be >= 0".into()));
+        }
+        let sk = self.init.std_rate_k_spread;
+        if !(sk.is_finite() && sk > 0.0) {
+            return Err(ConfigError(format!(
+                "init.std_rate_k_spread = {sk} must be > 0 (s/m)"
+            )));
+        }
         Ok(())
     }
 
@@ -589,10 +623,10 @@ impl EstimatorConfig {
                 FactorCoordsName::Difference => FactorCoords::Difference,
                 FactorCoordsName::PerSpread => FactorCoords::PerSpread,
             },
-            rate: TurnRateSlopes {
-                k_spread: f.rate_k_spread,
-                k_alpha: f.rate_k_alpha,
-            },
+            rate_k_alpha: f.rate_k_alpha,
+            learn_rate_k_spread: f.learn_rate_k_spread,
+            q_rate_k_spread: f.q_rate_k_spread,
+            max_rate_k_spread: f.max_rate_k_spread,
         }
     }
 
@@ -723,8 +757,13 @@ mod tests {
         assert!(e.to_string().contains("mean"), "{e}");
         let c = EstimatorConfig::from_toml("[filter]\nrate_k_spread = 0.15\nrate_k_alpha = -0.02\n")
             .unwrap();
-        let r = c.filter_config(0.5).rate;
-        assert_eq!((r.k_spread, r.k_alpha), (0.15, -0.02));
+        assert_eq!(c.filter_config(0.5).rate_k_alpha, -0.02);
+        assert_eq!(c.filter.rate_k_spread, 0.15);
+        let e = EstimatorConfig::from_toml("[filter]\nrate_k_spread = 0.5\nmax_rate_k_spread = 0.3\n")
+            .unwrap_err();
+        assert!(e.to_string().contains("max_rate_k_spread"), "{e}");
+        let e = EstimatorConfig::from_toml("[init]\nstd_rate_k_spread = -1.0\n").unwrap_err();
+        assert!(e.to_string().contains("std_rate_k_spread"), "{e}");
         let e = EstimatorConfig::from_toml("[filter]\nfactor_coords = \"ratio\"\n").unwrap_err();
         assert!(e.to_string().contains("ratio"), "{e}");
     }

@@ -6,7 +6,7 @@
 #![allow(non_snake_case)]
 
 use terraslip_core::filter::{Fate, Filter, FilterError, PoseFix, UpdateReport};
-use terraslip_core::model::{self, MatN, SlipCov, State, EAST, K, NORTH, SLIP, YAW, Y_L, Y_R};
+use terraslip_core::model::{self, MatN, SlipCov, State, EAST, K, NORTH, RATE_K, SLIP, YAW, Y_L, Y_R};
 use terraslip_core::schedule::{ChangeAction, NoiseSchedule};
 use terraslip_core::terrain_belief::{TerrainBelief, MAX_TERRAINS};
 use terraslip_core::kinematics::TurnRateSlopes;
@@ -127,9 +127,12 @@ pub struct EstimateRun {
     /// Final ICR estimate: the straight-line values when a turn-rate law
     /// is in use ([`Self::rate`]).
     pub final_icr: IcrParams,
-    /// Turn-rate law the filter ran with ([`TurnRateSlopes::NONE`] = constant ICRs).
+    /// Turn-rate law at the end of the run (the spread slope as learned,
+    /// when it is; [`TurnRateSlopes::NONE`] = constant ICRs).
     pub rate: TurnRateSlopes,
-    /// Where [`Self::rate`] came from: `config` or `init:<set>`.
+    /// Std of the spread slope at the end, s/m (~0 when not learned).
+    pub rate_std: f64,
+    /// Where [`Self::rate`] started: `config` or `init:<set>`.
     pub rate_source: String,
     /// Counters.
     pub stats: RunStats,
@@ -337,7 +340,7 @@ pub fn run_with(
         .unwrap_or(cfg.measurement.std_yaw);
     let (e0, n0) = first_pos.unwrap_or((0.0, 0.0));
     let y0 = first_yaw.unwrap_or(0.0);
-    let x0: State = model::state(e0, n0, y0, &icr0);
+    let mut x0: State = model::state(e0, n0, y0, &icr0);
     // The first fix seeds the state at the first wheels time: widen the
     // uncertainty by how far the robot can have moved and turned before it.
     let t_fix = pose.first().map_or(log.wheels[0].t, |p| p.t);
@@ -364,9 +367,23 @@ pub fn run_with(
     P0[(NORTH, NORTH)] = pos_var;
     P0[(YAW, YAW)] = yaw_var;
     P0.fixed_view_mut::<K, K>(SLIP, SLIP).copy_from(&icr_cov);
+    // The spread's turn-rate slope: learned from its prior, or fixed (a
+    // vanishing variance keeps the covariance positive-definite).
+    x0[RATE_K] = rate.k_spread;
+    P0[(RATE_K, RATE_K)] = if cfg.filter.learn_rate_k_spread {
+        cfg.init.std_rate_k_spread.powi(2)
+    } else {
+        1e-12
+    };
 
     let mut fcfg = cfg.filter_config(track_width);
-    fcfg.rate = rate;
+    fcfg.rate_k_alpha = rate.k_alpha;
+    if rate.k_spread.abs() > fcfg.max_rate_k_spread {
+        return Err(PipelineError::Init(format!(
+            "{rate_source}: k_spread = {} s/m is beyond filter.max_rate_k_spread = {}",
+            rate.k_spread, fcfg.max_rate_k_spread
+        )));
+    }
     if fcfg.encoder_tick == 0.0 {
         if let (Some(r), Some(n)) = (log.meta.wheel_radius, log.meta.ticks_per_rev) {
             if r.is_finite() && r > 0.0 && n.is_finite() && n >= 1.0 {
@@ -582,7 +599,8 @@ pub fn run_with(
         t_prev = w.t;
 
         let s = filter.state();
-        let mut sd = filter.std();
+        let mut sd = [0.0; 8];
+        sd.copy_from_slice(&filter.std()[..8]);
         let P = filter.covariance();
         let var_d = P[(Y_L, Y_L)] + P[(Y_R, Y_R)] - 2.0 * P[(Y_L, Y_R)];
         // The ICRs in effect at this row's speeds (the law's factors are
@@ -636,7 +654,8 @@ pub fn run_with(
         changes,
         track_width,
         final_icr: filter.icr(),
-        rate,
+        rate: filter.rate(),
+        rate_std: filter.std()[RATE_K],
         rate_source,
         stats,
         warnings,

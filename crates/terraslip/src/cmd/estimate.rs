@@ -328,6 +328,8 @@ fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) -> ser
         // straight-line set).
         "rate_model": {
             "k_spread": est.rate.k_spread,
+            "k_spread_std": est.rate_std,
+            "learned": cfg.filter.learn_rate_k_spread,
             "k_alpha": est.rate.k_alpha,
             "source": est.rate_source,
             "report_icr": cfg.filter.report_icr,

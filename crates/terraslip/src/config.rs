@@ -159,7 +159,8 @@ pub struct FilterSection {
     pub rate_k_alpha: f64,
     /// Learn the spread's slope online (a filter state, from
     /// `rate_k_spread` with std `init.std_rate_k_spread`; a robot property,
-    /// so terrain resets and recalls leave it alone). false: fixed.
+    /// so terrain resets and recalls leave it alone; default since session
+    /// 3). false: fixed at `rate_k_spread` (or `--init`'s).
     pub learn_rate_k_spread: bool,
     /// Random walk of the learned spread slope, (s/m)^2/s.
     pub q_rate_k_spread: f64,
@@ -319,7 +320,7 @@ impl Default for FilterSection {
             jump_threshold: 4.0,
             rate_k_spread: 0.0,
             rate_k_alpha: 0.0,
-            learn_rate_k_spread: false,
+            learn_rate_k_spread: true,
             q_rate_k_spread: 0.0,
             max_rate_k_spread: 1.0,
             rate_from_init: true,
@@ -346,7 +347,7 @@ impl Default for InitSection {
                 alpha_diff: 0.003,
             },
             std_yaw_unknown: std::f64::consts::PI,
-            std_rate_k_spread: 0.1,
+            std_rate_k_spread: 0.15,
         }
     }
 }
@@ -676,7 +677,9 @@ impl EstimatorConfig {
             // The papers' six-state model: fixed speed factors (at 1, with
             // no uncertainty of their own), a vague ICR prior, no memory.
             c.filter.learn_alpha = false;
+            // ... and constant ICRs (no turn-rate law).
             c.filter.rate_from_init = false;
+            c.filter.learn_rate_k_spread = false;
             c.filter.slip_from_position_max_std = 1e9;
             c.init.std_alpha = 1e-6;
             c.init.std_alpha_diff = 1e-6;

@@ -8,7 +8,9 @@ fn filter(variant: Variant) -> Filter {
     let mut cfg = FilterConfig::for_track(0.5);
     cfg.variant = variant;
     let x0 = model::state(0.0, 0.0, 0.3, &IcrParams::new(0.3, -0.32, 0.01));
-    let p0 = MatN::from_diagonal(&State::from([4.0, 4.0, 1e-3, 1e-3, 1e-3, 1e-3, 1e-4, 1e-4, 1e-12]));
+    let p0 = MatN::from_diagonal(&State::from([
+        4.0, 4.0, 1e-3, 1e-3, 1e-3, 1e-3, 1e-4, 1e-4, 1e-12,
+    ]));
     Filter::new(x0, p0, cfg).expect("valid start")
 }
 

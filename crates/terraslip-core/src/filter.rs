@@ -567,10 +567,7 @@ impl Filter {
     /// `y_l, y_r` and of the speed factors scale.
     pub fn icr_at(&self, v_left: f64, v_right: f64) -> (IcrParams, (f64, f64)) {
         let g = self.rate().gains(v_left, v_right);
-        (
-            crate::kinematics::scaled(&self.icr(), g.0, g.1),
-            g,
-        )
+        (crate::kinematics::scaled(&self.icr(), g.0, g.1), g)
     }
 
     /// Standard deviations of the six states.
@@ -1068,7 +1065,6 @@ impl Filter {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kinematics::IcrParams;
 
     fn cfg(variant: Variant) -> FilterConfig {
         let mut c = FilterConfig::for_track(0.5);
@@ -1077,7 +1073,9 @@ mod tests {
     }
 
     fn p0() -> MatN {
-        MatN::from_diagonal(&State::from([1.0, 1.0, 0.01, 0.01, 0.01, 0.01, 1e-4, 1e-4, 1e-12]))
+        MatN::from_diagonal(&State::from([
+            1.0, 1.0, 0.01, 0.01, 0.01, 0.01, 1e-4, 1e-4, 1e-12,
+        ]))
     }
 
     fn start(variant: Variant) -> Filter {
@@ -1096,6 +1094,134 @@ mod tests {
             std_xy: 0.5,
             std_yaw: 0.02,
         }
+    }
+
+    /// A drive alternating gentle and sharp turns with a true spread slope
+    /// of 0.3 s/m; heading fixes every 0.2 s (0.2 deg), position every 1 s.
+    /// Returns the filter and the RMS of the instantaneous spread error over
+    /// the last 60 s.
+    fn turn_rate_drive(learn: bool) -> (Filter, f64) {
+        let truth = IcrParams::new(0.32, -0.3, 0.0);
+        let k_true = 0.3;
+        let mut c = cfg(Variant::Ekf);
+        c.learn_rate_k_spread = learn;
+        let mut p = p0();
+        p[(RATE_K, RATE_K)] = if learn { 0.04 } else { 1e-12 };
+        let x0 = model::state(0.0, 0.0, 0.0, &IcrParams::new(0.3, -0.3, 0.0));
+        let mut f = Filter::new(x0, p, c).unwrap();
+        // Truth in the filter's coordinates (what predict_rate_in takes).
+        let mut s = model::to_filter(&model::state(0.0, 0.0, 0.0, &truth), c.factor_coords);
+        s[RATE_K] = k_true;
+        let (mut sum, mut n) = (0.0, 0.0);
+        for k in 1..=9000 {
+            let t = k as f64 * 0.02;
+            // 10 s phases: straight, gentle left, sharp right.
+            let (vl, vr) = match (k / 500) % 3 {
+                0 => (0.8, 0.8),
+                1 => (0.7, 0.9),
+                _ => (1.0, 0.2),
+            };
+            let u = TreadInput {
+                v_left: vl,
+                v_right: vr,
+            };
+            s = model::predict_rate_in(&s, u, 0.02, c.factor_coords, 0.0);
+            f.predict(vl, vr, 0.02).unwrap();
+            if k % 10 == 0 {
+                let fix = PoseFix {
+                    position: (k % 50 == 0).then_some((s[EAST], s[NORTH])),
+                    yaw: Some(s[YAW]),
+                    std_xy: 0.02,
+                    std_yaw: 0.2f64.to_radians(),
+                };
+                f.update(t, &fix).unwrap();
+            }
+            if t > 120.0 {
+                let want = TurnRateSlopes {
+                    k_spread: k_true,
+                    k_alpha: 0.0,
+                }
+                .at(&truth, vl, vr)
+                .spread();
+                let e = f.icr_at(vl, vr).0.spread() - want;
+                sum += e * e;
+                n += 1.0;
+            }
+        }
+        (f, (sum / n).sqrt())
+    }
+
+    #[test]
+    fn learned_turn_rate_slope_tracks_the_spread_through_turns() {
+        let (learned, rms_learned) = turn_rate_drive(true);
+        let (fixed, rms_fixed) = turn_rate_drive(false);
+        let k = learned.rate().k_spread;
+        assert!((k - 0.3).abs() < 0.05, "learned slope {k}");
+        assert_eq!(fixed.rate().k_spread, 0.0);
+        // A constant spread cannot follow the turns: 1 cm vs a few mm.
+        assert!(rms_fixed > 0.01, "constant model rms {rms_fixed}");
+        assert!(
+            rms_learned < 0.4 * rms_fixed,
+            "learned {rms_learned} vs constant {rms_fixed}"
+        );
+        assert!(is_spd(&learned.covariance()));
+        // The reported ICRs are the straight-line ones scaled about the
+        // centre line at the turn's speeds.
+        let (now, (gs, ga)) = learned.icr_at(1.0, 0.2);
+        assert!((gs - (1.0 + k * 0.8)).abs() < 1e-12 && ga == 1.0);
+        assert!((now.y_l - gs * learned.icr().y_l).abs() < 1e-12);
+        assert_eq!(learned.icr_at(0.5, 0.5).0, learned.icr());
+    }
+
+    #[test]
+    fn terrain_reset_keeps_the_turn_rate_slope() {
+        let (mut f, _) = turn_rate_drive(true);
+        let (k, var_k) = (f.rate().k_spread, f.filter_covariance()[(RATE_K, RATE_K)]);
+        let cov = SlipCov::from_diagonal_element(1e-4);
+        f.reset_icr(Some(&IcrParams::new(0.4, -0.4, 0.0)), &cov)
+            .unwrap();
+        assert_eq!(f.rate().k_spread, k);
+        assert_eq!(f.filter_covariance()[(RATE_K, RATE_K)], var_k);
+        // The new slip block is independent of the slope.
+        assert!((SLIP..SLIP + K).all(|j| f.filter_covariance()[(RATE_K, j)] == 0.0));
+        assert!(is_spd(&f.covariance()));
+    }
+
+    #[test]
+    fn turn_rate_slope_outside_its_band_is_rejected_and_clamped() {
+        let mut x0 = model::state(0.0, 0.0, 0.0, &IcrParams::no_slip(0.5));
+        x0[RATE_K] = 2.0;
+        assert!(matches!(
+            Filter::new(x0, p0(), cfg(Variant::Ekf)),
+            Err(FilterError::BadInput(_))
+        ));
+        let mut c = cfg(Variant::Ekf);
+        c.rate_k_alpha = f64::NAN;
+        x0[RATE_K] = 0.0;
+        assert!(Filter::new(x0, p0(), c).is_err());
+        // A huge heading innovation in a turn cannot push the slope past the band.
+        let mut c = cfg(Variant::Ekf);
+        c.learn_rate_k_spread = true;
+        c.gate_yaw = 0.0;
+        let mut p = p0();
+        p[(RATE_K, RATE_K)] = 100.0;
+        let mut f = Filter::new(x0, p, c).unwrap();
+        for k in 0..50 {
+            f.predict(-1.0, 1.0, 0.02).unwrap();
+            if k % 10 == 9 {
+                let _ = f.update(
+                    k as f64,
+                    &PoseFix {
+                        position: None,
+                        yaw: Some(0.0),
+                        std_xy: 1.0,
+                        std_yaw: 0.001,
+                    },
+                );
+            }
+        }
+        assert!(f.rate().k_spread.abs() <= c.max_rate_k_spread);
+        assert!(f.state().iter().all(|v| v.is_finite()));
     }
 
     #[test]

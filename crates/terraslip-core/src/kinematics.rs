@@ -374,7 +374,6 @@ mod tests {
         );
     }
 
-
     #[test]
     fn turn_rate_law_is_the_calibration_law() {
         // Calibration: omega and v_y scale by ga/gs, v_x by ga.

@@ -192,7 +192,8 @@ fn main() -> anyhow::Result<()> {
                 }
             };
             if !drift.is_empty() {
-                let rms = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt();
+                let rms =
+                    |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt();
                 let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
                 breakdown.push(format!(
                     "- {pname} drift split: along the path RMS {:.2} % (mean {:+.2} %), across RMS {:.2} % (mean {:+.2} %); total RMS {:.2} %",

@@ -758,12 +758,14 @@ mod tests {
         assert!(e.to_string().contains("rate_k_spread"), "{e}");
         let e = EstimatorConfig::from_toml("[filter]\nreport_icr = \"mean\"\n").unwrap_err();
         assert!(e.to_string().contains("mean"), "{e}");
-        let c = EstimatorConfig::from_toml("[filter]\nrate_k_spread = 0.15\nrate_k_alpha = -0.02\n")
-            .unwrap();
+        let c =
+            EstimatorConfig::from_toml("[filter]\nrate_k_spread = 0.15\nrate_k_alpha = -0.02\n")
+                .unwrap();
         assert_eq!(c.filter_config(0.5).rate_k_alpha, -0.02);
         assert_eq!(c.filter.rate_k_spread, 0.15);
-        let e = EstimatorConfig::from_toml("[filter]\nrate_k_spread = 0.5\nmax_rate_k_spread = 0.3\n")
-            .unwrap_err();
+        let e =
+            EstimatorConfig::from_toml("[filter]\nrate_k_spread = 0.5\nmax_rate_k_spread = 0.3\n")
+                .unwrap_err();
         assert!(e.to_string().contains("max_rate_k_spread"), "{e}");
         let e = EstimatorConfig::from_toml("[init]\nstd_rate_k_spread = -1.0\n").unwrap_err();
         assert!(e.to_string().contains("std_rate_k_spread"), "{e}");

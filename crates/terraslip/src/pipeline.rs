@@ -6,10 +6,12 @@
 #![allow(non_snake_case)]
 
 use terraslip_core::filter::{Fate, Filter, FilterError, PoseFix, UpdateReport};
-use terraslip_core::model::{self, MatN, SlipCov, State, EAST, K, NORTH, RATE_K, SLIP, YAW, Y_L, Y_R};
+use terraslip_core::kinematics::TurnRateSlopes;
+use terraslip_core::model::{
+    self, MatN, SlipCov, State, EAST, K, NORTH, RATE_K, SLIP, YAW, Y_L, Y_R,
+};
 use terraslip_core::schedule::{ChangeAction, NoiseSchedule};
 use terraslip_core::terrain_belief::{TerrainBelief, MAX_TERRAINS};
-use terraslip_core::kinematics::TurnRateSlopes;
 use terraslip_core::IcrParams;
 use terraslip_io::{DriveLog, ParamsFile, PoseObs, TerrainLabel};
 

@@ -740,7 +740,7 @@ impl Filter {
             None => self.u_smooth = Some(u),
         }
         let u_slip = self.u_smooth.unwrap_or(u);
-        let (x, F) = model::predict_with_jacobian_rate_in(
+        let (x, F) = model::predict_with_pose_rows_rate_in(
             &self.x,
             u,
             u_slip,

@@ -147,6 +147,30 @@ pub fn predict_with_jacobian(
     u_slip: TreadInput,
     dt: f64,
 ) -> (State, MatN) {
+    let (out, rows) = predict_with_pose_rows(s, u, u_slip, dt);
+    (out, with_pose_rows(&rows))
+}
+
+/// The Jacobian whose rows east, north, yaw are `rows` and whose other rows
+/// are the identity's.
+fn with_pose_rows(rows: &PoseRows) -> MatN {
+    let mut f = MatN::identity();
+    f.fixed_rows_mut::<3>(0).copy_from(rows);
+    f
+}
+
+/// Rows east, north, yaw of a prediction Jacobian (the others are the
+/// identity's: the slip parameters are random walks).
+pub type PoseRows = SMatrix<f64, 3, N>;
+
+/// [`predict_with_jacobian`] returning only the Jacobian's pose rows (the
+/// filter's hot path: it never forms the identity part).
+pub fn predict_with_pose_rows(
+    s: &State,
+    u: TreadInput,
+    u_slip: TreadInput,
+    dt: f64,
+) -> (State, PoseRows) {
     let d = spread(s);
     let inv_d = 1.0 / d;
     let inv_d2 = inv_d * inv_d;
@@ -184,7 +208,10 @@ pub fn predict_with_jacobian(
             u.v_right * inv_d,
         ),
     ];
-    let mut f = MatN::identity();
+    let mut f = PoseRows::zeros();
+    f[(EAST, EAST)] = 1.0;
+    f[(NORTH, NORTH)] = 1.0;
+    f[(YAW, YAW)] = 1.0;
     f[(EAST, YAW)] = dt * (-v_x * sn - v_y * cs);
     f[(NORTH, YAW)] = dt * (v_x * cs - v_y * sn);
     for (j, dvx, dvy, dw) in cols {
@@ -352,6 +379,20 @@ pub fn predict_with_jacobian_rate_in(
     c: FactorCoords,
     k_alpha: f64,
 ) -> (State, MatN) {
+    let (out, rows) = predict_with_pose_rows_rate_in(s, u, u_slip, dt, c, k_alpha);
+    (out, with_pose_rows(&rows))
+}
+
+/// [`predict_with_jacobian_rate_in`] returning only the Jacobian's pose
+/// rows (the filter's hot path).
+pub fn predict_with_pose_rows_rate_in(
+    s: &State,
+    u: TreadInput,
+    u_slip: TreadInput,
+    dt: f64,
+    c: FactorCoords,
+    k_alpha: f64,
+) -> (State, PoseRows) {
     let mut ext = from_filter(s, c);
     let rate = TurnRateSlopes {
         k_spread: s[RATE_K],
@@ -366,7 +407,7 @@ pub fn predict_with_jacobian_rate_in(
     };
     let (y_l, y_r) = (ext[Y_L], ext[Y_R]);
     scale_slip(&mut ext, gs, ga);
-    let (next, mut fe) = predict_with_jacobian(&ext, u, u_slip, dt);
+    let (next, mut fe) = predict_with_pose_rows(&ext, u, u_slip, dt);
     let mut out = *s;
     out[EAST] = next[EAST];
     out[NORTH] = next[NORTH];

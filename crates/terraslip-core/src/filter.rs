@@ -265,6 +265,11 @@ pub struct FilterConfig {
     pub q_rate_k_spread: f64,
     /// The spread's turn-rate slope is kept within +- this, s/m.
     pub max_rate_k_spread: f64,
+    /// Time constant (s) of the low-pass on the tread speeds the turn-rate
+    /// law reads (0 = the raw speeds, the calibration's law as written):
+    /// the ICRs follow the motion with a lag (the shear under the treads
+    /// builds up), so the spread of a turn just begun is not yet the turn's.
+    pub rate_input_time_constant: f64,
 }
 
 impl FilterConfig {
@@ -301,6 +306,7 @@ impl FilterConfig {
             learn_rate_k_spread: false,
             q_rate_k_spread: 0.0,
             max_rate_k_spread: 1.0,
+            rate_input_time_constant: 0.2,
         }
     }
 }
@@ -391,6 +397,8 @@ pub struct Filter {
     q_spread: SlipCov,
     /// Low-passed tread speeds for the slip Jacobian.
     u_smooth: Option<TreadInput>,
+    /// Low-passed tread speeds the turn-rate law reads.
+    u_rate: Option<TreadInput>,
     /// Factor the noise schedule applies to the ICR noise.
     schedule_scale: f64,
     /// Heading NIS average of the adaptive variant.
@@ -425,6 +433,8 @@ impl Filter {
             && cfg.q_rate_k_spread >= 0.0
             && cfg.max_rate_k_spread.is_finite()
             && cfg.max_rate_k_spread >= 0.0
+            && cfg.rate_input_time_constant.is_finite()
+            && cfg.rate_input_time_constant >= 0.0
             && x0[RATE_K].abs() <= cfg.max_rate_k_spread)
         {
             return Err(FilterError::BadInput(
@@ -490,6 +500,7 @@ impl Filter {
             }
             .to_slip_cov(),
             u_smooth: None,
+            u_rate: None,
             schedule_scale: 1.0,
             nis_avg: 1.0,
             last_fix_t: None,
@@ -559,6 +570,20 @@ impl Filter {
             k_spread: self.x[RATE_K],
             k_alpha: self.cfg.rate_k_alpha,
         }
+    }
+
+    /// The tread speeds (m/s) the turn-rate law read at the last
+    /// prediction (low-passed: [`FilterConfig::rate_input_time_constant`]);
+    /// `(0, 0)` before the first.
+    pub fn rate_input(&self) -> (f64, f64) {
+        self.u_rate.map_or((0.0, 0.0), |u| (u.v_left, u.v_right))
+    }
+
+    /// The ICRs in effect now: [`Self::icr_at`] the law's current speeds
+    /// ([`Self::rate_input`]).
+    pub fn icr_now(&self) -> (IcrParams, (f64, f64)) {
+        let (l, r) = self.rate_input();
+        self.icr_at(l, r)
     }
 
     /// The ICRs in effect at measured tread speeds (m/s) under the
@@ -740,10 +765,24 @@ impl Filter {
             None => self.u_smooth = Some(u),
         }
         let u_slip = self.u_smooth.unwrap_or(u);
+        let b = if self.cfg.rate_input_time_constant > 0.0 {
+            (dt / self.cfg.rate_input_time_constant).min(1.0)
+        } else {
+            1.0
+        };
+        let u_rate = match self.u_rate.as_mut() {
+            Some(r) if b < 1.0 => {
+                r.v_left += b * (v_left - r.v_left);
+                r.v_right += b * (v_right - r.v_right);
+                *r
+            }
+            _ => *self.u_rate.insert(u),
+        };
         let (x, F) = model::predict_with_pose_rows_rate_in(
             &self.x,
             u,
             u_slip,
+            u_rate,
             dt,
             self.cfg.factor_coords,
             self.cfg.rate_k_alpha,
@@ -1105,6 +1144,8 @@ mod tests {
         let k_true = 0.3;
         let mut c = cfg(Variant::Ekf);
         c.learn_rate_k_spread = learn;
+        // The truth below follows the law without lag.
+        c.rate_input_time_constant = 0.0;
         let mut p = p0();
         p[(RATE_K, RATE_K)] = if learn { 0.04 } else { 1e-12 };
         let x0 = model::state(0.0, 0.0, 0.0, &IcrParams::new(0.3, -0.3, 0.0));
@@ -1125,7 +1166,7 @@ mod tests {
                 v_left: vl,
                 v_right: vr,
             };
-            s = model::predict_rate_in(&s, u, 0.02, c.factor_coords, 0.0);
+            s = model::predict_rate_in(&s, u, u, 0.02, c.factor_coords, 0.0);
             f.predict(vl, vr, 0.02).unwrap();
             if k % 10 == 0 {
                 let fix = PoseFix {
@@ -1171,6 +1212,40 @@ mod tests {
         assert!((gs - (1.0 + k * 0.8)).abs() < 1e-12 && ga == 1.0);
         assert!((now.y_l - gs * learned.icr().y_l).abs() < 1e-12);
         assert_eq!(learned.icr_at(0.5, 0.5).0, learned.icr());
+    }
+
+    #[test]
+    fn turn_rate_law_reads_low_passed_speeds() {
+        let mut x0 = model::state(0.0, 0.0, 0.0, &IcrParams::no_slip(0.5));
+        x0[RATE_K] = 0.5;
+        let mut f = Filter::new(x0, p0(), cfg(Variant::Ekf)).unwrap();
+        f.predict(0.8, 0.8, 0.02).unwrap();
+        assert_eq!(f.rate_input(), (0.8, 0.8));
+        // A sharp turn begins: 0.02 s into it the law has seen a tenth of
+        // it (time constant 0.2 s), after 2 s all of it.
+        f.predict(1.0, 0.2, 0.02).unwrap();
+        let (l, r) = f.rate_input();
+        assert!(
+            (l - 0.82).abs() < 1e-12 && (r - 0.74).abs() < 1e-12,
+            "{l} {r}"
+        );
+        let (now, (gs, _)) = f.icr_now();
+        assert!((gs - (1.0 + 0.5 * 0.08)).abs() < 1e-12);
+        assert!((now.spread() - gs * f.icr().spread()).abs() < 1e-12);
+        for _ in 0..100 {
+            f.predict(1.0, 0.2, 0.02).unwrap();
+        }
+        let (l, r) = f.rate_input();
+        assert!((l - 1.0).abs() < 1e-4 && (r - 0.2).abs() < 1e-4, "{l} {r}");
+        // 0 = the raw speeds.
+        let mut c = cfg(Variant::Ekf);
+        c.rate_input_time_constant = 0.0;
+        let mut f = Filter::new(x0, p0(), c).unwrap();
+        f.predict(0.8, 0.8, 0.02).unwrap();
+        f.predict(1.0, 0.2, 0.02).unwrap();
+        assert_eq!(f.rate_input(), (1.0, 0.2));
+        c.rate_input_time_constant = -1.0;
+        assert!(Filter::new(x0, p0(), c).is_err());
     }
 
     #[test]

@@ -359,14 +359,16 @@ pub fn predict_with_jacobian_in(
     dt: f64,
     c: FactorCoords,
 ) -> (State, MatN) {
-    predict_with_jacobian_rate_in(s, u, u_slip, dt, c, 0.0)
+    predict_with_jacobian_rate_in(s, u, u_slip, u, dt, c, 0.0)
 }
 
 /// The filter's step and its Jacobian by the filter state, with the
 /// turn-rate law ([`TurnRateSlopes`]) of slopes `k_spread = s[RATE_K]` and
 /// `k_alpha` (s/m): the state's ICRs and factors are the straight-line
-/// values, the step uses those in effect at the measured speeds `u`
-/// ([`TurnRateSlopes::at`]). The law's factors depend on `u` and the slope
+/// values, the step uses those in effect at the speeds `u_rate`
+/// ([`TurnRateSlopes::at`]; `u` itself for the calibration's law as
+/// written, the filter passes low-passed speeds: the ICRs follow the motion
+/// with a lag). The law's factors depend on `u_rate` and the slope
 /// only, so the Jacobian is the constant model's at the scaled parameters
 /// with the `y` columns times the spread factor, the factor columns times
 /// the speed factor, and a slope column `dv (y_l d/dy_l' + y_r d/dy_r')`
@@ -375,11 +377,12 @@ pub fn predict_with_jacobian_rate_in(
     s: &State,
     u: TreadInput,
     u_slip: TreadInput,
+    u_rate: TreadInput,
     dt: f64,
     c: FactorCoords,
     k_alpha: f64,
 ) -> (State, MatN) {
-    let (out, rows) = predict_with_pose_rows_rate_in(s, u, u_slip, dt, c, k_alpha);
+    let (out, rows) = predict_with_pose_rows_rate_in(s, u, u_slip, u_rate, dt, c, k_alpha);
     (out, with_pose_rows(&rows))
 }
 
@@ -389,6 +392,7 @@ pub fn predict_with_pose_rows_rate_in(
     s: &State,
     u: TreadInput,
     u_slip: TreadInput,
+    u_rate: TreadInput,
     dt: f64,
     c: FactorCoords,
     k_alpha: f64,
@@ -398,8 +402,8 @@ pub fn predict_with_pose_rows_rate_in(
         k_spread: s[RATE_K],
         k_alpha,
     };
-    let (gs, ga) = rate.gains(u.v_left, u.v_right);
-    let dv = (u.v_right - u.v_left).abs();
+    let (gs, ga) = rate.gains(u_rate.v_left, u_rate.v_right);
+    let dv = (u_rate.v_right - u_rate.v_left).abs();
     let dgs = if 1.0 + rate.k_spread * dv == gs {
         dv
     } else {
@@ -449,17 +453,24 @@ fn scale_slip(s: &mut State, gs: f64, ga: f64) {
 
 /// `f` on the filter's state (no Jacobian): [`predict_rate_in`] with `k_alpha = 0`.
 pub fn predict_in(s: &State, u: TreadInput, dt: f64, c: FactorCoords) -> State {
-    predict_rate_in(s, u, dt, c, 0.0)
+    predict_rate_in(s, u, u, dt, c, 0.0)
 }
 
 /// The step of [`predict_with_jacobian_rate_in`] without the Jacobian.
-pub fn predict_rate_in(s: &State, u: TreadInput, dt: f64, c: FactorCoords, k_alpha: f64) -> State {
+pub fn predict_rate_in(
+    s: &State,
+    u: TreadInput,
+    u_rate: TreadInput,
+    dt: f64,
+    c: FactorCoords,
+    k_alpha: f64,
+) -> State {
     let mut ext = from_filter(s, c);
     let rate = TurnRateSlopes {
         k_spread: s[RATE_K],
         k_alpha,
     };
-    let (gs, ga) = rate.gains(u.v_left, u.v_right);
+    let (gs, ga) = rate.gains(u_rate.v_left, u_rate.v_right);
     scale_slip(&mut ext, gs, ga);
     let next = predict(&ext, u, dt);
     let mut out = *s;
@@ -585,7 +596,10 @@ mod tests {
             vl in -2.0f64..2.0, vr in -2.0f64..2.0, dt in 0.001f64..0.5,
             per_spread in any::<bool>(),
             k_spread in -0.15f64..0.15, k_alpha in -0.15f64..0.15,
+            rl in -2.0f64..2.0, rr in -2.0f64..2.0,
         ) {
+            // The law's speeds may differ from the step's (low-passed).
+            let u_rate = TreadInput { v_left: rl, v_right: rr };
             let c = if per_spread { FactorCoords::PerSpread } else { FactorCoords::Difference };
             let ext = State::from([e, n, yaw, y_l, y_r, x_c, a_l, a_r, k_spread]);
             let s = to_filter(&ext, c);
@@ -603,17 +617,17 @@ mod tests {
             let rate = TurnRateSlopes { k_spread, k_alpha };
             let now = rate.at(&icr_of(&ext), vl, vr);
             let want = predict(&state(e, n, yaw, &now), u, dt);
-            let got = predict_rate_in(&s, u, dt, c, k_alpha);
+            let got = predict_rate_in(&s, u, u, dt, c, k_alpha);
             prop_assert!((got.fixed_rows::<3>(0) - want.fixed_rows::<3>(0)).amax() < 1e-9);
-            prop_assert!((predict_with_jacobian_rate_in(&s, u, u, dt, c, k_alpha).0 - got).amax() < 1e-12);
+            prop_assert!((predict_with_jacobian_rate_in(&s, u, u, u, dt, c, k_alpha).0 - got).amax() < 1e-12);
             // Public Jacobian, and the filter's (chain rule) in `c`, without
             // and with the law.
             for (fa, fd) in [
                 (jacobian(&ext, u, dt), central_difference(&ext, u, dt)),
                 (predict_with_jacobian_in(&s, u, u, dt, c).1, central_difference_in(&s, u, dt, c)),
                 (
-                    predict_with_jacobian_rate_in(&s, u, u, dt, c, k_alpha).1,
-                    central_difference_of(&s, |x| predict_rate_in(x, u, dt, c, k_alpha)),
+                    predict_with_jacobian_rate_in(&s, u, u, u_rate, dt, c, k_alpha).1,
+                    central_difference_of(&s, |x| predict_rate_in(x, u, u_rate, dt, c, k_alpha)),
                 ),
             ] {
                 for i in 0..N {

@@ -166,6 +166,10 @@ pub struct FilterSection {
     pub q_rate_k_spread: f64,
     /// The spread slope is kept within +- this, s/m.
     pub max_rate_k_spread: f64,
+    /// Time constant of the low-pass on the tread speeds the turn-rate law
+    /// reads, s (0 = raw speeds, the calibration's law as written): the
+    /// ICRs follow the motion with a lag.
+    pub rate_input_time_constant: f64,
     /// With `--init`, take the slopes (and the straight-line ICRs they go
     /// with) from the parameter file's `rate_model` when calibration
     /// selected it, in place of `rate_k_spread` / `rate_k_alpha`.
@@ -323,6 +327,7 @@ impl Default for FilterSection {
             learn_rate_k_spread: true,
             q_rate_k_spread: 0.0,
             max_rate_k_spread: 1.0,
+            rate_input_time_constant: 0.2,
             rate_from_init: true,
             report_icr: ReportIcr::Instantaneous,
         }
@@ -568,6 +573,11 @@ impl EstimatorConfig {
         if !(f.q_rate_k_spread.is_finite() && f.q_rate_k_spread >= 0.0) {
             return Err(ConfigError("filter.q_rate_k_spread must be >= 0".into()));
         }
+        if !(f.rate_input_time_constant.is_finite() && f.rate_input_time_constant >= 0.0) {
+            return Err(ConfigError(
+                "filter.rate_input_time_constant must be >= 0 (s)".into(),
+            ));
+        }
         let sk = self.init.std_rate_k_spread;
         if !(sk.is_finite() && sk > 0.0) {
             return Err(ConfigError(format!(
@@ -628,6 +638,7 @@ impl EstimatorConfig {
             learn_rate_k_spread: f.learn_rate_k_spread,
             q_rate_k_spread: f.q_rate_k_spread,
             max_rate_k_spread: f.max_rate_k_spread,
+            rate_input_time_constant: f.rate_input_time_constant,
         }
     }
 

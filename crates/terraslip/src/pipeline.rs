@@ -608,7 +608,7 @@ pub fn run_with(
         // The ICRs in effect at this row's speeds (the law's factors are
         // known, so the stds scale with them), or the straight-line ones.
         let (icr, (gs, ga)) = match cfg.filter.report_icr {
-            ReportIcr::Instantaneous => filter.icr_at(vl, vr),
+            ReportIcr::Instantaneous => filter.icr_now(),
             ReportIcr::Straight => (filter.icr(), (1.0, 1.0)),
         };
         sd[Y_L] *= gs;

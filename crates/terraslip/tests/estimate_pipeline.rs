@@ -265,6 +265,8 @@ fn init_rate_model_sets_the_turn_rate_law_and_rows_report_instantaneous_icrs() {
     let log = drive(&SynthSpec::default());
     let mut cfg = EstimatorConfig::default();
     cfg.filter.learn_rate_k_spread = false;
+    // The law on the raw speeds, so the last row's factor is known here.
+    cfg.filter.rate_input_time_constant = 0.0;
     let pf = params_with_rate_model(true, serde_json::json!(0.2));
     let run = pipeline::run(&log, &cfg, &TerrainEvidence::None, Some(&pf)).unwrap();
     assert_eq!(run.rate_source, "init:params");

@@ -1197,12 +1197,14 @@ mod tests {
         let (learned, rms_learned) = turn_rate_drive(true);
         let (fixed, rms_fixed) = turn_rate_drive(false);
         let k = learned.rate().k_spread;
-        assert!((k - 0.3).abs() < 0.05, "learned slope {k}");
+        // Noise-free fixes: measured 0.305 s/m, 1.5 mm against 7.1 cm.
+        assert!((k - 0.3).abs() < 0.02, "learned slope {k}");
         assert_eq!(fixed.rate().k_spread, 0.0);
-        // A constant spread cannot follow the turns: 1 cm vs a few mm.
-        assert!(rms_fixed > 0.01, "constant model rms {rms_fixed}");
+        // A constant spread cannot follow the turns (the truth's spread
+        // changes by 24 % between straight and sharp).
+        assert!(rms_fixed > 0.03, "constant model rms {rms_fixed}");
         assert!(
-            rms_learned < 0.4 * rms_fixed,
+            rms_learned < 0.005,
             "learned {rms_learned} vs constant {rms_fixed}"
         );
         assert!(is_spd(&learned.covariance()));

@@ -8,13 +8,28 @@ fn filter(variant: Variant) -> Filter {
     let mut cfg = FilterConfig::for_track(0.5);
     cfg.variant = variant;
     let x0 = model::state(0.0, 0.0, 0.3, &IcrParams::new(0.3, -0.32, 0.01));
-    let p0 = MatN::from_diagonal(&State::from([4.0, 4.0, 1e-3, 1e-3, 1e-3, 1e-3, 1e-4, 1e-4]));
+    let p0 = MatN::from_diagonal(&State::from([
+        4.0, 4.0, 1e-3, 1e-3, 1e-3, 1e-3, 1e-4, 1e-4, 1e-12,
+    ]));
     Filter::new(x0, p0, cfg).expect("valid start")
 }
 
 fn bench(c: &mut Criterion) {
     let mut f = filter(Variant::Adaptive);
     c.bench_function("predict", |b| {
+        b.iter(|| f.predict(black_box(0.4), black_box(0.6), black_box(0.02)))
+    });
+    // The turn-rate law on (a learned spread slope, a fixed factor slope).
+    let f0 = filter(Variant::Adaptive);
+    let mut cfg = *f0.config();
+    cfg.rate_k_alpha = -0.02;
+    cfg.learn_rate_k_spread = true;
+    let mut x0 = f0.state();
+    x0[model::RATE_K] = 0.15;
+    let mut p0 = f0.covariance();
+    p0[(model::RATE_K, model::RATE_K)] = 0.01;
+    let mut f = Filter::new(x0, p0, cfg).expect("valid start");
+    c.bench_function("predict turn-rate law", |b| {
         b.iter(|| f.predict(black_box(0.4), black_box(0.6), black_box(0.02)))
     });
     for (name, variant) in [

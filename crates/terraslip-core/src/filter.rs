@@ -37,12 +37,12 @@ use core::ops::AddAssign;
 
 use nalgebra::{Matrix3, SMatrix, Vector3};
 
-use crate::kinematics::IcrParams;
+use crate::kinematics::{IcrParams, TurnRateSlopes};
 
 use crate::angle;
 use crate::model::{
     self, FactorCoords, MatN, SlipCov, State, TreadInput, ALPHA_L, ALPHA_R, EAST, FACTOR_DIFF,
-    FACTOR_MEAN, K, N, NORTH, SLIP, X_C, YAW, Y_L, Y_R,
+    FACTOR_MEAN, K, N, NORTH, RATE_K, SLIP, X_C, YAW, Y_L, Y_R,
 };
 
 /// Largest innovation window of the IEKF variant.
@@ -50,6 +50,8 @@ pub const MAX_WINDOW: usize = 64;
 
 type Mat3xN = SMatrix<f64, 3, N>;
 type MatNx3 = SMatrix<f64, N, 3>;
+/// Columns `yaw..` of the state: where the prediction Jacobian differs from the identity.
+const NB: usize = N - YAW;
 
 /// Which gain rule the filter uses. See the module documentation.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -249,6 +251,25 @@ pub struct FilterConfig {
     /// `q_icr.alpha_diff` (per second, on `alpha_l - alpha_r`), is divided
     /// by the current `d^2`.
     pub factor_coords: FactorCoords,
+    /// Turn-rate slope of the speed factors, s/m ([`TurnRateSlopes::k_alpha`],
+    /// fixed; e.g. from the calibration's `rate_model`). The slope of the
+    /// spread is the state [`model::RATE_K`] (its start value and std come
+    /// with the initial state). The state holds the straight-line ICRs and
+    /// factors; [`Filter::icr_at`] gives those in effect at a turn.
+    pub rate_k_alpha: f64,
+    /// Learn the spread's turn-rate slope (false: a consider state, its
+    /// uncertainty counted but never corrected).
+    pub learn_rate_k_spread: bool,
+    /// Random walk of the spread's turn-rate slope, (s/m)^2/s (a robot
+    /// property: 0 or tiny).
+    pub q_rate_k_spread: f64,
+    /// The spread's turn-rate slope is kept within +- this, s/m.
+    pub max_rate_k_spread: f64,
+    /// Time constant (s) of the low-pass on the tread speeds the turn-rate
+    /// law reads (0 = the raw speeds, the calibration's law as written):
+    /// the ICRs follow the motion with a lag (the shear under the treads
+    /// builds up), so the spread of a turn just begun is not yet the turn's.
+    pub rate_input_time_constant: f64,
 }
 
 impl FilterConfig {
@@ -281,6 +302,11 @@ impl FilterConfig {
             jump_threshold: 4.0,
             band: IcrBand::around_track(w),
             factor_coords: FactorCoords::PerSpread,
+            rate_k_alpha: 0.0,
+            learn_rate_k_spread: false,
+            q_rate_k_spread: 0.0,
+            max_rate_k_spread: 1.0,
+            rate_input_time_constant: 0.2,
         }
     }
 }
@@ -371,6 +397,8 @@ pub struct Filter {
     q_spread: SlipCov,
     /// Low-passed tread speeds for the slip Jacobian.
     u_smooth: Option<TreadInput>,
+    /// Low-passed tread speeds the turn-rate law reads.
+    u_rate: Option<TreadInput>,
     /// Factor the noise schedule applies to the ICR noise.
     schedule_scale: f64,
     /// Heading NIS average of the adaptive variant.
@@ -399,6 +427,19 @@ impl Filter {
         }
         if !(x0[ALPHA_L] > 0.0 && x0[ALPHA_R] > 0.0) {
             return Err(FilterError::BadInput("alpha must be > 0"));
+        }
+        if !(cfg.rate_k_alpha.is_finite()
+            && cfg.q_rate_k_spread.is_finite()
+            && cfg.q_rate_k_spread >= 0.0
+            && cfg.max_rate_k_spread.is_finite()
+            && cfg.max_rate_k_spread >= 0.0
+            && cfg.rate_input_time_constant.is_finite()
+            && cfg.rate_input_time_constant >= 0.0
+            && x0[RATE_K].abs() <= cfg.max_rate_k_spread)
+        {
+            return Err(FilterError::BadInput(
+                "turn-rate slopes not finite or outside max_rate_k_spread",
+            ));
         }
         if P0.cholesky().is_none() {
             return Err(FilterError::BadInput(
@@ -459,6 +500,7 @@ impl Filter {
             }
             .to_slip_cov(),
             u_smooth: None,
+            u_rate: None,
             schedule_scale: 1.0,
             nis_avg: 1.0,
             last_fix_t: None,
@@ -501,6 +543,8 @@ impl Filter {
     /// Projects a filter-coordinate state into the band (in the public
     /// coordinates, where the band is defined).
     fn project(&self, x: &mut State) {
+        let m = self.cfg.max_rate_k_spread;
+        x[RATE_K] = x[RATE_K].clamp(-m, m);
         let c = self.cfg.factor_coords;
         let mut ext = model::from_filter(x, c);
         if self.cfg.band.project(&mut ext) {
@@ -513,9 +557,42 @@ impl Filter {
         &self.cfg
     }
 
-    /// Current slip-parameter estimate.
+    /// Current slip-parameter estimate (straight-line values when a
+    /// turn-rate law is configured: see [`Self::icr_at`]).
     pub fn icr(&self) -> IcrParams {
         model::icr_of(&self.state())
+    }
+
+    /// The turn-rate law in use: the spread's slope as estimated, the
+    /// factors' as configured (s/m).
+    pub fn rate(&self) -> TurnRateSlopes {
+        TurnRateSlopes {
+            k_spread: self.x[RATE_K],
+            k_alpha: self.cfg.rate_k_alpha,
+        }
+    }
+
+    /// The tread speeds (m/s) the turn-rate law read at the last
+    /// prediction (low-passed: [`FilterConfig::rate_input_time_constant`]);
+    /// `(0, 0)` before the first.
+    pub fn rate_input(&self) -> (f64, f64) {
+        self.u_rate.map_or((0.0, 0.0), |u| (u.v_left, u.v_right))
+    }
+
+    /// The ICRs in effect now: [`Self::icr_at`] the law's current speeds
+    /// ([`Self::rate_input`]).
+    pub fn icr_now(&self) -> (IcrParams, (f64, f64)) {
+        let (l, r) = self.rate_input();
+        self.icr_at(l, r)
+    }
+
+    /// The ICRs in effect at measured tread speeds (m/s) under the
+    /// configured turn-rate law, and their factors `(spread, speed)` (both
+    /// 1 for the constant model), by which the standard deviations of
+    /// `y_l, y_r` and of the speed factors scale.
+    pub fn icr_at(&self, v_left: f64, v_right: f64) -> (IcrParams, (f64, f64)) {
+        let g = self.rate().gains(v_left, v_right);
+        (crate::kinematics::scaled(&self.icr(), g.0, g.1), g)
     }
 
     /// Standard deviations of the six states.
@@ -632,8 +709,10 @@ impl Filter {
             return Err(FilterError::NonFinite);
         }
         self.x = x;
-        for i in 0..SLIP {
-            for j in SLIP..N {
+        // The new block is independent of everything else (the pose and the
+        // turn-rate slope, which is the robot's and stays).
+        for i in (0..N).filter(|i| !(SLIP..SLIP + K).contains(i)) {
+            for j in SLIP..SLIP + K {
                 self.P[(i, j)] = 0.0;
                 self.P[(j, i)] = 0.0;
             }
@@ -686,18 +765,38 @@ impl Filter {
             None => self.u_smooth = Some(u),
         }
         let u_slip = self.u_smooth.unwrap_or(u);
-        let (x, F) =
-            model::predict_with_jacobian_in(&self.x, u, u_slip, dt, self.cfg.factor_coords);
+        let b = if self.cfg.rate_input_time_constant > 0.0 {
+            (dt / self.cfg.rate_input_time_constant).min(1.0)
+        } else {
+            1.0
+        };
+        let u_rate = match self.u_rate.as_mut() {
+            Some(r) if b < 1.0 => {
+                r.v_left += b * (v_left - r.v_left);
+                r.v_right += b * (v_right - r.v_right);
+                *r
+            }
+            _ => *self.u_rate.insert(u),
+        };
+        let (x, F) = model::predict_with_pose_rows_rate_in(
+            &self.x,
+            u,
+            u_slip,
+            u_rate,
+            dt,
+            self.cfg.factor_coords,
+            self.cfg.rate_k_alpha,
+        );
 
         // F = I + E with E non-zero only in rows east, north, yaw and
-        // columns yaw.. (a 3x6 block B): F P F' = P1 + P1 E' with
-        // P1 = P + E P. Two 3x6-by-6x8 products instead of two 8x8x8.
-        let mut B: SMatrix<f64, 3, 6> = F.fixed_view::<3, 6>(0, YAW).into_owned();
+        // columns yaw.. (a 3x7 block B): F P F' = P1 + P1 E' with
+        // P1 = P + E P. Two 3x7-by-7x9 products instead of two 9x9x9.
+        let mut B: SMatrix<f64, 3, NB> = F.fixed_view::<3, NB>(0, YAW).into_owned();
         B[(YAW, 0)] -= 1.0;
-        let EP: Mat3xN = B * self.P.fixed_view::<6, N>(YAW, 0);
+        let EP: Mat3xN = B * self.P.fixed_view::<NB, N>(YAW, 0);
         let mut P = self.P;
         P.fixed_rows_mut::<3>(0).add_assign(&EP);
-        let PEt: MatNx3 = P.fixed_view::<N, 6>(0, YAW) * B.transpose();
+        let PEt: MatNx3 = P.fixed_view::<N, NB>(0, YAW) * B.transpose();
         P.fixed_columns_mut::<3>(0).add_assign(&PEt);
 
         let d = (x[Y_L] - x[Y_R]).max(crate::kinematics::MIN_SPREAD);
@@ -724,6 +823,7 @@ impl Filter {
                 let j = FACTOR_DIFF - SLIP;
                 blk[(j, j)] += self.q_slip[(j, j)] * k * (1.0 / (d * d) - 1.0);
             }
+            P[(RATE_K, RATE_K)] += dt * self.cfg.q_rate_k_spread;
         }
         if !finite_mat(&x) || (0..N).any(|i| !P[(i, i)].is_finite()) {
             return Err(FilterError::NonFinite);
@@ -915,7 +1015,9 @@ impl Filter {
         let slip_from_position = libm::sqrt(r[0]) <= self.cfg.slip_from_position_max_std;
         for row in SLIP..N {
             let learn = !self.still
-                && if row >= ALPHA_L {
+                && if row == RATE_K {
+                    self.cfg.learn_rate_k_spread
+                } else if row >= ALPHA_L {
                     self.cfg.learn_alpha
                 } else {
                     self.cfg.learn_icr
@@ -1002,7 +1104,6 @@ impl Filter {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kinematics::IcrParams;
 
     fn cfg(variant: Variant) -> FilterConfig {
         let mut c = FilterConfig::for_track(0.5);
@@ -1011,7 +1112,9 @@ mod tests {
     }
 
     fn p0() -> MatN {
-        MatN::from_diagonal(&State::from([1.0, 1.0, 0.01, 0.01, 0.01, 0.01, 1e-4, 1e-4]))
+        MatN::from_diagonal(&State::from([
+            1.0, 1.0, 0.01, 0.01, 0.01, 0.01, 1e-4, 1e-4, 1e-12,
+        ]))
     }
 
     fn start(variant: Variant) -> Filter {
@@ -1030,6 +1133,172 @@ mod tests {
             std_xy: 0.5,
             std_yaw: 0.02,
         }
+    }
+
+    /// A drive alternating gentle and sharp turns with a true spread slope
+    /// of 0.3 s/m; heading fixes every 0.2 s (0.2 deg), position every 1 s.
+    /// Returns the filter and the RMS of the instantaneous spread error over
+    /// the last 60 s.
+    fn turn_rate_drive(learn: bool) -> (Filter, f64) {
+        let truth = IcrParams::new(0.32, -0.3, 0.0);
+        let k_true = 0.3;
+        let mut c = cfg(Variant::Ekf);
+        c.learn_rate_k_spread = learn;
+        // The truth below follows the law without lag.
+        c.rate_input_time_constant = 0.0;
+        let mut p = p0();
+        p[(RATE_K, RATE_K)] = if learn { 0.04 } else { 1e-12 };
+        let x0 = model::state(0.0, 0.0, 0.0, &IcrParams::new(0.3, -0.3, 0.0));
+        let mut f = Filter::new(x0, p, c).unwrap();
+        // Truth in the filter's coordinates (what predict_rate_in takes).
+        let mut s = model::to_filter(&model::state(0.0, 0.0, 0.0, &truth), c.factor_coords);
+        s[RATE_K] = k_true;
+        let (mut sum, mut n) = (0.0, 0.0);
+        for k in 1..=9000 {
+            let t = k as f64 * 0.02;
+            // 10 s phases: straight, gentle left, sharp right.
+            let (vl, vr) = match (k / 500) % 3 {
+                0 => (0.8, 0.8),
+                1 => (0.7, 0.9),
+                _ => (1.0, 0.2),
+            };
+            let u = TreadInput {
+                v_left: vl,
+                v_right: vr,
+            };
+            s = model::predict_rate_in(&s, u, u, 0.02, c.factor_coords, 0.0);
+            f.predict(vl, vr, 0.02).unwrap();
+            if k % 10 == 0 {
+                let fix = PoseFix {
+                    position: (k % 50 == 0).then_some((s[EAST], s[NORTH])),
+                    yaw: Some(s[YAW]),
+                    std_xy: 0.02,
+                    std_yaw: 0.2f64.to_radians(),
+                };
+                f.update(t, &fix).unwrap();
+            }
+            if t > 120.0 {
+                let want = TurnRateSlopes {
+                    k_spread: k_true,
+                    k_alpha: 0.0,
+                }
+                .at(&truth, vl, vr)
+                .spread();
+                let e = f.icr_at(vl, vr).0.spread() - want;
+                sum += e * e;
+                n += 1.0;
+            }
+        }
+        (f, (sum / n).sqrt())
+    }
+
+    #[test]
+    fn learned_turn_rate_slope_tracks_the_spread_through_turns() {
+        let (learned, rms_learned) = turn_rate_drive(true);
+        let (fixed, rms_fixed) = turn_rate_drive(false);
+        let k = learned.rate().k_spread;
+        // Noise-free fixes: measured 0.305 s/m, 1.5 mm against 7.1 cm.
+        assert!((k - 0.3).abs() < 0.02, "learned slope {k}");
+        assert_eq!(fixed.rate().k_spread, 0.0);
+        // A constant spread cannot follow the turns (the truth's spread
+        // changes by 24 % between straight and sharp).
+        assert!(rms_fixed > 0.03, "constant model rms {rms_fixed}");
+        assert!(
+            rms_learned < 0.005,
+            "learned {rms_learned} vs constant {rms_fixed}"
+        );
+        assert!(is_spd(&learned.covariance()));
+        // The reported ICRs are the straight-line ones scaled about the
+        // centre line at the turn's speeds.
+        let (now, (gs, ga)) = learned.icr_at(1.0, 0.2);
+        assert!((gs - (1.0 + k * 0.8)).abs() < 1e-12 && ga == 1.0);
+        assert!((now.y_l - gs * learned.icr().y_l).abs() < 1e-12);
+        assert_eq!(learned.icr_at(0.5, 0.5).0, learned.icr());
+    }
+
+    #[test]
+    fn turn_rate_law_reads_low_passed_speeds() {
+        let mut x0 = model::state(0.0, 0.0, 0.0, &IcrParams::no_slip(0.5));
+        x0[RATE_K] = 0.5;
+        let mut f = Filter::new(x0, p0(), cfg(Variant::Ekf)).unwrap();
+        f.predict(0.8, 0.8, 0.02).unwrap();
+        assert_eq!(f.rate_input(), (0.8, 0.8));
+        // A sharp turn begins: 0.02 s into it the law has seen a tenth of
+        // it (time constant 0.2 s), after 2 s all of it.
+        f.predict(1.0, 0.2, 0.02).unwrap();
+        let (l, r) = f.rate_input();
+        assert!(
+            (l - 0.82).abs() < 1e-12 && (r - 0.74).abs() < 1e-12,
+            "{l} {r}"
+        );
+        let (now, (gs, _)) = f.icr_now();
+        assert!((gs - (1.0 + 0.5 * 0.08)).abs() < 1e-12);
+        assert!((now.spread() - gs * f.icr().spread()).abs() < 1e-12);
+        for _ in 0..100 {
+            f.predict(1.0, 0.2, 0.02).unwrap();
+        }
+        let (l, r) = f.rate_input();
+        assert!((l - 1.0).abs() < 1e-4 && (r - 0.2).abs() < 1e-4, "{l} {r}");
+        // 0 = the raw speeds.
+        let mut c = cfg(Variant::Ekf);
+        c.rate_input_time_constant = 0.0;
+        let mut f = Filter::new(x0, p0(), c).unwrap();
+        f.predict(0.8, 0.8, 0.02).unwrap();
+        f.predict(1.0, 0.2, 0.02).unwrap();
+        assert_eq!(f.rate_input(), (1.0, 0.2));
+        c.rate_input_time_constant = -1.0;
+        assert!(Filter::new(x0, p0(), c).is_err());
+    }
+
+    #[test]
+    fn terrain_reset_keeps_the_turn_rate_slope() {
+        let (mut f, _) = turn_rate_drive(true);
+        let (k, var_k) = (f.rate().k_spread, f.filter_covariance()[(RATE_K, RATE_K)]);
+        let cov = SlipCov::from_diagonal_element(1e-4);
+        f.reset_icr(Some(&IcrParams::new(0.4, -0.4, 0.0)), &cov)
+            .unwrap();
+        assert_eq!(f.rate().k_spread, k);
+        assert_eq!(f.filter_covariance()[(RATE_K, RATE_K)], var_k);
+        // The new slip block is independent of the slope.
+        assert!((SLIP..SLIP + K).all(|j| f.filter_covariance()[(RATE_K, j)] == 0.0));
+        assert!(is_spd(&f.covariance()));
+    }
+
+    #[test]
+    fn turn_rate_slope_outside_its_band_is_rejected_and_clamped() {
+        let mut x0 = model::state(0.0, 0.0, 0.0, &IcrParams::no_slip(0.5));
+        x0[RATE_K] = 2.0;
+        assert!(matches!(
+            Filter::new(x0, p0(), cfg(Variant::Ekf)),
+            Err(FilterError::BadInput(_))
+        ));
+        let mut c = cfg(Variant::Ekf);
+        c.rate_k_alpha = f64::NAN;
+        x0[RATE_K] = 0.0;
+        assert!(Filter::new(x0, p0(), c).is_err());
+        // A huge heading innovation in a turn cannot push the slope past the band.
+        let mut c = cfg(Variant::Ekf);
+        c.learn_rate_k_spread = true;
+        c.gate_yaw = 0.0;
+        let mut p = p0();
+        p[(RATE_K, RATE_K)] = 100.0;
+        let mut f = Filter::new(x0, p, c).unwrap();
+        for k in 0..50 {
+            f.predict(-1.0, 1.0, 0.02).unwrap();
+            if k % 10 == 9 {
+                let _ = f.update(
+                    k as f64,
+                    &PoseFix {
+                        position: None,
+                        yaw: Some(0.0),
+                        std_xy: 1.0,
+                        std_yaw: 0.001,
+                    },
+                );
+            }
+        }
+        assert!(f.rate().k_spread.abs() <= c.max_rate_k_spread);
+        assert!(f.state().iter().all(|v| v.is_finite()));
     }
 
     #[test]
@@ -1132,7 +1401,7 @@ mod tests {
             c.factor_coords = coords;
             let x0 = model::state(0.0, 0.0, 0.0, &IcrParams::no_slip(0.5));
             let p0 = MatN::from_diagonal(&State::from([
-                1.0, 1.0, 1e-4, 2.5e-3, 2.5e-3, 1e-4, 1e-4, 1e-4,
+                1.0, 1.0, 1e-4, 2.5e-3, 2.5e-3, 1e-4, 1e-4, 1e-4, 1e-12,
             ]));
             let mut f = Filter::new(x0, p0, c).unwrap();
             let mut s = model::state(0.0, 0.0, 0.0, &truth);

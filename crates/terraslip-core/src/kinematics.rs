@@ -212,6 +212,90 @@ impl IcrParams {
     }
 }
 
+/// Smallest factor a turn-rate law may apply to the spread or the speed
+/// factors (the calibration's bound, `terraslip_calib::model`).
+pub const RATE_GAIN_MIN: f64 = 0.2;
+/// Largest such factor.
+pub const RATE_GAIN_MAX: f64 = 5.0;
+
+/// Turn-rate dependence of the ICRs, the calibration's law
+/// (`terraslip-calib`'s `RateSlopes`): with `dv = |V_r - V_l|` the measured
+/// tread speed difference (m/s, before the speed factors), the spread
+/// `y_l - y_r` scales by `1 + k_spread dv` and both speed factors by
+/// `1 + k_alpha dv`, each factor clamped to
+/// [[`RATE_GAIN_MIN`], [`RATE_GAIN_MAX`]] so a slope fitted on gentle
+/// turns cannot make the model singular on a faster one. The spread scales
+/// about the body's centre line (`y_l` and `y_r` by the same factor, `x_c`
+/// unchanged), which makes `omega` and `v_y` scale by the ratio of the two
+/// factors and `v_x` by the speed factor's, as the calibration has it.
+///
+/// The [`IcrParams`] the law is applied to are the straight-line values
+/// (`dv = 0`); [`Self::at`] gives the ICRs in effect at a turn. Zero slopes
+/// are the constant model.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct TurnRateSlopes {
+    /// Relative change of the spread per m/s of tread speed difference, s/m.
+    pub k_spread: f64,
+    /// Relative change of both speed factors per m/s of difference, s/m.
+    pub k_alpha: f64,
+}
+
+impl TurnRateSlopes {
+    /// The constant-ICR model.
+    pub const NONE: TurnRateSlopes = TurnRateSlopes {
+        k_spread: 0.0,
+        k_alpha: 0.0,
+    };
+
+    /// True for the constant model (both slopes zero).
+    pub fn is_constant(&self) -> bool {
+        self.k_spread == 0.0 && self.k_alpha == 0.0
+    }
+
+    /// Both slopes finite.
+    pub fn is_finite(&self) -> bool {
+        self.k_spread.is_finite() && self.k_alpha.is_finite()
+    }
+
+    /// `(spread factor, speed factor)` at measured tread speeds (m/s).
+    /// Both are 1 for the constant model or a straight.
+    #[inline]
+    pub fn gains(&self, v_left: f64, v_right: f64) -> (f64, f64) {
+        let dv = (v_right - v_left).abs();
+        (
+            (1.0 + self.k_spread * dv).clamp(RATE_GAIN_MIN, RATE_GAIN_MAX),
+            (1.0 + self.k_alpha * dv).clamp(RATE_GAIN_MIN, RATE_GAIN_MAX),
+        )
+    }
+
+    /// The ICRs in effect at measured tread speeds `v_left`, `v_right`
+    /// (m/s) when `p` are the straight-line values.
+    pub fn at(&self, p: &IcrParams, v_left: f64, v_right: f64) -> IcrParams {
+        let (gs, ga) = self.gains(v_left, v_right);
+        scaled(p, gs, ga)
+    }
+
+    /// Body twist from measured tread speeds (m/s) with straight-line ICRs
+    /// `p`: the plain ICR model of [`Self::at`].
+    pub fn twist(&self, p: &IcrParams, v_left: f64, v_right: f64) -> Twist {
+        self.at(p, v_left, v_right).twist(v_left, v_right)
+    }
+}
+
+/// `p` with the spread scaled by `gs` about the centre line and the speed
+/// factors by `ga`.
+#[inline]
+pub fn scaled(p: &IcrParams, gs: f64, ga: f64) -> IcrParams {
+    IcrParams {
+        y_l: gs * p.y_l,
+        y_r: gs * p.y_r,
+        x_c: p.x_c,
+        alpha_l: ga * p.alpha_l,
+        alpha_r: ga * p.alpha_r,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -288,6 +372,41 @@ mod tests {
             (0.2889 - 0.2955) / (0.2889 + 0.2955),
             epsilon = 1e-12
         );
+    }
+
+    #[test]
+    fn turn_rate_law_is_the_calibration_law() {
+        // Calibration: omega and v_y scale by ga/gs, v_x by ga.
+        let p = IcrParams {
+            y_l: 0.31,
+            y_r: -0.27,
+            x_c: 0.04,
+            alpha_l: 0.97,
+            alpha_r: 1.02,
+        };
+        let k = TurnRateSlopes {
+            k_spread: -0.2,
+            k_alpha: 0.05,
+        };
+        let (vl, vr) = (0.3, 0.9);
+        let (gs, ga) = (1.0 - 0.2 * 0.6, 1.0 + 0.05 * 0.6);
+        let t0 = p.twist(vl, vr);
+        let t = k.twist(&p, vl, vr);
+        assert_abs_diff_eq!(t.v_x, ga * t0.v_x, epsilon = 1e-12);
+        assert_abs_diff_eq!(t.v_y, ga / gs * t0.v_y, epsilon = 1e-12);
+        assert_abs_diff_eq!(t.omega, ga / gs * t0.omega, epsilon = 1e-12);
+        assert_abs_diff_eq!(k.at(&p, vl, vr).spread(), gs * p.spread(), epsilon = 1e-12);
+        // Symmetric in the turn direction, the identity on a straight.
+        assert_eq!(k.gains(vr, vl), k.gains(vl, vr));
+        assert_eq!(k.at(&p, 0.7, 0.7), p);
+        assert_eq!(TurnRateSlopes::NONE.at(&p, vl, vr), p);
+        // A steep slope on a fast turn is clamped, never singular.
+        let steep = TurnRateSlopes {
+            k_spread: -10.0,
+            k_alpha: 10.0,
+        };
+        assert_eq!(steep.gains(-1.0, 1.0), (RATE_GAIN_MIN, RATE_GAIN_MAX));
+        assert!(steep.at(&p, -1.0, 1.0).validate().is_ok());
     }
 
     proptest! {

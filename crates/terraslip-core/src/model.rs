@@ -2,10 +2,14 @@
 //! (lv2019 eqs. 4-6, rewritten in REP-103, extended with the tread speed
 //! factors of Mandow eq. 6-7) and its analytic Jacobian.
 //!
-//! State `s = [east, north, yaw, y_l, y_r, x_c, alpha_l, alpha_r]`: world
-//! ENU position (m), yaw (rad, counter-clockwise from east), the ICR
-//! coordinates of [`IcrParams`] in the body frame (m) and the factors that
-//! scale the measured tread speeds (1 = nominal). The factors matter: a
+//! State `s = [east, north, yaw, y_l, y_r, x_c, alpha_l, alpha_r, k_spread]`:
+//! world ENU position (m), yaw (rad, counter-clockwise from east), the ICR
+//! coordinates of [`IcrParams`] in the body frame (m), the factors that
+//! scale the measured tread speeds (1 = nominal), and the turn-rate slope of
+//! the spread (s/m, [`TurnRateSlopes::k_spread`]; the ICRs and factors are
+//! then the straight-line values). [`predict`] and [`jacobian`] are the
+//! constant-ICR model and ignore the slope; the filter's step is
+//! [`predict_with_jacobian_rate_in`]. The factors matter: a
 //! 0.4 % difference between `alpha_l` and `alpha_r` turns a robot whose
 //! encoders say "straight" by a few tenths of a degree per second, which no
 //! choice of ICRs can explain. The filter can hold them fixed (the papers'
@@ -26,13 +30,13 @@
 use nalgebra::{SMatrix, SVector};
 
 use crate::angle;
-use crate::kinematics::{IcrParams, MIN_SPREAD};
+use crate::kinematics::{IcrParams, TurnRateSlopes, MIN_SPREAD};
 
 /// Dimension of the state.
-pub const N: usize = 8;
+pub const N: usize = 9;
 /// Number of slip parameters (`y_l, y_r, x_c, alpha_l, alpha_r`).
 pub const K: usize = 5;
-/// State vector `[east, north, yaw, y_l, y_r, x_c, alpha_l, alpha_r]`.
+/// State vector `[east, north, yaw, y_l, y_r, x_c, alpha_l, alpha_r, k_spread]`.
 pub type State = SVector<f64, N>;
 /// NxN matrix (covariance, Jacobian).
 pub type MatN = SMatrix<f64, N, N>;
@@ -57,8 +61,11 @@ pub const ALPHA_L: usize = 6;
 pub const ALPHA_R: usize = 7;
 /// First index of the slip parameters.
 pub const SLIP: usize = Y_L;
+/// Index of the turn-rate slope of the spread, s/m (a robot property: the
+/// terrain schedule's resets and recalls leave it alone).
+pub const RATE_K: usize = 8;
 
-/// Builds a state from a pose and slip parameters.
+/// Builds a state from a pose and slip parameters (turn-rate slope 0).
 pub fn state(east: f64, north: f64, yaw: f64, icr: &IcrParams) -> State {
     State::from([
         east,
@@ -69,6 +76,7 @@ pub fn state(east: f64, north: f64, yaw: f64, icr: &IcrParams) -> State {
         icr.x_c,
         icr.alpha_l,
         icr.alpha_r,
+        0.0,
     ])
 }
 
@@ -139,6 +147,30 @@ pub fn predict_with_jacobian(
     u_slip: TreadInput,
     dt: f64,
 ) -> (State, MatN) {
+    let (out, rows) = predict_with_pose_rows(s, u, u_slip, dt);
+    (out, with_pose_rows(&rows))
+}
+
+/// The Jacobian whose rows east, north, yaw are `rows` and whose other rows
+/// are the identity's.
+fn with_pose_rows(rows: &PoseRows) -> MatN {
+    let mut f = MatN::identity();
+    f.fixed_rows_mut::<3>(0).copy_from(rows);
+    f
+}
+
+/// Rows east, north, yaw of a prediction Jacobian (the others are the
+/// identity's: the slip parameters are random walks).
+pub type PoseRows = SMatrix<f64, 3, N>;
+
+/// [`predict_with_jacobian`] returning only the Jacobian's pose rows (the
+/// filter's hot path: it never forms the identity part).
+pub fn predict_with_pose_rows(
+    s: &State,
+    u: TreadInput,
+    u_slip: TreadInput,
+    dt: f64,
+) -> (State, PoseRows) {
     let d = spread(s);
     let inv_d = 1.0 / d;
     let inv_d2 = inv_d * inv_d;
@@ -176,7 +208,10 @@ pub fn predict_with_jacobian(
             u.v_right * inv_d,
         ),
     ];
-    let mut f = MatN::identity();
+    let mut f = PoseRows::zeros();
+    f[(EAST, EAST)] = 1.0;
+    f[(NORTH, NORTH)] = 1.0;
+    f[(YAW, YAW)] = 1.0;
     f[(EAST, YAW)] = dt * (-v_x * sn - v_y * cs);
     f[(NORTH, YAW)] = dt * (v_x * cs - v_y * sn);
     for (j, dvx, dvy, dw) in cols {
@@ -301,7 +336,7 @@ pub fn transform_cov(p: &MatN, rows: &SMatrix<f64, 2, N>) -> MatN {
     let corner = rp * rows.transpose();
     let mut out = *p;
     for k in 0..2 {
-        for i in 0..ALPHA_L {
+        for i in (0..N).filter(|&i| i != ALPHA_L && i != ALPHA_R) {
             out[(ALPHA_L + k, i)] = rp[(k, i)];
             out[(i, ALPHA_L + k)] = rp[(k, i)];
         }
@@ -314,8 +349,9 @@ pub fn transform_cov(p: &MatN, rows: &SMatrix<f64, 2, N>) -> MatN {
     out
 }
 
-/// [`predict_with_jacobian`] on the filter's state (see [`FactorCoords`]):
-/// the next filter state and its Jacobian by the filter state.
+/// The filter's step on its own state (see [`FactorCoords`]) with the
+/// turn-rate law of the state's slope `s[RATE_K]` and no speed-factor
+/// slope: [`predict_with_jacobian_rate_in`] with `k_alpha = 0`.
 pub fn predict_with_jacobian_in(
     s: &State,
     u: TreadInput,
@@ -323,12 +359,70 @@ pub fn predict_with_jacobian_in(
     dt: f64,
     c: FactorCoords,
 ) -> (State, MatN) {
-    let ext = from_filter(s, c);
-    let (next, fe) = predict_with_jacobian(&ext, u, u_slip, dt);
+    predict_with_jacobian_rate_in(s, u, u_slip, u, dt, c, 0.0)
+}
+
+/// The filter's step and its Jacobian by the filter state, with the
+/// turn-rate law ([`TurnRateSlopes`]) of slopes `k_spread = s[RATE_K]` and
+/// `k_alpha` (s/m): the state's ICRs and factors are the straight-line
+/// values, the step uses those in effect at the speeds `u_rate`
+/// ([`TurnRateSlopes::at`]; `u` itself for the calibration's law as
+/// written, the filter passes low-passed speeds: the ICRs follow the motion
+/// with a lag). The law's factors depend on `u_rate` and the slope
+/// only, so the Jacobian is the constant model's at the scaled parameters
+/// with the `y` columns times the spread factor, the factor columns times
+/// the speed factor, and a slope column `dv (y_l d/dy_l' + y_r d/dy_r')`
+/// (zero where the spread factor is clamped).
+pub fn predict_with_jacobian_rate_in(
+    s: &State,
+    u: TreadInput,
+    u_slip: TreadInput,
+    u_rate: TreadInput,
+    dt: f64,
+    c: FactorCoords,
+    k_alpha: f64,
+) -> (State, MatN) {
+    let (out, rows) = predict_with_pose_rows_rate_in(s, u, u_slip, u_rate, dt, c, k_alpha);
+    (out, with_pose_rows(&rows))
+}
+
+/// [`predict_with_jacobian_rate_in`] returning only the Jacobian's pose
+/// rows (the filter's hot path).
+pub fn predict_with_pose_rows_rate_in(
+    s: &State,
+    u: TreadInput,
+    u_slip: TreadInput,
+    u_rate: TreadInput,
+    dt: f64,
+    c: FactorCoords,
+    k_alpha: f64,
+) -> (State, PoseRows) {
+    let mut ext = from_filter(s, c);
+    let rate = TurnRateSlopes {
+        k_spread: s[RATE_K],
+        k_alpha,
+    };
+    let (gs, ga) = rate.gains(u_rate.v_left, u_rate.v_right);
+    let dv = (u_rate.v_right - u_rate.v_left).abs();
+    let dgs = if 1.0 + rate.k_spread * dv == gs {
+        dv
+    } else {
+        0.0
+    };
+    let (y_l, y_r) = (ext[Y_L], ext[Y_R]);
+    scale_slip(&mut ext, gs, ga);
+    let (next, mut fe) = predict_with_pose_rows(&ext, u, u_slip, dt);
     let mut out = *s;
     out[EAST] = next[EAST];
     out[NORTH] = next[NORTH];
     out[YAW] = next[YAW];
+    for i in 0..3 {
+        fe[(i, RATE_K)] = dgs * (y_l * fe[(i, Y_L)] + y_r * fe[(i, Y_R)]);
+        fe[(i, Y_L)] *= gs;
+        fe[(i, Y_R)] *= gs;
+        fe[(i, ALPHA_L)] *= ga;
+        fe[(i, ALPHA_R)] *= ga;
+    }
     // Chain rule: only the pose rows differ from the identity, and
     // d ext / d s only in rows alpha_l, alpha_r.
     let r = from_filter_rows(s, c);
@@ -347,9 +441,38 @@ pub fn predict_with_jacobian_in(
     (out, f)
 }
 
-/// `f` on the filter's state (no Jacobian).
+/// The public state's ICRs scaled by a turn-rate law's factors
+/// ([`crate::kinematics::scaled`]).
+#[inline]
+fn scale_slip(s: &mut State, gs: f64, ga: f64) {
+    s[Y_L] *= gs;
+    s[Y_R] *= gs;
+    s[ALPHA_L] *= ga;
+    s[ALPHA_R] *= ga;
+}
+
+/// `f` on the filter's state (no Jacobian): [`predict_rate_in`] with `k_alpha = 0`.
 pub fn predict_in(s: &State, u: TreadInput, dt: f64, c: FactorCoords) -> State {
-    let next = predict(&from_filter(s, c), u, dt);
+    predict_rate_in(s, u, u, dt, c, 0.0)
+}
+
+/// The step of [`predict_with_jacobian_rate_in`] without the Jacobian.
+pub fn predict_rate_in(
+    s: &State,
+    u: TreadInput,
+    u_rate: TreadInput,
+    dt: f64,
+    c: FactorCoords,
+    k_alpha: f64,
+) -> State {
+    let mut ext = from_filter(s, c);
+    let rate = TurnRateSlopes {
+        k_spread: s[RATE_K],
+        k_alpha,
+    };
+    let (gs, ga) = rate.gains(u_rate.v_left, u_rate.v_right);
+    scale_slip(&mut ext, gs, ga);
+    let next = predict(&ext, u, dt);
     let mut out = *s;
     out[EAST] = next[EAST];
     out[NORTH] = next[NORTH];
@@ -472,21 +595,40 @@ mod tests {
             a_l in 0.8f64..1.2, a_r in 0.8f64..1.2,
             vl in -2.0f64..2.0, vr in -2.0f64..2.0, dt in 0.001f64..0.5,
             per_spread in any::<bool>(),
+            k_spread in -0.15f64..0.15, k_alpha in -0.15f64..0.15,
+            rl in -2.0f64..2.0, rr in -2.0f64..2.0,
         ) {
+            // The law's speeds may differ from the step's (low-passed).
+            let u_rate = TreadInput { v_left: rl, v_right: rr };
             let c = if per_spread { FactorCoords::PerSpread } else { FactorCoords::Difference };
-            let ext = State::from([e, n, yaw, y_l, y_r, x_c, a_l, a_r]);
+            let ext = State::from([e, n, yaw, y_l, y_r, x_c, a_l, a_r, k_spread]);
             let s = to_filter(&ext, c);
             let back = from_filter(&s, c);
             prop_assert!((back - ext).amax() < 1e-12);
             // The filter's step is the public step.
             let u = TreadInput { v_left: vl, v_right: vr };
             let a = from_filter(&predict_in(&s, u, dt, c), c);
-            let b = predict(&ext, u, dt);
+            let now = TurnRateSlopes { k_spread, k_alpha: 0.0 }.at(&icr_of(&ext), vl, vr);
+            let mut b = predict(&state(e, n, yaw, &now), u, dt);
+            b.fixed_rows_mut::<6>(SLIP).copy_from(&ext.fixed_rows::<6>(SLIP));
             prop_assert!((a - b).amax() < 1e-9);
-            // Public Jacobian, and the filter's (chain rule) in `c`.
+            // With a turn-rate law: the step is the constant model's at the
+            // ICRs in effect at this turn.
+            let rate = TurnRateSlopes { k_spread, k_alpha };
+            let now = rate.at(&icr_of(&ext), vl, vr);
+            let want = predict(&state(e, n, yaw, &now), u, dt);
+            let got = predict_rate_in(&s, u, u, dt, c, k_alpha);
+            prop_assert!((got.fixed_rows::<3>(0) - want.fixed_rows::<3>(0)).amax() < 1e-9);
+            prop_assert!((predict_with_jacobian_rate_in(&s, u, u, u, dt, c, k_alpha).0 - got).amax() < 1e-12);
+            // Public Jacobian, and the filter's (chain rule) in `c`, without
+            // and with the law.
             for (fa, fd) in [
                 (jacobian(&ext, u, dt), central_difference(&ext, u, dt)),
                 (predict_with_jacobian_in(&s, u, u, dt, c).1, central_difference_in(&s, u, dt, c)),
+                (
+                    predict_with_jacobian_rate_in(&s, u, u, u_rate, dt, c, k_alpha).1,
+                    central_difference_of(&s, |x| predict_rate_in(x, u, u_rate, dt, c, k_alpha)),
+                ),
             ] {
                 for i in 0..N {
                     for j in 0..N {

@@ -316,7 +316,9 @@ mod tests {
         c.variant = Variant::Ekf;
         c.factor_coords = coords;
         let x0 = crate::model::state(0.0, 0.0, 0.0, &IcrParams::no_slip(0.5));
-        let p0 = MatN::from_diagonal(&State::from([1.0, 1.0, 0.01, 1e-4, 1e-4, 1e-4, 1e-6, 1e-6]));
+        let p0 = MatN::from_diagonal(&State::from([
+            1.0, 1.0, 0.01, 1e-4, 1e-4, 1e-4, 1e-6, 1e-6, 1e-12,
+        ]));
         Filter::new(x0, p0, c).unwrap()
     }
 

@@ -4,7 +4,8 @@
 //!
 //!     cargo run -p terraslip --release --example estimator_figures -- --seeds 5 papers papers-rtk papers-icr3 papers-icr3-rtk wang4 wang4-rtk
 //!
-//! Options: `--seeds N`, `--preset NAME` (one variant); `TUNE=file.toml`
+//! Options: `--seeds N`, `--preset NAME` (one variant); `BREAKDOWN=1`
+//! splits each outage drift along / across the path; `TUNE=file.toml`
 //! adds the default overridden by that file's keys as `tuned`; `VERBOSE=1`
 //! prints every change's re-convergence and the drift details;
 //! `TRACE=seed,t0,t1` prints the spread error, factors and tread speeds.
@@ -46,6 +47,7 @@ fn main() -> anyhow::Result<()> {
         println!("| variant | first visit worst (s) | revisit worst (s) | worst from first turn (s) | changes > 10 s | RMS d (cm) | RMS y_l (cm) | RMS y_r (cm) | RMS x_c (cm) | outage drift (%) |");
         println!("|---|---|---|---|---|---|---|---|---|---|");
         let mut slow_lines: Vec<String> = Vec::new();
+        let mut breakdown: Vec<String> = Vec::new();
         let mut presets = EstimatorConfig::presets();
         // TUNE=file.toml adds the default overridden by that file's keys.
         if let Ok(path) = std::env::var("TUNE") {
@@ -64,6 +66,7 @@ fn main() -> anyhow::Result<()> {
             let (mut from_turn, mut nchanges, mut slow, mut slow_no_turn) =
                 (Some(0.0f64), 0usize, 0usize, 0usize);
             let (mut d, mut yl, mut yr, mut xc, mut drift) = (0.0, 0.0, 0.0, 0.0, Vec::new());
+            let (mut along, mut cross): (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
             for seed in 1..=seeds {
                 let sim = simulate(&sc, seed)?;
                 let log = &sim.log;
@@ -162,6 +165,19 @@ fn main() -> anyhow::Result<()> {
                             );
                         }
                     }
+                    // BREAKDOWN=1: the drift split along / across the path.
+                    if std::env::var("BREAKDOWN").is_ok() {
+                        eprintln!(
+                            "{name} {pname} seed {seed}: drift {:.2} % = along {:+.2} % across {:+.2} % of {:.1} m; heading change error {:+.2} deg",
+                            dr.percent,
+                            100.0 * dr.along / dr.distance,
+                            100.0 * dr.cross / dr.distance,
+                            dr.distance,
+                            dr.yaw_error.to_degrees()
+                        );
+                    }
+                    along.push(100.0 * dr.along / dr.distance);
+                    cross.push(100.0 * dr.cross / dr.distance);
                     drift.push(dr.percent);
                 }
             }
@@ -175,6 +191,15 @@ fn main() -> anyhow::Result<()> {
                     format!("{:.1}", v.iter().flatten().fold(0.0f64, |a, b| a.max(*b)))
                 }
             };
+            if !drift.is_empty() {
+                let rms =
+                    |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt();
+                let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+                breakdown.push(format!(
+                    "- {pname} drift split: along the path RMS {:.2} % (mean {:+.2} %), across RMS {:.2} % (mean {:+.2} %); total RMS {:.2} %",
+                    rms(&along), mean(&along), rms(&cross), mean(&cross), rms(&drift)
+                ));
+            }
             let drift_s = if drift.is_empty() {
                 "-".into()
             } else {
@@ -196,6 +221,11 @@ fn main() -> anyhow::Result<()> {
                 100.0 * (yr / n).sqrt(),
                 100.0 * (xc / n).sqrt(),
             );
+        }
+        if std::env::var("BREAKDOWN").is_ok() {
+            for l in &breakdown {
+                println!("{l}");
+            }
         }
         if !slow_lines.is_empty() {
             println!("\nChanges slower than 10 s (from the change):\n");

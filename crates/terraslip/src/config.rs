@@ -150,6 +150,46 @@ pub struct FilterSection {
     pub adapt_max_scale: f64,
     /// Heading-NIS average above which the filter reports an innovation jump.
     pub jump_threshold: f64,
+    /// Turn-rate law of the ICRs (the calibration's `rate_model`): relative
+    /// change of the spread y_l - y_r per m/s of tread speed difference
+    /// |V_r - V_l|, s/m (0 = constant ICRs; the papers' model).
+    pub rate_k_spread: f64,
+    /// Same law: relative change of both tread speed factors per m/s of
+    /// difference, s/m.
+    pub rate_k_alpha: f64,
+    /// Learn the spread's slope online (a filter state, from
+    /// `rate_k_spread` with std `init.std_rate_k_spread`; a robot property,
+    /// so terrain resets and recalls leave it alone; default since session
+    /// 3). false: fixed at `rate_k_spread` (or `--init`'s).
+    pub learn_rate_k_spread: bool,
+    /// Random walk of the learned spread slope, (s/m)^2/s.
+    pub q_rate_k_spread: f64,
+    /// The spread slope is kept within +- this, s/m.
+    pub max_rate_k_spread: f64,
+    /// Time constant of the low-pass on the tread speeds the turn-rate law
+    /// reads, s (0 = raw speeds, the calibration's law as written): the
+    /// ICRs follow the motion with a lag.
+    pub rate_input_time_constant: f64,
+    /// With `--init`, take the slopes (and the straight-line ICRs they go
+    /// with) from the parameter file's `rate_model` when calibration
+    /// selected it, in place of `rate_k_spread` / `rate_k_alpha`.
+    pub rate_from_init: bool,
+    /// What estimate.csv's `y_l, y_r, x_c, alpha_l, alpha_r` (and `d`) are
+    /// when a turn-rate law is in use: `instantaneous` (default; those in
+    /// effect at the row's tread speeds, what the plain ICR formula needs to
+    /// give the filter's twist, and what a simulator's truth holds) or
+    /// `straight` (the straight-line values the filter carries).
+    pub report_icr: ReportIcr,
+}
+
+/// Which ICRs estimate.csv reports under a turn-rate law (`[filter] report_icr`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ReportIcr {
+    /// Those in effect at the row's tread speeds (default).
+    Instantaneous,
+    /// The straight-line values (`|V_r - V_l| = 0`).
+    Straight,
 }
 
 /// `[init]`
@@ -174,6 +214,9 @@ pub struct InitSection {
     pub calibrated_std: SlipStd,
     /// Initial yaw std when the first fix has no heading, rad.
     pub std_yaw_unknown: f64,
+    /// Prior std of the spread's turn-rate slope when it is learned
+    /// (`filter.learn_rate_k_spread`), s/m.
+    pub std_rate_k_spread: f64,
 }
 
 /// `[measurement]`
@@ -279,6 +322,14 @@ impl Default for FilterSection {
             adapt_time_constant: 5.0,
             adapt_max_scale: 50.0,
             jump_threshold: 4.0,
+            rate_k_spread: 0.0,
+            rate_k_alpha: 0.0,
+            learn_rate_k_spread: true,
+            q_rate_k_spread: 0.0,
+            max_rate_k_spread: 1.0,
+            rate_input_time_constant: 0.2,
+            rate_from_init: true,
+            report_icr: ReportIcr::Instantaneous,
         }
     }
 }
@@ -301,6 +352,7 @@ impl Default for InitSection {
                 alpha_diff: 0.003,
             },
             std_yaw_unknown: std::f64::consts::PI,
+            std_rate_k_spread: 0.15,
         }
     }
 }
@@ -497,6 +549,41 @@ impl EstimatorConfig {
         if !self.schedule.memory_average.is_finite() || self.schedule.memory_average < 0.0 {
             return Err(ConfigError("schedule.memory_average must be >= 0".into()));
         }
+        for (key, k) in [
+            ("filter.rate_k_spread", self.filter.rate_k_spread),
+            ("filter.rate_k_alpha", self.filter.rate_k_alpha),
+        ] {
+            if !(k.is_finite() && k.abs() <= 10.0) {
+                return Err(ConfigError(format!(
+                    "{key} = {k} must be a finite slope within +-10 s/m"
+                )));
+            }
+        }
+        let f = &self.filter;
+        if !(f.max_rate_k_spread.is_finite()
+            && f.max_rate_k_spread >= 0.0
+            && f.rate_k_spread.abs() <= f.max_rate_k_spread)
+        {
+            return Err(ConfigError(format!(
+                "filter.max_rate_k_spread = {} must be >= 0 and >= |rate_k_spread| = {}",
+                f.max_rate_k_spread,
+                f.rate_k_spread.abs()
+            )));
+        }
+        if !(f.q_rate_k_spread.is_finite() && f.q_rate_k_spread >= 0.0) {
+            return Err(ConfigError("filter.q_rate_k_spread must be >= 0".into()));
+        }
+        if !(f.rate_input_time_constant.is_finite() && f.rate_input_time_constant >= 0.0) {
+            return Err(ConfigError(
+                "filter.rate_input_time_constant must be >= 0 (s)".into(),
+            ));
+        }
+        let sk = self.init.std_rate_k_spread;
+        if !(sk.is_finite() && sk > 0.0) {
+            return Err(ConfigError(format!(
+                "init.std_rate_k_spread = {sk} must be > 0 (s/m)"
+            )));
+        }
         Ok(())
     }
 
@@ -547,6 +634,11 @@ impl EstimatorConfig {
                 FactorCoordsName::Difference => FactorCoords::Difference,
                 FactorCoordsName::PerSpread => FactorCoords::PerSpread,
             },
+            rate_k_alpha: f.rate_k_alpha,
+            learn_rate_k_spread: f.learn_rate_k_spread,
+            q_rate_k_spread: f.q_rate_k_spread,
+            max_rate_k_spread: f.max_rate_k_spread,
+            rate_input_time_constant: f.rate_input_time_constant,
         }
     }
 
@@ -596,6 +688,9 @@ impl EstimatorConfig {
             // The papers' six-state model: fixed speed factors (at 1, with
             // no uncertainty of their own), a vague ICR prior, no memory.
             c.filter.learn_alpha = false;
+            // ... and constant ICRs (no turn-rate law).
+            c.filter.rate_from_init = false;
+            c.filter.learn_rate_k_spread = false;
             c.filter.slip_from_position_max_std = 1e9;
             c.init.std_alpha = 1e-6;
             c.init.std_alpha_diff = 1e-6;
@@ -670,6 +765,21 @@ mod tests {
         assert!(e.to_string().contains("iekf_window"), "{e}");
         let e = EstimatorConfig::from_toml("[band]\nmin_spread = 5.0\n").unwrap_err();
         assert!(e.to_string().contains("min_spread"), "{e}");
+        let e = EstimatorConfig::from_toml("[filter]\nrate_k_spread = 20.0\n").unwrap_err();
+        assert!(e.to_string().contains("rate_k_spread"), "{e}");
+        let e = EstimatorConfig::from_toml("[filter]\nreport_icr = \"mean\"\n").unwrap_err();
+        assert!(e.to_string().contains("mean"), "{e}");
+        let c =
+            EstimatorConfig::from_toml("[filter]\nrate_k_spread = 0.15\nrate_k_alpha = -0.02\n")
+                .unwrap();
+        assert_eq!(c.filter_config(0.5).rate_k_alpha, -0.02);
+        assert_eq!(c.filter.rate_k_spread, 0.15);
+        let e =
+            EstimatorConfig::from_toml("[filter]\nrate_k_spread = 0.5\nmax_rate_k_spread = 0.3\n")
+                .unwrap_err();
+        assert!(e.to_string().contains("max_rate_k_spread"), "{e}");
+        let e = EstimatorConfig::from_toml("[init]\nstd_rate_k_spread = -1.0\n").unwrap_err();
+        assert!(e.to_string().contains("std_rate_k_spread"), "{e}");
         let e = EstimatorConfig::from_toml("[filter]\nfactor_coords = \"ratio\"\n").unwrap_err();
         assert!(e.to_string().contains("ratio"), "{e}");
     }

@@ -278,6 +278,15 @@ pub struct Drift {
     pub error: f64,
     /// `100 * error / distance`.
     pub percent: f64,
+    /// The error split along the true displacement over the outage (m;
+    /// positive = the estimate went too far: mostly the common speed
+    /// factor) and across it (m, positive to its left: mostly the heading
+    /// rate, i.e. the spread and the factor difference). `along^2 +
+    /// cross^2 = error^2`.
+    pub along: f64,
+    pub cross: f64,
+    /// Estimated minus true heading change over the outage, rad.
+    pub yaw_error: f64,
 }
 
 /// Drift of the estimate's own motion over `[t0, t1]` (a window in which
@@ -305,6 +314,14 @@ pub fn outage_drift(run: &EstimateRun, truth: &[TruthSample], t0: f64, t1: f64) 
     let est = local(b.east - a.east, b.north - a.north, a.yaw);
     let tru = local(tb.east - ta.east, tb.north - ta.north, ta.yaw);
     let error = ((est.0 - tru.0).powi(2) + (est.1 - tru.1).powi(2)).sqrt();
+    let (ex, ey) = (est.0 - tru.0, est.1 - tru.1);
+    let norm = tru.0.hypot(tru.1);
+    let (ux, uy) = if norm > 0.0 {
+        (tru.0 / norm, tru.1 / norm)
+    } else {
+        (1.0, 0.0)
+    };
+    let yaw_error = angle::wrap((b.yaw - a.yaw) - (tb.yaw - ta.yaw));
     let i0 = truth.partition_point(|s| s.t < a.t);
     let i1 = truth.partition_point(|s| s.t <= b.t);
     let distance: f64 = truth[i0..i1]
@@ -320,6 +337,9 @@ pub fn outage_drift(run: &EstimateRun, truth: &[TruthSample], t0: f64, t1: f64) 
         distance,
         error,
         percent: 100.0 * error / distance,
+        along: ex * ux + ey * uy,
+        cross: -ex * uy + ey * ux,
+        yaw_error,
     })
 }
 

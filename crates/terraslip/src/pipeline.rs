@@ -6,13 +6,16 @@
 #![allow(non_snake_case)]
 
 use terraslip_core::filter::{Fate, Filter, FilterError, PoseFix, UpdateReport};
-use terraslip_core::model::{self, MatN, SlipCov, State, EAST, K, NORTH, SLIP, X_C, YAW, Y_L, Y_R};
+use terraslip_core::kinematics::TurnRateSlopes;
+use terraslip_core::model::{
+    self, MatN, SlipCov, State, EAST, K, NORTH, RATE_K, SLIP, YAW, Y_L, Y_R,
+};
 use terraslip_core::schedule::{ChangeAction, NoiseSchedule};
 use terraslip_core::terrain_belief::{TerrainBelief, MAX_TERRAINS};
 use terraslip_core::IcrParams;
 use terraslip_io::{DriveLog, ParamsFile, PoseObs, TerrainLabel};
 
-use crate::config::EstimatorConfig;
+use crate::config::{EstimatorConfig, ReportIcr};
 
 /// Where the estimator learns which terrain the robot is on.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -123,8 +126,16 @@ pub struct EstimateRun {
     pub changes: Vec<TerrainChange>,
     /// Track width used for the band and default ICRs, m.
     pub track_width: f64,
-    /// Final ICR estimate.
+    /// Final ICR estimate: the straight-line values when a turn-rate law
+    /// is in use ([`Self::rate`]).
     pub final_icr: IcrParams,
+    /// Turn-rate law at the end of the run (the spread slope as learned,
+    /// when it is; [`TurnRateSlopes::NONE`] = constant ICRs).
+    pub rate: TurnRateSlopes,
+    /// Std of the spread slope at the end, s/m (~0 when not learned).
+    pub rate_std: f64,
+    /// Where [`Self::rate`] started: `config` or `init:<set>`.
+    pub rate_source: String,
     /// Counters.
     pub stats: RunStats,
     /// Things the user should know (data used with caveats).
@@ -249,6 +260,30 @@ pub fn run_with(
         p.for_terrain(first_terrain)
             .or_else(|| p.terrains.values().next().map(|e| e.params))
     });
+    // The turn-rate law: the config's slopes, or those the calibration
+    // selected for the same set as the starting ICRs (which are then its
+    // straight-line ICRs, not the constant fit's turn average).
+    let mut rate = TurnRateSlopes {
+        k_spread: cfg.filter.rate_k_spread,
+        k_alpha: cfg.filter.rate_k_alpha,
+    };
+    let mut rate_source = "config".to_string();
+    let mut calibrated = calibrated;
+    if let (Some(pf), true) = (init, cfg.filter.rate_from_init) {
+        let (set, extra) = match first_terrain.and_then(|t| pf.terrains.get_key_value(t)) {
+            Some((name, e)) => (name.as_str(), &e.extra),
+            None if pf.params.is_some() => ("params", &pf.extra),
+            None => match pf.terrains.iter().next() {
+                Some((name, e)) => (name.as_str(), &e.extra),
+                None => ("params", &pf.extra),
+            },
+        };
+        if let Some((p, k)) = selected_rate_model(extra, set)? {
+            calibrated = Some(p);
+            rate = k;
+            rate_source = format!("init:{set}");
+        }
+    }
     let icr0 = match calibrated {
         Some(p) => {
             p.validate()
@@ -307,7 +342,7 @@ pub fn run_with(
         .unwrap_or(cfg.measurement.std_yaw);
     let (e0, n0) = first_pos.unwrap_or((0.0, 0.0));
     let y0 = first_yaw.unwrap_or(0.0);
-    let x0: State = model::state(e0, n0, y0, &icr0);
+    let mut x0: State = model::state(e0, n0, y0, &icr0);
     // The first fix seeds the state at the first wheels time: widen the
     // uncertainty by how far the robot can have moved and turned before it.
     let t_fix = pose.first().map_or(log.wheels[0].t, |p| p.t);
@@ -334,8 +369,23 @@ pub fn run_with(
     P0[(NORTH, NORTH)] = pos_var;
     P0[(YAW, YAW)] = yaw_var;
     P0.fixed_view_mut::<K, K>(SLIP, SLIP).copy_from(&icr_cov);
+    // The spread's turn-rate slope: learned from its prior, or fixed (a
+    // vanishing variance keeps the covariance positive-definite).
+    x0[RATE_K] = rate.k_spread;
+    P0[(RATE_K, RATE_K)] = if cfg.filter.learn_rate_k_spread {
+        cfg.init.std_rate_k_spread.powi(2)
+    } else {
+        1e-12
+    };
 
     let mut fcfg = cfg.filter_config(track_width);
+    fcfg.rate_k_alpha = rate.k_alpha;
+    if rate.k_spread.abs() > fcfg.max_rate_k_spread {
+        return Err(PipelineError::Init(format!(
+            "{rate_source}: k_spread = {} s/m is beyond filter.max_rate_k_spread = {}",
+            rate.k_spread, fcfg.max_rate_k_spread
+        )));
+    }
     if fcfg.encoder_tick == 0.0 {
         if let (Some(r), Some(n)) = (log.meta.wheel_radius, log.meta.ticks_per_rev) {
             if r.is_finite() && r > 0.0 && n.is_finite() && n >= 1.0 {
@@ -354,7 +404,12 @@ pub fn run_with(
     if let Some(pf) = init {
         for (name, entry) in &pf.terrains {
             if let Some(k) = terrains.iter().position(|n| n == name) {
-                schedule.seed(k, &entry.params, cfg.calibrated_std());
+                // Under a turn-rate law the filter holds straight-line ICRs.
+                let seeded = match (rate.is_constant(), cfg.filter.rate_from_init) {
+                    (false, true) => selected_rate_model(&entry.extra, name)?.map(|(p, _)| p),
+                    _ => None,
+                };
+                schedule.seed(k, &seeded.unwrap_or(entry.params), cfg.calibrated_std());
             } else {
                 warnings.push(format!(
                     "--init: terrain `{name}` never appears in the terrain evidence; ignored"
@@ -546,21 +601,32 @@ pub fn run_with(
         t_prev = w.t;
 
         let s = filter.state();
-        let sd = filter.std();
+        let mut sd = [0.0; 8];
+        sd.copy_from_slice(&filter.std()[..8]);
         let P = filter.covariance();
         let var_d = P[(Y_L, Y_L)] + P[(Y_R, Y_R)] - 2.0 * P[(Y_L, Y_R)];
+        // The ICRs in effect at this row's speeds (the law's factors are
+        // known, so the stds scale with them), or the straight-line ones.
+        let (icr, (gs, ga)) = match cfg.filter.report_icr {
+            ReportIcr::Instantaneous => filter.icr_now(),
+            ReportIcr::Straight => (filter.icr(), (1.0, 1.0)),
+        };
+        sd[Y_L] *= gs;
+        sd[Y_R] *= gs;
+        sd[model::ALPHA_L] *= ga;
+        sd[model::ALPHA_R] *= ga;
         rows.push(EstimateRow {
             t: w.t,
             east: s[EAST],
             north: s[NORTH],
             yaw: s[YAW],
-            y_l: s[Y_L],
-            y_r: s[Y_R],
-            x_c: s[X_C],
-            alpha_l: s[model::ALPHA_L],
-            alpha_r: s[model::ALPHA_R],
+            y_l: icr.y_l,
+            y_r: icr.y_r,
+            x_c: icr.x_c,
+            alpha_l: icr.alpha_l,
+            alpha_r: icr.alpha_r,
             std: sd,
-            std_spread: var_d.max(0.0).sqrt(),
+            std_spread: gs * var_d.max(0.0).sqrt(),
             terrain: current_terrain,
             fused,
             gated,
@@ -590,7 +656,55 @@ pub fn run_with(
         changes,
         track_width,
         final_icr: filter.icr(),
+        rate: filter.rate(),
+        rate_std: filter.std()[RATE_K],
+        rate_source,
         stats,
         warnings,
     })
+}
+
+/// The turn-rate model of a parameter set (the `rate_model` key
+/// `terraslip calibrate` writes: straight-line `params`, `k_spread`,
+/// `k_alpha`) when calibration selected it; `None` when absent or not
+/// selected. A selected but malformed one is an error naming the set.
+fn selected_rate_model(
+    extra: &std::collections::BTreeMap<String, serde_json::Value>,
+    set: &str,
+) -> Result<Option<(IcrParams, TurnRateSlopes)>, PipelineError> {
+    let Some(r) = extra.get("rate_model") else {
+        return Ok(None);
+    };
+    if r.get("selected") != Some(&serde_json::Value::Bool(true)) {
+        return Ok(None);
+    }
+    let bad = |reason: String| PipelineError::Init(format!("set `{set}`: rate_model {reason}"));
+    let num = |v: &serde_json::Value, key: &str| {
+        v.get(key)
+            .and_then(|x| x.as_f64())
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| bad(format!("`{key}` is missing or not a finite number")))
+    };
+    let q = r
+        .get("params")
+        .ok_or_else(|| bad("`params` is missing".into()))?;
+    let p = IcrParams {
+        y_l: num(q, "y_l")?,
+        y_r: num(q, "y_r")?,
+        x_c: num(q, "x_c")?,
+        alpha_l: num(q, "alpha_l")?,
+        alpha_r: num(q, "alpha_r")?,
+    };
+    p.validate().map_err(|e| bad(format!("params: {e}")))?;
+    let k = TurnRateSlopes {
+        k_spread: num(r, "k_spread")?,
+        k_alpha: num(r, "k_alpha")?,
+    };
+    if k.k_spread.abs() > 10.0 || k.k_alpha.abs() > 10.0 {
+        return Err(bad(format!(
+            "slopes k_spread = {}, k_alpha = {} s/m are beyond +-10 s/m",
+            k.k_spread, k.k_alpha
+        )));
+    }
+    Ok(Some((p, k)))
 }

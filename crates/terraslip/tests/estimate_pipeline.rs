@@ -241,3 +241,71 @@ fn camera_change_detections_speed_up_the_belief() {
         );
     }
 }
+
+/// A pooled parameter set with a `rate_model` as `terraslip calibrate` writes it.
+fn params_with_rate_model(selected: bool, k_spread: serde_json::Value) -> terraslip_io::ParamsFile {
+    let mut pf = terraslip_io::ParamsFile {
+        params: Some(terraslip_core::IcrParams::new(0.3, -0.3, 0.0)),
+        ..Default::default()
+    };
+    pf.extra.insert(
+        "rate_model".into(),
+        serde_json::json!({
+            "selected": selected,
+            "params": {"y_l": 0.28, "y_r": -0.29, "x_c": 0.0, "alpha_l": 1.0, "alpha_r": 1.0},
+            "k_spread": k_spread,
+            "k_alpha": 0.01,
+        }),
+    );
+    pf
+}
+
+#[test]
+fn init_rate_model_sets_the_turn_rate_law_and_rows_report_instantaneous_icrs() {
+    let log = drive(&SynthSpec::default());
+    let mut cfg = EstimatorConfig::default();
+    cfg.filter.learn_rate_k_spread = false;
+    // The law on the raw speeds, so the last row's factor is known here.
+    cfg.filter.rate_input_time_constant = 0.0;
+    let pf = params_with_rate_model(true, serde_json::json!(0.2));
+    let run = pipeline::run(&log, &cfg, &TerrainEvidence::None, Some(&pf)).unwrap();
+    assert_eq!(run.rate_source, "init:params");
+    assert_eq!((run.rate.k_spread, run.rate.k_alpha), (0.2, 0.01));
+    assert!(all_finite(&run));
+    // Rows hold the ICRs in effect at their speeds: the straight-line set
+    // scaled by 1 + k dv (the final row against the final estimate).
+    let (last, w) = (run.rows.last().unwrap(), log.wheels.last().unwrap());
+    let gs = 1.0 + 0.2 * (w.v_right - w.v_left).abs();
+    assert!((last.y_l - gs * run.final_icr.y_l).abs() < 1e-9, "{last:?}");
+    assert!(
+        (last.alpha_l - (1.0 + 0.01 * (w.v_right - w.v_left).abs()) * run.final_icr.alpha_l).abs()
+            < 1e-9
+    );
+    // ... or the straight-line set when asked.
+    cfg.filter.report_icr = terraslip::config::ReportIcr::Straight;
+    let run = pipeline::run(&log, &cfg, &TerrainEvidence::None, Some(&pf)).unwrap();
+    assert_eq!(run.rows.last().unwrap().y_l, run.final_icr.y_l);
+    // Not selected: the config's law (none).
+    let pf = params_with_rate_model(false, serde_json::json!(0.2));
+    let run = pipeline::run(&log, &cfg, &TerrainEvidence::None, Some(&pf)).unwrap();
+    assert_eq!(run.rate_source, "config");
+    assert_eq!(run.rate.k_spread, 0.0);
+}
+
+#[test]
+fn malformed_selected_rate_model_is_an_error_naming_the_set_and_key() {
+    let log = drive(&SynthSpec::default());
+    for bad in [serde_json::json!("steep"), serde_json::json!(50.0)] {
+        let pf = params_with_rate_model(true, bad);
+        let e = pipeline::run(
+            &log,
+            &EstimatorConfig::default(),
+            &TerrainEvidence::None,
+            Some(&pf),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("`params`") || e.contains("set `params`"), "{e}");
+        assert!(e.contains("k_spread"), "{e}");
+    }
+}

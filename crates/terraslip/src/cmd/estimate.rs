@@ -323,6 +323,17 @@ fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) -> ser
         })),
         "track_width": est.track_width,
         "variant": cfg.filter.variant,
+        // Turn-rate law (estimate.csv's ICRs are those in effect at each
+        // row's speeds unless `report_icr = "straight"`; "icr" above is the
+        // straight-line set).
+        "rate_model": {
+            "k_spread": est.rate.k_spread,
+            "k_spread_std": est.rate_std,
+            "learned": cfg.filter.learn_rate_k_spread,
+            "k_alpha": est.rate.k_alpha,
+            "source": est.rate_source,
+            "report_icr": cfg.filter.report_icr,
+        },
         "terrain_changes": est.changes.iter().map(|c| serde_json::json!({
             "t": c.t,
             "terrain": est.terrains.get(c.terrain),

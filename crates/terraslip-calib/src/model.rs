@@ -1,5 +1,6 @@
 //! Predicted increments and the fitness of a parameter set (Mandow eq. 13).
 
+use terraslip_core::kinematics::{TurnRateSlopes, RATE_GAIN_MAX, RATE_GAIN_MIN};
 use terraslip_core::{angle, IcrParams, Twist};
 
 use crate::segment::{Increment, Segment, Segments, Step};
@@ -11,7 +12,8 @@ use crate::segment::{Increment, Segment, Segments, Step};
 /// of the treads saturates, so the ICRs move with the turn. With
 /// `dv = |v_r - v_l|` the measured tread speed difference (m/s), the spread
 /// `y_l - y_r` scales by `1 + k_spread dv` and both speed factors by
-/// `1 + k_alpha dv` (slopes in s/m; `x_c` stays). Each factor is kept
+/// `1 + k_alpha dv` (slopes in s/m; `x_c` stays): the core's
+/// [`TurnRateSlopes`], which the online filter uses. Each factor is kept
 /// within [0.2, 5] so a slope fitted on gentle turns cannot make the model
 /// singular on a faster one. Zero slopes are the constant model.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -47,15 +49,24 @@ impl RateSlopes {
         self.k_acc != 0.0 || self.k_dir != 0.0
     }
 
+    /// The turn-rate part alone: the law the online filter uses too.
+    pub fn turn_rate(&self) -> TurnRateSlopes {
+        TurnRateSlopes {
+            k_spread: self.k_spread,
+            k_alpha: self.k_alpha,
+        }
+    }
+
     /// `(yaw and lateral gain, forward gain)` relative to the constant model
-    /// at tread speed difference `dv` (m/s) and tread acceleration `acc`
-    /// (m/s^2, [`Step::acc`]): `omega` and `v_y` scale by the first, `v_x`
-    /// by the second.
+    /// at measured tread speeds (m/s) and tread acceleration `acc` (m/s^2,
+    /// [`Step::acc`]): `omega` and `v_y` scale by the first, `v_x` by the
+    /// second.
     #[inline(always)]
-    fn gains(&self, dv: f64, acc: f64) -> (f64, f64) {
-        let d = (1.0 + self.k_spread * dv).clamp(0.2, 5.0);
-        let traction = (1.0 - self.k_acc * acc.abs() - self.k_dir * acc).clamp(0.2, 5.0);
-        let a = (1.0 + self.k_alpha * dv).clamp(0.2, 5.0) * traction;
+    fn gains(&self, v_left: f64, v_right: f64, acc: f64) -> (f64, f64) {
+        let (d, a) = self.turn_rate().gains(v_left, v_right);
+        let traction =
+            (1.0 - self.k_acc * acc.abs() - self.k_dir * acc).clamp(RATE_GAIN_MIN, RATE_GAIN_MAX);
+        let a = a * traction;
         (a / d, a)
     }
 
@@ -64,7 +75,7 @@ impl RateSlopes {
     /// `acc` (m/s^2, [`Step::acc`]).
     pub fn twist(&self, p: &IcrParams, v_left: f64, v_right: f64, acc: f64) -> Twist {
         let t = p.twist(v_left, v_right);
-        let (turn, fwd) = self.gains((v_right - v_left).abs(), acc);
+        let (turn, fwd) = self.gains(v_left, v_right, acc);
         Twist {
             v_x: fwd * t.v_x,
             v_y: turn * t.v_y,
@@ -160,7 +171,7 @@ fn walk(p: &IcrParams, k: &RateSlopes, steps: &[Step], visit: impl FnMut(Pose)) 
         steps,
         |st| {
             let t = linear(st);
-            let (turn, fwd) = k.gains((st.v_right - st.v_left).abs(), st.acc);
+            let (turn, fwd) = k.gains(st.v_left, st.v_right, st.acc);
             Twist {
                 v_x: fwd * t.v_x,
                 v_y: turn * t.v_y,

@@ -142,14 +142,26 @@ fn main() {
             let rate = validate(std::slice::from_ref(log), &pf, &v);
             match (constant, rate) {
                 (Ok(c), Ok(r)) => {
-                    let traction = match s.rate.as_ref().and_then(|x| x.traction.as_ref().map(|t| (x, t))) {
+                    let traction = match s
+                        .rate
+                        .as_ref()
+                        .and_then(|x| x.traction.as_ref().map(|t| (x, t)))
+                    {
                         Some((x, (t, b))) => format!(
-                            "; traction {}: k_acc {:.3}±{:.3}, k_dir {:.3}±{:.3}, BIC {:+.1} vs rate {:+.1}",
-                            if x.traction_selected { "selected" } else { "not selected" },
+                            "; traction {}: k_acc {:.3}±{:.3}{}, BIC {:+.1} vs rate {:+.1}",
+                            if x.traction_selected {
+                                "selected"
+                            } else {
+                                "not selected"
+                            },
                             t.slopes.k_acc,
                             t.std[7],
-                            t.slopes.k_dir,
-                            t.std[8],
+                            // k_dir is fitted only with --traction-signed.
+                            if t.std[8].is_finite() {
+                                format!(", k_dir {:.3}±{:.3}", t.slopes.k_dir, t.std[8])
+                            } else {
+                                String::new()
+                            },
                             b - x.bic_constant,
                             x.bic_rate - x.bic_constant
                         ),

@@ -1,6 +1,10 @@
 //! Leave-runs-out cross-validation on a directory of labelled runs.
 //!
 //! `cargo run -p terraslip-terrain --release --example crossval -- DIR [tree|knn|forest] [paper|full] [folds]`
+//!
+//! Spatial bands (docs/benchmarks-terrain.md, "tried, not kept"):
+//! `TS_SBANDS=6` adds them to the temporal bands, `TS_SBANDS=6 TS_BANDS=0`
+//! replaces the temporal bands with them.
 
 use terraslip_terrain::*;
 

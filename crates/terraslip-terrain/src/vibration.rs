@@ -506,8 +506,8 @@ impl VibrationExtractor {
         if nb == 0 {
             return;
         }
-        // `!(v >= ..)` also catches NaN.
-        if !(v >= MIN_SPATIAL_SPEED) || !v.is_finite() {
+        // NaN and infinite speeds are refused too.
+        if !(v.is_finite() && v >= MIN_SPATIAL_SPEED) {
             out.extend(std::iter::repeat_n(SPATIAL_MISSING, nb));
             out.extend(std::iter::repeat_n(0.0, nb));
             return;
@@ -523,7 +523,7 @@ impl VibrationExtractor {
         let dk = df / v;
         let mut b = 0;
         // Bins are in increasing κ: one pass, no logarithm per bin.
-        for k in 1..self.psd.len() {
+        for (k, (p, w)) in self.psd.iter().zip(profile).enumerate().skip(1) {
             let kappa = k as f64 * dk;
             if kappa < edges[0] {
                 continue;
@@ -534,7 +534,7 @@ impl VibrationExtractor {
             if b == nb {
                 break;
             }
-            sum[b] += self.psd[k] * profile[k];
+            sum[b] += p * w;
             count[b] += 1;
         }
         let last = self.psd.len() - 1;

@@ -39,7 +39,14 @@ fn vibration(c: &mut Criterion) {
         window_s: 1.0,
         ..Default::default()
     };
+    // The spatial bands on top (6 per channel, 250 features): the PSD is
+    // shared, the extra cost is one pass over the bins per channel.
+    let spatial = VibrationConfig {
+        spatial_bands: 6,
+        ..cfg.clone()
+    };
     let mut ex = VibrationExtractor::new(&cfg, 100.0).expect("valid settings");
+    let mut ex_spatial = VibrationExtractor::new(&spatial, 100.0).expect("valid settings");
     let ch: Vec<Vec<f64>> = (0..6)
         .map(|k| {
             (0..100)
@@ -57,6 +64,16 @@ fn vibration(c: &mut Criterion) {
         b.iter(|| {
             out.clear();
             ex.features(black_box(&slices), speed, &mut out)
+                .expect("window length matches");
+            black_box(&out);
+        })
+    });
+    c.bench_function("vibration_full_spatial_1s_100hz_6ch", |b| {
+        let mut out = Vec::with_capacity(260);
+        b.iter(|| {
+            out.clear();
+            ex_spatial
+                .features(black_box(&slices), speed, &mut out)
                 .expect("window length matches");
             black_box(&out);
         })

@@ -1,6 +1,10 @@
 //! Leave-runs-out cross-validation on a directory of labelled runs.
 //!
 //! `cargo run -p terraslip-terrain --release --example crossval -- DIR [tree|knn|forest] [paper|full] [folds]`
+//!
+//! Spatial bands (docs/benchmarks-terrain.md, "tried, not kept"):
+//! `TS_SBANDS=6` adds them to the temporal bands, `TS_SBANDS=6 TS_BANDS=0`
+//! replaces the temporal bands with them.
 
 use terraslip_terrain::*;
 
@@ -53,6 +57,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if let Some(m) = env("TS_DEPTH") {
         opts.classifier.forest.tree.max_depth = m as usize;
+    }
+    // Spatial bands: TS_SBANDS (count), TS_SMIN / TS_SMAX (cycles/m),
+    // TS_SCALING=profile.
+    if let Some(b) = env("TS_SBANDS") {
+        opts.vibration.spatial_bands = b as usize;
+    }
+    if let Some(m) = env("TS_SMIN") {
+        opts.vibration.spatial_min_cpm = m;
+    }
+    if let Some(m) = env("TS_SMAX") {
+        opts.vibration.spatial_max_cpm = m;
+    }
+    if std::env::var("TS_SCALING").as_deref() == Ok("profile") {
+        opts.vibration.spatial_scaling = SpatialScaling::Profile;
     }
     if std::env::var("TS_CHANNELS").as_deref() == Ok("z") {
         opts.vibration.channels = ChannelSet::AccelZ;

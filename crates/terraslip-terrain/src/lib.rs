@@ -31,5 +31,5 @@ pub use model::{
     BeliefSettings, Features, FilteredFrame, Source, TerrainModel, TerrainTimeline, TrainOptions,
     MIN_INFORMATIVE_SPEED, MODEL_FORMAT_VERSION,
 };
-pub use vibration::{ChannelSet, VibrationConfig, VibrationFeatureSet};
+pub use vibration::{ChannelSet, SpatialScaling, VibrationConfig, VibrationFeatureSet};
 pub use vision::{CameraModel, RoiConfig, VisionConfig, VisionFeatureSet};

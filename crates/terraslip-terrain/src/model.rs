@@ -16,8 +16,9 @@ use crate::vision::{self, VisionConfig};
 
 /// Version of the model file format; a file of another version is refused.
 /// 2: the `full` vibration set gained the steering-efficiency (slip) and
-/// manoeuvre features.
-pub const MODEL_FORMAT_VERSION: u32 = 2;
+/// manoeuvre features. 3: the vibration settings gained the spatial bands
+/// (`spatial_bands`, grid, scaling).
+pub const MODEL_FORMAT_VERSION: u32 = 3;
 
 /// The sensor a model reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

@@ -67,11 +67,61 @@ pub struct VibrationConfig {
     /// feature set of model format 1.
     #[serde(default = "yes")]
     pub slip: bool,
+    /// `full` set only: number of spatial band powers per channel (0 = none):
+    /// the Welch PSD mapped from temporal frequency f (Hz) to spatial
+    /// frequency κ = f / v (cycles/m, v the window's mean tread speed) and
+    /// integrated over log-spaced bands from `spatial_min_cpm` to
+    /// `spatial_max_cpm`, as log powers and shares of their total. Terrain
+    /// roughness is a spectrum over distance; at speed v it shakes the robot
+    /// at f = κ v, so these bands move less with speed than the temporal ones.
+    #[serde(default)]
+    pub spatial_bands: usize,
+    /// Lower edge of the spatial band grid, cycles/m.
+    #[serde(default = "default_spatial_min")]
+    pub spatial_min_cpm: f64,
+    /// Upper edge of the spatial band grid, cycles/m.
+    #[serde(default = "default_spatial_max")]
+    pub spatial_max_cpm: f64,
+    /// How a temporal PSD becomes a spatial one.
+    #[serde(default)]
+    pub spatial_scaling: SpatialScaling,
 }
 
 fn yes() -> bool {
     true
 }
+
+fn default_spatial_min() -> f64 {
+    2.0
+}
+
+fn default_spatial_max() -> f64 {
+    128.0
+}
+
+/// How the spatial band powers are scaled from the temporal PSD S_t(f).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SpatialScaling {
+    /// Only the change of variable: S_x(κ) = S_t(κ v) · v, the same signal
+    /// as a density per cycle/m (power over a band is kept).
+    #[default]
+    Jacobian,
+    /// The terrain profile a rigid robot following the ground would imply:
+    /// accelerations as height (S_t / (2πf)⁴) and angular rates as slope
+    /// angle (S_t / (2πf)²), then the Jacobian. At a fixed κ this scales
+    /// the acceleration power by v⁻³ and the rate power by v⁻¹ instead of v.
+    Profile,
+}
+
+/// Below this mean tread speed (m/s) the spatial bands are not measured
+/// (κ = f / v runs off the grid): their log powers are set to the floor a
+/// band without power gets, ln(1e-12), and their shares to 0, a value no
+/// moving window takes, which a tree splits off.
+pub const MIN_SPATIAL_SPEED: f64 = 0.05;
+
+/// The log power the spatial bands take when they are not measured.
+pub const SPATIAL_MISSING: f64 = -27.631021115928547; // ln(1e-12)
 
 impl Default for VibrationConfig {
     fn default() -> Self {
@@ -83,6 +133,10 @@ impl Default for VibrationConfig {
             bands: 12,
             welch_segment_s: 1.0,
             slip: true,
+            spatial_bands: 0,
+            spatial_min_cpm: default_spatial_min(),
+            spatial_max_cpm: default_spatial_max(),
+            spatial_scaling: SpatialScaling::Jacobian,
         }
     }
 }
@@ -98,6 +152,10 @@ impl VibrationConfig {
             bands: 0,
             welch_segment_s: 1.0,
             slip: false,
+            spatial_bands: 0,
+            spatial_min_cpm: default_spatial_min(),
+            spatial_max_cpm: default_spatial_max(),
+            spatial_scaling: SpatialScaling::Jacobian,
         }
     }
 
@@ -128,6 +186,12 @@ impl VibrationConfig {
                     }
                     for b in 0..self.bands {
                         names.push(format!("{ch}_band{b}_share"));
+                    }
+                    for b in 0..self.spatial_bands {
+                        names.push(format!("{ch}_sband{b}"));
+                    }
+                    for b in 0..self.spatial_bands {
+                        names.push(format!("{ch}_sband{b}_share"));
                     }
                 }
                 names.extend(
@@ -195,8 +259,16 @@ pub struct VibrationExtractor {
     seg_in: Vec<f64>,
     spec: Vec<realfft::num_complex::Complex<f64>>,
     scratch: Vec<realfft::num_complex::Complex<f64>>,
+    /// One-sided Welch PSD of the current channel, (unit)²/Hz.
     psd: Vec<f64>,
     centred: Vec<f64>,
+    /// Spatial band edges, cycles/m (`spatial_bands + 1`, log-spaced).
+    spatial_edges: Vec<f64>,
+    /// Per PSD bin, the factor that turns an acceleration PSD into a height
+    /// PSD (1/(2πf)⁴) and a rate PSD into an angle PSD (1/(2πf)²); 1 with
+    /// the Jacobian scaling.
+    profile_accel: Vec<f64>,
+    profile_rate: Vec<f64>,
 }
 
 impl VibrationExtractor {
@@ -225,6 +297,40 @@ impl VibrationExtractor {
             .map(|i| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / n_seg as f64).cos())
             .collect();
         let hann_power = hann.iter().map(|w| w * w).sum::<f64>();
+        let nb = cfg.spatial_bands;
+        let spatial_edges = if nb == 0 {
+            Vec::new()
+        } else {
+            let (lo, hi) = (cfg.spatial_min_cpm, cfg.spatial_max_cpm);
+            if nb > MAX_BANDS || !(lo.is_finite() && hi.is_finite() && lo > 0.0 && hi > lo) {
+                return Err(TerrainError::Config(format!(
+                    "spatial bands: need 1..={MAX_BANDS} bands over 0 < min < max cycles/m, \
+                     got {nb} over {lo}..{hi}"
+                )));
+            }
+            (0..=nb)
+                .map(|i| lo * (hi / lo).powf(i as f64 / nb as f64))
+                .collect()
+        };
+        if cfg.bands > MAX_BANDS {
+            return Err(TerrainError::Config(format!(
+                "{} temporal bands; at most {MAX_BANDS}",
+                cfg.bands
+            )));
+        }
+        let n_bins = n_seg / 2 + 1;
+        let df = rate_hz / n_seg as f64;
+        let profile = |order: i32| -> Vec<f64> {
+            (0..n_bins)
+                .map(|k| match cfg.spatial_scaling {
+                    SpatialScaling::Jacobian => 1.0,
+                    SpatialScaling::Profile if k == 0 => 0.0,
+                    SpatialScaling::Profile => {
+                        (2.0 * std::f64::consts::PI * k as f64 * df).powi(-order)
+                    }
+                })
+                .collect()
+        };
         Ok(Self {
             cfg: cfg.clone(),
             rate_hz,
@@ -233,8 +339,11 @@ impl VibrationExtractor {
             seg_in: fft.make_input_vec(),
             spec: fft.make_output_vec(),
             scratch: fft.make_scratch_vec(),
-            psd: vec![0.0; n_seg / 2 + 1],
+            psd: vec![0.0; n_bins],
             centred: vec![0.0; n_window],
+            spatial_edges,
+            profile_accel: profile(4),
+            profile_rate: profile(2),
             fft,
             hann,
             hann_power,
@@ -310,7 +419,11 @@ impl VibrationExtractor {
                     out.push(zero_crossings(x, mean) as f64 / n);
                     out.push(if sd > 1e-9 { m3 / (sd * sd * sd) } else { 0.0 });
                     out.push(if m2 > 1e-18 { m4 / (m2 * m2) } else { 3.0 });
-                    self.band_powers(out)?;
+                    if self.cfg.bands > 0 || self.cfg.spatial_bands > 0 {
+                        self.welch_psd()?;
+                        self.band_powers(out);
+                        self.spatial_band_powers(speed.speed, c, out);
+                    }
                 }
                 out.push(speed.speed);
                 out.push(speed.diff);
@@ -340,12 +453,8 @@ impl VibrationExtractor {
         Ok(())
     }
 
-    /// Welch PSD of `self.centred` integrated over linear bands; log power.
-    fn band_powers(&mut self, out: &mut Vec<f64>) -> Result<()> {
-        let bands = self.cfg.bands;
-        if bands == 0 {
-            return Ok(());
-        }
+    /// Welch PSD of `self.centred` into `self.psd`, (unit)²/Hz.
+    fn welch_psd(&mut self) -> Result<()> {
         let n_seg = self.n_seg;
         let hop = (n_seg / 2).max(1);
         self.psd.iter_mut().for_each(|p| *p = 0.0);
@@ -367,22 +476,97 @@ impl VibrationExtractor {
         // One-sided PSD in (unit)²/Hz; the factor 2 for non-DC bins is
         // irrelevant to a log feature but keeps the units honest.
         let scale = 2.0 / (self.rate_hz * self.hann_power * segments.max(1) as f64);
-        let n_bins = self.psd.len();
-        let df = self.rate_hz / n_seg as f64;
-        let nyquist = self.rate_hz / 2.0;
-        let mut acc = [0.0f64; 64];
-        let bands = bands.min(acc.len());
-        for (k, p) in self.psd.iter().enumerate().take(n_bins).skip(1) {
-            let f = k as f64 * df;
-            let b = (((f / nyquist) * bands as f64).ceil() as usize).clamp(1, bands) - 1;
-            acc[b] += p * scale * df;
-        }
-        out.extend(acc[..bands].iter().map(|p| (p + 1e-12).ln()));
-        // Spectral shape apart from amplitude: share of each band in the total.
-        let total: f64 = acc[..bands].iter().sum::<f64>() + 1e-12;
-        out.extend(acc[..bands].iter().map(|p| p / total));
+        self.psd.iter_mut().for_each(|p| *p *= scale);
         Ok(())
     }
+
+    /// `self.psd` integrated over linear temporal bands: log powers, then
+    /// shares of the total.
+    fn band_powers(&mut self, out: &mut Vec<f64>) {
+        let bands = self.cfg.bands;
+        if bands == 0 {
+            return;
+        }
+        let df = self.rate_hz / self.n_seg as f64;
+        let nyquist = self.rate_hz / 2.0;
+        let mut acc = [0.0f64; MAX_BANDS];
+        for (k, p) in self.psd.iter().enumerate().skip(1) {
+            let f = k as f64 * df;
+            let b = (((f / nyquist) * bands as f64).ceil() as usize).clamp(1, bands) - 1;
+            acc[b] += p * df;
+        }
+        push_log_and_shares(&acc[..bands], out);
+    }
+
+    /// `self.psd` of channel `c` mapped to spatial frequency κ = f / v
+    /// (cycles/m) at tread speed `v` (m/s) and integrated over the
+    /// log-spaced spatial bands: log powers, then shares of the total.
+    fn spatial_band_powers(&mut self, v: f64, c: usize, out: &mut Vec<f64>) {
+        let nb = self.cfg.spatial_bands;
+        if nb == 0 {
+            return;
+        }
+        // NaN and infinite speeds are refused too.
+        if !(v.is_finite() && v >= MIN_SPATIAL_SPEED) {
+            out.extend(std::iter::repeat_n(SPATIAL_MISSING, nb));
+            out.extend(std::iter::repeat_n(0.0, nb));
+            return;
+        }
+        let df = self.rate_hz / self.n_seg as f64;
+        let profile = if c < 3 {
+            &self.profile_accel
+        } else {
+            &self.profile_rate
+        };
+        let edges = &self.spatial_edges;
+        let (mut sum, mut count) = ([0.0f64; MAX_BANDS], [0usize; MAX_BANDS]);
+        let dk = df / v;
+        let mut b = 0;
+        // Bins are in increasing κ: one pass, no logarithm per bin.
+        for (k, (p, w)) in self.psd.iter().zip(profile).enumerate().skip(1) {
+            let kappa = k as f64 * dk;
+            if kappa < edges[0] {
+                continue;
+            }
+            while b < nb && kappa >= edges[b + 1] {
+                b += 1;
+            }
+            if b == nb {
+                break;
+            }
+            sum[b] += p * w;
+            count[b] += 1;
+        }
+        let last = self.psd.len() - 1;
+        let mut acc = [0.0f64; MAX_BANDS];
+        for b in 0..nb {
+            let mean = if count[b] > 0 {
+                sum[b] / count[b] as f64
+            } else {
+                // No bin inside the band (narrower than the bin spacing
+                // 1/v, or beyond the range the window's speed reaches): the
+                // bin nearest the band centre stands in for it, so a band
+                // out of reach adds no information rather than a fake zero.
+                let centre = (edges[b] * edges[b + 1]).sqrt();
+                let k = ((centre / dk).round() as usize).clamp(1, last);
+                self.psd[k] * profile[k]
+            };
+            // Density per cycle/m: S_x(κ) = S_t(κ v) · v; times the width.
+            acc[b] = mean * v * (edges[b + 1] - edges[b]);
+        }
+        push_log_and_shares(&acc[..nb], out);
+    }
+}
+
+/// Most bands (temporal or spatial) per channel.
+pub const MAX_BANDS: usize = 64;
+
+/// Log band powers, then the share of each band in their total (spectral
+/// shape apart from amplitude).
+fn push_log_and_shares(acc: &[f64], out: &mut Vec<f64>) {
+    out.extend(acc.iter().map(|p| (p + 1e-12).ln()));
+    let total: f64 = acc.iter().sum::<f64>() + 1e-12;
+    out.extend(acc.iter().map(|p| p / total));
 }
 
 fn zero_crossings(x: &[f64], level: f64) -> usize {
@@ -726,6 +910,122 @@ mod tests {
         assert_eq!((s.yaw_gain, s.yaw_fit), (1.0, 0.0));
         assert!((s.yaw_excitation - 0.8).abs() < 1e-12);
         assert!(gyro_at_wheels(&imu_t, &[], &spin).is_empty());
+    }
+
+    /// Features of accel_z alone (`bands` temporal, 6 spatial over 2..128
+    /// cycles/m), for a 6 s window at 100 Hz of `az` at tread speed `v`.
+    fn spatial_features(az: &[f64], v: f64, scaling: SpatialScaling) -> Vec<f64> {
+        let cfg = VibrationConfig {
+            channels: ChannelSet::AccelZ,
+            spatial_bands: 6,
+            spatial_scaling: scaling,
+            ..Default::default()
+        };
+        let mut ex = VibrationExtractor::new(&cfg, 100.0).unwrap();
+        let mut f = Vec::new();
+        let speed = SpeedStats {
+            speed: v,
+            ..Default::default()
+        };
+        ex.features(&[&[], &[], az, &[], &[], &[]], speed, &mut f)
+            .unwrap();
+        assert_eq!(f.len(), cfg.feature_names().len());
+        assert_eq!(cfg.feature_names()[28], "accel_z_sband0");
+        f
+    }
+
+    /// A terrain with one spatial wavelength (10 cycles/m) driven over at
+    /// 0.3 and 0.6 m/s: the temporal peak moves from 3 to 6 Hz, the spatial
+    /// one stays in the band holding 10 cycles/m, with the same power.
+    #[test]
+    fn spatial_bands_do_not_move_with_speed() {
+        let kappa = 10.0;
+        let profile = |v: f64, amp: f64| -> Vec<f64> {
+            (0..600)
+                .map(|i| {
+                    let x = v * i as f64 / 100.0;
+                    STANDARD_GRAVITY + amp * (2.0 * std::f64::consts::PI * kappa * x).sin()
+                })
+                .collect()
+        };
+        let argmax = |x: &[f64]| (0..x.len()).max_by(|&a, &b| x[a].total_cmp(&x[b])).unwrap();
+        let slow = spatial_features(&profile(0.3, 1.0), 0.3, SpatialScaling::Jacobian);
+        let fast = spatial_features(&profile(0.6, 1.0), 0.6, SpatialScaling::Jacobian);
+        // Temporal bands (12 over 0..50 Hz): 3 Hz in band 0, 6 Hz in band 1.
+        assert_eq!((argmax(&slow[4..16]), argmax(&fast[4..16])), (0, 1));
+        // Spatial bands 2-4, 4-8, 8-16, ... cycles/m: 10 lies in band 2.
+        let (s, f) = (&slow[28..34], &fast[28..34]);
+        assert_eq!((argmax(s), argmax(f)), (2, 2), "{s:?} {f:?}");
+        // Its power is the sine's (0.5 m²/s⁴) at either speed.
+        for p in [s[2], f[2]] {
+            assert!((p.exp() - 0.5).abs() < 0.05, "band power {}", p.exp());
+        }
+        assert!(
+            slow[34 + 2] > 0.8 && fast[34 + 2] > 0.8,
+            "shares {:?} {:?}",
+            &slow[34..],
+            &fast[34..]
+        );
+        assert!(s.iter().chain(f).all(|p| p.is_finite()));
+
+        // Profile scaling: a height profile of 1 mm amplitude; the IMU sees
+        // its second derivative, (2π κ v)² larger. The profile bands give
+        // the height power back (5e-7 m²) at both speeds.
+        for v in [0.3, 0.6] {
+            let w = 2.0 * std::f64::consts::PI * kappa * v;
+            let p = spatial_features(&profile(v, 1e-3 * w * w), v, SpatialScaling::Profile);
+            let h = p[28 + 2].exp();
+            assert!((h / 5e-7 - 1.0).abs() < 0.15, "v {v}: height power {h}");
+        }
+    }
+
+    #[test]
+    fn spatial_bands_of_a_standing_robot_are_marked_missing_not_nan() {
+        let az: Vec<f64> = (0..600)
+            .map(|i| STANDARD_GRAVITY + 0.1 * ((i * 7) as f64 * 0.37).sin())
+            .collect();
+        for v in [0.0, 0.049, -0.0, f64::NAN, f64::INFINITY] {
+            let f = spatial_features(&az, v, SpatialScaling::Profile);
+            assert!(f[28..34].iter().all(|&p| p == SPATIAL_MISSING), "v {v}");
+            assert!(f[34..40].iter().all(|&p| p == 0.0), "v {v}");
+            assert!(f[..28].iter().all(|p| p.is_finite()));
+        }
+        // Just above the threshold the grid is far off the bins (κ ≥ 19
+        // cycles/m): the low bands borrow the lowest bin, all finite.
+        let f = spatial_features(&az, 0.051, SpatialScaling::Jacobian);
+        assert!(f[28..40].iter().all(|p| p.is_finite()));
+        assert!(f[28..34].iter().all(|&p| p > SPATIAL_MISSING));
+        let shares: f64 = f[34..40].iter().sum();
+        assert!((shares - 1.0).abs() < 1e-2, "shares {shares}");
+    }
+
+    #[test]
+    fn bad_spatial_settings_are_errors() {
+        for (nb, lo, hi) in [
+            (4, 10.0, 10.0),
+            (4, 0.0, 10.0),
+            (4, f64::NAN, 10.0),
+            (MAX_BANDS + 1, 1.0, 10.0),
+        ] {
+            let cfg = VibrationConfig {
+                spatial_bands: nb,
+                spatial_min_cpm: lo,
+                spatial_max_cpm: hi,
+                ..Default::default()
+            };
+            assert!(
+                matches!(
+                    VibrationExtractor::new(&cfg, 100.0),
+                    Err(TerrainError::Config(_))
+                ),
+                "{nb} {lo} {hi}"
+            );
+        }
+        let cfg = VibrationConfig {
+            bands: MAX_BANDS + 1,
+            ..Default::default()
+        };
+        assert!(VibrationExtractor::new(&cfg, 100.0).is_err());
     }
 
     #[test]

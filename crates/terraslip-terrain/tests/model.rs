@@ -311,3 +311,43 @@ fn crossval_leaves_whole_runs_out() {
     assert_eq!(loo.chained_changes, 5);
     assert_eq!(loo.spliced_filtered_settled, loo.spliced_filtered);
 }
+
+#[test]
+fn spatial_band_model_trains_round_trips_and_survives_standing_still() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut o = fast_opts();
+    // Spatial bands replacing the temporal ones.
+    o.vibration.bands = 0;
+    o.vibration.spatial_bands = 4;
+    let m = TerrainModel::train(&imu_runs(11), &o).unwrap();
+    assert!(m.feature_names.iter().any(|n| n == "accel_z_sband3_share"));
+    assert!(!m.feature_names.iter().any(|n| n.contains("_band")));
+    let path = dir.path().join("spatial.json");
+    m.save(&path).unwrap();
+    let back = TerrainModel::load(&path).unwrap();
+    assert_eq!(back, m);
+    let test = vibration_log(&NAMES, &[(2, 10.0), (0, 10.0), (1, 10.0)], 78, 0.0);
+    let s = score_log(&back, &test).unwrap();
+    assert!(s.raw.accuracy() > 0.85, "spatial: {}", s.raw.accuracy());
+
+    // A robot standing still: every window is still classified (finite
+    // features, spatial bands marked missing), none is dropped.
+    let mut still = test.clone();
+    still.wheels.iter_mut().for_each(|w| {
+        w.v_left = 0.0;
+        w.v_right = 0.0;
+    });
+    let moving = back.classify_log(&test).unwrap().frames.len();
+    let tl = back.classify_log(&still).unwrap();
+    assert_eq!(tl.frames.len(), moving);
+    assert!(tl.frames.iter().flat_map(|f| &f.1).all(|p| p.is_finite()));
+
+    // Settings that no longer match the feature list are refused.
+    let text = std::fs::read_to_string(&path).unwrap();
+    let edited = text.replacen("\"spatial_bands\": 4", "\"spatial_bands\": 5", 1);
+    assert_ne!(edited, text);
+    let p1 = dir.path().join("edited.json");
+    std::fs::write(&p1, edited).unwrap();
+    let e = TerrainModel::load(&p1).unwrap_err();
+    assert!(e.to_string().contains("feature"), "{e}");
+}

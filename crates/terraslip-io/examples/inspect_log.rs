@@ -1,5 +1,6 @@
 //! Reads each log directory given on the command line and prints what it
-//! holds, or the error, one line per log.
+//! holds, or the error, one line per log:
+//! `cargo run -p terraslip-io --release --example inspect_log -- LOG...`.
 fn main() {
     let mut failed = false;
     for dir in std::env::args().skip(1) {

@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 
 use terraslip_core::IcrParams;
-use terraslip_io::{DriveLog, ParamsFile};
+use terraslip_io::{DriveLog, ParamsFile, RateModelEntry};
 
 use crate::model::{integrate, integrate_rate, RateSlopes};
 use crate::offset::estimate_offset;
@@ -97,48 +97,21 @@ pub fn model_for(
         Some((t, e)) => (t.to_string(), &e.extra),
         None => ("params".to_string(), &pf.extra),
     };
-    let rate = match (choice, extra.get("rate_model")) {
-        (ModelChoice::FromParams, Some(r))
-            if r.get("selected") == Some(&serde_json::json!(true)) =>
-        {
-            r
-        }
-        _ => return Ok(Some((p, RateSlopes::NONE))),
-    };
-    let bad = |reason: String| CalibError::BadRateModel {
-        set: set.clone(),
-        reason,
-    };
-    let num = |v: &serde_json::Value, key: &str| {
-        v.get(key)
-            .and_then(|x| x.as_f64())
-            .filter(|x| x.is_finite())
-            .ok_or_else(|| bad(format!("`{key}` is missing or not a finite number")))
-    };
-    let q = rate
-        .get("params")
-        .ok_or_else(|| bad("`params` is missing".into()))?;
-    let params = IcrParams {
-        y_l: num(q, "y_l")?,
-        y_r: num(q, "y_r")?,
-        x_c: num(q, "x_c")?,
-        alpha_l: num(q, "alpha_l")?,
-        alpha_r: num(q, "alpha_r")?,
-    };
-    params.validate().map_err(|e| bad(format!("params: {e}")))?;
-    // The traction slopes are optional: files written before they existed
-    // hold the turn-rate model alone.
-    let optional = |key: &str| match rate.get(key) {
-        None | Some(serde_json::Value::Null) => Ok(0.0),
-        Some(_) => num(rate, key),
+    if choice != ModelChoice::FromParams {
+        return Ok(Some((p, RateSlopes::NONE)));
+    }
+    let rate = RateModelEntry::selected(extra)
+        .map_err(|reason| CalibError::BadRateModel { set, reason })?;
+    let Some(r) = rate else {
+        return Ok(Some((p, RateSlopes::NONE)));
     };
     let slopes = RateSlopes {
-        k_spread: num(rate, "k_spread")?,
-        k_alpha: num(rate, "k_alpha")?,
-        k_acc: optional("k_acc")?,
-        k_dir: optional("k_dir")?,
+        k_spread: r.k_spread,
+        k_alpha: r.k_alpha,
+        k_acc: r.k_acc,
+        k_dir: r.k_dir,
     };
-    Ok(Some((params, slopes)))
+    Ok(Some((r.params, slopes)))
 }
 
 /// One scored segment.

@@ -14,7 +14,7 @@ mod types;
 mod write;
 
 pub use atomic::{write_atomic, AtomicFile};
-pub use params::{ParamEntry, ParamsFile};
+pub use params::{ParamEntry, ParamsFile, RateModelEntry};
 pub use read::{
     read_csv_table, read_images, read_imu, read_meta, read_pose, read_terrain, read_truth,
     read_wheels, CsvTable,

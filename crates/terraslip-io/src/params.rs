@@ -41,6 +41,61 @@ impl ParamEntry {
     }
 }
 
+/// The turn-rate model `terraslip calibrate` stores beside a set's constant
+/// ICRs under the key `rate_model` (see `docs/calibration.md`): the
+/// straight-line ICRs (body frame, m) and the slopes of the law
+/// `terraslip_core::kinematics::TurnRateSlopes` (s/m), plus the optional
+/// traction slopes (s^2/m; 0 in files written before they existed).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RateModelEntry {
+    pub params: IcrParams,
+    pub k_spread: f64,
+    pub k_alpha: f64,
+    pub k_acc: f64,
+    pub k_dir: f64,
+}
+
+impl RateModelEntry {
+    /// The set's `rate_model` (`extra` of a [`ParamEntry`] or of the pooled
+    /// set) when calibration selected it; `Ok(None)` when it is absent or
+    /// not selected. A selected but malformed one is `Err(reason)`, for
+    /// the caller to name the set.
+    pub fn selected(extra: &BTreeMap<String, serde_json::Value>) -> Result<Option<Self>, String> {
+        let Some(r) = extra.get("rate_model") else {
+            return Ok(None);
+        };
+        if r.get("selected") != Some(&serde_json::Value::Bool(true)) {
+            return Ok(None);
+        }
+        let num = |v: &serde_json::Value, key: &str| {
+            v.get(key)
+                .and_then(|x| x.as_f64())
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| format!("`{key}` is missing or not a finite number"))
+        };
+        let optional = |key: &str| match r.get(key) {
+            None | Some(serde_json::Value::Null) => Ok(0.0),
+            Some(_) => num(r, key),
+        };
+        let q = r.get("params").ok_or("`params` is missing")?;
+        let params = IcrParams {
+            y_l: num(q, "y_l")?,
+            y_r: num(q, "y_r")?,
+            x_c: num(q, "x_c")?,
+            alpha_l: num(q, "alpha_l")?,
+            alpha_r: num(q, "alpha_r")?,
+        };
+        params.validate().map_err(|e| format!("params: {e}"))?;
+        Ok(Some(Self {
+            params,
+            k_spread: num(r, "k_spread")?,
+            k_alpha: num(r, "k_alpha")?,
+            k_acc: optional("k_acc")?,
+            k_dir: optional("k_dir")?,
+        }))
+    }
+}
+
 /// Calibrated parameters: a pooled set and/or one set per terrain.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct ParamsFile {
@@ -96,5 +151,50 @@ impl ParamsFile {
             .and_then(|t| self.terrains.get(t))
             .map(|e| e.params)
             .or(self.params)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn extra(v: serde_json::Value) -> BTreeMap<String, serde_json::Value> {
+        BTreeMap::from([("rate_model".to_string(), v)])
+    }
+
+    #[test]
+    fn rate_model_is_read_only_when_selected_and_well_formed() {
+        let q = json!({"y_l": 0.3, "y_r": -0.3, "x_c": 0.0, "alpha_l": 0.9, "alpha_r": 0.95});
+        assert_eq!(RateModelEntry::selected(&BTreeMap::new()), Ok(None));
+        let off = json!({"selected": false, "params": q, "k_spread": 0.1, "k_alpha": 0.0});
+        assert_eq!(RateModelEntry::selected(&extra(off)), Ok(None));
+        // Files from before the traction term: k_acc / k_dir read as 0.
+        let on = json!({"selected": true, "params": q, "k_spread": -0.1, "k_alpha": 0.02});
+        let r = RateModelEntry::selected(&extra(on))
+            .expect("well formed")
+            .expect("selected");
+        assert_eq!(
+            (r.k_spread, r.k_alpha, r.k_acc, r.k_dir),
+            (-0.1, 0.02, 0.0, 0.0)
+        );
+        assert_eq!(r.params.alpha_r, 0.95);
+        let bad_slope = json!({"selected": true, "params": q, "k_spread": "x", "k_alpha": 0.0});
+        let e = RateModelEntry::selected(&extra(bad_slope)).expect_err("malformed");
+        assert!(e.contains("k_spread"), "{e}");
+        let bad_acc =
+            json!({"selected": true, "params": q, "k_spread": 0.0, "k_alpha": 0.0, "k_acc": "x"});
+        assert!(RateModelEntry::selected(&extra(bad_acc))
+            .expect_err("malformed")
+            .contains("k_acc"));
+        let crossed = json!({"selected": true, "k_spread": 0.0, "k_alpha": 0.0,
+            "params": {"y_l": -0.3, "y_r": 0.3, "x_c": 0.0, "alpha_l": 1.0, "alpha_r": 1.0}});
+        assert!(RateModelEntry::selected(&extra(crossed))
+            .expect_err("invalid ICRs")
+            .starts_with("params:"));
+        let no_params = json!({"selected": true, "k_spread": 0.0, "k_alpha": 0.0});
+        assert!(RateModelEntry::selected(&extra(no_params))
+            .expect_err("missing")
+            .contains("params"));
     }
 }

@@ -672,39 +672,20 @@ fn selected_rate_model(
     extra: &std::collections::BTreeMap<String, serde_json::Value>,
     set: &str,
 ) -> Result<Option<(IcrParams, TurnRateSlopes)>, PipelineError> {
-    let Some(r) = extra.get("rate_model") else {
-        return Ok(None);
-    };
-    if r.get("selected") != Some(&serde_json::Value::Bool(true)) {
-        return Ok(None);
-    }
     let bad = |reason: String| PipelineError::Init(format!("set `{set}`: rate_model {reason}"));
-    let num = |v: &serde_json::Value, key: &str| {
-        v.get(key)
-            .and_then(|x| x.as_f64())
-            .filter(|x| x.is_finite())
-            .ok_or_else(|| bad(format!("`{key}` is missing or not a finite number")))
+    let Some(r) = terraslip_io::RateModelEntry::selected(extra).map_err(bad)? else {
+        return Ok(None);
     };
-    let q = r
-        .get("params")
-        .ok_or_else(|| bad("`params` is missing".into()))?;
-    let p = IcrParams {
-        y_l: num(q, "y_l")?,
-        y_r: num(q, "y_r")?,
-        x_c: num(q, "x_c")?,
-        alpha_l: num(q, "alpha_l")?,
-        alpha_r: num(q, "alpha_r")?,
-    };
-    p.validate().map_err(|e| bad(format!("params: {e}")))?;
-    let k = TurnRateSlopes {
-        k_spread: num(r, "k_spread")?,
-        k_alpha: num(r, "k_alpha")?,
-    };
-    if k.k_spread.abs() > 10.0 || k.k_alpha.abs() > 10.0 {
+    if r.k_spread.abs() > 10.0 || r.k_alpha.abs() > 10.0 {
         return Err(bad(format!(
             "slopes k_spread = {}, k_alpha = {} s/m are beyond +-10 s/m",
-            k.k_spread, k.k_alpha
+            r.k_spread, r.k_alpha
         )));
     }
-    Ok(Some((p, k)))
+    // The online filter has no traction term: k_acc / k_dir stay offline.
+    let k = TurnRateSlopes {
+        k_spread: r.k_spread,
+        k_alpha: r.k_alpha,
+    };
+    Ok(Some((r.params, k)))
 }

@@ -86,6 +86,8 @@ pub struct EstimateRow {
     pub nis: f64,
     /// Factor on the ICR process noise (schedule x adaptation).
     pub q_scale: f64,
+    /// The spread's turn-rate slope in effect (s/m; 0 = constant ICRs).
+    pub k_spread: f64,
 }
 
 /// One terrain change the schedule acted on.
@@ -632,6 +634,7 @@ pub fn run_with(
             gated,
             nis: if nis.is_finite() { nis } else { 0.0 },
             q_scale: filter.icr_noise_scale(),
+            k_spread: filter.rate().k_spread,
         });
         if i % 4096 == 0 {
             progress(i, total);

@@ -272,6 +272,8 @@ fn init_rate_model_sets_the_turn_rate_law_and_rows_report_instantaneous_icrs() {
     assert_eq!(run.rate_source, "init:params");
     assert_eq!((run.rate.k_spread, run.rate.k_alpha), (0.2, 0.01));
     assert!(all_finite(&run));
+    // Every row reports the slope in effect (fixed here).
+    assert!(run.rows.iter().all(|r| r.k_spread == 0.2));
     // Rows hold the ICRs in effect at their speeds: the straight-line set
     // scaled by 1 + k dv (the final row against the final estimate).
     let (last, w) = (run.rows.last().unwrap(), log.wheels.last().unwrap());
@@ -290,6 +292,12 @@ fn init_rate_model_sets_the_turn_rate_law_and_rows_report_instantaneous_icrs() {
     let run = pipeline::run(&log, &cfg, &TerrainEvidence::None, Some(&pf)).unwrap();
     assert_eq!(run.rate_source, "config");
     assert_eq!(run.rate.k_spread, 0.0);
+    assert!(run.rows.iter().all(|r| r.k_spread == 0.0));
+    // Learned (the default): the rows follow the state, ending at its value.
+    cfg.filter.learn_rate_k_spread = true;
+    let run = pipeline::run(&log, &cfg, &TerrainEvidence::None, Some(&pf)).unwrap();
+    assert_eq!(run.rows.last().unwrap().k_spread, run.rate.k_spread);
+    assert!(run.rows.iter().any(|r| r.k_spread != 0.0));
 }
 
 #[test]

@@ -161,9 +161,8 @@ fn ga_gene_bits_snap_to_the_grid() {
     };
     let r = minimise(&f, &cfg, None, &|_| {});
     let v = model::to_vec(&r.params);
-    for k in 0..5 {
-        let (lo, hi) = cfg.bounds[k];
-        let level = (v[k] - lo) / (hi - lo) * 255.0;
+    for (k, (&x, &(lo, hi))) in v.iter().zip(cfg.bounds.iter()).enumerate() {
+        let level = (x - lo) / (hi - lo) * 255.0;
         assert!(
             (level - level.round()).abs() < 1e-6,
             "gene {k} off the 8-bit grid"

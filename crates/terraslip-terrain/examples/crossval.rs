@@ -5,6 +5,9 @@
 //! Spatial bands (docs/benchmarks-terrain.md, "tried, not kept"):
 //! `TS_SBANDS=6` adds them to the temporal bands, `TS_SBANDS=6 TS_BANDS=0`
 //! replaces the temporal bands with them.
+//!
+//! Learnt speed normalisation (`VibrationConfig::speed_norm`):
+//! `TS_SPEEDNORM=1` [`TS_VREF=0.5` `TS_VMIN=0.1`].
 
 use terraslip_terrain::*;
 
@@ -71,6 +74,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if std::env::var("TS_SCALING").as_deref() == Ok("profile") {
         opts.vibration.spatial_scaling = SpatialScaling::Profile;
+    }
+    // Learnt speed normalisation: TS_SPEEDNORM=1, TS_VREF / TS_VMIN (m/s).
+    if env("TS_SPEEDNORM") == Some(1.0) {
+        opts.vibration.speed_norm = true;
+    }
+    if let Some(v) = env("TS_VREF") {
+        opts.vibration.speed_norm_ref = v;
+    }
+    if let Some(v) = env("TS_VMIN") {
+        opts.vibration.speed_norm_min = v;
     }
     if std::env::var("TS_CHANNELS").as_deref() == Ok("z") {
         opts.vibration.channels = ChannelSet::AccelZ;

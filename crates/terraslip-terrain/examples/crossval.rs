@@ -6,8 +6,8 @@
 //! `TS_SBANDS=6` adds them to the temporal bands, `TS_SBANDS=6 TS_BANDS=0`
 //! replaces the temporal bands with them.
 //!
-//! Learnt speed normalisation (`VibrationConfig::speed_norm`):
-//! `TS_SPEEDNORM=1` [`TS_VREF=0.5` `TS_VMIN=0.1`].
+//! Learnt speed normalisation (`VibrationConfig::speed_norm`, default on):
+//! `TS_SPEEDNORM=0` gives the session-2 default; `TS_VREF`, `TS_VMIN` (m/s).
 
 use terraslip_terrain::*;
 
@@ -75,9 +75,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if std::env::var("TS_SCALING").as_deref() == Ok("profile") {
         opts.vibration.spatial_scaling = SpatialScaling::Profile;
     }
-    // Learnt speed normalisation: TS_SPEEDNORM=1, TS_VREF / TS_VMIN (m/s).
-    if env("TS_SPEEDNORM") == Some(1.0) {
-        opts.vibration.speed_norm = true;
+    // Learnt speed normalisation (default on): TS_SPEEDNORM=0 turns it off;
+    // TS_VREF / TS_VMIN (m/s).
+    if let Some(v) = env("TS_SPEEDNORM") {
+        opts.vibration.speed_norm = v != 0.0;
     }
     if let Some(v) = env("TS_VREF") {
         opts.vibration.speed_norm_ref = v;

@@ -88,7 +88,9 @@ pub struct VibrationConfig {
     /// `full` set only: map the amplitude-like features (log variances, log
     /// band powers) to the tread speed `speed_norm_ref` with per-feature
     /// slopes on ln v learnt from the training windows (see
-    /// [`crate::speed_norm`]; the model file holds the slopes).
+    /// [`crate::speed_norm`]; the model file holds the slopes). On by
+    /// default (session 3); a settings file without the field means off,
+    /// the behaviour before it existed.
     #[serde(default)]
     pub speed_norm: bool,
     /// Reference tread speed of the speed normalisation, m/s.
@@ -158,7 +160,7 @@ impl Default for VibrationConfig {
             spatial_min_cpm: default_spatial_min(),
             spatial_max_cpm: default_spatial_max(),
             spatial_scaling: SpatialScaling::Jacobian,
-            speed_norm: false,
+            speed_norm: true,
             speed_norm_ref: default_speed_norm_ref(),
             speed_norm_min: default_speed_norm_min(),
         }

@@ -5,6 +5,9 @@
 //! Spatial bands (docs/benchmarks-terrain.md, "tried, not kept"):
 //! `TS_SBANDS=6` adds them to the temporal bands, `TS_SBANDS=6 TS_BANDS=0`
 //! replaces the temporal bands with them.
+//!
+//! Learnt speed normalisation (`VibrationConfig::speed_norm`, default on):
+//! `TS_SPEEDNORM=0` gives the session-2 default; `TS_VREF`, `TS_VMIN` (m/s).
 
 use terraslip_terrain::*;
 
@@ -71,6 +74,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if std::env::var("TS_SCALING").as_deref() == Ok("profile") {
         opts.vibration.spatial_scaling = SpatialScaling::Profile;
+    }
+    // Learnt speed normalisation (default on): TS_SPEEDNORM=0 turns it off;
+    // TS_VREF / TS_VMIN (m/s).
+    if let Some(v) = env("TS_SPEEDNORM") {
+        opts.vibration.speed_norm = v != 0.0;
+    }
+    if let Some(v) = env("TS_VREF") {
+        opts.vibration.speed_norm_ref = v;
+    }
+    if let Some(v) = env("TS_VMIN") {
+        opts.vibration.speed_norm_min = v;
     }
     if std::env::var("TS_CHANNELS").as_deref() == Ok("z") {
         opts.vibration.channels = ChannelSet::AccelZ;

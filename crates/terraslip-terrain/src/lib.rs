@@ -8,6 +8,7 @@
 //! - [`model`]: the serialisable [`TerrainModel`] and
 //!   [`TerrainModel::classify_log`], the call the estimator pipeline makes.
 //! - [`eval`]: confusion matrices, leave-runs-out cross-validation, spliced logs.
+//! - [`speed_norm`]: learnt per-feature speed slopes (optional).
 //! - [`synth`]: small synthetic labelled logs for tests and benchmarks.
 //!
 //! The Bayesian (HMM) filter and the λ-vote live in
@@ -18,6 +19,7 @@ pub mod classify;
 pub mod error;
 pub mod eval;
 pub mod model;
+pub mod speed_norm;
 pub mod synth;
 pub mod vibration;
 pub mod vision;
@@ -31,5 +33,6 @@ pub use model::{
     BeliefSettings, Features, FilteredFrame, Source, TerrainModel, TerrainTimeline, TrainOptions,
     MIN_INFORMATIVE_SPEED, MODEL_FORMAT_VERSION,
 };
+pub use speed_norm::SpeedNormalisation;
 pub use vibration::{ChannelSet, SpatialScaling, VibrationConfig, VibrationFeatureSet};
 pub use vision::{CameraModel, RoiConfig, VisionConfig, VisionFeatureSet};

@@ -11,14 +11,16 @@ use terraslip_io::DriveLog;
 
 use crate::classify::{Classifier, ClassifierParams, Standardizer};
 use crate::error::{Result, TerrainError};
+use crate::speed_norm::SpeedNormalisation;
 use crate::vibration::{self, VibrationConfig};
 use crate::vision::{self, VisionConfig};
 
 /// Version of the model file format; a file of another version is refused.
 /// 2: the `full` vibration set gained the steering-efficiency (slip) and
 /// manoeuvre features. 3: the vibration settings gained the spatial bands
-/// (`spatial_bands`, grid, scaling).
-pub const MODEL_FORMAT_VERSION: u32 = 3;
+/// (`spatial_bands`, grid, scaling). 4: the learnt speed normalisation
+/// (`speed_norm` settings, `speed_normalisation` slopes).
+pub const MODEL_FORMAT_VERSION: u32 = 4;
 
 /// The sensor a model reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -130,6 +132,10 @@ pub struct TerrainModel {
     pub classes: Vec<String>,
     pub features: Features,
     pub feature_names: Vec<String>,
+    /// Learnt speed slopes applied before `normalisation` (vibration
+    /// models trained with `speed_norm`; `null` otherwise).
+    #[serde(default)]
+    pub speed_normalisation: Option<SpeedNormalisation>,
     pub normalisation: Standardizer,
     pub classifier_settings: ClassifierParams,
     pub classifier: Classifier,
@@ -446,6 +452,21 @@ impl TerrainModel {
         {
             *change_threshold = change_threshold_from(&phi_same, &phi_change);
         }
+        let speed_normalisation = match &features {
+            Features::Vibration { config, .. } if config.speed_norm => {
+                let sn = SpeedNormalisation::fit(
+                    &x,
+                    &y,
+                    classes.len(),
+                    &config.feature_names(),
+                    config.speed_norm_ref,
+                    config.speed_norm_min,
+                )?;
+                x.iter_mut().for_each(|r| sn.apply(r));
+                Some(sn)
+            }
+            _ => None,
+        };
         let normalisation = Standardizer::fit(&x);
         let xs: Vec<Vec<f64>> = x.iter().map(|r| normalisation.apply(r)).collect();
         let classifier = Classifier::fit(&xs, &y, classes.len(), &opts.classifier)?;
@@ -459,6 +480,7 @@ impl TerrainModel {
             classes: classes.to_vec(),
             features,
             feature_names,
+            speed_normalisation,
             normalisation,
             classifier_settings: opts.classifier.clone(),
             classifier,
@@ -494,7 +516,7 @@ impl TerrainModel {
             frames: Vec::with_capacity(samples.len()),
             changes: Vec::new(),
         };
-        for (t, x, phi) in samples {
+        for (t, mut x, phi) in samples {
             if x.len() != self.normalisation.mean.len() {
                 return Err(TerrainError::Data(format!(
                     "{}: {} features per window, the model expects {}",
@@ -502,6 +524,9 @@ impl TerrainModel {
                     x.len(),
                     self.normalisation.mean.len()
                 )));
+            }
+            if let Some(sn) = &self.speed_normalisation {
+                sn.apply(&mut x);
             }
             let mut p = vec![0.0; k];
             self.classifier
@@ -593,6 +618,14 @@ impl TerrainModel {
         };
         if expected != self.feature_names {
             return Err("feature list does not match the feature settings".into());
+        }
+        let wants_slopes =
+            matches!(&self.features, Features::Vibration { config, .. } if config.speed_norm);
+        match &self.speed_normalisation {
+            Some(sn) if wants_slopes => sn.check(&self.feature_names)?,
+            None if !wants_slopes => {}
+            Some(_) => return Err("speed slopes in a model trained without speed_norm".into()),
+            None => return Err("speed_norm is set but the model holds no speed slopes".into()),
         }
         let source_ok = matches!(
             (&self.features, self.source),

@@ -85,6 +85,29 @@ pub struct VibrationConfig {
     /// How a temporal PSD becomes a spatial one.
     #[serde(default)]
     pub spatial_scaling: SpatialScaling,
+    /// `full` set only: map the amplitude-like features (log variances, log
+    /// band powers) to the tread speed `speed_norm_ref` with per-feature
+    /// slopes on ln v learnt from the training windows (see
+    /// [`crate::speed_norm`]; the model file holds the slopes). On by
+    /// default (session 3); a settings file without the field means off,
+    /// the behaviour before it existed.
+    #[serde(default)]
+    pub speed_norm: bool,
+    /// Reference tread speed of the speed normalisation, m/s.
+    #[serde(default = "default_speed_norm_ref")]
+    pub speed_norm_ref: f64,
+    /// Below this tread speed (m/s) the speed normalisation takes this
+    /// speed; slower windows are left out of the slope fit.
+    #[serde(default = "default_speed_norm_min")]
+    pub speed_norm_min: f64,
+}
+
+fn default_speed_norm_ref() -> f64 {
+    0.5
+}
+
+fn default_speed_norm_min() -> f64 {
+    0.1
 }
 
 fn yes() -> bool {
@@ -137,6 +160,9 @@ impl Default for VibrationConfig {
             spatial_min_cpm: default_spatial_min(),
             spatial_max_cpm: default_spatial_max(),
             spatial_scaling: SpatialScaling::Jacobian,
+            speed_norm: true,
+            speed_norm_ref: default_speed_norm_ref(),
+            speed_norm_min: default_speed_norm_min(),
         }
     }
 }
@@ -156,6 +182,9 @@ impl VibrationConfig {
             spatial_min_cpm: default_spatial_min(),
             spatial_max_cpm: default_spatial_max(),
             spatial_scaling: SpatialScaling::Jacobian,
+            speed_norm: false,
+            speed_norm_ref: default_speed_norm_ref(),
+            speed_norm_min: default_speed_norm_min(),
         }
     }
 

@@ -351,3 +351,101 @@ fn spatial_band_model_trains_round_trips_and_survives_standing_still() {
     let e = TerrainModel::load(&p1).unwrap_err();
     assert!(e.to_string().contains("feature"), "{e}");
 }
+
+/// `log` driven at `v` m/s instead of 0.5, its vibration scaled with the
+/// speed (amplitude ∝ v, so every band power ∝ v²).
+fn at_speed(mut log: DriveLog, v: f64) -> DriveLog {
+    let k = v / 0.5;
+    for s in &mut log.imu {
+        s.accel_z = vibration::STANDARD_GRAVITY + k * (s.accel_z - vibration::STANDARD_GRAVITY);
+        for c in [
+            &mut s.accel_x,
+            &mut s.accel_y,
+            &mut s.gyro_x,
+            &mut s.gyro_y,
+            &mut s.gyro_z,
+        ] {
+            *c = c.map(|x| k * x);
+        }
+    }
+    for w in &mut log.wheels {
+        w.v_left = v;
+        w.v_right = v;
+    }
+    log
+}
+
+#[test]
+fn speed_normalised_model_learns_the_slopes_from_training_runs_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut o = fast_opts();
+    o.vibration.speed_norm = true;
+    // Every terrain at two speeds: power ∝ v², so the log powers rise as 2 ln v.
+    let runs: Vec<DriveLog> = (0..3)
+        .flat_map(|k| {
+            [0.3, 0.6].map(|v| at_speed(vibration_log(&NAMES, &[(k, 30.0)], 20 + k as u64, 0.0), v))
+        })
+        .collect();
+    let m = TerrainModel::train(&runs, &o).unwrap();
+    let sn = m.speed_normalisation.as_ref().expect("slopes recorded");
+    for (name, b) in m.feature_names.iter().zip(&sn.slopes) {
+        let want = if name.ends_with("_log_var")
+            || (name.contains("_band") && !name.ends_with("_share"))
+        {
+            2.0
+        } else {
+            // log(σ_az / v) does not move when σ ∝ v; shares, moments and
+            // speed terms are not normalised.
+            0.0
+        };
+        assert!((b - want).abs() < 0.15, "{name}: slope {b}, want {want}");
+    }
+    // Unseen, and three times faster than any training run: the vibration
+    // is 9x stronger in power, yet it reads as the same terrains.
+    let fast: Vec<DriveLog> = (0..3)
+        .map(|k| at_speed(vibration_log(&NAMES, &[(k, 20.0)], 90 + k as u64, 0.0), 1.8))
+        .collect();
+    for log in &fast {
+        let s = score_log(&m, log).unwrap();
+        assert!(
+            s.raw.accuracy() > 0.9,
+            "{}: {}",
+            log.name(),
+            s.raw.accuracy()
+        );
+    }
+
+    let path = dir.path().join("speed.json");
+    m.save(&path).unwrap();
+    let back = TerrainModel::load(&path).unwrap();
+    assert_eq!(back, m);
+    // The flag without slopes, or slopes without the flag, is refused.
+    let text = std::fs::read_to_string(&path).unwrap();
+    let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let mut no_flag = json.clone();
+    no_flag["features"]["config"]["speed_norm"] = false.into();
+    let mut no_slopes = json.clone();
+    no_slopes["speed_normalisation"] = serde_json::Value::Null;
+    let mut short = json;
+    short["speed_normalisation"]["slopes"]
+        .as_array_mut()
+        .unwrap()
+        .pop();
+    for (edited, why) in [
+        (no_flag, "without"),
+        (no_slopes, "no speed slopes"),
+        (short, "feature list"),
+    ] {
+        let p1 = dir.path().join("edited.json");
+        std::fs::write(&p1, edited.to_string()).unwrap();
+        let e = TerrainModel::load(&p1).unwrap_err();
+        assert!(matches!(e, TerrainError::ModelFile { .. }), "{e}");
+        assert!(e.to_string().contains(why), "{e}");
+    }
+    // The paper's set has no tread speed to normalise by.
+    let mut o = fast_opts();
+    o.vibration = VibrationConfig::paper();
+    o.vibration.speed_norm = true;
+    let e = TerrainModel::train(&runs, &o).unwrap_err();
+    assert!(e.to_string().contains("tread speed"), "{e}");
+}

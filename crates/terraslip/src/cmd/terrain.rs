@@ -116,6 +116,10 @@ struct TrainSettings {
     /// from gyro vs commanded yaw rate, spin share), as in model format 1.
     #[arg(long)]
     no_slip: bool,
+    /// imu, full features: feed the classifier the raw log powers instead
+    /// of mapping them to 0.5 m/s with speed slopes learnt from the training runs.
+    #[arg(long)]
+    no_speed_norm: bool,
     /// Pruning weight α of the decision tree (0 = no pruning).
     #[arg(long, default_value_t = 4.0)]
     prune_alpha: f64,
@@ -247,6 +251,9 @@ fn options(s: &TrainSettings) -> anyhow::Result<TrainOptions> {
     o.vibration.hop_s = s.hop;
     if s.no_slip {
         o.vibration.slip = false;
+    }
+    if s.no_speed_norm {
+        o.vibration.speed_norm = false;
     }
     if o.vibration.feature_set == VibrationFeatureSet::Full {
         o.vibration.channels = match s.channels {

@@ -24,13 +24,32 @@ fn bench(c: &mut Criterion) {
     let mut cfg = *f0.config();
     cfg.rate_k_alpha = -0.02;
     cfg.learn_rate_k_spread = true;
+    // As shipped (session 4b): the law's input capped, the factor held.
+    cfg.rate_dv_cap = true;
+    cfg.hold_alpha_turn = core::f64::consts::PI;
     let mut x0 = f0.state();
     x0[model::RATE_K] = 0.15;
     let mut p0 = f0.covariance();
     p0[(model::RATE_K, model::RATE_K)] = 0.01;
     let mut f = Filter::new(x0, p0, cfg).expect("valid start");
+    let mut g = f.clone();
     c.bench_function("predict turn-rate law", |b| {
         b.iter(|| f.predict(black_box(0.4), black_box(0.6), black_box(0.02)))
+    });
+    let mut t = 0.0;
+    c.bench_function("predict+update adaptive turn-rate law", |b| {
+        b.iter(|| {
+            t += 0.02;
+            let _ = g.predict(black_box(0.4), black_box(0.6), 0.02);
+            let s = g.state();
+            let fix = PoseFix {
+                position: Some((s[0] + 0.3, s[1] - 0.2)),
+                yaw: Some(s[2] + 0.01),
+                std_xy: 2.0,
+                std_yaw: 0.0175,
+            };
+            black_box(g.update(t, &fix))
+        })
     });
     for (name, variant) in [
         ("predict+update adaptive", Variant::Adaptive),

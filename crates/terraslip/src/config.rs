@@ -180,6 +180,28 @@ pub struct FilterSection {
     /// give the filter's twist, and what a simulator's truth holds) or
     /// `straight` (the straight-line values the filter carries).
     pub report_icr: ReportIcr,
+    /// Start-up split (session 4b): after the start and after every
+    /// covariance reset that leaves std(d)/d above
+    /// `hold_alpha_spread_rel_std`, heading fixes do not correct the common
+    /// speed factor until the heading has turned by this much in all, rad
+    /// (0 = off). The compass in turns sees alpha/d; linearised at a d tens
+    /// of % off, the updates would give alpha a share of the spread's error
+    /// far above its prior share (RTK position fixes still teach alpha).
+    pub hold_alpha_turn: f64,
+    /// Relative spread std std(d)/d above which the start or a reset holds
+    /// the common factor (`hold_alpha_turn`); a calibrated (`--init`) or
+    /// recalled spread below it is not held. While held, heading updates do
+    /// not shrink std(d)/d below it: linearised at a d that far off they
+    /// overstate what they teach about d.
+    pub hold_alpha_spread_rel_std: f64,
+    /// Covariance resets at terrain changes re-arm the hold (false: only
+    /// the start of the drive).
+    pub hold_alpha_at_reset: bool,
+    /// Extrapolation guard of the turn-rate law (session 4b): the law's
+    /// input |V_r - V_l| is capped at the largest value at which a heading
+    /// fix was fused while moving, so turns faster than any seen are not
+    /// extrapolated linearly (applies when the slope is learned).
+    pub rate_dv_cap: bool,
 }
 
 /// Which ICRs estimate.csv reports under a turn-rate law (`[filter] report_icr`).
@@ -330,6 +352,10 @@ impl Default for FilterSection {
             rate_input_time_constant: 0.2,
             rate_from_init: true,
             report_icr: ReportIcr::Instantaneous,
+            hold_alpha_turn: std::f64::consts::PI,
+            hold_alpha_spread_rel_std: 0.05,
+            hold_alpha_at_reset: false,
+            rate_dv_cap: true,
         }
     }
 }
@@ -578,6 +604,17 @@ impl EstimatorConfig {
                 "filter.rate_input_time_constant must be >= 0 (s)".into(),
             ));
         }
+        for (key, v) in [
+            ("filter.hold_alpha_turn", f.hold_alpha_turn),
+            (
+                "filter.hold_alpha_spread_rel_std",
+                f.hold_alpha_spread_rel_std,
+            ),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(ConfigError(format!("{key} = {v} must be finite and >= 0")));
+            }
+        }
         let sk = self.init.std_rate_k_spread;
         if !(sk.is_finite() && sk > 0.0) {
             return Err(ConfigError(format!(
@@ -639,6 +676,10 @@ impl EstimatorConfig {
             q_rate_k_spread: f.q_rate_k_spread,
             max_rate_k_spread: f.max_rate_k_spread,
             rate_input_time_constant: f.rate_input_time_constant,
+            hold_alpha_turn: f.hold_alpha_turn,
+            hold_alpha_spread_rel_std: f.hold_alpha_spread_rel_std,
+            hold_alpha_at_reset: f.hold_alpha_at_reset,
+            rate_dv_cap: f.rate_dv_cap,
         }
     }
 
@@ -691,6 +732,8 @@ impl EstimatorConfig {
             // ... and constant ICRs (no turn-rate law).
             c.filter.rate_from_init = false;
             c.filter.learn_rate_k_spread = false;
+            c.filter.rate_dv_cap = false;
+            c.filter.hold_alpha_turn = 0.0;
             c.filter.slip_from_position_max_std = 1e9;
             c.init.std_alpha = 1e-6;
             c.init.std_alpha_diff = 1e-6;
@@ -782,6 +825,29 @@ mod tests {
         assert!(e.to_string().contains("std_rate_k_spread"), "{e}");
         let e = EstimatorConfig::from_toml("[filter]\nfactor_coords = \"ratio\"\n").unwrap_err();
         assert!(e.to_string().contains("ratio"), "{e}");
+    }
+
+    #[test]
+    fn startup_hold_and_rate_cap_are_on_by_default_and_selectable() {
+        let c = EstimatorConfig::default().filter_config(0.5);
+        assert_eq!(c.hold_alpha_turn, std::f64::consts::PI);
+        assert!(!c.hold_alpha_at_reset && c.rate_dv_cap);
+        let c = EstimatorConfig::from_toml(
+            "[filter]\nhold_alpha_turn = 0.0\nrate_dv_cap = false\nhold_alpha_at_reset = true\n",
+        )
+        .unwrap()
+        .filter_config(0.5);
+        assert!(c.hold_alpha_turn == 0.0 && !c.rate_dv_cap && c.hold_alpha_at_reset);
+        for bad in ["hold_alpha_turn = -1.0", "hold_alpha_spread_rel_std = -0.1"] {
+            let key = bad.split(' ').next().unwrap();
+            let e = EstimatorConfig::from_toml(&format!("[filter]\n{bad}\n")).unwrap_err();
+            assert!(e.to_string().contains(key), "{e}");
+        }
+        // The papers' presets have neither.
+        let p = EstimatorConfig::preset("ekf-reset")
+            .unwrap()
+            .filter_config(0.5);
+        assert!(p.hold_alpha_turn == 0.0 && !p.rate_dv_cap);
     }
 
     #[test]

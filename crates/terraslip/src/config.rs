@@ -352,7 +352,7 @@ impl Default for FilterSection {
             rate_input_time_constant: 0.2,
             rate_from_init: true,
             report_icr: ReportIcr::Instantaneous,
-            hold_alpha_turn: std::f64::consts::PI,
+            hold_alpha_turn: 0.0,
             hold_alpha_spread_rel_std: 0.05,
             hold_alpha_at_reset: false,
             rate_dv_cap: true,
@@ -828,16 +828,16 @@ mod tests {
     }
 
     #[test]
-    fn startup_hold_and_rate_cap_are_on_by_default_and_selectable() {
+    fn rate_cap_on_and_startup_hold_off_by_default_both_selectable() {
         let c = EstimatorConfig::default().filter_config(0.5);
-        assert_eq!(c.hold_alpha_turn, std::f64::consts::PI);
+        assert_eq!(c.hold_alpha_turn, 0.0);
         assert!(!c.hold_alpha_at_reset && c.rate_dv_cap);
         let c = EstimatorConfig::from_toml(
-            "[filter]\nhold_alpha_turn = 0.0\nrate_dv_cap = false\nhold_alpha_at_reset = true\n",
+            "[filter]\nhold_alpha_turn = 2.5\nrate_dv_cap = false\nhold_alpha_at_reset = true\n",
         )
         .unwrap()
         .filter_config(0.5);
-        assert!(c.hold_alpha_turn == 0.0 && !c.rate_dv_cap && c.hold_alpha_at_reset);
+        assert!(c.hold_alpha_turn == 2.5 && !c.rate_dv_cap && c.hold_alpha_at_reset);
         for bad in ["hold_alpha_turn = -1.0", "hold_alpha_spread_rel_std = -0.1"] {
             let key = bad.split(' ').next().unwrap();
             let e = EstimatorConfig::from_toml(&format!("[filter]\n{bad}\n")).unwrap_err();

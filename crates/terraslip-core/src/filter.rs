@@ -271,8 +271,9 @@ pub struct FilterConfig {
     /// builds up), so the spread of a turn just begun is not yet the turn's.
     pub rate_input_time_constant: f64,
     /// Start-up split of the heading's ratio (session 4b): after the start
-    /// and after every covariance reset ([`Filter::reset_icr`]) that leaves
-    /// the spread's relative std `std(d)/d` above
+    /// (and after every covariance reset, [`Filter::reset_icr`], with
+    /// [`Self::hold_alpha_at_reset`]) that leaves the spread's relative
+    /// std `std(d)/d` above
     /// [`Self::hold_alpha_spread_rel_std`], heading fixes do not correct the
     /// common speed factor until the heading has turned by this much in
     /// all (rad; 0 = off, the filter before session 4b). The factor is a

@@ -180,8 +180,9 @@ pub struct FilterSection {
     /// give the filter's twist, and what a simulator's truth holds) or
     /// `straight` (the straight-line values the filter carries).
     pub report_icr: ReportIcr,
-    /// Start-up split (session 4b): after the start and after every
-    /// covariance reset that leaves std(d)/d above
+    /// Start-up split (session 4b; off by default, see
+    /// docs/estimator.md): after the start (and every covariance reset,
+    /// with `hold_alpha_at_reset`) that leaves std(d)/d above
     /// `hold_alpha_spread_rel_std`, heading fixes do not correct the common
     /// speed factor until the heading has turned by this much in all, rad
     /// (0 = off). The compass in turns sees alpha/d; linearised at a d tens

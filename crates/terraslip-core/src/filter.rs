@@ -205,6 +205,11 @@ pub struct FilterConfig {
     pub q_yaw: f64,
     /// Extra yaw noise per squared yaw rate, s.
     pub q_yaw_per_rate2: f64,
+    /// Yaw noise per radian turned, rad^2/rad (0 = none): the ICR model is
+    /// approximate, and its heading error grows with the angle turned
+    /// whatever the slip states are (`sqrt` of it = the model's relative
+    /// heading-rate error over one radian, e.g. 1e-4 = 1 %).
+    pub q_yaw_per_rad: f64,
     /// Time constant (s) of the low-pass on the tread speeds used for the
     /// slip-parameter columns of the Jacobian (0 = raw speeds).
     pub slip_input_time_constant: f64,
@@ -270,6 +275,20 @@ pub struct FilterConfig {
     /// the ICRs follow the motion with a lag (the shear under the treads
     /// builds up), so the spread of a turn just begun is not yet the turn's.
     pub rate_input_time_constant: f64,
+    /// Re-acquisition after a gap in the pose fixes, s (0 = off). A fix
+    /// part (position or heading) that comes more than this after the
+    /// previous fix with that part starts a re-acquisition of
+    /// `reacquire_time` s: those parts correct the pose but not the slip
+    /// parameters (Schmidt consider states, as with `learn_icr = false`),
+    /// and heading innovations do not feed the adaptation. Over a gap the
+    /// pose-slip cross-covariance is built by linearising along a dead-
+    /// reckoned path the filter has got wrong by the drift, and the drift is
+    /// mostly model error the slip states cannot represent (the turn-rate
+    /// law's regime, quantisation): fused as if it were slip, the first
+    /// fixes would move the slip parameters by centimetres.
+    pub reacquire_gap: f64,
+    /// Length of a re-acquisition from its first fix, s (0 = that fix only).
+    pub reacquire_time: f64,
 }
 
 impl FilterConfig {
@@ -281,10 +300,11 @@ impl FilterConfig {
             q_pos_per_speed2: 1e-3,
             q_yaw: 1e-6,
             q_yaw_per_rate2: 1e-4,
+            q_yaw_per_rad: 4e-4,
             encoder_tick: 0.0,
             slip_input_time_constant: 0.2,
             q_icr: IcrNoise {
-                spread: 1e-5,
+                spread: 5e-6,
                 centre: 1e-7,
                 x_c: 1e-7,
                 alpha: 1e-8,
@@ -307,6 +327,8 @@ impl FilterConfig {
             q_rate_k_spread: 0.0,
             max_rate_k_spread: 1.0,
             rate_input_time_constant: 0.2,
+            reacquire_gap: 0.0,
+            reacquire_time: 0.0,
         }
     }
 }
@@ -404,6 +426,10 @@ pub struct Filter {
     /// Heading NIS average of the adaptive variant.
     nis_avg: f64,
     last_fix_t: Option<f64>,
+    /// Time of the last fix with a position / heading part.
+    last_part_t: [Option<f64>; 2],
+    /// End of the current re-acquisition of position / heading, s.
+    reacquire_until: [f64; 2],
     still: bool,
     rejected_pos: u32,
     rejected_yaw: u32,
@@ -455,6 +481,14 @@ impl Filter {
             && cfg.band.min_spread > crate::kinematics::MIN_SPREAD
             && cfg.band.max_spread > cfg.band.min_spread;
         let tick_ok = cfg.encoder_tick.is_finite() && cfg.encoder_tick >= 0.0;
+        let reacq_ok = [cfg.reacquire_gap, cfg.reacquire_time, cfg.q_yaw_per_rad]
+            .iter()
+            .all(|v| v.is_finite() && *v >= 0.0);
+        if !reacq_ok {
+            return Err(FilterError::BadInput(
+                "q_yaw_per_rad, re-acquisition gap and time must be finite and >= 0",
+            ));
+        }
         if !cfg.q_icr.is_valid() || !spread_ok || !tick_ok {
             return Err(FilterError::BadInput("ICR noise or band invalid"));
         }
@@ -504,6 +538,8 @@ impl Filter {
             schedule_scale: 1.0,
             nis_avg: 1.0,
             last_fix_t: None,
+            last_part_t: [None; 2],
+            reacquire_until: [f64::NEG_INFINITY; 2],
             still: true,
             rejected_pos: 0,
             rejected_yaw: 0,
@@ -804,7 +840,10 @@ impl Filter {
         let v = 0.5 * (v_left + v_right);
         P[(EAST, EAST)] += dt * (self.cfg.q_pos + self.cfg.q_pos_per_speed2 * v * v);
         P[(NORTH, NORTH)] += dt * (self.cfg.q_pos + self.cfg.q_pos_per_speed2 * v * v);
-        P[(YAW, YAW)] += dt * (self.cfg.q_yaw + self.cfg.q_yaw_per_rate2 * omega * omega);
+        P[(YAW, YAW)] += dt
+            * (self.cfg.q_yaw
+                + self.cfg.q_yaw_per_rate2 * omega * omega
+                + self.cfg.q_yaw_per_rad * omega.abs());
         if self.cfg.encoder_tick > 0.0 {
             let t2 = self.cfg.encoder_tick * self.cfg.encoder_tick;
             P[(YAW, YAW)] += t2 / (3.0 * d * d);
@@ -860,6 +899,7 @@ impl Filter {
             fix.std_xy * fix.std_xy,
             fix.std_yaw * fix.std_yaw,
         ];
+        let consider = self.reacquisition(t, [pos.is_some(), yaw.is_some()]);
         let mut nu = Vector3::zeros();
         if let Some((e, n)) = pos {
             nu[0] = e - self.x[EAST];
@@ -929,8 +969,9 @@ impl Filter {
         }
 
         // Adaptation sees every heading innovation, gated or not: a slip
-        // change shows up as a run of large ones.
-        if let Some(nis) = yaw_nis {
+        // change shows up as a run of large ones. Not in a re-acquisition:
+        // there the innovation holds the gap's dead-reckoning error.
+        if let Some(nis) = yaw_nis.filter(|_| !consider[1]) {
             let dt = match self.last_fix_t {
                 Some(t0) if t > t0 => t - t0,
                 _ => 1.0,
@@ -945,9 +986,39 @@ impl Filter {
             self.reanchor(&reanchor, &nu, &r);
         }
         if use_.iter().any(|&b| b) {
-            self.fuse(&use_, &nu, &r, &S_full)?;
+            self.fuse(&use_, &nu, &r, &S_full, consider)?;
         }
         Ok(report)
+    }
+
+    /// Whether the position / heading part of a fix at `t` belongs to a
+    /// re-acquisition ([`FilterConfig::reacquire_gap`]); records the parts
+    /// present. The first fix of a run has no gap before it: the slip
+    /// parameters are not yet correlated with the pose.
+    fn reacquisition(&mut self, t: f64, present: [bool; 2]) -> [bool; 2] {
+        let mut consider = [false; 2];
+        for k in 0..2 {
+            if !present[k] {
+                continue;
+            }
+            if self.cfg.reacquire_gap > 0.0 {
+                if let Some(t0) = self.last_part_t[k] {
+                    if t - t0 > self.cfg.reacquire_gap {
+                        self.reacquire_until[k] = t + self.cfg.reacquire_time;
+                    }
+                }
+                consider[k] = t <= self.reacquire_until[k];
+            }
+            self.last_part_t[k] = Some(t);
+        }
+        consider
+    }
+
+    /// Whether the last fix's position / heading part was fused as a
+    /// re-acquisition (pose only).
+    pub fn reacquiring(&self) -> [bool; 2] {
+        let t = self.last_fix_t.unwrap_or(f64::NEG_INFINITY);
+        [t <= self.reacquire_until[0], t <= self.reacquire_until[1]]
     }
 
     /// Jumps the flagged pose states to the measurement and gives them the
@@ -975,6 +1046,7 @@ impl Filter {
         nu: &Vector3<f64>,
         r: &[f64; 3],
         S_full: &Matrix3<f64>,
+        consider: [bool; 2],
     ) -> Result<(), FilterError> {
         // Rows not measured get H = 0, nu = 0 and a unit, uncorrelated S
         // entry: this is exactly the reduced-dimension update, in 3x3.
@@ -1026,9 +1098,14 @@ impl Filter {
                 for c in 0..3 {
                     G[(row, c)] = 0.0;
                 }
-            } else if !slip_from_position {
-                G[(row, 0)] = 0.0;
-                G[(row, 1)] = 0.0;
+            } else {
+                if !slip_from_position || consider[0] {
+                    G[(row, 0)] = 0.0;
+                    G[(row, 1)] = 0.0;
+                }
+                if consider[1] {
+                    G[(row, 2)] = 0.0;
+                }
             }
         }
         let mut x = self.x + G * nu_m;

@@ -112,10 +112,18 @@ pub struct FilterSection {
     pub q_yaw: f64,
     /// Extra yaw noise per squared yaw rate, rad^2/s per (rad/s)^2.
     pub q_yaw_per_rate2: f64,
+    /// Yaw noise per radian turned, rad^2/rad (0 = none): the kinematic
+    /// model's heading error grows with the angle turned, independent of the
+    /// slip states (its square root is the model's relative heading-rate
+    /// error over one radian: 1e-4 = 1 %).
+    pub q_yaw_per_rad: f64,
     /// Low-pass time constant of the tread speeds that correlate the slip
     /// parameters with the pose (s; 0 = raw): encoder flicker is no turn.
     pub slip_input_time_constant: f64,
-    /// ICR random walk of the spread d = y_l - y_r, m^2/s.
+    /// ICR random walk of the spread d = y_l - y_r, m^2/s (5e-6 since
+    /// session 4a, 1e-5 before: the turn-rate law now carries the spread's
+    /// change with the turn, and over a 30 s outage the walk alone grew the
+    /// std of d from ~1 to ~2 cm, so that the returning compass swung d).
     pub q_spread: f64,
     /// ICR random walk of the centre (y_l + y_r)/2, m^2/s.
     pub q_centre: f64,
@@ -180,6 +188,19 @@ pub struct FilterSection {
     /// give the filter's twist, and what a simulator's truth holds) or
     /// `straight` (the straight-line values the filter carries).
     pub report_icr: ReportIcr,
+    /// Re-acquisition after a gap in the pose fixes, s (0 = off): a
+    /// position or heading fix more than this after the previous one of its
+    /// kind, and those of that kind for `reacquire_time` s after it,
+    /// correct the pose but not the slip parameters (consider states), and
+    /// do not feed the adaptation. After a GNSS/compass outage the
+    /// pose-slip cross-covariance comes from linearising along a
+    /// dead-reckoned path that is off by the drift, mostly model error the
+    /// slip states cannot represent; fusing the first fixes through it
+    /// moves the slip parameters by centimetres. A few missed 1 Hz fixes
+    /// are not a gap.
+    pub reacquire_gap: f64,
+    /// Length of a re-acquisition from its first fix, s (0 = that fix only).
+    pub reacquire_time: f64,
 }
 
 /// Which ICRs estimate.csv reports under a turn-rate law (`[filter] report_icr`).
@@ -307,8 +328,9 @@ impl Default for FilterSection {
             q_pos_per_speed2: 1e-3,
             q_yaw: 1e-6,
             q_yaw_per_rate2: 1e-4,
+            q_yaw_per_rad: 4e-4,
             slip_input_time_constant: 0.2,
-            q_spread: 1e-5,
+            q_spread: 5e-6,
             q_centre: 1e-7,
             q_x_c: 1e-7,
             q_alpha: 1e-8,
@@ -330,6 +352,8 @@ impl Default for FilterSection {
             rate_input_time_constant: 0.2,
             rate_from_init: true,
             report_icr: ReportIcr::Instantaneous,
+            reacquire_gap: 0.0,
+            reacquire_time: 0.0,
         }
     }
 }
@@ -459,6 +483,7 @@ impl EstimatorConfig {
             ("filter.q_pos_per_speed2", f.q_pos_per_speed2),
             ("filter.q_yaw", f.q_yaw),
             ("filter.q_yaw_per_rate2", f.q_yaw_per_rate2),
+            ("filter.q_yaw_per_rad", f.q_yaw_per_rad),
             ("filter.q_spread", f.q_spread),
             ("filter.q_centre", f.q_centre),
             ("filter.q_x_c", f.q_x_c),
@@ -467,6 +492,8 @@ impl EstimatorConfig {
             ("filter.gate_position", f.gate_position),
             ("filter.gate_yaw", f.gate_yaw),
             ("filter.still_speed", f.still_speed),
+            ("filter.reacquire_gap", f.reacquire_gap),
+            ("filter.reacquire_time", f.reacquire_time),
             (
                 "filter.slip_from_position_max_std",
                 f.slip_from_position_max_std,
@@ -610,6 +637,7 @@ impl EstimatorConfig {
             q_pos_per_speed2: f.q_pos_per_speed2,
             q_yaw: f.q_yaw,
             q_yaw_per_rate2: f.q_yaw_per_rate2,
+            q_yaw_per_rad: f.q_yaw_per_rad,
             encoder_tick: self.measurement.encoder_tick,
             slip_input_time_constant: f.slip_input_time_constant,
             q_icr,
@@ -639,6 +667,8 @@ impl EstimatorConfig {
             q_rate_k_spread: f.q_rate_k_spread,
             max_rate_k_spread: f.max_rate_k_spread,
             rate_input_time_constant: f.rate_input_time_constant,
+            reacquire_gap: f.reacquire_gap,
+            reacquire_time: f.reacquire_time,
         }
     }
 
@@ -691,6 +721,9 @@ impl EstimatorConfig {
             // ... and constant ICRs (no turn-rate law).
             c.filter.rate_from_init = false;
             c.filter.learn_rate_k_spread = false;
+            // ... and every fix teaches the slip, also after an outage.
+            c.filter.reacquire_gap = 0.0;
+            c.filter.q_yaw_per_rad = 0.0;
             c.filter.slip_from_position_max_std = 1e9;
             c.init.std_alpha = 1e-6;
             c.init.std_alpha_diff = 1e-6;

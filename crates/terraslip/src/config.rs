@@ -826,6 +826,33 @@ mod tests {
     }
 
     #[test]
+    fn heading_model_noise_and_reacquisition_are_configurable() {
+        let c = EstimatorConfig::default();
+        let f = c.filter_config(0.5);
+        assert_eq!(f.q_yaw_per_rad, 4e-4);
+        assert_eq!(f.q_icr.spread, 5e-6);
+        assert_eq!((f.reacquire_gap, f.reacquire_time), (0.0, 0.0));
+        let text = "[filter]\nq_yaw_per_rad = 1e-3\nreacquire_gap = 5.0\nreacquire_time = 20.0\n";
+        let c = EstimatorConfig::from_toml(text).unwrap();
+        let f = c.filter_config(0.5);
+        assert_eq!(f.q_yaw_per_rad, 1e-3);
+        assert_eq!((f.reacquire_gap, f.reacquire_time), (5.0, 20.0));
+        assert_eq!(EstimatorConfig::from_toml(&c.to_toml()).unwrap(), c);
+        for key in ["q_yaw_per_rad", "reacquire_gap", "reacquire_time"] {
+            let e = EstimatorConfig::from_toml(&format!("[filter]\n{key} = -1.0\n")).unwrap_err();
+            assert!(e.to_string().contains(key), "{e}");
+        }
+        // The papers' presets keep their model: no heading model noise, no
+        // re-acquisition rule.
+        for (name, p) in EstimatorConfig::presets() {
+            if name != "terraslip" {
+                assert_eq!(p.filter.q_yaw_per_rad, 0.0, "{name}");
+                assert_eq!(p.filter.reacquire_gap, 0.0, "{name}");
+            }
+        }
+    }
+
+    #[test]
     fn partial_file_keeps_defaults() {
         let c = EstimatorConfig::from_toml("[filter]\nvariant = \"iekf\"\n").unwrap();
         assert_eq!(c.filter.variant, FilterVariant::Iekf);

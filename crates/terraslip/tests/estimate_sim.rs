@@ -118,8 +118,12 @@ fn reset_keeping_the_factor_difference_settles_a_steady_turn() {
     // The comparison is on the constant-ICR model: with the learned
     // turn-rate slope (the default since session 3) both settle at once
     // (0.0 s measured), so the law must be off to see the reset's effect.
+    // The same holds for the heading model noise per radian (session 4a):
+    // the heading then takes more of each turn's innovation and the old
+    // reset settles at once too, so it is off here as well.
     let mut constant = EstimatorConfig::default();
     constant.filter.learn_rate_k_spread = false;
+    constant.filter.q_yaw_per_rad = 0.0;
     let ours = score("papers", 5, &constant);
     let mut old = constant.clone();
     old.schedule.reset_keeps_alpha_diff = false;

@@ -425,6 +425,8 @@ pub struct Filter {
     schedule_scale: f64,
     /// Heading NIS average of the adaptive variant.
     nis_avg: f64,
+    /// Time since the last heading fix, s (predicted time).
+    since_yaw_fix: f64,
     last_fix_t: Option<f64>,
     /// Time of the last fix with a position / heading part.
     last_part_t: [Option<f64>; 2],
@@ -537,6 +539,7 @@ impl Filter {
             u_rate: None,
             schedule_scale: 1.0,
             nis_avg: 1.0,
+            since_yaw_fix: 0.0,
             last_fix_t: None,
             last_part_t: [None; 2],
             reacquire_until: [f64::NEG_INFINITY; 2],
@@ -869,6 +872,15 @@ impl Filter {
         }
         self.x = x;
         self.P = P;
+        // With no heading fix for longer than its time constant the
+        // adaptation has no evidence left: its average forgets towards 1
+        // (the model fits) at the same rate, rather than multiplying the
+        // spread's walk through a whole outage by its last value.
+        let tau = self.cfg.adapt_time_constant.max(1e-3);
+        self.since_yaw_fix += dt;
+        if self.since_yaw_fix > tau {
+            self.nis_avg += (dt / tau).min(1.0) * (1.0 - self.nis_avg);
+        }
         Ok(())
     }
 
@@ -971,6 +983,9 @@ impl Filter {
         // Adaptation sees every heading innovation, gated or not: a slip
         // change shows up as a run of large ones. Not in a re-acquisition:
         // there the innovation holds the gap's dead-reckoning error.
+        if yaw_nis.is_some() {
+            self.since_yaw_fix = 0.0;
+        }
         if let Some(nis) = yaw_nis.filter(|_| !consider[1]) {
             let dt = match self.last_fix_t {
                 Some(t0) if t > t0 => t - t0,
@@ -1538,6 +1553,31 @@ mod tests {
         );
         assert!(b_left.abs() < a_left.abs() + 1e-9, "{b_left} vs {a_left}");
         assert!(b_left.abs() < 0.5f64.to_radians(), "heading left {b_left}");
+    }
+
+    #[test]
+    fn adaptation_forgets_through_a_gap_in_the_heading_fixes() {
+        let mut f = start(Variant::Adaptive);
+        let mut t = 0.0;
+        // A run of 5 deg heading errors: the model looks wrong.
+        for _ in 0..10 {
+            f.predict(0.3, 0.5, 1.0).unwrap();
+            t += 1.0;
+            let y = f.state()[YAW] + 5f64.to_radians();
+            f.update(t, &fix(f.state()[EAST], f.state()[NORTH], y))
+                .unwrap();
+        }
+        let raised = f.icr_noise_scale();
+        assert!(raised > 5.0, "scale {raised}");
+        // At the usual fix rate nothing decays between fixes ...
+        f.predict(0.3, 0.5, 1.0).unwrap();
+        assert_eq!(f.icr_noise_scale(), raised);
+        // ... but 30 s without a heading fix leave no evidence: back to 1.
+        for _ in 0..30 {
+            f.predict(0.3, 0.5, 1.0).unwrap();
+        }
+        let s = f.icr_noise_scale();
+        assert!(s < 1.0 + 0.05 * (raised - 1.0), "scale {s} from {raised}");
     }
 
     #[test]

@@ -1007,23 +1007,24 @@ impl Filter {
     }
 
     /// Whether the position / heading part of a fix at `t` belongs to a
-    /// re-acquisition ([`FilterConfig::reacquire_gap`]); records the parts
-    /// present. The first fix of a run has no gap before it: the slip
-    /// parameters are not yet correlated with the pose.
+    /// re-acquisition ([`FilterConfig::reacquire_gap`]; off: never); records
+    /// the parts present. The first fix of a run has no gap before it: the
+    /// slip parameters are not yet correlated with the pose.
     fn reacquisition(&mut self, t: f64, present: [bool; 2]) -> [bool; 2] {
         let mut consider = [false; 2];
+        if self.cfg.reacquire_gap <= 0.0 {
+            return consider;
+        }
         for k in 0..2 {
             if !present[k] {
                 continue;
             }
-            if self.cfg.reacquire_gap > 0.0 {
-                if let Some(t0) = self.last_part_t[k] {
-                    if t - t0 > self.cfg.reacquire_gap {
-                        self.reacquire_until[k] = t + self.cfg.reacquire_time;
-                    }
+            if let Some(t0) = self.last_part_t[k] {
+                if t - t0 > self.cfg.reacquire_gap {
+                    self.reacquire_until[k] = t + self.cfg.reacquire_time;
                 }
-                consider[k] = t <= self.reacquire_until[k];
             }
+            consider[k] = t <= self.reacquire_until[k];
             self.last_part_t[k] = Some(t);
         }
         consider

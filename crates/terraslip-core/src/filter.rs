@@ -241,7 +241,9 @@ pub struct FilterConfig {
     pub max_rejections: u32,
     /// Tread speed (m/s) below which the robot counts as standing still.
     pub still_speed: f64,
-    /// Time constant (s) of the heading-NIS average of [`Variant::Adaptive`].
+    /// Time constant (s) of the heading-NIS average of [`Variant::Adaptive`];
+    /// with no heading fix for longer than this, the average forgets
+    /// towards 1 at the same rate (through an outage it has no evidence).
     pub adapt_time_constant: f64,
     /// Largest factor [`Variant::Adaptive`] applies to the ICR noise.
     pub adapt_max_scale: f64,

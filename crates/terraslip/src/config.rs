@@ -152,7 +152,9 @@ pub struct FilterSection {
     /// A gap between wheels rows longer than this (s) is not integrated with
     /// held speeds: the pose uncertainty grows instead, and a warning is given.
     pub max_wheel_gap: f64,
-    /// Time constant of the heading-NIS average (adaptive variant), s.
+    /// Time constant of the heading-NIS average (adaptive variant), s; with
+    /// no heading fix for longer than this it forgets towards 1 at the same
+    /// rate (session 4a: kept, it scaled the spread's walk through outages).
     pub adapt_time_constant: f64,
     /// Largest factor the adaptive variant applies to the ICR noise.
     pub adapt_max_scale: f64,

@@ -205,6 +205,11 @@ pub struct FilterConfig {
     pub q_yaw: f64,
     /// Extra yaw noise per squared yaw rate, s.
     pub q_yaw_per_rate2: f64,
+    /// Yaw noise per radian turned, rad^2/rad (0 = none): the ICR model is
+    /// approximate, and its heading error grows with the angle turned
+    /// whatever the slip states are (`sqrt` of it = the model's relative
+    /// heading-rate error over one radian, e.g. 1e-4 = 1 %).
+    pub q_yaw_per_rad: f64,
     /// Time constant (s) of the low-pass on the tread speeds used for the
     /// slip-parameter columns of the Jacobian (0 = raw speeds).
     pub slip_input_time_constant: f64,
@@ -236,7 +241,9 @@ pub struct FilterConfig {
     pub max_rejections: u32,
     /// Tread speed (m/s) below which the robot counts as standing still.
     pub still_speed: f64,
-    /// Time constant (s) of the heading-NIS average of [`Variant::Adaptive`].
+    /// Time constant (s) of the heading-NIS average of [`Variant::Adaptive`];
+    /// with no heading fix for longer than this, the average forgets
+    /// towards 1 at the same rate (through an outage it has no evidence).
     pub adapt_time_constant: f64,
     /// Largest factor [`Variant::Adaptive`] applies to the ICR noise.
     pub adapt_max_scale: f64,
@@ -303,6 +310,20 @@ pub struct FilterConfig {
     /// rather than by extrapolating the learned slope linearly. Applies
     /// when the slope is learned (`learn_rate_k_spread`).
     pub rate_dv_cap: bool,
+    /// Re-acquisition after a gap in the pose fixes, s (0 = off). A fix
+    /// part (position or heading) that comes more than this after the
+    /// previous fix with that part starts a re-acquisition of
+    /// `reacquire_time` s: those parts correct the pose but not the slip
+    /// parameters (Schmidt consider states, as with `learn_icr = false`),
+    /// and heading innovations do not feed the adaptation. Over a gap the
+    /// pose-slip cross-covariance is built by linearising along a dead-
+    /// reckoned path the filter has got wrong by the drift, and the drift is
+    /// mostly model error the slip states cannot represent (the turn-rate
+    /// law's regime, quantisation): fused as if it were slip, the first
+    /// fixes would move the slip parameters by centimetres.
+    pub reacquire_gap: f64,
+    /// Length of a re-acquisition from its first fix, s (0 = that fix only).
+    pub reacquire_time: f64,
 }
 
 impl FilterConfig {
@@ -314,10 +335,11 @@ impl FilterConfig {
             q_pos_per_speed2: 1e-3,
             q_yaw: 1e-6,
             q_yaw_per_rate2: 1e-4,
+            q_yaw_per_rad: 4e-4,
             encoder_tick: 0.0,
             slip_input_time_constant: 0.2,
             q_icr: IcrNoise {
-                spread: 1e-5,
+                spread: 5e-6,
                 centre: 1e-7,
                 x_c: 1e-7,
                 alpha: 1e-8,
@@ -344,6 +366,8 @@ impl FilterConfig {
             hold_alpha_spread_rel_std: 0.05,
             hold_alpha_at_reset: false,
             rate_dv_cap: false,
+            reacquire_gap: 0.0,
+            reacquire_time: 0.0,
         }
     }
 }
@@ -449,7 +473,13 @@ pub struct Filter {
     schedule_scale: f64,
     /// Heading NIS average of the adaptive variant.
     nis_avg: f64,
+    /// Time since the last heading fix, s (predicted time).
+    since_yaw_fix: f64,
     last_fix_t: Option<f64>,
+    /// Time of the last fix with a position / heading part.
+    last_part_t: [Option<f64>; 2],
+    /// End of the current re-acquisition of position / heading, s.
+    reacquire_until: [f64; 2],
     still: bool,
     rejected_pos: u32,
     rejected_yaw: u32,
@@ -505,6 +535,14 @@ impl Filter {
             && cfg.band.min_spread > crate::kinematics::MIN_SPREAD
             && cfg.band.max_spread > cfg.band.min_spread;
         let tick_ok = cfg.encoder_tick.is_finite() && cfg.encoder_tick >= 0.0;
+        let reacq_ok = [cfg.reacquire_gap, cfg.reacquire_time, cfg.q_yaw_per_rad]
+            .iter()
+            .all(|v| v.is_finite() && *v >= 0.0);
+        if !reacq_ok {
+            return Err(FilterError::BadInput(
+                "q_yaw_per_rad, re-acquisition gap and time must be finite and >= 0",
+            ));
+        }
         if !cfg.q_icr.is_valid() || !spread_ok || !tick_ok {
             return Err(FilterError::BadInput("ICR noise or band invalid"));
         }
@@ -556,7 +594,10 @@ impl Filter {
             held_turn: 0.0,
             schedule_scale: 1.0,
             nis_avg: 1.0,
+            since_yaw_fix: 0.0,
             last_fix_t: None,
+            last_part_t: [None; 2],
+            reacquire_until: [f64::NEG_INFINITY; 2],
             still: true,
             rejected_pos: 0,
             rejected_yaw: 0,
@@ -912,7 +953,10 @@ impl Filter {
         let v = 0.5 * (v_left + v_right);
         P[(EAST, EAST)] += dt * (self.cfg.q_pos + self.cfg.q_pos_per_speed2 * v * v);
         P[(NORTH, NORTH)] += dt * (self.cfg.q_pos + self.cfg.q_pos_per_speed2 * v * v);
-        P[(YAW, YAW)] += dt * (self.cfg.q_yaw + self.cfg.q_yaw_per_rate2 * omega * omega);
+        P[(YAW, YAW)] += dt
+            * (self.cfg.q_yaw
+                + self.cfg.q_yaw_per_rate2 * omega * omega
+                + self.cfg.q_yaw_per_rad * omega.abs());
         if self.cfg.encoder_tick > 0.0 {
             let t2 = self.cfg.encoder_tick * self.cfg.encoder_tick;
             P[(YAW, YAW)] += t2 / (3.0 * d * d);
@@ -940,6 +984,15 @@ impl Filter {
         self.P = P;
         if self.alpha_held && !self.still {
             self.held_turn += (omega * dt).abs();
+        }
+        // With no heading fix for longer than its time constant the
+        // adaptation has no evidence left: its average forgets towards 1
+        // (the model fits) at the same rate, rather than multiplying the
+        // spread's walk through a whole outage by its last value.
+        let tau = self.cfg.adapt_time_constant.max(1e-3);
+        self.since_yaw_fix += dt;
+        if self.since_yaw_fix > tau {
+            self.nis_avg += (dt / tau).min(1.0) * (1.0 - self.nis_avg);
         }
         Ok(())
     }
@@ -971,6 +1024,7 @@ impl Filter {
             fix.std_xy * fix.std_xy,
             fix.std_yaw * fix.std_yaw,
         ];
+        let consider = self.reacquisition(t, [pos.is_some(), yaw.is_some()]);
         let mut nu = Vector3::zeros();
         if let Some((e, n)) = pos {
             nu[0] = e - self.x[EAST];
@@ -1040,8 +1094,12 @@ impl Filter {
         }
 
         // Adaptation sees every heading innovation, gated or not: a slip
-        // change shows up as a run of large ones.
-        if let Some(nis) = yaw_nis {
+        // change shows up as a run of large ones. Not in a re-acquisition:
+        // there the innovation holds the gap's dead-reckoning error.
+        if yaw_nis.is_some() {
+            self.since_yaw_fix = 0.0;
+        }
+        if let Some(nis) = yaw_nis.filter(|_| !consider[1]) {
             let dt = match self.last_fix_t {
                 Some(t0) if t > t0 => t - t0,
                 _ => 1.0,
@@ -1056,9 +1114,40 @@ impl Filter {
             self.reanchor(&reanchor, &nu, &r);
         }
         if use_.iter().any(|&b| b) {
-            self.fuse(&use_, &nu, &r, &S_full)?;
+            self.fuse(&use_, &nu, &r, &S_full, consider)?;
         }
         Ok(report)
+    }
+
+    /// Whether the position / heading part of a fix at `t` belongs to a
+    /// re-acquisition ([`FilterConfig::reacquire_gap`]; off: never); records
+    /// the parts present. The first fix of a run has no gap before it: the
+    /// slip parameters are not yet correlated with the pose.
+    fn reacquisition(&mut self, t: f64, present: [bool; 2]) -> [bool; 2] {
+        let mut consider = [false; 2];
+        if self.cfg.reacquire_gap <= 0.0 {
+            return consider;
+        }
+        for k in 0..2 {
+            if !present[k] {
+                continue;
+            }
+            if let Some(t0) = self.last_part_t[k] {
+                if t - t0 > self.cfg.reacquire_gap {
+                    self.reacquire_until[k] = t + self.cfg.reacquire_time;
+                }
+            }
+            consider[k] = t <= self.reacquire_until[k];
+            self.last_part_t[k] = Some(t);
+        }
+        consider
+    }
+
+    /// Whether the last fix's position / heading part was fused as a
+    /// re-acquisition (pose only).
+    pub fn reacquiring(&self) -> [bool; 2] {
+        let t = self.last_fix_t.unwrap_or(f64::NEG_INFINITY);
+        [t <= self.reacquire_until[0], t <= self.reacquire_until[1]]
     }
 
     /// Jumps the flagged pose states to the measurement and gives them the
@@ -1086,6 +1175,7 @@ impl Filter {
         nu: &Vector3<f64>,
         r: &[f64; 3],
         S_full: &Matrix3<f64>,
+        consider: [bool; 2],
     ) -> Result<(), FilterError> {
         // Rows not measured get H = 0, nu = 0 and a unit, uncorrelated S
         // entry: this is exactly the reduced-dimension update, in 3x3.
@@ -1148,9 +1238,14 @@ impl Filter {
                 for c in 0..3 {
                     G[(row, c)] = 0.0;
                 }
-            } else if !slip_from_position {
-                G[(row, 0)] = 0.0;
-                G[(row, 1)] = 0.0;
+            } else {
+                if !slip_from_position || consider[0] {
+                    G[(row, 0)] = 0.0;
+                    G[(row, 1)] = 0.0;
+                }
+                if consider[1] {
+                    G[(row, 2)] = 0.0;
+                }
             }
         }
         let mut x = self.x + G * nu_m;
@@ -1756,6 +1851,143 @@ mod tests {
             let d = f.state()[Y_L] - f.state()[Y_R];
             assert!((d - 0.68).abs() < 0.01, "{variant:?}: d = {d}");
         }
+    }
+
+    /// 60 s of alternating turns with 1 Hz fixes (1 deg compass, 0.5 m
+    /// position), then `gap` s of the same driving with none, then one fix
+    /// at the filter's own position whose heading is 3.8 deg off the
+    /// filter's (the dead reckoning's model error over an outage). Returns
+    /// the spread before and after that fix, the yaw innovation the fix
+    /// left, and the filter.
+    fn reacquire_after_gap(c: FilterConfig, gap: f64) -> (f64, f64, f64, Filter) {
+        let truth = IcrParams::new(0.33, -0.35, 0.02);
+        let mut s = model::state(0.0, 0.0, 0.0, &truth);
+        let x0 = model::state(0.0, 0.0, 0.0, &IcrParams::no_slip(0.5));
+        let mut f = Filter::new(x0, p0(), c).unwrap();
+        let dt = 0.02;
+        let n_fix = (60.0 / dt) as usize;
+        let n_all = ((60.0 + gap) / dt) as usize;
+        for k in 0..n_all {
+            let t = k as f64 * dt;
+            let (vl, vr) = if (t as i64 / 10) % 2 == 0 {
+                (0.2, 0.6)
+            } else {
+                (0.6, 0.3)
+            };
+            let u = TreadInput {
+                v_left: vl,
+                v_right: vr,
+            };
+            s = model::predict(&s, u, dt);
+            f.predict(vl, vr, dt).unwrap();
+            if k < n_fix && k % 50 == 49 {
+                let fx = PoseFix {
+                    position: Some((s[0], s[1])),
+                    yaw: Some(s[2]),
+                    std_xy: 0.5,
+                    std_yaw: 1f64.to_radians(),
+                };
+                f.update(t, &fx).unwrap();
+            }
+        }
+        let x = f.state();
+        let d0 = x[Y_L] - x[Y_R];
+        let fx = PoseFix {
+            position: Some((x[EAST], x[NORTH])),
+            yaw: Some(x[YAW] + 3.8f64.to_radians()),
+            std_xy: 0.5,
+            std_yaw: 1f64.to_radians(),
+        };
+        f.update(60.0 + gap, &fx).unwrap();
+        assert!(is_spd(&f.covariance()));
+        let y = f.state();
+        let left = angle::wrap(fx.yaw.unwrap() - y[YAW]);
+        (d0, y[Y_L] - y[Y_R], left, f)
+    }
+
+    #[test]
+    fn heading_noise_per_radian_keeps_a_post_outage_heading_error_off_the_spread() {
+        let mut without = FilterConfig::for_track(0.5);
+        without.q_yaw_per_rad = 0.0;
+        let with = FilterConfig {
+            q_yaw_per_rad: 4e-4,
+            ..without
+        };
+        let (a0, a1, a_left, _) = reacquire_after_gap(without, 30.0);
+        let (b0, b1, b_left, _) = reacquire_after_gap(with, 30.0);
+        let (moved_without, moved_with) = ((a1 - a0).abs(), (b1 - b0).abs());
+        // Without the model's heading noise 6.7 mm of spread is blamed for
+        // the 3.8 deg; with it 3.8 mm (the heading takes more of it).
+        assert!(moved_without > 0.003, "without: d moved {moved_without} m");
+        assert!(
+            moved_with < 0.7 * moved_without,
+            "with: {moved_with} m, without: {moved_without} m"
+        );
+        assert!(b_left.abs() < a_left.abs() + 1e-9, "{b_left} vs {a_left}");
+        assert!(b_left.abs() < 0.5f64.to_radians(), "heading left {b_left}");
+    }
+
+    #[test]
+    fn adaptation_forgets_through_a_gap_in_the_heading_fixes() {
+        let mut f = start(Variant::Adaptive);
+        let mut t = 0.0;
+        // A run of 5 deg heading errors: the model looks wrong.
+        for _ in 0..10 {
+            f.predict(0.3, 0.5, 1.0).unwrap();
+            t += 1.0;
+            let y = f.state()[YAW] + 5f64.to_radians();
+            f.update(t, &fix(f.state()[EAST], f.state()[NORTH], y))
+                .unwrap();
+        }
+        let raised = f.icr_noise_scale();
+        assert!(raised > 5.0, "scale {raised}");
+        // At the usual fix rate nothing decays between fixes ...
+        f.predict(0.3, 0.5, 1.0).unwrap();
+        assert_eq!(f.icr_noise_scale(), raised);
+        // ... but 30 s without a heading fix leave no evidence: back to 1.
+        for _ in 0..30 {
+            f.predict(0.3, 0.5, 1.0).unwrap();
+        }
+        let s = f.icr_noise_scale();
+        assert!(s < 1.0 + 0.05 * (raised - 1.0), "scale {s} from {raised}");
+    }
+
+    #[test]
+    fn reacquisition_after_a_gap_fuses_the_pose_but_not_the_slip() {
+        let mut c = FilterConfig::for_track(0.5);
+        c.q_yaw_per_rad = 0.0;
+        let off = c;
+        c.reacquire_gap = 5.0;
+        c.reacquire_time = 0.0;
+        let (a0, a1, _, _) = reacquire_after_gap(off, 30.0);
+        assert!((a1 - a0).abs() > 0.003, "off: d moved {} m", a1 - a0);
+        let (b0, b1, left, mut f) = reacquire_after_gap(c, 30.0);
+        assert_eq!(b1, b0, "the spread moved in a re-acquisition");
+        assert_eq!(f.reacquiring(), [true, true]);
+        // The pose did take the fix.
+        assert!(left.abs() < 0.5f64.to_radians(), "heading left {left}");
+        // A gap shorter than reacquire_gap is ordinary: the next fix, 1 s
+        // later, teaches the slip again.
+        let x = f.state();
+        f.predict(0.2, 0.6, 1.0).unwrap();
+        let fx = fix(x[EAST], x[NORTH], f.state()[YAW] + 0.02);
+        f.update(91.0, &fx).unwrap();
+        assert_eq!(f.reacquiring(), [false, false]);
+        let y = f.state();
+        assert!(((y[Y_L] - y[Y_R]) - b1).abs() > 1e-5);
+        assert!(is_spd(&f.covariance()));
+        // Bad settings are refused.
+        let bad = FilterConfig {
+            reacquire_time: f64::NAN,
+            ..c
+        };
+        let x0 = model::state(0.0, 0.0, 0.0, &IcrParams::no_slip(0.5));
+        assert!(Filter::new(x0, p0(), bad).is_err());
+        let bad = FilterConfig {
+            q_yaw_per_rad: -1.0,
+            ..c
+        };
+        assert!(Filter::new(x0, p0(), bad).is_err());
     }
 
     #[test]

@@ -8,7 +8,12 @@
 //! splits each outage drift along / across the path; `TUNE=file.toml`
 //! adds the default overridden by that file's keys as `tuned`; `VERBOSE=1`
 //! prints every change's re-convergence and the drift details;
-//! `TRACE=seed,t0,t1` prints the spread error, factors and tread speeds.
+//! `TRACE=seed,t0,t1` prints the spread error, factors and tread speeds;
+//! `CONSIST=1` checks the filter's consistency on the spread: over the
+//! rows scored for the steady-state RMS, the RMS of the reported
+//! `std_spread` beside the RMS error, and the mean normalised squared error
+//! `(d_err / std_spread)^2` (1 for a consistent filter; below 1 = the filter
+//! claims more uncertainty than it has, and learns with too high a gain).
 //!
 //! Prints one table per scenario: worst re-convergence after a first visit
 //! and after a revisit (s, from the change, as issue 2 defines it), the
@@ -67,6 +72,8 @@ fn main() -> anyhow::Result<()> {
                 (Some(0.0f64), 0usize, 0usize, 0usize);
             let (mut d, mut yl, mut yr, mut xc, mut drift) = (0.0, 0.0, 0.0, 0.0, Vec::new());
             let (mut along, mut cross): (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
+            // CONSIST=1: sums of d_err^2, std_spread^2, (d_err/std)^2, count.
+            let mut consist = [0.0f64; 4];
             for seed in 1..=seeds {
                 let sim = simulate(&sc, seed)?;
                 let log = &sim.log;
@@ -93,6 +100,29 @@ fn main() -> anyhow::Result<()> {
                     }
                 }
                 let card = metrics::scorecard(&run, &log.truth, &log.terrain, outage, 20.0);
+                if std::env::var("CONSIST").is_ok() {
+                    let mut last = run.rows.first().map_or(0.0, |r| r.t);
+                    let mut li = 0usize;
+                    for r in &run.rows {
+                        while li < log.terrain.len() && log.terrain[li].t <= r.t {
+                            if li > 0 && log.terrain[li].terrain != log.terrain[li - 1].terrain {
+                                last = log.terrain[li].t;
+                            }
+                            li += 1;
+                        }
+                        let Some(s) = metrics::truth_at(&log.truth, r.t) else {
+                            continue;
+                        };
+                        if r.t - last < 20.0 || r.std_spread <= 0.0 {
+                            continue;
+                        }
+                        let e = (r.y_l - r.y_r) - (s.y_l - s.y_r);
+                        consist[0] += e * e;
+                        consist[1] += r.std_spread * r.std_spread;
+                        consist[2] += (e / r.std_spread).powi(2);
+                        consist[3] += 1.0;
+                    }
+                }
                 if std::env::var("VERBOSE").is_ok() {
                     for r in &card.reconvergence {
                         eprintln!("{pname} seed {seed}: change at {:.0} s to {} (revisit {}): {:?} of {:.0} s", r.t_change, r.terrain, r.revisit, r.seconds, r.segment);
@@ -221,8 +251,16 @@ fn main() -> anyhow::Result<()> {
                 100.0 * (yr / n).sqrt(),
                 100.0 * (xc / n).sqrt(),
             );
+            if consist[3] > 0.0 {
+                breakdown.push(format!(
+                    "- {pname} consistency of d: RMS error {:.2} cm, RMS reported std {:.2} cm, mean (err/std)^2 {:.2}",
+                    100.0 * (consist[0] / consist[3]).sqrt(),
+                    100.0 * (consist[1] / consist[3]).sqrt(),
+                    consist[2] / consist[3]
+                ));
+            }
         }
-        if std::env::var("BREAKDOWN").is_ok() {
+        if std::env::var("BREAKDOWN").is_ok() || std::env::var("CONSIST").is_ok() {
             for l in &breakdown {
                 println!("{l}");
             }

@@ -112,10 +112,18 @@ pub struct FilterSection {
     pub q_yaw: f64,
     /// Extra yaw noise per squared yaw rate, rad^2/s per (rad/s)^2.
     pub q_yaw_per_rate2: f64,
+    /// Yaw noise per radian turned, rad^2/rad (0 = none): the kinematic
+    /// model's heading error grows with the angle turned, independent of the
+    /// slip states (its square root is the model's relative heading-rate
+    /// error over one radian: 1e-4 = 1 %).
+    pub q_yaw_per_rad: f64,
     /// Low-pass time constant of the tread speeds that correlate the slip
     /// parameters with the pose (s; 0 = raw): encoder flicker is no turn.
     pub slip_input_time_constant: f64,
-    /// ICR random walk of the spread d = y_l - y_r, m^2/s.
+    /// ICR random walk of the spread d = y_l - y_r, m^2/s (5e-6 since
+    /// session 4a, 1e-5 before: the turn-rate law now carries the spread's
+    /// change with the turn, and over a 30 s outage the walk alone grew the
+    /// std of d from ~1 to ~2 cm, so that the returning compass swung d).
     pub q_spread: f64,
     /// ICR random walk of the centre (y_l + y_r)/2, m^2/s.
     pub q_centre: f64,
@@ -144,7 +152,9 @@ pub struct FilterSection {
     /// A gap between wheels rows longer than this (s) is not integrated with
     /// held speeds: the pose uncertainty grows instead, and a warning is given.
     pub max_wheel_gap: f64,
-    /// Time constant of the heading-NIS average (adaptive variant), s.
+    /// Time constant of the heading-NIS average (adaptive variant), s; with
+    /// no heading fix for longer than this it forgets towards 1 at the same
+    /// rate (session 4a: kept, it scaled the spread's walk through outages).
     pub adapt_time_constant: f64,
     /// Largest factor the adaptive variant applies to the ICR noise.
     pub adapt_max_scale: f64,
@@ -203,6 +213,19 @@ pub struct FilterSection {
     /// fix was fused while moving, so turns faster than any seen are not
     /// extrapolated linearly (applies when the slope is learned).
     pub rate_dv_cap: bool,
+    /// Re-acquisition after a gap in the pose fixes, s (0 = off): a
+    /// position or heading fix more than this after the previous one of its
+    /// kind, and those of that kind for `reacquire_time` s after it,
+    /// correct the pose but not the slip parameters (consider states), and
+    /// do not feed the adaptation. After a GNSS/compass outage the
+    /// pose-slip cross-covariance comes from linearising along a
+    /// dead-reckoned path that is off by the drift, mostly model error the
+    /// slip states cannot represent; fusing the first fixes through it
+    /// moves the slip parameters by centimetres. A few missed 1 Hz fixes
+    /// are not a gap.
+    pub reacquire_gap: f64,
+    /// Length of a re-acquisition from its first fix, s (0 = that fix only).
+    pub reacquire_time: f64,
 }
 
 /// Which ICRs estimate.csv reports under a turn-rate law (`[filter] report_icr`).
@@ -330,8 +353,9 @@ impl Default for FilterSection {
             q_pos_per_speed2: 1e-3,
             q_yaw: 1e-6,
             q_yaw_per_rate2: 1e-4,
+            q_yaw_per_rad: 4e-4,
             slip_input_time_constant: 0.2,
-            q_spread: 1e-5,
+            q_spread: 5e-6,
             q_centre: 1e-7,
             q_x_c: 1e-7,
             q_alpha: 1e-8,
@@ -357,6 +381,8 @@ impl Default for FilterSection {
             hold_alpha_spread_rel_std: 0.05,
             hold_alpha_at_reset: false,
             rate_dv_cap: true,
+            reacquire_gap: 0.0,
+            reacquire_time: 0.0,
         }
     }
 }
@@ -486,6 +512,7 @@ impl EstimatorConfig {
             ("filter.q_pos_per_speed2", f.q_pos_per_speed2),
             ("filter.q_yaw", f.q_yaw),
             ("filter.q_yaw_per_rate2", f.q_yaw_per_rate2),
+            ("filter.q_yaw_per_rad", f.q_yaw_per_rad),
             ("filter.q_spread", f.q_spread),
             ("filter.q_centre", f.q_centre),
             ("filter.q_x_c", f.q_x_c),
@@ -494,6 +521,8 @@ impl EstimatorConfig {
             ("filter.gate_position", f.gate_position),
             ("filter.gate_yaw", f.gate_yaw),
             ("filter.still_speed", f.still_speed),
+            ("filter.reacquire_gap", f.reacquire_gap),
+            ("filter.reacquire_time", f.reacquire_time),
             (
                 "filter.slip_from_position_max_std",
                 f.slip_from_position_max_std,
@@ -648,6 +677,7 @@ impl EstimatorConfig {
             q_pos_per_speed2: f.q_pos_per_speed2,
             q_yaw: f.q_yaw,
             q_yaw_per_rate2: f.q_yaw_per_rate2,
+            q_yaw_per_rad: f.q_yaw_per_rad,
             encoder_tick: self.measurement.encoder_tick,
             slip_input_time_constant: f.slip_input_time_constant,
             q_icr,
@@ -681,6 +711,8 @@ impl EstimatorConfig {
             hold_alpha_spread_rel_std: f.hold_alpha_spread_rel_std,
             hold_alpha_at_reset: f.hold_alpha_at_reset,
             rate_dv_cap: f.rate_dv_cap,
+            reacquire_gap: f.reacquire_gap,
+            reacquire_time: f.reacquire_time,
         }
     }
 
@@ -735,6 +767,9 @@ impl EstimatorConfig {
             c.filter.learn_rate_k_spread = false;
             c.filter.rate_dv_cap = false;
             c.filter.hold_alpha_turn = 0.0;
+            // ... and every fix teaches the slip, also after an outage.
+            c.filter.reacquire_gap = 0.0;
+            c.filter.q_yaw_per_rad = 0.0;
             c.filter.slip_from_position_max_std = 1e9;
             c.init.std_alpha = 1e-6;
             c.init.std_alpha_diff = 1e-6;
@@ -857,6 +892,33 @@ mod tests {
         assert_eq!(c.filter_config(0.5).factor_coords, FactorCoords::PerSpread);
         let c = EstimatorConfig::from_toml("[filter]\nfactor_coords = \"difference\"\n").unwrap();
         assert_eq!(c.filter_config(0.5).factor_coords, FactorCoords::Difference);
+    }
+
+    #[test]
+    fn heading_model_noise_and_reacquisition_are_configurable() {
+        let c = EstimatorConfig::default();
+        let f = c.filter_config(0.5);
+        assert_eq!(f.q_yaw_per_rad, 4e-4);
+        assert_eq!(f.q_icr.spread, 5e-6);
+        assert_eq!((f.reacquire_gap, f.reacquire_time), (0.0, 0.0));
+        let text = "[filter]\nq_yaw_per_rad = 1e-3\nreacquire_gap = 5.0\nreacquire_time = 20.0\n";
+        let c = EstimatorConfig::from_toml(text).unwrap();
+        let f = c.filter_config(0.5);
+        assert_eq!(f.q_yaw_per_rad, 1e-3);
+        assert_eq!((f.reacquire_gap, f.reacquire_time), (5.0, 20.0));
+        assert_eq!(EstimatorConfig::from_toml(&c.to_toml()).unwrap(), c);
+        for key in ["q_yaw_per_rad", "reacquire_gap", "reacquire_time"] {
+            let e = EstimatorConfig::from_toml(&format!("[filter]\n{key} = -1.0\n")).unwrap_err();
+            assert!(e.to_string().contains(key), "{e}");
+        }
+        // The papers' presets keep their model: no heading model noise, no
+        // re-acquisition rule.
+        for (name, p) in EstimatorConfig::presets() {
+            if name != "terraslip" {
+                assert_eq!(p.filter.q_yaw_per_rad, 0.0, "{name}");
+                assert_eq!(p.filter.reacquire_gap, 0.0, "{name}");
+            }
+        }
     }
 
     #[test]

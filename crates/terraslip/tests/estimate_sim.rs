@@ -118,8 +118,12 @@ fn reset_keeping_the_factor_difference_settles_a_steady_turn() {
     // The comparison is on the constant-ICR model: with the learned
     // turn-rate slope (the default since session 3) both settle at once
     // (0.0 s measured), so the law must be off to see the reset's effect.
+    // The same holds for the heading model noise per radian (session 4a):
+    // the heading then takes more of each turn's innovation and the old
+    // reset settles at once too, so it is off here as well.
     let mut constant = EstimatorConfig::default();
     constant.filter.learn_rate_k_spread = false;
+    constant.filter.q_yaw_per_rad = 0.0;
     let ours = score("papers", 5, &constant);
     let mut old = constant.clone();
     old.schedule.reset_keeps_alpha_diff = false;
@@ -155,16 +159,16 @@ fn papers_icr3_meets_the_2m_rms_targets() {
 fn capped_turn_rate_law_keeps_a_fast_spin_in_the_outage_in_bounds() {
     // papers-icr3 seed 14: the robot spins in place in the outage (tread
     // speed difference 0.37 m/s, against at most 0.24 before): the learned
-    // law extrapolated linearly turned 4.2 deg short (drift 4.55 %); read at
-    // the fastest turn fused (the default since session 4b), 1.9 deg
-    // (2.36 %).
+    // law extrapolated linearly turned 4.2 deg short (drift 4.55 %; with
+    // session 4a's heading model noise 3.3 deg, 3.83 %); read at the
+    // fastest turn fused (the default since session 4b), 0.8 deg (1.60 %).
     let capped = score("papers-icr3", 14, &EstimatorConfig::default());
     let mut linear = EstimatorConfig::default();
     linear.filter.rate_dv_cap = false;
     let linear = score("papers-icr3", 14, &linear);
     let (c, l) = (capped.drift.unwrap(), linear.drift.unwrap());
     assert!(
-        c.percent < 3.0 && l.percent > 4.0,
+        c.percent < 2.5 && l.percent > 3.5,
         "capped {c:?} linear {l:?}"
     );
 }

@@ -57,7 +57,8 @@ pub struct Args {
     /// Drop every pose fix in [T0, T1) s (simulate a GNSS + compass outage).
     #[arg(long, value_name = "T0,T1", value_parser = parse_window)]
     pub outage: Option<(f64, f64)>,
-    /// Print the configuration in effect as TOML and exit.
+    /// Print the configuration in effect as TOML, every table and key with
+    /// its documentation and unit as comments, and exit.
     #[arg(long)]
     pub print_config: bool,
     /// Print the summary as one JSON object on stdout.
@@ -77,7 +78,7 @@ Examples:
   terraslip estimate drive/ --out est/ --terrain-labels --init params.json
   terraslip estimate drive/ --out est/ --preset ta-iekf --json
   terraslip estimate drive/ --out est/ --outage 300,330   # dead reckoning test
-  terraslip estimate --print-config > estimator.toml      # every constant, documented in docs/estimator.md";
+  terraslip estimate --print-config > estimator.toml      # every constant, with its documentation";
 
 fn parse_window(s: &str) -> Result<(f64, f64), String> {
     let (a, b) = s
@@ -141,7 +142,7 @@ fn merge(base: toml::Value, over: toml::Value) -> toml::Value {
 pub fn run(args: Args) -> Result<()> {
     let mut cfg = load_config(&args)?;
     if args.print_config {
-        print!("{}", cfg.to_toml());
+        print!("{}", cfg.to_commented_toml());
         return Ok(());
     }
     let (Some(log_dir), Some(out)) = (args.log.as_ref(), args.out.as_ref()) else {

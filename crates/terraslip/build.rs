@@ -1,0 +1,44 @@
+//! Collects the doc comments of the configuration structs in
+//! `src/config.rs`, so that `estimate --print-config` can print every key
+//! with its documentation from one source: the doc comments themselves.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+fn main() {
+    println!("cargo:rerun-if-changed=src/config.rs");
+    let src = std::fs::read_to_string("src/config.rs").unwrap_or_default();
+    let mut out = String::from("&[\n");
+    let (mut owner, mut doc) = (None::<String>, Vec::<String>::new());
+    for line in src.lines() {
+        let t = line.trim();
+        if let Some(d) = t.strip_prefix("///") {
+            doc.push(d.trim().to_string());
+            continue;
+        }
+        if t.starts_with("#[") {
+            continue;
+        }
+        if let Some(rest) = t.strip_prefix("pub struct ") {
+            owner = rest
+                .split(|c: char| !(c.is_alphanumeric() || c == '_'))
+                .next()
+                .map(str::to_string)
+                .filter(|_| !t.ends_with(';'));
+        } else if t == "}" {
+            owner = None;
+        } else if let (Some(o), Some(field)) = (owner.as_ref(), t.strip_prefix("pub ")) {
+            if let Some((name, ty)) = field.split_once(':') {
+                let ty = ty.trim().trim_end_matches(',');
+                let text = doc.join(" ");
+                let _ = writeln!(out, "    ({o:?}, {:?}, {ty:?}, {text:?}),", name.trim());
+            }
+        }
+        doc.clear();
+    }
+    out.push(']');
+    let dir = PathBuf::from(std::env::var_os("OUT_DIR").unwrap_or_default());
+    if let Err(e) = std::fs::write(dir.join("config_docs.rs"), out) {
+        println!("cargo:warning=config docs not generated: {e}");
+    }
+}

@@ -481,6 +481,11 @@ pub struct Filter {
     /// End of the current re-acquisition of position / heading, s.
     reacquire_until: [f64; 2],
     still: bool,
+    /// `P` off its 3x3 pose corner is symmetric bit for bit (every update
+    /// but the papers' IEKF `P - G H P` symmetrises it, and the prediction
+    /// and resets keep it so): the prediction may then copy the pose
+    /// columns' lower part from the pose rows instead of forming it.
+    cross_symmetric: bool,
     rejected_pos: u32,
     rejected_yaw: u32,
     window: [Vector3<f64>; MAX_WINDOW],
@@ -599,6 +604,7 @@ impl Filter {
             last_part_t: [None; 2],
             reacquire_until: [f64::NEG_INFINITY; 2],
             still: true,
+            cross_symmetric: !matches!(cfg.variant, Variant::Iekf { .. }),
             rejected_pos: 0,
             rejected_yaw: 0,
             window: [Vector3::zeros(); MAX_WINDOW],
@@ -945,8 +951,23 @@ impl Filter {
         let EP: Mat3xN = B * self.P.fixed_view::<NB, N>(YAW, 0);
         let mut P = self.P;
         P.fixed_rows_mut::<3>(0).add_assign(&EP);
-        let PEt: MatNx3 = P.fixed_view::<N, NB>(0, YAW) * B.transpose();
-        P.fixed_columns_mut::<3>(0).add_assign(&PEt);
+        if self.cross_symmetric {
+            // Below the pose rows, (P1 E')[j, r] = sum_k P[j, yaw+k] B[r, k]
+            // is EP[r, j] term by term and in the same order when P's
+            // columns from yaw on mirror its rows bit for bit, and P[j, r]
+            // is P[r, j]: the new rows 3.. of the pose columns are the new
+            // pose rows, copied. Only the 3x3 corner needs the product.
+            let corner: Matrix3<f64> = P.fixed_view::<3, NB>(0, YAW) * B.transpose();
+            P.fixed_view_mut::<3, 3>(0, 0).add_assign(&corner);
+            for r in 0..3 {
+                for j in 3..N {
+                    P[(j, r)] = P[(r, j)];
+                }
+            }
+        } else {
+            let PEt: MatNx3 = P.fixed_view::<N, NB>(0, YAW) * B.transpose();
+            P.fixed_columns_mut::<3>(0).add_assign(&PEt);
+        }
 
         let d = (x[Y_L] - x[Y_R]).max(crate::kinematics::MIN_SPREAD);
         let omega = (v_right - v_left) / d;

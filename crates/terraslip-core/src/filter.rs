@@ -945,7 +945,8 @@ impl Filter {
 
         // F = I + E with E non-zero only in rows east, north, yaw and
         // columns yaw.. (a 3x7 block B): F P F' = P1 + P1 E' with
-        // P1 = P + E P. Two 3x7-by-7x9 products instead of two 9x9x9.
+        // P1 = P + E P. A 3x7-by-7x9 product and a 9x7-by-7x3 one (or
+        // 3x7-by-7x3 below) instead of two 9x9x9.
         let mut B: SMatrix<f64, 3, NB> = F.fixed_view::<3, NB>(0, YAW).into_owned();
         B[(YAW, 0)] -= 1.0;
         let EP: Mat3xN = B * self.P.fixed_view::<NB, N>(YAW, 0);

@@ -481,6 +481,11 @@ pub struct Filter {
     /// End of the current re-acquisition of position / heading, s.
     reacquire_until: [f64; 2],
     still: bool,
+    /// `P` off its 3x3 pose corner is symmetric bit for bit (every update
+    /// but the papers' IEKF `P - G H P` symmetrises it, and the prediction
+    /// and resets keep it so): the prediction may then copy the pose
+    /// columns' lower part from the pose rows instead of forming it.
+    cross_symmetric: bool,
     rejected_pos: u32,
     rejected_yaw: u32,
     window: [Vector3<f64>; MAX_WINDOW],
@@ -599,6 +604,7 @@ impl Filter {
             last_part_t: [None; 2],
             reacquire_until: [f64::NEG_INFINITY; 2],
             still: true,
+            cross_symmetric: !matches!(cfg.variant, Variant::Iekf { .. }),
             rejected_pos: 0,
             rejected_yaw: 0,
             window: [Vector3::zeros(); MAX_WINDOW],
@@ -939,14 +945,30 @@ impl Filter {
 
         // F = I + E with E non-zero only in rows east, north, yaw and
         // columns yaw.. (a 3x7 block B): F P F' = P1 + P1 E' with
-        // P1 = P + E P. Two 3x7-by-7x9 products instead of two 9x9x9.
+        // P1 = P + E P. A 3x7-by-7x9 product and a 9x7-by-7x3 one (or
+        // 3x7-by-7x3 below) instead of two 9x9x9.
         let mut B: SMatrix<f64, 3, NB> = F.fixed_view::<3, NB>(0, YAW).into_owned();
         B[(YAW, 0)] -= 1.0;
         let EP: Mat3xN = B * self.P.fixed_view::<NB, N>(YAW, 0);
         let mut P = self.P;
         P.fixed_rows_mut::<3>(0).add_assign(&EP);
-        let PEt: MatNx3 = P.fixed_view::<N, NB>(0, YAW) * B.transpose();
-        P.fixed_columns_mut::<3>(0).add_assign(&PEt);
+        if self.cross_symmetric {
+            // Below the pose rows, (P1 E')[j, r] = sum_k P[j, yaw+k] B[r, k]
+            // is EP[r, j] term by term and in the same order when P's
+            // columns from yaw on mirror its rows bit for bit, and P[j, r]
+            // is P[r, j]: the new rows 3.. of the pose columns are the new
+            // pose rows, copied. Only the 3x3 corner needs the product.
+            let corner: Matrix3<f64> = P.fixed_view::<3, NB>(0, YAW) * B.transpose();
+            P.fixed_view_mut::<3, 3>(0, 0).add_assign(&corner);
+            for r in 0..3 {
+                for j in 3..N {
+                    P[(j, r)] = P[(r, j)];
+                }
+            }
+        } else {
+            let PEt: MatNx3 = P.fixed_view::<N, NB>(0, YAW) * B.transpose();
+            P.fixed_columns_mut::<3>(0).add_assign(&PEt);
+        }
 
         let d = (x[Y_L] - x[Y_R]).max(crate::kinematics::MIN_SPREAD);
         let omega = (v_right - v_left) / d;
@@ -1367,6 +1389,55 @@ mod tests {
             std_xy: 0.5,
             std_yaw: 0.02,
         }
+    }
+
+    /// Runs `f` and a copy forced to form the full `F P F'` through a
+    /// turning drive with fixes; `true` if their covariances stayed equal
+    /// bit for bit after every prediction.
+    fn shortcut_matches_full_product(mut f: Filter) -> bool {
+        f.cross_symmetric = true;
+        let mut full = f.clone();
+        full.cross_symmetric = false;
+        let mut t = 0.0;
+        for step in 0..200 {
+            let (l, r) = if step % 40 < 20 {
+                (0.4, 0.7)
+            } else {
+                (0.6, 0.5)
+            };
+            f.predict(l, r, 0.02).unwrap();
+            full.predict(l, r, 0.02).unwrap();
+            if f.P != full.P {
+                return false;
+            }
+            t += 0.02;
+            if step == 100 {
+                // A terrain reset keeps the symmetry too.
+                let cov = SlipCov::from_diagonal_element(1e-3);
+                f.reset_icr(None, &cov).unwrap();
+                full.reset_icr(None, &cov).unwrap();
+            }
+            if step % 10 == 9 {
+                let s = f.state();
+                let z = fix(s[EAST] + 0.3, s[NORTH] - 0.2, s[YAW] + 0.01);
+                f.update(t, &z).unwrap();
+                full.update(t, &z).unwrap();
+            }
+        }
+        true
+    }
+
+    #[test]
+    fn predict_shortcut_is_the_full_product_bit_for_bit_except_for_the_iekf() {
+        for v in [Variant::Adaptive, Variant::Ekf] {
+            assert!(start(v).cross_symmetric);
+            assert!(shortcut_matches_full_product(start(v)), "{v:?}");
+        }
+        // The paper's `P - G H P` is not symmetric bit for bit: the
+        // shortcut would change its results, so the IEKF never takes it.
+        let iekf = Variant::Iekf { window: 10 };
+        assert!(!start(iekf).cross_symmetric);
+        assert!(!shortcut_matches_full_product(start(iekf)));
     }
 
     /// A drive alternating gentle and sharp turns with a true spread slope

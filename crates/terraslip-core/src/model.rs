@@ -165,6 +165,7 @@ pub type PoseRows = SMatrix<f64, 3, N>;
 
 /// [`predict_with_jacobian`] returning only the Jacobian's pose rows (the
 /// filter's hot path: it never forms the identity part).
+#[inline]
 pub fn predict_with_pose_rows(
     s: &State,
     u: TreadInput,
@@ -275,6 +276,7 @@ pub fn to_filter(s: &State, c: FactorCoords) -> State {
 }
 
 /// A filter state back in the public coordinates (`alpha_l, alpha_r`).
+#[inline]
 pub fn from_filter(s: &State, c: FactorCoords) -> State {
     let mut out = *s;
     let e = match c {
@@ -288,6 +290,7 @@ pub fn from_filter(s: &State, c: FactorCoords) -> State {
 
 /// Rows `alpha_l, alpha_r` of `d from_filter / d s` at the filter state `s`
 /// (the other rows are the identity's).
+#[inline]
 pub fn from_filter_rows(s: &State, c: FactorCoords) -> SMatrix<f64, 2, N> {
     let mut r = SMatrix::<f64, 2, N>::zeros();
     let (half_z, half_s) = match c {
@@ -388,6 +391,7 @@ pub fn predict_with_jacobian_rate_in(
 
 /// [`predict_with_jacobian_rate_in`] returning only the Jacobian's pose
 /// rows (the filter's hot path).
+#[inline]
 pub fn predict_with_pose_rows_rate_in(
     s: &State,
     u: TreadInput,

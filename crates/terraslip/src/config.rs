@@ -524,22 +524,13 @@ impl EstimatorConfig {
 
     /// Keys of [`Self::to_toml`] (as `table.key`) with no documentation.
     pub fn undocumented_keys(&self) -> Vec<String> {
-        let mut missing = Vec::new();
-        let mut owner: Option<&str> = Some("EstimatorConfig");
-        let mut table = String::new();
-        for line in self.to_toml().lines() {
-            let t = line.trim();
-            if let Some(path) = toml_table(t) {
-                owner = resolve_table(path, "EstimatorConfig").0;
-                table = path.to_string();
-            } else if let Some((key, _)) = t.split_once('=') {
-                let doc = owner.and_then(|o| field_doc(o, key.trim()));
-                if doc.is_none_or(|(_, d)| d.is_empty()) {
-                    missing.push(format!("{table}.{}", key.trim()));
-                }
-            }
-        }
-        missing
+        documented_lines(&self.to_toml(), "EstimatorConfig")
+            .filter_map(|(line, table, doc)| {
+                let (key, _) = line.split_once('=')?;
+                (doc.is_empty() && toml_table(line.trim()).is_none())
+                    .then(|| format!("{table}.{}", key.trim()))
+            })
+            .collect()
     }
 
     /// Checks ranges; every constant must be finite and of the right sign.
@@ -893,12 +884,26 @@ fn resolve_table(path: &str, root: &'static str) -> (Option<&'static str>, &'sta
 /// Prefixes every table header and key of `toml` with its doc comment.
 fn annotate(toml: &str, root: &'static str) -> String {
     let mut out = String::new();
-    let mut owner = Some(root);
-    for line in toml.lines() {
+    for (line, _, doc) in documented_lines(toml, root) {
+        push_comment(&mut out, doc);
+        out.push_str(line);
+        out.push('\n');
+    }
+    out
+}
+
+/// Every line of `toml` with the table it is in and the doc comment of the
+/// table or key it declares (empty for other lines and undocumented keys).
+fn documented_lines<'a>(
+    toml: &'a str,
+    root: &'static str,
+) -> impl Iterator<Item = (&'a str, &'a str, &'static str)> {
+    let (mut owner, mut table) = (Some(root), "");
+    toml.lines().map(move |line| {
         let t = line.trim();
         let doc = if let Some(path) = toml_table(t) {
             let (o, d) = resolve_table(path, root);
-            owner = o;
+            (owner, table) = (o, path);
             d
         } else if let Some((key, _)) = t.split_once('=') {
             owner
@@ -907,11 +912,8 @@ fn annotate(toml: &str, root: &'static str) -> String {
         } else {
             ""
         };
-        push_comment(&mut out, doc);
-        out.push_str(line);
-        out.push('\n');
-    }
-    out
+        (line, table, doc)
+    })
 }
 
 /// `doc` as `# ` lines of at most about 78 columns; rustdoc link brackets

@@ -1,13 +1,23 @@
-//! Collects the doc comments of the configuration structs in
-//! `src/config.rs`, so that `estimate --print-config` can print every key
-//! with its documentation from one source: the doc comments themselves.
+//! Collects the doc comments of the configuration structs (this crate's
+//! `src/config/mod.rs` and the core's filter and belief settings), so that
+//! `estimate --print-config` can print every key with its documentation
+//! from one source: the doc comments themselves.
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
 fn main() {
-    println!("cargo:rerun-if-changed=src/config.rs");
-    let src = std::fs::read_to_string("src/config.rs").unwrap_or_default();
+    const SOURCES: [&str; 3] = [
+        "src/config/mod.rs",
+        "../terraslip-core/src/filter/config.rs",
+        "../terraslip-core/src/terrain_belief.rs",
+    ];
+    let mut src = String::new();
+    for path in SOURCES {
+        println!("cargo:rerun-if-changed={path}");
+        src.push_str(&std::fs::read_to_string(path).unwrap_or_default());
+        src.push('\n');
+    }
     let mut out = String::from("&[\n");
     let (mut owner, mut doc) = (None::<String>, Vec::<String>::new());
     for line in src.lines() {

@@ -1,78 +1,99 @@
-//! Speed of one filter step (issue 2: predict <= 200 ns, predict+update <= 1 us).
+//! Speed of one filter step and of one estimator event.
+//!
+//! `cargo bench -p terraslip-core --bench filter` (figures in docs/benchmarks.md).
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
-use terraslip_core::filter::{Filter, FilterConfig, PoseFix, Variant};
-use terraslip_core::model::{self, MatN, State};
-use terraslip_core::IcrParams;
+use terraslip_core::estimator::Estimator;
+use terraslip_core::filter::{
+    Filter, FilterConfig, IcrBand, MeasurementConfig, PoseFix, Prior, SlipStd, Variant,
+};
+use terraslip_core::schedule::{NoiseSchedule, ScheduleConfig};
+use terraslip_core::{Chart, IcrParams};
 
-fn filter(variant: Variant) -> Filter {
-    let mut cfg = FilterConfig::for_track(0.5);
-    cfg.variant = variant;
-    let x0 = model::state(0.0, 0.0, 0.3, &IcrParams::new(0.3, -0.32, 0.01));
-    let p0 = MatN::from_diagonal(&State::from([
-        4.0, 4.0, 1e-3, 1e-3, 1e-3, 1e-3, 1e-4, 1e-4, 1e-12,
-    ]));
-    Filter::new(x0, p0, cfg).expect("valid start")
+fn filter(cfg: FilterConfig) -> Filter {
+    let prior = Prior {
+        icr: IcrParams::new(0.3, -0.32, 0.01),
+        std: SlipStd {
+            spread: 0.1,
+            centre: 0.02,
+            x_c: 0.05,
+            alpha: 0.1,
+            alpha_diff: 0.01,
+        },
+    };
+    let band = IcrBand {
+        min_spread: 0.2,
+        max_spread: 2.0,
+        max_centre: 0.1,
+        max_x_c: 0.2,
+        alpha_range: (0.3, 1.5),
+    };
+    Filter::new(&prior, cfg, MeasurementConfig::default(), band).expect("valid start")
+}
+
+fn anchored(cfg: FilterConfig) -> Filter {
+    let mut f = filter(cfg);
+    let fix = PoseFix {
+        position: Some((0.0, 0.0)),
+        yaw: Some(0.3),
+        std_xy: 2.0,
+        std_yaw: 0.0175,
+        stated: true,
+    };
+    f.update(0.0, 0.0, &fix).expect("anchor");
+    f
 }
 
 fn bench(c: &mut Criterion) {
-    let mut f = filter(Variant::Adaptive);
-    c.bench_function("predict", |b| {
-        b.iter(|| f.predict(black_box(0.4), black_box(0.6), black_box(0.02)))
-    });
-    // The turn-rate law on (a learned spread slope, a fixed factor slope).
-    let f0 = filter(Variant::Adaptive);
-    let mut cfg = *f0.config();
-    cfg.rate_k_alpha = -0.02;
-    cfg.learn_rate_k_spread = true;
-    // As shipped (session 4b): the law's input capped, the factor held.
-    cfg.rate_dv_cap = true;
-    cfg.hold_alpha_turn = core::f64::consts::PI;
-    let mut x0 = f0.state();
-    x0[model::RATE_K] = 0.15;
-    let mut p0 = f0.covariance();
-    p0[(model::RATE_K, model::RATE_K)] = 0.01;
-    let mut f = Filter::new(x0, p0, cfg).expect("valid start");
-    let mut g = f.clone();
-    c.bench_function("predict turn-rate law", |b| {
-        b.iter(|| f.predict(black_box(0.4), black_box(0.6), black_box(0.02)))
-    });
-    let mut t = 0.0;
-    c.bench_function("predict+update adaptive turn-rate law", |b| {
-        b.iter(|| {
-            t += 0.02;
-            let _ = g.predict(black_box(0.4), black_box(0.6), 0.02);
-            let s = g.state();
-            let fix = PoseFix {
-                position: Some((s[0] + 0.3, s[1] - 0.2)),
-                yaw: Some(s[2] + 0.01),
-                std_xy: 2.0,
-                std_yaw: 0.0175,
-            };
-            black_box(g.update(t, &fix))
-        })
-    });
-    for (name, variant) in [
-        ("predict+update adaptive", Variant::Adaptive),
-        ("predict+update ekf", Variant::Ekf),
-        ("predict+update iekf", Variant::Iekf { window: 10 }),
+    let mut papers = FilterConfig::default();
+    papers.chart = Chart::Tread;
+    papers.update_iterations = 1;
+    papers.learn_alpha = false;
+    papers.learn_clock = false;
+    papers.change_window = 0;
+    papers.noise_memory = 0.0;
+    let mut iae = papers;
+    iae.variant = Variant::InnovationAdaptive;
+    for (name, cfg) in [
+        ("default", FilterConfig::default()),
+        ("ekf-qmin", papers),
+        ("ta-iekf", iae),
     ] {
-        let mut f = filter(variant);
+        let mut f = anchored(cfg);
+        c.bench_function(&format!("predict {name}"), |b| {
+            b.iter(|| f.predict(black_box(0.4), black_box(0.6), black_box(0.02)))
+        });
+        let mut f = anchored(cfg);
         let mut t = 0.0;
-        c.bench_function(name, |b| {
+        c.bench_function(&format!("predict+update {name}"), |b| {
             b.iter(|| {
                 t += 0.02;
                 let _ = f.predict(black_box(0.4), black_box(0.6), 0.02);
-                let s = f.state();
+                let (e, n, y) = f.pose();
                 let fix = PoseFix {
-                    position: Some((s[0] + 0.3, s[1] - 0.2)),
-                    yaw: Some(s[2] + 0.01),
+                    position: Some((e + 0.3, n - 0.2)),
+                    yaw: Some(y + 0.01),
                     std_xy: 2.0,
                     std_yaw: 0.0175,
+                    stated: true,
                 };
-                black_box(f.update(t, &fix))
+                black_box(f.update(t, 0.0, &fix))
             })
         });
     }
+    // One wheels event of the online API (what a robot or the Python
+    // binding calls at the wheel rate).
+    let mut est = Estimator::new(
+        anchored(FilterConfig::default()),
+        NoiseSchedule::new(ScheduleConfig::default()),
+        1.0,
+    );
+    let mut t = 0.0;
+    c.bench_function("estimator on_wheels", |b| {
+        b.iter(|| {
+            t += 0.02;
+            est.on_wheels(black_box(t), black_box(0.4), black_box(0.6))
+        })
+    });
 }
 
 criterion_group!(benches, bench);

@@ -8,19 +8,31 @@
 //! skid steering: the left tread, the right tread and the body each have an
 //! ICR on a common line parallel to the body x axis, at lateral offsets `y_l`,
 //! `y_r` and longitudinal offset `x_c`. See [`kinematics`].
+//!
+//! * [`kinematics`]: the ICR model, tread speeds to body twist and back.
+//! * [`slip`]: the coordinates a filter carries the slip parameters in.
+//! * [`model`]: the filter's state and process model.
+//! * [`filter`]: the EKF (predict, update, gates, noise learning, resets).
+//! * [`schedule`]: what terrain evidence does to the filter.
+//! * [`estimator`]: filter + schedule + stream timing: the online API.
+//! * [`terrain_belief`]: the terrain HMM and vote over classifier outputs.
 #![cfg_attr(not(feature = "std"), no_std)]
 #![allow(non_snake_case)]
 
 pub mod angle;
+pub mod estimator;
 pub mod filter;
 pub mod kinematics;
 pub mod model;
-pub mod odometry;
 pub mod rng;
 pub mod schedule;
+pub mod slip;
 pub mod terrain_belief;
 
-pub use filter::{Filter, FilterConfig, FilterError, IcrBand, IcrNoise, PoseFix, Variant};
+pub use estimator::Estimator;
+pub use filter::{
+    Filter, FilterConfig, FilterError, IcrBand, MeasurementConfig, PoseFix, Prior, SlipStd, Variant,
+};
 pub use kinematics::{IcrParams, KinematicsError, Twist};
-pub use odometry::Odometry;
-pub use schedule::{ChangeAction, IcrStd, NoiseSchedule, ScheduleConfig};
+pub use schedule::{ChangeAction, NoiseSchedule, ScheduleConfig};
+pub use slip::{Chart, TreadInput};

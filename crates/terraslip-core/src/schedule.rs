@@ -12,40 +12,13 @@
 //!
 //! Terrains are indices `0..MAX_TERRAINS` (the pipeline maps names).
 
-use crate::filter::{Filter, FilterError, IcrNoise};
+use crate::filter::{Filter, FilterError, SlipStd};
 use crate::kinematics::IcrParams;
-use crate::model::{self, SlipCov, K, SLIP};
+use crate::slip::SlipMat;
 use crate::terrain_belief::MAX_TERRAINS;
 
-/// Standard deviations in the coordinates of [`IcrNoise`]: spread,
-/// centre, `x_c` (m), common speed factor and speed factor difference.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct IcrStd {
-    /// Spread `y_l - y_r`, m.
-    pub spread: f64,
-    /// Centre `(y_l + y_r)/2`, m.
-    pub centre: f64,
-    /// `x_c`, m.
-    pub x_c: f64,
-    /// `(alpha_l + alpha_r)/2`.
-    pub alpha: f64,
-    /// `alpha_l - alpha_r`.
-    pub alpha_diff: f64,
-}
-
-impl IcrStd {
-    /// Covariance on `(y_l, y_r, x_c, alpha_l, alpha_r)`.
-    pub fn to_slip_cov(self) -> SlipCov {
-        IcrNoise {
-            spread: self.spread * self.spread,
-            centre: self.centre * self.centre,
-            x_c: self.x_c * self.x_c,
-            alpha: self.alpha * self.alpha,
-            alpha_diff: self.alpha_diff * self.alpha_diff,
-        }
-        .to_slip_cov()
-    }
-}
+/// Number of slip parameters remembered per terrain.
+const K: usize = 5;
 
 /// Settings of the schedule.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -55,11 +28,11 @@ pub struct ScheduleConfig {
     /// Number of pose updates the boost lasts (the papers' k = 5 at 1 Hz).
     pub boost_updates: u32,
     /// Covariance reset `P_B` at a change to an unlearned terrain.
-    pub reset: Option<IcrStd>,
+    pub reset: Option<SlipStd>,
     /// The reset leaves the tread speed factor difference `alpha_l -
-    /// alpha_r` as learned (its estimate and variance, in the filter's
-    /// [`crate::model::FactorCoords`]; `P_B`'s entry is unused): it belongs to the robot (tyre pressure, wear, gearing), not to
-    /// the ground, which acts on both treads alike. Re-inflating it makes a
+    /// alpha_r` as learned (its estimate and variance; `P_B`'s entry is
+    /// unused): it belongs to the robot (tyre pressure, wear, gearing), not
+    /// to the ground, which acts on both treads alike. Re-inflating it makes a
     /// steady turn after a change ambiguous: there the heading rate sees
     /// `(alpha (v_r - v_l) - (alpha_l - alpha_r)(v_r + v_l)/2) / d`, and with
     /// both speeds constant the difference and `d` trade off freely.
@@ -78,7 +51,7 @@ pub struct ScheduleConfig {
     pub memory_average: f64,
     /// Floor on the recalled standard deviations: a stored estimate is not
     /// trusted more than this (terrain ICRs vary a little between visits).
-    pub recall_floor: IcrStd,
+    pub recall_floor: SlipStd,
 }
 
 impl Default for ScheduleConfig {
@@ -91,7 +64,7 @@ impl Default for ScheduleConfig {
             memory: false,
             memory_min_dwell: 20.0,
             memory_average: 0.0,
-            recall_floor: IcrStd {
+            recall_floor: SlipStd {
                 spread: 0.004,
                 centre: 0.005,
                 x_c: 0.01,
@@ -116,7 +89,7 @@ pub enum ChangeAction {
 #[derive(Debug, Clone, Copy)]
 struct Memory {
     icr: IcrParams,
-    cov: SlipCov,
+    cov: SlipMat,
 }
 
 /// Terrain-driven noise schedule and per-terrain ICR memory.
@@ -160,11 +133,11 @@ impl NoiseSchedule {
 
     /// Seeds the memory of `terrain` (e.g. calibrated per-terrain ICRs)
     /// with standard deviations `std`. Out-of-range terrains are ignored.
-    pub fn seed(&mut self, terrain: usize, icr: &IcrParams, std: IcrStd) {
+    pub fn seed(&mut self, terrain: usize, icr: &IcrParams, std: SlipStd) {
         if let Some(slot) = self.memory.get_mut(terrain) {
             *slot = Some(Memory {
                 icr: *icr,
-                cov: std.to_slip_cov(),
+                cov: std.icr_cov(),
             });
         }
     }
@@ -178,9 +151,10 @@ impl NoiseSchedule {
                 // exponential: no start-up bias towards zero.
                 self.averaged += dt;
                 let a = dt / self.averaged.min(self.cfg.memory_average);
-                let x = filter.state();
-                for (i, m) in self.average.iter_mut().enumerate() {
-                    *m += a * (x[SLIP + i] - *m);
+                let p = filter.icr();
+                let x = [p.y_l, p.y_r, p.x_c, p.alpha_l, p.alpha_r];
+                for (m, v) in self.average.iter_mut().zip(x) {
+                    *m += a * (v - *m);
                 }
             }
         }
@@ -209,11 +183,8 @@ impl NoiseSchedule {
         if self.cfg.memory {
             if let Some(prev) = self.current {
                 if self.dwell >= self.cfg.memory_min_dwell && prev < MAX_TERRAINS {
-                    let cov = filter
-                        .covariance()
-                        .fixed_view::<K, K>(SLIP, SLIP)
-                        .into_owned();
-                    let mut icr = model::icr_of(&filter.state());
+                    let cov = filter.icr_covariance();
+                    let mut icr = filter.icr();
                     if self.averaged > 0.0 && self.average.iter().all(|v| v.is_finite()) {
                         let m = &self.average;
                         icr = IcrParams {
@@ -236,13 +207,14 @@ impl NoiseSchedule {
         self.averaged = 0.0;
         if self.cfg.memory {
             if let Some(Some(m)) = self.memory.get(terrain) {
+                let mut icr = m.icr;
+                let mut cov = m.cov;
                 if self.cfg.reset_keeps_alpha_diff {
                     // The robot's factor difference as learned now, on the
                     // remembered common factor of this ground.
-                    filter.reset_icr_keeping_factor_difference(Some(&m.icr), &m.cov)?;
-                } else {
-                    filter.reset_icr(Some(&m.icr), &m.cov)?;
+                    keep_factor_difference(filter, &mut icr, &mut cov);
                 }
+                filter.set_slip(&icr, &cov)?;
                 self.boost_left = 0;
                 filter.set_schedule_scale(1.0);
                 return Ok(ChangeAction::Recalled);
@@ -254,11 +226,7 @@ impl NoiseSchedule {
             return Ok(ChangeAction::Learning);
         }
         if let Some(pb) = self.cfg.reset {
-            if self.cfg.reset_keeps_alpha_diff {
-                filter.reset_icr_keeping_factor_difference(None, &pb.to_slip_cov())?;
-            } else {
-                filter.reset_icr(None, &pb.to_slip_cov())?;
-            }
+            filter.reset_slip(None, &pb, self.cfg.reset_keeps_alpha_diff)?;
         }
         if self.cfg.boost_factor > 1.0 && self.cfg.boost_updates > 0 {
             self.boost_left = self.cfg.boost_updates;
@@ -270,7 +238,7 @@ impl NoiseSchedule {
 
 /// Raises the variances of `cov` (in `(d, c, x_c)` coordinates) to at least
 /// the floor, keeping it symmetric positive-definite.
-fn floor_cov(cov: &SlipCov, floor: &IcrStd) -> SlipCov {
+fn floor_cov(cov: &SlipMat, floor: &SlipStd) -> SlipMat {
     // A filter that lost definiteness (the papers' IEKF can) may hand over
     // an indefinite block: clip its eigenvalues at zero, then add the floor,
     // which is positive-definite, so the sum is too.
@@ -280,20 +248,47 @@ fn floor_cov(cov: &SlipCov, floor: &IcrStd) -> SlipCov {
         eig.eigenvalues.apply(|v| *v = v.max(0.0));
         eig.recompose()
     } else {
-        SlipCov::zeros()
+        SlipMat::zeros()
     };
-    0.5 * (psd + psd.transpose()) + floor.to_slip_cov()
+    0.5 * (psd + psd.transpose()) + floor.icr_cov()
+}
+
+/// Replaces the factor difference of `icr` / `cov` by the filter's current
+/// one (value and variance), keeping the common factor.
+fn keep_factor_difference(filter: &Filter, icr: &mut IcrParams, cov: &mut SlipMat) {
+    let now = filter.icr();
+    let c = filter.icr_covariance();
+    let e = now.alpha_l - now.alpha_r;
+    let var_e = (c[(3, 3)] + c[(4, 4)] - 2.0 * c[(3, 4)]).max(0.0);
+    let a = 0.5 * (icr.alpha_l + icr.alpha_r);
+    icr.alpha_l = a + 0.5 * e;
+    icr.alpha_r = a - 0.5 * e;
+    // Common factor a and difference e as coordinates of (alpha_l, alpha_r):
+    // keep a's variance, put in e's and drop their correlation.
+    let var_a = 0.25 * (cov[(3, 3)] + cov[(4, 4)] + 2.0 * cov[(3, 4)]);
+    cov[(3, 3)] = var_a + 0.25 * var_e;
+    cov[(4, 4)] = var_a + 0.25 * var_e;
+    cov[(3, 4)] = var_a - 0.25 * var_e;
+    cov[(4, 3)] = var_a - 0.25 * var_e;
+    for j in 0..3 {
+        // Correlations of the ICRs with the factors go with the old difference.
+        let with_a = 0.5 * (cov[(j, 3)] + cov[(j, 4)]);
+        cov[(j, 3)] = with_a;
+        cov[(j, 4)] = with_a;
+        cov[(3, j)] = with_a;
+        cov[(4, j)] = with_a;
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::filter::{FilterConfig, Variant};
-    use crate::kinematics::IcrParams;
-    use crate::model::{FactorCoords, MatN, State, FACTOR_DIFF, Y_L, Y_R};
+    use crate::filter::{FilterConfig, IcrBand, MeasurementConfig, Prior};
+    use crate::model::{CLOCK, SLIP};
+    use crate::slip::Chart;
 
     /// A reset `P_B` used by several tests.
-    const PB: IcrStd = IcrStd {
+    const PB: SlipStd = SlipStd {
         spread: 0.1,
         centre: 0.02,
         x_c: 0.05,
@@ -301,74 +296,105 @@ mod tests {
         alpha_diff: 0.01,
     };
 
-    /// Variance of `x[i] - x[j]`.
-    fn var_of_difference(f: &Filter, i: usize, j: usize) -> f64 {
-        let p = f.covariance();
-        p[(i, i)] + p[(j, j)] - 2.0 * p[(i, j)]
+    fn filter(chart: Chart) -> Filter {
+        let cfg = FilterConfig {
+            chart,
+            ..Default::default()
+        };
+        let prior = Prior {
+            icr: IcrParams::no_slip(0.5),
+            std: SlipStd {
+                spread: 0.01,
+                centre: 0.01,
+                x_c: 0.01,
+                alpha: 0.001,
+                alpha_diff: 0.001,
+            },
+        };
+        let band = IcrBand {
+            min_spread: 0.4,
+            max_spread: 2.0,
+            max_centre: 0.125,
+            max_x_c: 0.25,
+            alpha_range: (0.3, 1.5),
+        };
+        Filter::new(&prior, cfg, MeasurementConfig::default(), band).unwrap()
     }
 
-    fn filter() -> Filter {
-        filter_in(FactorCoords::PerSpread)
+    fn var_spread(f: &Filter) -> f64 {
+        let c = f.icr_covariance();
+        c[(0, 0)] + c[(1, 1)] - 2.0 * c[(0, 1)]
     }
 
-    fn filter_in(coords: FactorCoords) -> Filter {
-        let mut c = FilterConfig::for_track(0.5);
-        c.variant = Variant::Ekf;
-        c.factor_coords = coords;
-        let x0 = crate::model::state(0.0, 0.0, 0.0, &IcrParams::no_slip(0.5));
-        let p0 = MatN::from_diagonal(&State::from([
-            1.0, 1.0, 0.01, 1e-4, 1e-4, 1e-4, 1e-6, 1e-6, 1e-12,
-        ]));
-        Filter::new(x0, p0, c).unwrap()
+    fn var_factor_difference(f: &Filter) -> f64 {
+        let c = f.icr_covariance();
+        c[(3, 3)] + c[(4, 4)] - 2.0 * c[(3, 4)]
+    }
+
+    fn learned(y_l: f64, a: f64, e: f64) -> IcrParams {
+        IcrParams {
+            y_l,
+            y_r: -0.38,
+            x_c: 0.0,
+            alpha_l: a + 0.5 * e,
+            alpha_r: a - 0.5 * e,
+        }
     }
 
     #[test]
     fn boost_lasts_k_updates() {
-        let mut f = filter();
+        let mut f = filter(Chart::Tread);
         let mut s = NoiseSchedule::new(ScheduleConfig {
             boost_factor: 100.0,
             boost_updates: 3,
             ..Default::default()
         });
         assert_eq!(s.on_terrain(&mut f, 0).unwrap(), ChangeAction::Learning);
-        assert_eq!(f.icr_noise_scale(), 1.0, "first terrain: no boost");
+        assert_eq!(f.schedule_scale(), 1.0, "first terrain: no boost");
         s.on_terrain(&mut f, 1).unwrap();
-        assert_eq!(f.icr_noise_scale(), 100.0);
+        assert_eq!(f.schedule_scale(), 100.0);
         for _ in 0..2 {
             s.on_update(&mut f);
-            assert_eq!(f.icr_noise_scale(), 100.0);
+            assert_eq!(f.schedule_scale(), 100.0);
         }
         s.on_update(&mut f);
-        assert_eq!(f.icr_noise_scale(), 1.0);
+        assert_eq!(f.schedule_scale(), 1.0);
     }
 
     #[test]
-    fn reset_sets_icr_block_and_decorrelates() {
-        let mut f = filter();
-        for _ in 0..100 {
-            f.predict(0.2, 0.6, 0.02).unwrap();
+    fn reset_sets_the_slip_block_and_decorrelates_it() {
+        for chart in [Chart::Tread, Chart::Gain] {
+            let mut f = filter(chart);
+            f.predict(0.0, 0.0, 0.0).unwrap();
+            for _ in 0..100 {
+                f.predict(0.2, 0.6, 0.02).unwrap();
+            }
+            let (_, p) = f.raw();
+            assert!(p[(2, SLIP)].abs() > 0.0);
+            let mut s = NoiseSchedule::new(ScheduleConfig {
+                reset: Some(PB),
+                ..Default::default()
+            });
+            s.on_terrain(&mut f, 0).unwrap();
+            s.on_terrain(&mut f, 1).unwrap();
+            let (_, p) = f.raw();
+            for i in SLIP..SLIP + 5 {
+                for j in (0..SLIP).chain([CLOCK]) {
+                    assert_eq!(p[(i, j)], 0.0, "{chart:?}");
+                }
+            }
+            assert!((var_spread(&f) - 0.01).abs() < 1e-9, "{chart:?}");
+            assert!((f.icr_covariance()[(2, 2)] - 0.0025).abs() < 1e-9);
         }
-        assert!(f.covariance()[(2, 3)].abs() > 0.0);
-        let mut s = NoiseSchedule::new(ScheduleConfig {
-            reset: Some(PB),
-            ..Default::default()
-        });
-        s.on_terrain(&mut f, 0).unwrap();
-        s.on_terrain(&mut f, 1).unwrap();
-        let p = f.covariance();
-        assert_eq!(p[(2, 3)], 0.0);
-        // var(d) = var(y_l) + var(y_r) - 2 cov = 0.01
-        assert!((var_of_difference(&f, 3, 4) - 0.01).abs() < 1e-12);
-        assert!((p[(5, 5)] - 0.0025).abs() < 1e-12);
     }
 
     #[test]
     fn reset_can_keep_the_learned_factor_difference() {
-        let var_e = |f: &Filter| var_of_difference(f, 6, 7);
         for keep in [false, true] {
-            let mut f = filter();
-            let before = var_e(&f);
-            let z_before = f.factor_difference();
+            let mut f = filter(Chart::Gain);
+            f.set_slip(&learned(0.25, 0.95, 0.01), &SlipStd::ZERO.icr_cov())
+                .unwrap();
+            let before = f.icr();
             let mut s = NoiseSchedule::new(ScheduleConfig {
                 reset: Some(PB),
                 reset_keeps_alpha_diff: keep,
@@ -376,104 +402,76 @@ mod tests {
             });
             s.on_terrain(&mut f, 0).unwrap();
             s.on_terrain(&mut f, 1).unwrap();
-            assert_eq!(keep, f.factor_difference() == z_before);
-            let var_d = var_of_difference(&f, 3, 4);
-            assert!((var_d - 0.01).abs() < 1e-12, "d is reset either way");
-            let want = if keep { before } else { 1e-4 };
+            let e = f.icr().alpha_l - f.icr().alpha_r;
+            assert!((e - 0.01).abs() < 1e-9, "the estimate stays");
             assert!(
-                (var_e(&f) - want).abs() < 1e-12,
-                "keep {keep}: {}",
-                var_e(&f)
+                (var_spread(&f) - 0.01).abs() < 1e-9,
+                "d is reset either way"
             );
-            assert!(f.covariance().cholesky().is_some());
+            let want = if keep { 0.0 } else { 1e-4 };
+            assert!(
+                (var_factor_difference(&f) - want).abs() < 1e-9,
+                "keep {keep}: {}",
+                var_factor_difference(&f)
+            );
+            assert!((f.icr().spread() - before.spread()).abs() < 1e-9);
         }
     }
 
     #[test]
-    fn memory_recalls_a_revisited_terrain() {
-        let mut f = filter();
+    fn memory_recalls_a_revisited_terrain_keeping_the_robots_factor_difference() {
+        let mut f = filter(Chart::Gain);
         let mut s = NoiseSchedule::new(ScheduleConfig {
             memory: true,
             memory_min_dwell: 1.0,
             reset: Some(PB),
+            reset_keeps_alpha_diff: true,
             ..Default::default()
         });
+        f.predict(0.0, 0.0, 0.0).unwrap();
         s.on_terrain(&mut f, 2).unwrap();
-        let learned = IcrParams::new(0.4, -0.38, 0.03);
-        f.reset_icr(Some(&learned), &SlipCov::from_diagonal_element(1e-6))
+        let tiny = SlipStd {
+            spread: 1e-3,
+            centre: 1e-3,
+            x_c: 1e-3,
+            alpha: 1e-3,
+            alpha_diff: 1e-3,
+        };
+        f.set_slip(&learned(0.4, 0.95, 0.0), &tiny.icr_cov())
             .unwrap();
         for _ in 0..100 {
             f.predict(0.5, 0.5, 0.02).unwrap();
             s.on_predict(&f, 0.02);
         }
         assert_eq!(s.on_terrain(&mut f, 0).unwrap(), ChangeAction::Learning);
-        f.reset_icr(
-            Some(&IcrParams::new(0.3, -0.3, 0.0)),
-            &SlipCov::from_diagonal_element(1e-4),
-        )
-        .unwrap();
+        // Meanwhile the robot's factor difference is learned as 0.01.
+        f.set_slip(&learned(0.3, 1.0, 0.01), &tiny.icr_cov())
+            .unwrap();
         assert!(s.remembers(2) && !s.remembers(0));
         assert_eq!(s.on_terrain(&mut f, 2).unwrap(), ChangeAction::Recalled);
-        let st = f.state();
-        assert!((st[Y_L] - 0.4).abs() < 1e-12 && (st[Y_R] + 0.38).abs() < 1e-12);
+        let p = f.icr();
+        assert!(
+            (p.y_l - 0.4).abs() < 1e-6 && (p.y_r + 0.38).abs() < 1e-6,
+            "{p:?}"
+        );
+        assert!((0.5 * (p.alpha_l + p.alpha_r) - 0.95).abs() < 1e-6, "{p:?}");
+        assert!((p.alpha_l - p.alpha_r - 0.01).abs() < 1e-6, "{p:?}");
         // Recalled spread std is at least the floor.
-        assert!(var_of_difference(&f, 3, 4) >= 0.004f64.powi(2));
-    }
-
-    #[test]
-    fn recall_keeps_the_robots_factor_difference() {
-        for coords in [FactorCoords::Difference, FactorCoords::PerSpread] {
-            let mut f = filter_in(coords);
-            let mut s = NoiseSchedule::new(ScheduleConfig {
-                memory: true,
-                memory_min_dwell: 1.0,
-                reset_keeps_alpha_diff: true,
-                ..Default::default()
-            });
-            s.on_terrain(&mut f, 0).unwrap();
-            // Terrain 0 learned with common factor 0.95 and no difference.
-            let mut p = IcrParams::new(0.4, -0.38, 0.0);
-            (p.alpha_l, p.alpha_r) = (0.95, 0.95);
-            f.reset_icr(Some(&p), &SlipCov::from_diagonal_element(1e-6))
-                .unwrap();
-            for _ in 0..100 {
-                f.predict(0.5, 0.5, 0.02).unwrap();
-                s.on_predict(&f, 0.02);
-            }
-            s.on_terrain(&mut f, 1).unwrap();
-            // Meanwhile the robot's difference is learned as 0.01.
-            (p.alpha_l, p.alpha_r) = (1.005, 0.995);
-            f.reset_icr(Some(&p), &SlipCov::from_diagonal_element(4e-6))
-                .unwrap();
-            let (z, var_z) = f.factor_difference();
-            assert_eq!(s.on_terrain(&mut f, 0).unwrap(), ChangeAction::Recalled);
-            let x = f.state();
-            let (a, e) = (0.5 * (x[6] + x[7]), x[6] - x[7]);
-            assert!((a - 0.95).abs() < 1e-9, "common factor from memory: {a}");
-            // Same spread on both terrains here, so e is kept in either form.
-            assert!((e - 0.01).abs() < 1e-9, "{coords:?}: difference kept: {e}");
-            assert_eq!(f.factor_difference(), (z, var_z), "{coords:?}");
-            let k = FACTOR_DIFF;
-            let p = f.filter_covariance();
-            assert!((0..model::N).all(|j| j == k || p[(k, j)] == 0.0));
-            if coords == FactorCoords::Difference {
-                let var_e = var_of_difference(&f, 6, 7);
-                assert!((var_e - 8e-6).abs() < 1e-12, "{var_e}");
-            }
-        }
+        assert!(var_spread(&f) >= 0.004f64.powi(2) - 1e-12);
     }
 
     #[test]
     fn memory_keeps_the_average_over_the_stay_not_the_last_value() {
-        let mut f = filter();
+        let mut f = filter(Chart::Tread);
         let mut s = NoiseSchedule::new(ScheduleConfig {
             memory: true,
             memory_min_dwell: 2.0,
             memory_average: 10.0,
             ..Default::default()
         });
+        f.predict(0.0, 0.0, 0.0).unwrap();
         s.on_terrain(&mut f, 1).unwrap();
-        let cov = SlipCov::from_diagonal_element(1e-6);
+        let cov = SlipStd::ZERO.icr_cov();
         // 1 s settling (not averaged), 3 s at y_l = 0.40 and 1 s at 0.45:
         // remembered 0.4125 (a plain mean: shorter than the time constant).
         for k in 0..250 {
@@ -483,25 +481,24 @@ mod tests {
                 _ => 0.45,
             };
             f.predict(0.5, 0.5, 0.02).unwrap();
-            f.reset_icr(Some(&IcrParams::new(y_l, -0.38, 0.0)), &cov)
-                .unwrap();
+            f.set_slip(&IcrParams::new(y_l, -0.38, 0.0), &cov).unwrap();
             s.on_predict(&f, 0.02);
         }
         s.on_terrain(&mut f, 0).unwrap();
         assert_eq!(s.on_terrain(&mut f, 1).unwrap(), ChangeAction::Recalled);
-        let y_l = f.state()[Y_L];
+        let y_l = f.icr().y_l;
         assert!((y_l - 0.4125).abs() < 2e-3, "recalled y_l {y_l}");
     }
 
     #[test]
     fn indefinite_block_is_stored_positive_definite() {
-        let mut bad = SlipCov::from_diagonal_element(1e-4);
+        let mut bad = SlipMat::from_diagonal_element(1e-4);
         bad[(0, 1)] = 2e-4;
         bad[(1, 0)] = 2e-4;
         bad[(2, 2)] = -1e-5;
         let f = floor_cov(&bad, &ScheduleConfig::default().recall_floor);
         assert!(f.cholesky().is_some());
-        let nan = SlipCov::from_element(f64::NAN);
+        let nan = SlipMat::from_element(f64::NAN);
         assert!(floor_cov(&nan, &ScheduleConfig::default().recall_floor)
             .cholesky()
             .is_some());
@@ -509,7 +506,7 @@ mod tests {
 
     #[test]
     fn short_visits_are_not_remembered() {
-        let mut f = filter();
+        let mut f = filter(Chart::Gain);
         let mut s = NoiseSchedule::new(ScheduleConfig {
             memory: true,
             ..Default::default()

@@ -22,6 +22,7 @@ pub const MAX_VOTE_LAMBDA: u32 = 31;
 /// Settings of the terrain belief.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields, default))]
 pub struct BeliefConfig {
     /// Probability `μ` of staying on the same terrain between two updates.
     pub stay_prob: f64,

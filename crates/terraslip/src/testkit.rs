@@ -2,7 +2,6 @@
 //! on the full simulator: exact ICR-model truth, white pose noise, a
 //! terrain change schedule. Not a substitute for `terraslip-sim`.
 
-use terraslip_core::model::{self, TreadInput};
 use terraslip_core::IcrParams;
 use terraslip_io::{DriveLog, Meta, PoseObs, TerrainLabel, TruthSample, WheelSample};
 
@@ -25,6 +24,11 @@ pub struct SynthSpec {
     pub track_width: f64,
     /// Seed of the noise.
     pub seed: u64,
+    /// How late the pose stream is stamped, s: a pose stamped `t`
+    /// describes the robot at `t - pose_delay`.
+    pub pose_delay: f64,
+    /// Write the stds into pose.csv (false: the estimator must learn them).
+    pub stated_std: bool,
 }
 
 impl Default for SynthSpec {
@@ -42,6 +46,8 @@ impl Default for SynthSpec {
             ],
             track_width: 0.5,
             seed: 1,
+            pose_delay: 0.0,
+            stated_std: true,
         }
     }
 }
@@ -82,7 +88,7 @@ pub fn drive(spec: &SynthSpec) -> DriveLog {
     let n = (spec.duration * spec.wheel_hz).round() as usize;
     let dt = 1.0 / spec.wheel_hz;
     let sub = 10;
-    let mut s = model::state(0.0, 0.0, 0.0, &icr_at(0.0));
+    let mut s = [0.0f64; 3];
     let mut log = DriveLog {
         meta: Meta {
             track_width: Some(spec.track_width),
@@ -97,13 +103,13 @@ pub fn drive(spec: &SynthSpec) -> DriveLog {
         if k > 0 {
             // Finer truth integration than the filter's step.
             let icr = icr_at(t);
+            let tw = icr.twist(vl, vr);
+            let h = dt / sub as f64;
             for _ in 0..sub {
-                let st = model::state(s[0], s[1], s[2], &icr);
-                let u = TreadInput {
-                    v_left: vl,
-                    v_right: vr,
-                };
-                s = model::predict(&st, u, dt / sub as f64);
+                let (sn, cs) = s[2].sin_cos();
+                s[0] += h * (tw.v_x * cs - tw.v_y * sn);
+                s[1] += h * (tw.v_x * sn + tw.v_y * cs);
+                s[2] = terraslip_core::angle::wrap(s[2] + h * tw.omega);
             }
         }
         let icr = icr_at(t);
@@ -123,14 +129,14 @@ pub fn drive(spec: &SynthSpec) -> DriveLog {
         });
         if k > 0 && k % pose_every == 0 {
             log.pose.push(PoseObs {
-                t,
+                t: t + spec.pose_delay,
                 east: Some(s[0] + spec.std_xy * noise.gauss()),
                 north: Some(s[1] + spec.std_xy * noise.gauss()),
                 yaw: Some(terraslip_core::angle::wrap(
                     s[2] + spec.std_yaw * noise.gauss(),
                 )),
-                std_xy: Some(spec.std_xy),
-                std_yaw: Some(spec.std_yaw),
+                std_xy: spec.stated_std.then_some(spec.std_xy),
+                std_yaw: spec.stated_std.then_some(spec.std_yaw),
             });
         }
     }

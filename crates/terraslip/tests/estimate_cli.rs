@@ -129,18 +129,14 @@ fn print_config_is_loadable_toml() {
         EstimatorConfig::default()
     );
     let o = estimate()
-        .args([
-            "estimate",
-            "--print-config",
-            "--preset",
-            "ta-iekf",
-            "--filter",
-            "ekf",
-        ])
+        .args(["estimate", "--print-config", "--preset", "ta-iekf"])
         .output()
         .unwrap();
     let c = EstimatorConfig::from_toml(&String::from_utf8(o.stdout).unwrap()).unwrap();
-    assert_eq!(c.filter.variant, terraslip::config::FilterVariant::Ekf);
+    assert_eq!(
+        c.filter.variant,
+        terraslip_core::Variant::InnovationAdaptive
+    );
     assert_eq!(c.schedule.boost_updates, 5);
 }
 

@@ -5,7 +5,7 @@ use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use terraslip::config::{EstimatorConfig, FilterVariant};
+use terraslip::config::EstimatorConfig;
 use terraslip::pipeline::{self, EstimateRun, RunOptions, TerrainEvidence};
 use terraslip_io::{AtomicFile, DriveLog, ParamsFile};
 
@@ -20,7 +20,7 @@ use terraslip_io::{AtomicFile, DriveLog, ParamsFile};
 /// Examples:
 ///   terraslip estimate drive/ --out est/
 ///   terraslip estimate drive/ --out est/ --terrain-labels --init params.json
-///   terraslip estimate drive/ --out est/ --filter iekf --json
+///   terraslip estimate drive/ --out est/ --preset ta-iekf --json
 ///   terraslip estimate --print-config > estimator.toml
 #[derive(clap::Args, Debug)]
 #[command(after_help = AFTER_HELP)]
@@ -51,9 +51,6 @@ pub struct Args {
     /// `terrain` column and drives the noise schedule (boost / reset / recall).
     #[arg(long, value_name = "MODEL", conflicts_with = "terrain_labels")]
     pub terrain_model: Option<PathBuf>,
-    /// Gain rule: adaptive (default), ekf, or iekf (the papers' form). Overrides the config.
-    #[arg(long, value_enum, value_name = "VARIANT")]
-    pub filter: Option<FilterVariant>,
     /// Drop every pose fix in [T0, T1) s (simulate a GNSS + compass outage).
     #[arg(long, value_name = "T0,T1", value_parser = parse_window)]
     pub outage: Option<(f64, f64)>,
@@ -69,7 +66,8 @@ pub struct Args {
 const AFTER_HELP: &str = "\
 Writes DIR/estimate.csv (one row per wheels row: t, east, north, yaw, y_l, y_r,
 x_c, their standard deviations, terrain, then alpha_l, alpha_r, std_spread,
-fused, gated, nis, q_scale; metres, radians, REP-103 frames) and
+fused, gated, nis, q_scale, change, clock_offset; metres, radians, REP-103
+frames) and
 DIR/summary.json (rows, duration_s, final icr, terrain changes, counters,
 warnings). Both appear only when complete.
 
@@ -116,9 +114,6 @@ fn load_config(args: &Args) -> Result<EstimatorConfig> {
         cfg = EstimatorConfig::from_toml(&toml::to_string(&merged).unwrap_or_default())
             .with_context(|| format!("{}", path.display()))?;
     }
-    if let Some(v) = args.filter {
-        cfg.filter.variant = v;
-    }
     cfg.validate()?;
     Ok(cfg)
 }
@@ -152,21 +147,13 @@ pub fn run(args: Args) -> Result<()> {
     let log = if args.terrain_model.is_some() {
         DriveLog::read(log_dir)
     } else {
-        read_log(log_dir, args.terrain_labels)
+        read_log(log_dir)
     }
     .with_context(|| format!("reading log {}", log_dir.display()))?;
     let init = match &args.init {
         Some(p) => Some(ParamsFile::read(p).with_context(|| "--init")?),
         None => None,
     };
-    // The wheel-to-pose latency calibrate found travels with its parameters.
-    if cfg.measurement.pose_latency == 0.0 {
-        if let Some(lat) = init.as_ref().and_then(calibrated_latency) {
-            cfg.measurement.pose_latency = lat;
-            cfg.validate().context("--init time_offset_s")?;
-            eprintln!("pose latency {lat:.3} s from --init (calibrated wheel-to-pose offset)");
-        }
-    }
     let (evidence, evidence_name) = if args.terrain_labels {
         if log.terrain.is_empty() {
             bail!("--terrain-labels: {} has no terrain.csv", log_dir.display());
@@ -238,9 +225,9 @@ pub fn run(args: Args) -> Result<()> {
         "estimate: {} rows over {:.1} s, {} fixes ({} position / {} heading gated), final ICRs y_l = {:.4} m, y_r = {:.4} m, x_c = {:.4} m -> {}",
         est.rows.len(),
         est.duration(),
-        est.stats.fixes,
-        est.stats.position_gated,
-        est.stats.yaw_gated,
+        est.stats.fixes_used,
+        est.stats.fixes.position_gated,
+        est.stats.fixes.yaw_gated,
         icr.y_l,
         icr.y_r,
         icr.x_c,
@@ -252,21 +239,10 @@ pub fn run(args: Args) -> Result<()> {
     Ok(())
 }
 
-/// The wheel-to-pose time offset stored by `terraslip calibrate`
-/// (`time_offset_s`, pooled or of the first terrain set that has one).
-fn calibrated_latency(p: &ParamsFile) -> Option<f64> {
-    let get = |extra: &std::collections::BTreeMap<String, serde_json::Value>| {
-        extra.get("time_offset_s").and_then(|v| v.as_f64())
-    };
-    get(&p.extra)
-        .or_else(|| p.terrains.values().find_map(|e| get(&e.extra)))
-        .filter(|v| v.is_finite() && *v != 0.0)
-}
-
-/// Reads only what the estimator uses: wheels, pose, meta and (with
-/// `--terrain-labels`) terrain. The imu stream alone can be four times the
-/// size of everything else; truth is for scoring, not estimating.
-fn read_log(dir: &Path, labels: bool) -> Result<DriveLog, terraslip_io::LogError> {
+/// Reads only what the estimator uses: wheels, pose, meta and terrain.
+/// The imu stream alone can be four times the size of everything else;
+/// truth is for scoring, not estimating.
+fn read_log(dir: &Path) -> Result<DriveLog, terraslip_io::LogError> {
     if !dir.is_dir() {
         return Err(terraslip_io::LogError::Invalid {
             path: dir.to_path_buf(),
@@ -283,7 +259,7 @@ fn read_log(dir: &Path, labels: bool) -> Result<DriveLog, terraslip_io::LogError
         log.pose = terraslip_io::read_pose(&pose, &mut log.warnings)?;
     }
     let terrain = dir.join("terrain.csv");
-    if labels && terrain.exists() {
+    if terrain.exists() {
         log.terrain = terraslip_io::read_terrain(&terrain)?;
     }
     let meta = dir.join("meta.toml");
@@ -324,16 +300,17 @@ fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) -> ser
         })),
         "track_width": est.track_width,
         "variant": cfg.filter.variant,
-        // Turn-rate law (estimate.csv's ICRs are those in effect at each
-        // row's speeds unless `report_icr = "straight"`; "icr" above is the
-        // straight-line set).
-        "rate_model": {
-            "k_spread": est.rate.k_spread,
-            "k_spread_std": est.rate_std,
-            "learned": cfg.filter.learn_rate_k_spread,
-            "k_alpha": est.rate.k_alpha,
-            "source": est.rate_source,
-            "report_icr": cfg.filter.report_icr,
+        "init": est.init_source,
+        "clock_offset_s": {"value": est.clock_offset.0, "std": est.clock_offset.1},
+        // The pose noise the filter ended with, and whether pose.csv stated it.
+        "pose_noise": {
+            "std_xy_m": est.noise.std_xy,
+            "std_yaw_rad": est.noise.std_yaw,
+            "correlated_std_m": est.noise.correlated_std,
+            "model_speed_rel_per_sqrt_s": est.noise.model.0.sqrt(),
+            "model_yaw_rate_rel_per_sqrt_s": est.noise.model.1.sqrt(),
+            "stated_in_log": est.noise.stated,
+            "learned": est.noise.learned,
         },
         "terrain_changes": est.changes.iter().map(|c| serde_json::json!({
             "t": c.t,
@@ -341,14 +318,15 @@ fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) -> ser
             "action": format!("{:?}", c.action).to_lowercase(),
         })).collect::<Vec<_>>(),
         "stats": {
-            "predictions": est.stats.predictions,
-            "fixes": est.stats.fixes,
-            "position_fused": est.stats.position_fused,
-            "position_gated": est.stats.position_gated,
-            "yaw_fused": est.stats.yaw_fused,
-            "yaw_gated": est.stats.yaw_gated,
-            "reanchored": est.stats.reanchored,
-            "skipped_updates": est.stats.skipped_updates,
+            "predictions": est.stats.fixes.predictions,
+            "fixes": est.stats.fixes_used,
+            "position_fused": est.stats.fixes.position_fused,
+            "position_gated": est.stats.fixes.position_gated,
+            "yaw_fused": est.stats.fixes.yaw_fused,
+            "yaw_gated": est.stats.fixes.yaw_gated,
+            "anchored": est.stats.fixes.anchored,
+            "changes_detected": est.stats.fixes.changes_detected,
+            "refused_updates": est.stats.fixes.refused,
             "dropped_fixes": est.stats.dropped_fixes,
         },
         "warnings": log.warnings.iter().chain(&est.warnings).collect::<Vec<_>>(),
@@ -356,7 +334,7 @@ fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) -> ser
 }
 
 /// CSV header of estimate.csv: log-format.md's columns, then extras.
-pub const HEADER: &str = "t,east,north,yaw,y_l,y_r,x_c,std_east,std_north,std_yaw,std_y_l,std_y_r,std_x_c,terrain,alpha_l,alpha_r,std_alpha_l,std_alpha_r,std_spread,fused,gated,nis,q_scale";
+pub const HEADER: &str = "t,east,north,yaw,y_l,y_r,x_c,std_east,std_north,std_yaw,std_y_l,std_y_r,std_x_c,terrain,alpha_l,alpha_r,std_alpha_l,std_alpha_r,std_spread,fused,gated,nis,q_scale,change,clock_offset";
 
 /// Writes both files; neither appears unless both are complete.
 fn write_outputs(out: &Path, est: &EstimateRun, summary: &serde_json::Value) -> Result<()> {
@@ -402,6 +380,8 @@ fn write_outputs(out: &Path, est: &EstimateRun, summary: &serde_json::Value) -> 
             buf.push(',');
             push_fixed(&mut buf, v, digits);
         }
+        let _ = write!(buf, ",{},", r.change as u8);
+        push_fixed(&mut buf, r.clock_offset, 4);
         buf.push('\n');
         if buf.len() > 60_000 {
             csv.write_all(buf.as_bytes())

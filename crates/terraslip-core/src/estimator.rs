@@ -1,0 +1,287 @@
+//! The online estimator as a robot runs it: tread speeds, pose fixes and
+//! terrain evidence in, pose and slip parameters out, event by event on
+//! their own timestamps.
+//!
+//! * [`Estimator::on_wheels`]`(t, v_left, v_right)`: the tread speeds (m/s)
+//!   measured over the interval that ends at `t` (s); the state is
+//!   predicted to `t`. A gap longer than `max_wheel_gap` is not integrated
+//!   with held speeds: the pose uncertainty grows by as far as the robot
+//!   could have gone instead.
+//! * [`Estimator::on_pose`]`(t, fix)`: a pose fix stamped `t` on the pose
+//!   stream's clock. It describes the robot at wheel time
+//!   `t - clock_offset`; fixes for a time the wheels have not reached yet
+//!   wait (up to [`MAX_PENDING`] of them) and are fused when the next
+//!   tread speeds arrive, the prediction split at their time.
+//! * [`Estimator::on_terrain`]`(k)`: the terrain evidence declares terrain
+//!   `k` (labels, or a classifier's belief): the schedule resets or recalls
+//!   the slip parameters.
+//!
+//! Events must come in time order per stream; across streams any order
+//! works.
+
+use crate::filter::{Fate, Filter, FilterError, PoseFix, UpdateReport};
+use crate::schedule::{ChangeAction, NoiseSchedule};
+
+/// Pose fixes that can wait for the wheels.
+pub const MAX_PENDING: usize = 32;
+
+/// Counters of what happened to the fixes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct FixCounts {
+    /// Position parts fused.
+    pub position_fused: usize,
+    /// Position parts rejected by the gate.
+    pub position_gated: usize,
+    /// Heading parts fused.
+    pub yaw_fused: usize,
+    /// Heading parts rejected by the gate.
+    pub yaw_gated: usize,
+    /// Parts taken as the pose (first fix, or after too many rejections).
+    pub anchored: usize,
+    /// Slip changes the detector found.
+    pub changes_detected: usize,
+    /// Updates the filter refused (e.g. the papers' innovation-adaptive gain
+    /// losing definiteness).
+    pub refused: usize,
+    /// Predictions.
+    pub predictions: usize,
+}
+
+/// What the last fused fixes did, since the last call to
+/// [`Estimator::take_fix_summary`].
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct FixSummary {
+    /// A part was fused.
+    pub fused: bool,
+    /// A part was gated.
+    pub gated: bool,
+    /// NIS of the last fix's position part (2 dof; 0 if none).
+    pub nis_position: f64,
+    /// NIS of the last fix's heading part (1 dof; 0 if none).
+    pub nis_yaw: f64,
+    /// The slip-change detector fired.
+    pub change: bool,
+    /// The slip parameters were projected into the band.
+    pub at_band: bool,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Pending {
+    t: f64,
+    fix: PoseFix,
+}
+
+/// Filter + terrain schedule + the timing of three streams.
+#[derive(Debug, Clone)]
+pub struct Estimator {
+    filter: Filter,
+    schedule: NoiseSchedule,
+    /// Time of the state (wheels' clock); `None` before the first wheels row.
+    t: Option<f64>,
+    pending: [Option<Pending>; MAX_PENDING],
+    pending_len: usize,
+    max_wheel_gap: f64,
+    max_speed: f64,
+    counts: FixCounts,
+    summary: FixSummary,
+}
+
+impl Estimator {
+    /// An estimator around `filter` with terrain schedule `schedule`;
+    /// wheel gaps longer than `max_wheel_gap` s are not integrated.
+    pub fn new(filter: Filter, schedule: NoiseSchedule, max_wheel_gap: f64) -> Self {
+        Self {
+            filter,
+            schedule,
+            t: None,
+            pending: [None; MAX_PENDING],
+            pending_len: 0,
+            max_wheel_gap: if max_wheel_gap > 0.0 {
+                max_wheel_gap
+            } else {
+                f64::INFINITY
+            },
+            max_speed: 0.0,
+            counts: FixCounts::default(),
+            summary: FixSummary::default(),
+        }
+    }
+
+    /// The filter (state, covariance, learned noise).
+    pub fn filter(&self) -> &Filter {
+        &self.filter
+    }
+
+    /// The terrain schedule.
+    pub fn schedule(&self) -> &NoiseSchedule {
+        &self.schedule
+    }
+
+    /// Time of the state, s (wheels' clock).
+    pub fn time(&self) -> Option<f64> {
+        self.t
+    }
+
+    /// Counters since the start.
+    pub fn counts(&self) -> FixCounts {
+        self.counts
+    }
+
+    /// What the fixes fused since the last call did (and clears it).
+    pub fn take_fix_summary(&mut self) -> FixSummary {
+        core::mem::take(&mut self.summary)
+    }
+
+    /// Tread speeds `v_left`, `v_right` (m/s) over the interval ending at
+    /// `t` (s).
+    pub fn on_wheels(&mut self, t: f64, v_left: f64, v_right: f64) -> Result<(), FilterError> {
+        if !(t.is_finite() && v_left.is_finite() && v_right.is_finite()) {
+            return Err(FilterError::BadInput("wheels row not finite"));
+        }
+        self.max_speed = self.max_speed.max(v_left.abs()).max(v_right.abs());
+        let Some(t0) = self.t else {
+            self.t = Some(t);
+            self.filter.predict(v_left, v_right, 0.0)?;
+            return self.fuse_due(t);
+        };
+        if t < t0 {
+            return Err(FilterError::BadInput("wheels time went backwards"));
+        }
+        let gap = t - t0 > self.max_wheel_gap;
+        let (vl, vr) = if gap { (0.0, 0.0) } else { (v_left, v_right) };
+        let mut now = t0;
+        while let Some(due) = self.next_due().filter(|d| *d <= t) {
+            if due > now {
+                self.advance(vl, vr, due - now, gap)?;
+                now = due;
+            }
+            self.t = Some(now);
+            self.fuse_front()?;
+        }
+        if t > now {
+            self.advance(vl, vr, t - now, gap)?;
+        }
+        self.t = Some(t);
+        Ok(())
+    }
+
+    /// A pose fix stamped `t` (s, the pose stream's clock).
+    pub fn on_pose(&mut self, t: f64, fix: PoseFix) -> Result<(), FilterError> {
+        if !t.is_finite() {
+            return Err(FilterError::BadInput("fix time not finite"));
+        }
+        if self.pending_len == MAX_PENDING {
+            self.fuse_front()?;
+        }
+        let i = (0..MAX_PENDING)
+            .find(|&i| self.pending[i].is_none())
+            .unwrap_or(0);
+        self.pending[i] = Some(Pending { t, fix });
+        self.pending_len += 1;
+        match self.t {
+            Some(now) => self.fuse_due(now),
+            None => Ok(()),
+        }
+    }
+
+    /// The terrain evidence declares terrain `k`.
+    pub fn on_terrain(&mut self, k: usize) -> Result<ChangeAction, FilterError> {
+        self.schedule.on_terrain(&mut self.filter, k)
+    }
+
+    /// Seeds the terrain memory (e.g. with calibrated per-terrain ICRs).
+    pub fn schedule_mut(&mut self) -> &mut NoiseSchedule {
+        &mut self.schedule
+    }
+
+    fn advance(&mut self, vl: f64, vr: f64, dt: f64, gap: bool) -> Result<(), FilterError> {
+        if gap {
+            let reach = self.max_speed * dt;
+            self.filter
+                .inflate_pose(reach * reach, core::f64::consts::PI * core::f64::consts::PI);
+        }
+        self.filter.predict(vl, vr, dt)?;
+        self.schedule.on_predict(&self.filter, dt);
+        self.counts.predictions += 1;
+        Ok(())
+    }
+
+    /// Wheel time at which the oldest waiting fix is due.
+    fn next_due(&self) -> Option<f64> {
+        let (clock, _) = self.filter.clock_offset();
+        self.oldest().map(|(_, p)| p.t - clock)
+    }
+
+    fn oldest(&self) -> Option<(usize, Pending)> {
+        let mut best: Option<(usize, Pending)> = None;
+        for (i, p) in self.pending.iter().enumerate() {
+            if let Some(p) = p {
+                if best.map_or(true, |(_, b)| p.t < b.t) {
+                    best = Some((i, *p));
+                }
+            }
+        }
+        best
+    }
+
+    /// Fuses every waiting fix due at or before `now` (the filter's time).
+    fn fuse_due(&mut self, now: f64) -> Result<(), FilterError> {
+        while self.next_due().is_some_and(|d| d <= now) {
+            self.fuse_front()?;
+        }
+        Ok(())
+    }
+
+    /// Fuses the oldest waiting fix at the filter's current time.
+    fn fuse_front(&mut self) -> Result<(), FilterError> {
+        let Some((i, p)) = self.oldest() else {
+            return Ok(());
+        };
+        self.pending[i] = None;
+        self.pending_len -= 1;
+        let now = self.t.unwrap_or(p.t);
+        match self.filter.update(p.t, now - p.t, &p.fix) {
+            Ok(rep) => self.record(&rep),
+            Err(FilterError::BadInput(what)) => return Err(FilterError::BadInput(what)),
+            Err(_) => self.counts.refused += 1,
+        }
+        self.schedule.on_update(&mut self.filter);
+        Ok(())
+    }
+
+    fn record(&mut self, rep: &UpdateReport) {
+        let c = &mut self.counts;
+        let s = &mut self.summary;
+        for (fate, fused, gated) in [
+            (rep.position, &mut c.position_fused, &mut c.position_gated),
+            (rep.yaw, &mut c.yaw_fused, &mut c.yaw_gated),
+        ] {
+            match fate {
+                Fate::Fused => {
+                    *fused += 1;
+                    s.fused = true;
+                }
+                Fate::Gated => {
+                    *gated += 1;
+                    s.gated = true;
+                }
+                Fate::Anchored => {
+                    c.anchored += 1;
+                    s.fused = true;
+                }
+                Fate::Absent => {}
+            }
+        }
+        if rep.position != Fate::Absent {
+            s.nis_position = rep.nis_position;
+        }
+        if rep.yaw != Fate::Absent {
+            s.nis_yaw = rep.nis_yaw;
+        }
+        if rep.change {
+            c.changes_detected += 1;
+            s.change = true;
+        }
+        s.at_band |= rep.at_band;
+    }
+}

@@ -1,0 +1,477 @@
+//! Settings of the filter: the one place their defaults and their
+//! validation live (the command line's `[filter]` and `[measurement]`
+//! tables are these structs).
+
+use crate::kinematics::IcrParams;
+use crate::slip::{Chart, Slip, SlipMat};
+
+use super::FilterError;
+
+/// Largest window of the innovation-adaptive gain, in fixes.
+pub const MAX_WINDOW: usize = 64;
+
+/// Standard deviations of the slip parameters in the coordinates that
+/// users (and the data) tell apart: spread `d = y_l - y_r` (m), centre
+/// `(y_l + y_r) / 2` (m), `x_c` (m), common speed factor
+/// `(alpha_l + alpha_r) / 2` and factor difference `alpha_l - alpha_r`.
+/// Used for priors (std) and random walks (std growth per square-root
+/// second).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct SlipStd {
+    /// Spread y_l - y_r, m.
+    pub spread: f64,
+    /// Centre (y_l + y_r)/2, m.
+    pub centre: f64,
+    /// Longitudinal ICR offset x_c, m.
+    pub x_c: f64,
+    /// Common tread speed factor (alpha_l + alpha_r)/2.
+    pub alpha: f64,
+    /// Tread speed factor difference alpha_l - alpha_r.
+    pub alpha_diff: f64,
+}
+
+impl SlipStd {
+    /// Every entry zero.
+    pub const ZERO: SlipStd = SlipStd {
+        spread: 0.0,
+        centre: 0.0,
+        x_c: 0.0,
+        alpha: 0.0,
+        alpha_diff: 0.0,
+    };
+
+    /// The entries in order spread, centre, x_c, alpha, alpha_diff.
+    pub fn entries(&self) -> [f64; 5] {
+        [
+            self.spread,
+            self.centre,
+            self.x_c,
+            self.alpha,
+            self.alpha_diff,
+        ]
+    }
+
+    /// All entries finite and non-negative.
+    pub fn is_valid(&self) -> bool {
+        self.entries().iter().all(|v| v.is_finite() && *v >= 0.0)
+    }
+
+    /// The covariance these give on `(y_l, y_r, x_c, alpha_l, alpha_r)`
+    /// (independent in spread, centre, x_c, alpha, alpha_diff).
+    pub fn icr_cov(&self) -> SlipMat {
+        let [s, c, x, a, e] = self.entries().map(|v| v * v);
+        // y_l = c + d/2, y_r = c - d/2; alpha_l = a + e/2, alpha_r = a - e/2
+        let mut m = SlipMat::zeros();
+        m[(0, 0)] = 0.25 * s + c;
+        m[(1, 1)] = 0.25 * s + c;
+        m[(0, 1)] = -0.25 * s + c;
+        m[(1, 0)] = -0.25 * s + c;
+        m[(2, 2)] = x;
+        m[(3, 3)] = 0.25 * e + a;
+        m[(4, 4)] = 0.25 * e + a;
+        m[(3, 4)] = -0.25 * e + a;
+        m[(4, 3)] = -0.25 * e + a;
+        m
+    }
+
+    /// The same covariance in `chart` coordinates at `icr` (first order).
+    pub fn chart_cov(&self, chart: Chart, icr: &IcrParams) -> Option<SlipMat> {
+        let s: Slip = chart.from_icr(icr);
+        chart.cov_from_icr(&s, &self.icr_cov())
+    }
+}
+
+/// Gain rule of the filter.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "kebab-case"))]
+pub enum Variant {
+    /// Textbook EKF: `K = P H' S^-1`, Joseph-form covariance update.
+    Ekf,
+    /// The papers' innovation-adaptive EKF (lv2019 eqs. 11-15, wang2018):
+    /// the gain uses the sample covariance of the last
+    /// [`FilterConfig::innovation_window`] innovations in place of `S`, and
+    /// `P = (I - K H) P` as written. It can lose positive-definiteness; such
+    /// an update is refused ([`FilterError::LostDefiniteness`]).
+    InnovationAdaptive,
+}
+
+/// Where the ICRs may physically be. The state is projected into this band
+/// after every update (and a run reports how long it sat on an edge).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IcrBand {
+    /// Smallest spread `y_l - y_r`, m (> 0).
+    pub min_spread: f64,
+    /// Largest spread, m.
+    pub max_spread: f64,
+    /// Largest `|y_l + y_r| / 2`, m.
+    pub max_centre: f64,
+    /// Largest `|x_c|`, m.
+    pub max_x_c: f64,
+    /// Smallest and largest tread speed factor.
+    pub alpha_range: (f64, f64),
+}
+
+impl IcrBand {
+    /// Projects `p` into the band; returns the projected parameters and
+    /// whether anything moved.
+    pub fn project(&self, p: &IcrParams) -> (IcrParams, bool) {
+        let d = p.y_l - p.y_r;
+        let c = 0.5 * (p.y_l + p.y_r);
+        let dc = d.clamp(self.min_spread, self.max_spread);
+        let cc = c.clamp(-self.max_centre, self.max_centre);
+        let xc = p.x_c.clamp(-self.max_x_c, self.max_x_c);
+        let (lo, hi) = self.alpha_range;
+        let al = p.alpha_l.clamp(lo, hi);
+        let ar = p.alpha_r.clamp(lo, hi);
+        let moved = dc != d || cc != c || xc != p.x_c || al != p.alpha_l || ar != p.alpha_r;
+        (
+            IcrParams {
+                y_l: cc + 0.5 * dc,
+                y_r: cc - 0.5 * dc,
+                x_c: xc,
+                alpha_l: al,
+                alpha_r: ar,
+            },
+            moved,
+        )
+    }
+
+    fn is_valid(&self) -> bool {
+        let (lo, hi) = self.alpha_range;
+        [
+            self.min_spread,
+            self.max_spread,
+            self.max_centre,
+            self.max_x_c,
+            lo,
+            hi,
+        ]
+        .iter()
+        .all(|v| v.is_finite())
+            && self.min_spread > 0.0
+            && self.max_spread > self.min_spread
+            && self.max_centre >= 0.0
+            && self.max_x_c >= 0.0
+            && lo > 0.0
+            && hi > lo
+    }
+}
+
+/// Settings of the filter (`[filter]`). Noise rates are per second of
+/// elapsed time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields, default))]
+pub struct FilterConfig {
+    /// Gain rule: `ekf` (default) or `innovation-adaptive` (the papers').
+    pub variant: Variant,
+    /// Innovations averaged by the innovation-adaptive gain, fixes (1..=64).
+    pub innovation_window: usize,
+    /// Gauss-Newton iterations of each update (1 = the plain EKF): an
+    /// iterated update re-linearises the fix's prediction (the motion over
+    /// the clock offset, the heading) at the corrected state.
+    pub update_iterations: usize,
+    /// Coordinates of the slip parameters inside the filter: `gain`
+    /// (default: turning gain a/d, heading drift per metre, speed factor,
+    /// ICR centre; the heading teaches the first two, position the speed
+    /// factor) or `tread` (y_l, y_r, x_c, alpha_l, alpha_r: the papers').
+    pub chart: Chart,
+    /// Learn the ICRs (false: they stay at their initial values, their
+    /// uncertainty still counted).
+    pub learn_icr: bool,
+    /// Learn the tread speed factors alpha_l, alpha_r (false: the papers'
+    /// six-state model, factors fixed at their initial values).
+    pub learn_alpha: bool,
+    /// Learn the pose stream's clock offset against the wheels (false:
+    /// fixed at `measurement.clock_offset`).
+    pub learn_clock: bool,
+    /// Position random walk, m^2/s.
+    pub q_pos: f64,
+    /// Position model noise per squared speed, m^2/s per (m/s)^2: the
+    /// speed the model gives is wrong by a fraction that varies with the
+    /// ground. The starting value: the filter learns it from the position
+    /// innovations (`noise_memory`).
+    pub q_pos_per_speed2: f64,
+    /// Yaw random walk, rad^2/s.
+    pub q_yaw: f64,
+    /// Heading model noise per squared yaw rate, rad^2/s per (rad/s)^2: the
+    /// yaw rate the model gives is wrong by a fraction that varies from turn
+    /// to turn (a few % on firm ground, 20 % on a large skid-steer robot
+    /// on gravel). The starting value: the filter learns it from the heading
+    /// innovations (`noise_memory`).
+    pub q_yaw_per_rate2: f64,
+    /// Random walk of the slip parameters while moving: std growth per
+    /// square-root second of spread (m), centre (m), x_c (m), common speed
+    /// factor and factor difference.
+    pub slip_walk: SlipStd,
+    /// Random walk of the clock offset, s per square-root second.
+    pub clock_walk: f64,
+    /// Chi-square gate on the 2-dof position innovation (13.8 = 99.9 %;
+    /// 0 = off). The gate is applied with the noise as learned, so it keeps
+    /// its meaning whatever the noise learning does.
+    pub gate_position: f64,
+    /// Chi-square gate on the 1-dof heading innovation (10.8 = 99.9 %; 0 = off).
+    pub gate_yaw: f64,
+    /// Consecutive gated fixes after which the filter re-anchors its pose
+    /// on the fix (a real jump, e.g. after an outage, is taken eventually).
+    pub max_rejections: u32,
+    /// Tread speed below which the robot stands still (nothing is learned
+    /// about slip or clock), m/s.
+    pub still_speed: f64,
+    /// A gap between wheels rows longer than this (s) is not integrated with
+    /// held speeds: the pose uncertainty grows instead.
+    pub max_wheel_gap: f64,
+    /// Fixes over which the slip-change detector averages the normalised
+    /// innovations (0 = no detector). A change of ground shows as
+    /// innovations of one sign, sensor noise as innovations of either.
+    pub change_window: usize,
+    /// Chi-square threshold on the detector's mean normalised innovation
+    /// (per dof of the heading and of the position; 10.8 = 99.9 % for one).
+    pub change_threshold: f64,
+    /// Uncertainty added to the slip parameters when the detector fires
+    /// (a covariance reset, chen2023's P_B, triggered by the data).
+    pub change_reset: SlipStd,
+    /// Time over which the noise learned from the innovations (the pose
+    /// fixes' noise, the model's speed and heading-rate noise) is averaged,
+    /// s (0 = no learning: the stated or configured noise is used).
+    pub noise_memory: f64,
+}
+
+impl Default for FilterConfig {
+    fn default() -> Self {
+        Self {
+            variant: Variant::Ekf,
+            innovation_window: 10,
+            update_iterations: 3,
+            chart: Chart::Gain,
+            learn_icr: true,
+            learn_alpha: true,
+            learn_clock: true,
+            q_pos: 1e-4,
+            q_pos_per_speed2: 1e-3,
+            q_yaw: 1e-6,
+            q_yaw_per_rate2: 1e-3,
+            slip_walk: SlipStd {
+                spread: 2e-3,
+                centre: 3e-4,
+                x_c: 3e-4,
+                alpha: 3e-4,
+                alpha_diff: 1e-4,
+            },
+            clock_walk: 1e-4,
+            gate_position: 13.8,
+            gate_yaw: 10.8,
+            max_rejections: 10,
+            still_speed: 0.02,
+            max_wheel_gap: 1.0,
+            change_window: 5,
+            change_threshold: 10.8,
+            change_reset: SlipStd {
+                spread: 0.1,
+                centre: 0.01,
+                x_c: 0.02,
+                alpha: 0.05,
+                alpha_diff: 0.0,
+            },
+            noise_memory: 60.0,
+        }
+    }
+}
+
+impl FilterConfig {
+    /// Checks every setting; the error names the key.
+    pub fn validate(&self) -> Result<(), FilterError> {
+        let finite_nonneg = |v: f64| v.is_finite() && v >= 0.0;
+        let checks: [(&'static str, bool); 15] = [
+            (
+                "filter.innovation_window must be 1..=64",
+                (1..=MAX_WINDOW).contains(&self.innovation_window),
+            ),
+            (
+                "filter.update_iterations must be 1..=10",
+                (1..=10).contains(&self.update_iterations),
+            ),
+            (
+                "filter.q_pos must be finite and >= 0",
+                finite_nonneg(self.q_pos),
+            ),
+            (
+                "filter.q_pos_per_speed2 must be finite and >= 0",
+                finite_nonneg(self.q_pos_per_speed2),
+            ),
+            (
+                "filter.q_yaw must be finite and >= 0",
+                finite_nonneg(self.q_yaw),
+            ),
+            (
+                "filter.q_yaw_per_rate2 must be finite and >= 0",
+                finite_nonneg(self.q_yaw_per_rate2),
+            ),
+            (
+                "filter.slip_walk entries must be finite and >= 0",
+                self.slip_walk.is_valid(),
+            ),
+            (
+                "filter.clock_walk must be finite and >= 0",
+                finite_nonneg(self.clock_walk),
+            ),
+            (
+                "filter.gate_position must be finite and >= 0",
+                finite_nonneg(self.gate_position),
+            ),
+            (
+                "filter.gate_yaw must be finite and >= 0",
+                finite_nonneg(self.gate_yaw),
+            ),
+            (
+                "filter.still_speed must be finite and >= 0",
+                finite_nonneg(self.still_speed),
+            ),
+            (
+                "filter.max_wheel_gap must be finite and > 0",
+                self.max_wheel_gap.is_finite() && self.max_wheel_gap > 0.0,
+            ),
+            (
+                "filter.change_threshold must be finite and > 0",
+                self.change_threshold.is_finite() && self.change_threshold > 0.0,
+            ),
+            (
+                "filter.change_reset entries must be finite and >= 0",
+                self.change_reset.is_valid(),
+            ),
+            (
+                "filter.noise_memory must be finite and >= 0",
+                finite_nonneg(self.noise_memory),
+            ),
+        ];
+        for (what, ok) in checks {
+            if !ok {
+                return Err(FilterError::BadConfig(what));
+            }
+        }
+        if self.change_window > super::detector::MAX_CHANGE_WINDOW {
+            return Err(FilterError::BadConfig(
+                "filter.change_window must be 0..=32",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// How the pose fixes' errors behave (`[measurement]`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields, default))]
+pub struct MeasurementConfig {
+    /// Position std per axis assumed where `pose.csv` has no `std_xy`, m:
+    /// the starting point of the noise learning (`filter.noise_memory`).
+    pub std_xy: f64,
+    /// Heading std assumed where `pose.csv` has no `std_yaw`, rad.
+    pub std_yaw: f64,
+    /// Std of the slowly wandering part of the position error, as a
+    /// multiple of the position std, where that std is GNSS-grade (above
+    /// `correlated_above`): GNSS errors are correlated over tens of seconds
+    /// and must not be read as motion.
+    pub correlated_fraction: f64,
+    /// Position std (m) above which fixes are taken to be GNSS-grade, with a
+    /// correlated error part; below it (RTK, lidar, motion capture) the error
+    /// is taken to be white.
+    pub correlated_above: f64,
+    /// Correlation time of the wandering part, s.
+    pub correlation_time: f64,
+    /// Encoder resolution on the tread, m per tick; 0 = from meta.toml
+    /// (2 pi wheel_radius / ticks_per_rev), or unquantised if unknown.
+    pub encoder_tick: f64,
+    /// Starting value of the pose stream's clock offset, s: a pose stamped
+    /// `t` describes the robot at wheel time `t - clock_offset` (a lidar
+    /// localiser stamping on arrival is 0.3-0.5 s late). Learned from there
+    /// (`filter.learn_clock`); `--init` files from `calibrate` carry one.
+    pub clock_offset: f64,
+    /// Prior std of the clock offset, s.
+    pub clock_offset_std: f64,
+}
+
+impl Default for MeasurementConfig {
+    fn default() -> Self {
+        Self {
+            std_xy: 1.0,
+            std_yaw: 2f64.to_radians(),
+            correlated_fraction: 0.9,
+            correlated_above: 0.3,
+            correlation_time: 30.0,
+            encoder_tick: 0.0,
+            clock_offset: 0.0,
+            clock_offset_std: 0.3,
+        }
+    }
+}
+
+impl MeasurementConfig {
+    /// Checks every setting; the error names the key.
+    pub fn validate(&self) -> Result<(), FilterError> {
+        let pos = |v: f64| v.is_finite() && v > 0.0;
+        let checks: [(&'static str, bool); 8] = [
+            (
+                "measurement.std_xy must be finite and > 0",
+                pos(self.std_xy),
+            ),
+            (
+                "measurement.std_yaw must be finite and > 0",
+                pos(self.std_yaw),
+            ),
+            (
+                "measurement.correlated_fraction must be in 0..=10",
+                (0.0..=10.0).contains(&self.correlated_fraction),
+            ),
+            (
+                "measurement.correlated_above must be finite and >= 0",
+                self.correlated_above.is_finite() && self.correlated_above >= 0.0,
+            ),
+            (
+                "measurement.correlation_time must be finite and > 0",
+                pos(self.correlation_time),
+            ),
+            (
+                "measurement.encoder_tick must be finite and >= 0",
+                self.encoder_tick.is_finite() && self.encoder_tick >= 0.0,
+            ),
+            (
+                "measurement.clock_offset must be within +-2 s",
+                self.clock_offset.abs() <= 2.0,
+            ),
+            (
+                "measurement.clock_offset_std must be in 0..=2 s",
+                (0.0..=2.0).contains(&self.clock_offset_std),
+            ),
+        ];
+        for (what, ok) in checks {
+            if !ok {
+                return Err(FilterError::BadConfig(what));
+            }
+        }
+        Ok(())
+    }
+
+    /// Std (m) of the correlated part of position fixes whose stated std is
+    /// `std_xy` (0 for white, RTK-grade fixes).
+    pub fn correlated_std(&self, std_xy: f64) -> f64 {
+        if std_xy > self.correlated_above {
+            self.correlated_fraction * std_xy
+        } else {
+            0.0
+        }
+    }
+}
+
+pub(super) fn validate_band(band: &IcrBand) -> Result<(), FilterError> {
+    if band.is_valid() {
+        Ok(())
+    } else {
+        Err(FilterError::BadConfig(
+            "band: spreads, centre, x_c and alpha limits must be finite, positive and ordered",
+        ))
+    }
+}

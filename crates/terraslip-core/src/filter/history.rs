@@ -1,0 +1,177 @@
+//! The recent tread speeds, so that a fix stamped in the past (or on a
+//! clock that runs late) is compared with where the robot was then.
+//!
+//! Each prediction step is stored as its duration and tread speeds. The
+//! motion of the last `lag` seconds is integrated backwards from the
+//! current heading with the current slip parameters (so an iterated update
+//! can re-evaluate it at another state): the displacement and heading
+//! change from then to now, the velocity then, and their partial
+//! derivatives by the slip parameters. A negative lag (a fix from the
+//! future of the wheels) extrapolates with the newest speeds.
+
+use nalgebra::SMatrix;
+
+use crate::slip::{Chart, Slip, TreadInput};
+
+/// Steps kept (at 100 Hz, 2.5 s).
+pub(super) const CAPACITY: usize = 256;
+
+#[derive(Debug, Clone, Copy, Default)]
+struct Step {
+    dt: f64,
+    u: TreadInput,
+}
+
+/// Motion over a lag: displacement (world frame) and heading change from
+/// then to now, the velocity at that time, and `d(displacement east,
+/// north, heading change) / d(slip)`.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(super) struct Motion {
+    pub d_east: f64,
+    pub d_north: f64,
+    pub d_yaw: f64,
+    pub v_east: f64,
+    pub v_north: f64,
+    pub omega: f64,
+    pub d_slip: SMatrix<f64, 3, 5>,
+}
+
+#[derive(Debug, Clone)]
+pub(super) struct History {
+    steps: [Step; CAPACITY],
+    len: usize,
+    next: usize,
+}
+
+impl History {
+    pub(super) const fn new() -> Self {
+        Self {
+            steps: [Step {
+                dt: 0.0,
+                u: TreadInput {
+                    v_left: 0.0,
+                    v_right: 0.0,
+                },
+            }; CAPACITY],
+            len: 0,
+            next: 0,
+        }
+    }
+
+    /// Records one prediction step of `dt` s with tread speeds `u`.
+    pub(super) fn push(&mut self, dt: f64, u: TreadInput) {
+        self.steps[self.next] = Step { dt, u };
+        self.next = (self.next + 1) % CAPACITY;
+        self.len = (self.len + 1).min(CAPACITY);
+    }
+
+    /// Forgets the motion (after the pose was re-anchored).
+    pub(super) fn clear(&mut self) {
+        self.len = 0;
+    }
+
+    /// The motion of the last `lag` seconds with slip parameters `s` in
+    /// `chart`, ending at heading `yaw` (negative lag: extrapolated ahead).
+    pub(super) fn over(&self, lag: f64, chart: Chart, s: &Slip, yaw: f64) -> Motion {
+        let newest = if self.len > 0 {
+            self.steps[(self.next + CAPACITY - 1) % CAPACITY]
+        } else {
+            Step::default()
+        };
+        let mut m = Motion::default();
+        let lag = if lag.is_finite() { lag } else { 0.0 };
+        if lag <= 0.0 {
+            // Ahead of the newest step: the motion to come, negated.
+            let (t, j) = chart.twist(s, newest.u);
+            let (sn, cs) = (libm::sin(yaw), libm::cos(yaw));
+            m.v_east = t.v_x * cs - t.v_y * sn;
+            m.v_north = t.v_x * sn + t.v_y * cs;
+            m.omega = t.omega;
+            m.d_east = lag * m.v_east;
+            m.d_north = lag * m.v_north;
+            m.d_yaw = lag * m.omega;
+            for k in 0..5 {
+                m.d_slip[(0, k)] = lag * (j[(0, k)] * cs - j[(1, k)] * sn);
+                m.d_slip[(1, k)] = lag * (j[(0, k)] * sn + j[(1, k)] * cs);
+                m.d_slip[(2, k)] = lag * j[(2, k)];
+            }
+            return m;
+        }
+        let mut left = lag;
+        let mut heading = yaw;
+        let mut i = 0;
+        let mut last = newest;
+        while left > 0.0 {
+            // Beyond what is kept: continue at the oldest speeds kept.
+            let step = if i < self.len {
+                self.steps[(self.next + CAPACITY - 1 - i) % CAPACITY]
+            } else {
+                Step {
+                    dt: left,
+                    u: last.u,
+                }
+            };
+            i += 1;
+            last = step;
+            let dt = step.dt.min(left);
+            left -= dt;
+            let (t, j) = chart.twist(s, step.u);
+            // Integrated backwards: the heading at the start of this step.
+            heading -= dt * t.omega;
+            let (sn, cs) = (libm::sin(heading), libm::cos(heading));
+            let (ve, vn) = (t.v_x * cs - t.v_y * sn, t.v_x * sn + t.v_y * cs);
+            m.d_east += dt * ve;
+            m.d_north += dt * vn;
+            m.d_yaw += dt * t.omega;
+            for k in 0..5 {
+                m.d_slip[(0, k)] += dt * (j[(0, k)] * cs - j[(1, k)] * sn);
+                m.d_slip[(1, k)] += dt * (j[(0, k)] * sn + j[(1, k)] * cs);
+                m.d_slip[(2, k)] += dt * j[(2, k)];
+            }
+            m.v_east = ve;
+            m.v_north = vn;
+            m.omega = t.omega;
+        }
+        m
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kinematics::IcrParams;
+
+    #[test]
+    fn motion_over_a_lag_integrates_backwards_from_now() {
+        let chart = Chart::Tread;
+        let s = chart.from_icr(&IcrParams::no_slip(1.0));
+        let mut h = History::new();
+        // 0.1 s straight at 1 m/s, then 0.1 s spinning at 1 rad/s.
+        h.push(
+            0.1,
+            TreadInput {
+                v_left: 1.0,
+                v_right: 1.0,
+            },
+        );
+        h.push(
+            0.1,
+            TreadInput {
+                v_left: -0.5,
+                v_right: 0.5,
+            },
+        );
+        let yaw = 0.1;
+        let m = h.over(0.2, chart, &s, yaw);
+        assert!((m.d_yaw - 0.1).abs() < 1e-12);
+        // The straight was driven at heading 0.
+        assert!((m.d_east - 0.1).abs() < 1e-12 && m.d_north.abs() < 1e-12);
+        assert!((m.v_east - 1.0).abs() < 1e-12 && m.omega == 0.0);
+        let half = h.over(0.05, chart, &s, yaw);
+        assert!((half.d_yaw - 0.05).abs() < 1e-12 && (half.omega - 1.0).abs() < 1e-12);
+        let ahead = h.over(-0.5, chart, &s, yaw);
+        assert!((ahead.d_yaw + 0.5).abs() < 1e-12);
+        let beyond = h.over(1.2, chart, &s, yaw);
+        assert!((beyond.d_east - 1.1).abs() < 1e-9);
+    }
+}

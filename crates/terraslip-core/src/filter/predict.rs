@@ -1,0 +1,101 @@
+//! The prediction step: `x = f(x, u, dt)`, `P = F P F' + Q`.
+
+use nalgebra::SMatrix;
+
+use super::{finite_mat, Filter, FilterError};
+use crate::model::{self, BIAS_E, BIAS_N, CLOCK, EAST, N, NORTH, SLIP, YAW};
+use crate::slip::TreadInput;
+
+impl Filter {
+    /// Propagates over `dt` seconds with measured tread speeds `v_left`,
+    /// `v_right` (m/s, held over the step).
+    pub fn predict(&mut self, v_left: f64, v_right: f64, dt: f64) -> Result<(), FilterError> {
+        if !(v_left.is_finite() && v_right.is_finite()) {
+            return Err(FilterError::BadInput("tread speed not finite"));
+        }
+        if !(dt.is_finite() && dt >= 0.0) {
+            return Err(FilterError::BadInput("time step negative or not finite"));
+        }
+        let cfg = self.cfg;
+        self.still = v_left.abs() < cfg.still_speed && v_right.abs() < cfg.still_speed;
+        if dt == 0.0 {
+            return Ok(());
+        }
+        let u = TreadInput { v_left, v_right };
+        let (x, twist, rows) = model::step(&self.x, cfg.chart, u, dt);
+
+        // F = I except the pose rows (`rows`) and the bias decay `phi` on
+        // the bias diagonal: F P F' in two products of 3 rows / 3 columns.
+        let phi = if self.bias_std > 0.0 {
+            libm::exp(-dt / self.meas.correlation_time)
+        } else {
+            1.0
+        };
+        let fp: SMatrix<f64, 3, N> = rows * self.P;
+        let mut A = self.P;
+        A.fixed_rows_mut::<3>(0).copy_from(&fp);
+        for b in [BIAS_E, BIAS_N] {
+            for j in 0..N {
+                A[(b, j)] *= phi;
+            }
+        }
+        let afp: SMatrix<f64, N, 3> = A * rows.transpose();
+        let mut P = A;
+        P.fixed_columns_mut::<3>(0).copy_from(&afp);
+        for b in [BIAS_E, BIAS_N] {
+            for i in 0..N {
+                P[(i, b)] *= phi;
+            }
+        }
+
+        // Process noise.
+        let v = 0.5 * (v_left + v_right);
+        let w = twist.omega;
+        let (q_speed, q_turn) = self.model_noise();
+        let q_xy = dt * (cfg.q_pos + q_speed * v * v);
+        P[(EAST, EAST)] += q_xy;
+        P[(NORTH, NORTH)] += q_xy;
+        if self.anchored[1] {
+            P[(YAW, YAW)] += dt * (cfg.q_yaw + q_turn * w * w);
+        }
+        if self.meas.encoder_tick > 0.0 {
+            // Each step's tread increments are off by up to a tick.
+            let t2 = self.meas.encoder_tick * self.meas.encoder_tick;
+            let d = self.icr().guarded_spread();
+            if self.anchored[1] {
+                P[(YAW, YAW)] += t2 / (3.0 * d * d);
+            }
+            P[(EAST, EAST)] += t2 / 12.0;
+            P[(NORTH, NORTH)] += t2 / 12.0;
+        }
+        if !self.still {
+            let k = dt * self.schedule_scale;
+            let mut blk = P.fixed_view_mut::<5, 5>(SLIP, SLIP);
+            blk += self.q_slip * k;
+            if cfg.learn_clock {
+                P[(CLOCK, CLOCK)] += dt * cfg.clock_walk * cfg.clock_walk;
+            }
+        }
+        let qb = self.bias_std * self.bias_std * (1.0 - phi * phi);
+        P[(BIAS_E, BIAS_E)] += qb;
+        P[(BIAS_N, BIAS_N)] += qb;
+
+        if !finite_mat(&x) || (0..N).any(|i| !P[(i, i)].is_finite()) {
+            return Err(FilterError::NonFinite);
+        }
+        let (ve, vn) = model::world_velocity(&twist, self.x[YAW]);
+        if let Some(c) = self.chord.as_mut() {
+            c.odo.0 += ve * dt;
+            c.odo.1 += vn * dt;
+        }
+        self.x = x;
+        self.x[BIAS_E] *= phi;
+        self.x[BIAS_N] *= phi;
+        self.P = P;
+        self.twist = twist;
+        self.history.push(dt, u);
+        self.basis[0] += v * v * dt;
+        self.basis[1] += w * w * dt;
+        Ok(())
+    }
+}

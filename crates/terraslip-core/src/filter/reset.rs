@@ -1,0 +1,85 @@
+//! Covariance resets of the slip parameters: at a change the slip-change
+//! detector finds, and at the terrain schedule's changes and recalls
+//! (chen2023's covariance reset, the terrain memory).
+
+use super::{Filter, FilterError, SlipStd};
+use crate::kinematics::IcrParams;
+use crate::model::{N, SLIP};
+use crate::slip::SlipMat;
+
+impl Filter {
+    /// Adds [`super::FilterConfig::change_reset`] to the slip uncertainty
+    /// (its correlations with the pose kept: the pose has not changed).
+    pub(super) fn raise_slip_uncertainty(&mut self) -> Result<(), FilterError> {
+        let add = self
+            .cfg
+            .change_reset
+            .chart_cov(self.cfg.chart, &self.icr())
+            .ok_or(FilterError::NonFinite)?;
+        let mut blk = self.P.fixed_view_mut::<5, 5>(SLIP, SLIP);
+        blk += add;
+        for d in &mut self.detector {
+            d.clear();
+        }
+        Ok(())
+    }
+
+    /// Resets the slip parameters to `icr` (or keeps the current values if
+    /// `None`) with standard deviations `std`, uncorrelated with the rest of
+    /// the state. With `keep_factor_difference`, the tread speed factor
+    /// difference `alpha_l - alpha_r` keeps its current value and variance:
+    /// it belongs to the robot (tyres, gearing), not to the ground.
+    pub fn reset_slip(
+        &mut self,
+        icr: Option<&IcrParams>,
+        std: &SlipStd,
+        keep_factor_difference: bool,
+    ) -> Result<(), FilterError> {
+        let now = self.icr();
+        let cov_now = self.icr_covariance();
+        let mut target = icr.copied().unwrap_or(now);
+        let mut std = *std;
+        if keep_factor_difference {
+            let a = 0.5 * (target.alpha_l + target.alpha_r);
+            let e = now.alpha_l - now.alpha_r;
+            target.alpha_l = a + 0.5 * e;
+            target.alpha_r = a - 0.5 * e;
+            let var_e = cov_now[(3, 3)] + cov_now[(4, 4)] - 2.0 * cov_now[(3, 4)];
+            std.alpha_diff = libm::sqrt(var_e.max(0.0));
+        }
+        self.set_slip(&target, &std.icr_cov())
+    }
+
+    /// Sets the slip parameters to `icr` with covariance `icr_cov` on
+    /// `(y_l, y_r, x_c, alpha_l, alpha_r)`, uncorrelated with the rest.
+    pub fn set_slip(&mut self, icr: &IcrParams, icr_cov: &SlipMat) -> Result<(), FilterError> {
+        icr.validate()
+            .map_err(|_| FilterError::BadInput("reset ICR parameters are not usable"))?;
+        if !icr_cov.iter().all(|v| v.is_finite()) {
+            return Err(FilterError::BadInput("reset covariance not finite"));
+        }
+        let chart = self.cfg.chart;
+        let (icr, _) = self.band.project(icr);
+        let s = chart.from_icr(&icr);
+        let c = chart
+            .cov_from_icr(&s, icr_cov)
+            .ok_or(FilterError::BadInput("reset ICR parameters are singular"))?;
+        self.x.fixed_rows_mut::<5>(SLIP).copy_from(&s);
+        for i in SLIP..SLIP + 5 {
+            for j in 0..N {
+                if !(SLIP..SLIP + 5).contains(&j) {
+                    self.P[(i, j)] = 0.0;
+                    self.P[(j, i)] = 0.0;
+                }
+            }
+        }
+        self.P.fixed_view_mut::<5, 5>(SLIP, SLIP).copy_from(&c);
+        if let Some(q) = self.cfg.slip_walk.chart_cov(chart, &icr) {
+            self.q_slip = q;
+        }
+        for d in &mut self.detector {
+            d.clear();
+        }
+        Ok(())
+    }
+}

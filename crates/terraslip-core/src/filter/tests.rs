@@ -1,0 +1,442 @@
+//! Filter tests on small exact-model drives.
+
+use super::*;
+use crate::angle;
+use crate::rng::SplitMix64;
+use crate::slip::Chart;
+
+fn band(w: f64) -> IcrBand {
+    IcrBand {
+        min_spread: 0.8 * w,
+        max_spread: 4.0 * w,
+        max_centre: 0.25 * w,
+        max_x_c: 0.5 * w,
+        alpha_range: (0.3, 1.5),
+    }
+}
+
+fn prior(w: f64) -> Prior {
+    Prior {
+        icr: IcrParams::no_slip(w),
+        std: SlipStd {
+            spread: 0.5 * w,
+            centre: 0.05,
+            x_c: 0.1,
+            alpha: 0.15,
+            alpha_diff: 0.01,
+        },
+    }
+}
+
+fn papers_cfg() -> (FilterConfig, MeasurementConfig) {
+    let mut cfg = FilterConfig::default();
+    cfg.chart = Chart::Tread;
+    cfg.update_iterations = 1;
+    cfg.learn_alpha = false;
+    cfg.learn_clock = false;
+    cfg.change_window = 0;
+    cfg.noise_memory = 0.0;
+    let mut meas = MeasurementConfig::default();
+    meas.correlated_fraction = 0.0;
+    meas.clock_offset_std = 0.0;
+    (cfg, meas)
+}
+
+/// Tread speeds of an operator weaving left and right at 0.5-1 m/s.
+fn treads(t: f64) -> (f64, f64) {
+    let v = 0.75 + 0.25 * libm::sin(0.05 * t);
+    let turn = 0.35 * libm::sin(0.21 * t) + 0.2 * libm::cos(0.077 * t);
+    (v - turn, v + turn)
+}
+
+/// Settings of [`drive`].
+struct Drive {
+    truth: IcrParams,
+    /// Truth from this time on (a change of ground), with its start.
+    change: Option<(f64, IcrParams)>,
+    duration: f64,
+    fix_hz: f64,
+    std_xy: f64,
+    std_yaw: f64,
+    /// How late the fixes are stamped, s.
+    delay: f64,
+    heading: bool,
+    /// Random constant tread speeds held for 2 s each (the DRIVE
+    /// protocol) instead of smooth weaving.
+    windows: bool,
+    seed: u64,
+}
+
+impl Default for Drive {
+    fn default() -> Self {
+        Self {
+            truth: IcrParams {
+                y_l: 0.52,
+                y_r: -0.50,
+                x_c: 0.03,
+                alpha_l: 0.82,
+                alpha_r: 0.83,
+            },
+            change: None,
+            duration: 200.0,
+            fix_hz: 5.0,
+            std_xy: 0.03,
+            std_yaw: 0.005,
+            delay: 0.0,
+            heading: true,
+            windows: false,
+            seed: 1,
+        }
+    }
+}
+
+/// Runs `f` over an exact-model drive (50 Hz wheels); returns the true
+/// pose and ICRs at the end.
+fn run(f: &mut Filter, d: &Drive) -> ((f64, f64, f64), IcrParams) {
+    let mut rng = SplitMix64::new(d.seed);
+    let dt = 0.02;
+    let (mut e, mut n, mut yaw) = (0.0f64, 0.0f64, 0.4f64);
+    let every = (1.0 / (d.fix_hz * dt)).round().max(1.0) as usize;
+    let steps = (d.duration / dt) as usize;
+    let mut truth = d.truth;
+    // (stamp, fix) waiting for their stamp time.
+    let mut pending: Vec<(f64, PoseFix)> = Vec::new();
+    f.predict(0.0, 0.0, 0.0).unwrap();
+    let mut window = (0.5, 0.5);
+    for k in 1..=steps {
+        let t = k as f64 * dt;
+        if let Some((tc, p)) = d.change {
+            if t >= tc {
+                truth = p;
+            }
+        }
+        if d.windows && k % 100 == 1 {
+            window = (2.0 * rng.uniform() - 0.5, 2.0 * rng.uniform() - 0.5);
+        }
+        let (vl, vr) = if d.windows { window } else { treads(t) };
+        let tw = truth.twist(vl, vr);
+        for _ in 0..10 {
+            let h = dt / 10.0;
+            e += h * (tw.v_x * libm::cos(yaw) - tw.v_y * libm::sin(yaw));
+            n += h * (tw.v_x * libm::sin(yaw) + tw.v_y * libm::cos(yaw));
+            yaw = angle::wrap(yaw + h * tw.omega);
+        }
+        f.predict(vl, vr, dt).unwrap();
+        if k % every == 0 {
+            pending.push((
+                t + d.delay,
+                PoseFix {
+                    position: Some((e + d.std_xy * rng.normal(), n + d.std_xy * rng.normal())),
+                    yaw: d
+                        .heading
+                        .then(|| angle::wrap(yaw + d.std_yaw * rng.normal())),
+                    std_xy: d.std_xy,
+                    std_yaw: d.std_yaw,
+                    stated: true,
+                },
+            ));
+        }
+        while pending.first().is_some_and(|(ts, _)| *ts <= t + 1e-9) {
+            let (ts, fix) = pending.remove(0);
+            f.update(ts, t - ts, &fix).unwrap();
+        }
+    }
+    ((e, n, yaw), truth)
+}
+
+fn assert_spd(f: &Filter) {
+    let (_, P) = f.raw();
+    assert!((P - P.transpose()).abs().max() < 1e-12);
+    let eig = P.symmetric_eigen();
+    assert!(
+        eig.eigenvalues.iter().all(|v| *v > -1e-12),
+        "{:?}",
+        eig.eigenvalues
+    );
+}
+
+#[test]
+fn learns_spread_and_speed_factor_from_lidar_grade_fixes() {
+    let mut f = Filter::new(
+        &prior(0.5),
+        FilterConfig::default(),
+        MeasurementConfig::default(),
+        band(0.5),
+    )
+    .unwrap();
+    let d = Drive::default();
+    let ((e, n, _), truth) = run(&mut f, &d);
+    let p = f.icr();
+    assert!((p.spread() - truth.spread()).abs() < 0.01, "{p:?}");
+    assert!((p.alpha_l - truth.alpha_l).abs() < 0.005, "{p:?}");
+    assert!((p.alpha_r - truth.alpha_r).abs() < 0.005, "{p:?}");
+    let (fe, fn_, _) = f.pose();
+    assert!(libm::hypot(fe - e, fn_ - n) < 0.1);
+    assert_spd(&f);
+    // Honest: the errors are within 3 reported stds.
+    let c = f.icr_covariance();
+    assert!((p.alpha_l - truth.alpha_l).abs() < 3.0 * c[(3, 3)].sqrt() + 1e-3);
+}
+
+#[test]
+fn learns_the_clock_offset_of_a_late_pose_stream() {
+    for chart in [Chart::Gain, Chart::Tread] {
+        let mut cfg = FilterConfig::default();
+        cfg.chart = chart;
+        let mut f = Filter::new(&prior(0.5), cfg, MeasurementConfig::default(), band(0.5)).unwrap();
+        let d = Drive {
+            delay: 0.3,
+            ..Default::default()
+        };
+        let (_, truth) = run(&mut f, &d);
+        let (clock, sd) = f.clock_offset();
+        assert!((clock - 0.3).abs() < 0.03, "{chart:?}: {clock} +- {sd}");
+        assert!(
+            (f.icr().spread() - truth.spread()).abs() < 0.02,
+            "{chart:?}"
+        );
+    }
+}
+
+#[test]
+fn a_late_pose_stream_is_blamed_on_the_clock_not_on_the_slip() {
+    // Commands that change every 2 s (as in the DRIVE protocol): a pose
+    // stream 0.3 s late shows each change of turn 0.3 s after the treads.
+    // Without the clock state that lag is read as slip and noise.
+    let run_with = |learn_clock: bool| {
+        let mut cfg = FilterConfig::default();
+        cfg.learn_clock = learn_clock;
+        let mut f = Filter::new(&prior(0.5), cfg, MeasurementConfig::default(), band(0.5)).unwrap();
+        let d = Drive {
+            delay: 0.3,
+            windows: true,
+            ..Default::default()
+        };
+        let (_, truth) = run(&mut f, &d);
+        let p = f.icr();
+        (
+            (p.spread() - truth.spread()).abs(),
+            (p.alpha_l - truth.alpha_l).abs(),
+            f.clock_offset().0,
+        )
+    };
+    let (with, without) = (run_with(true), run_with(false));
+    assert!((with.2 - 0.3).abs() < 0.02, "{with:?}");
+    assert!(with.0 < 0.01 && with.1 < 0.005, "{with:?}");
+    assert!(
+        without.0 > 3.0 * with.0 || without.1 > 3.0 * with.1,
+        "{with:?} vs {without:?}"
+    );
+}
+
+#[test]
+fn learns_the_pose_noise_when_none_is_stated() {
+    let mut f = Filter::new(
+        &prior(0.5),
+        FilterConfig::default(),
+        MeasurementConfig::default(),
+        band(0.5),
+    )
+    .unwrap();
+    let d = Drive::default();
+    // Same drive, but the fixes state a configured 1 m / 2 deg guess.
+    let mut rng = SplitMix64::new(9);
+    let dt = 0.02;
+    let (mut e, mut n, mut yaw) = (0.0f64, 0.0f64, 0.4f64);
+    f.predict(0.0, 0.0, 0.0).unwrap();
+    for k in 1..=10_000 {
+        let t = k as f64 * dt;
+        let (vl, vr) = treads(t);
+        let tw = d.truth.twist(vl, vr);
+        e += dt * (tw.v_x * libm::cos(yaw) - tw.v_y * libm::sin(yaw));
+        n += dt * (tw.v_x * libm::sin(yaw) + tw.v_y * libm::cos(yaw));
+        yaw = angle::wrap(yaw + dt * tw.omega);
+        f.predict(vl, vr, dt).unwrap();
+        if k % 10 == 0 {
+            let fix = PoseFix {
+                position: Some((e + 0.03 * rng.normal(), n + 0.03 * rng.normal())),
+                yaw: Some(angle::wrap(yaw + 0.005 * rng.normal())),
+                std_xy: 1.0,
+                std_yaw: 2f64.to_radians(),
+                stated: false,
+            };
+            f.update(t, 0.0, &fix).unwrap();
+        }
+    }
+    let (sxy, syaw, corr) = f.noise(1.0, 2f64.to_radians());
+    assert!(sxy > 0.02 && sxy < 0.05, "{sxy}");
+    assert!(syaw > 0.003 && syaw < 0.01, "{syaw}");
+    assert_eq!(corr, 0.0);
+    assert!((f.icr().spread() - d.truth.spread()).abs() < 0.01);
+}
+
+#[test]
+fn a_multipath_jump_is_gated_and_the_gate_keeps_its_meaning() {
+    let mut f = Filter::new(
+        &prior(0.5),
+        FilterConfig::default(),
+        MeasurementConfig::default(),
+        band(0.5),
+    )
+    .unwrap();
+    let d = Drive {
+        duration: 60.0,
+        fix_hz: 1.0,
+        std_xy: 0.5,
+        std_yaw: 0.02,
+        ..Default::default()
+    };
+    run(&mut f, &d);
+    let before = f.pose();
+    let (e, n, _) = before;
+    let jump = PoseFix {
+        position: Some((e + 30.0, n)),
+        yaw: None,
+        std_xy: 0.5,
+        std_yaw: 0.02,
+        stated: true,
+    };
+    let rep = f.update(60.0, 0.0, &jump).unwrap();
+    assert_eq!(rep.position, Fate::Gated);
+    assert!(rep.nis_position > 1000.0);
+    assert!((f.pose().0 - e).abs() < 1e-9);
+    // A 1e308 position is rejected the same way, and the state stays finite.
+    let wild = PoseFix {
+        position: Some((1e308, n)),
+        ..jump
+    };
+    let rep = f.update(60.1, 0.0, &wild).unwrap();
+    assert_eq!(rep.position, Fate::Gated);
+    let (x, _) = f.raw();
+    assert!(x.iter().all(|v| v.is_finite()));
+}
+
+#[test]
+fn finds_the_heading_from_position_fixes_alone() {
+    let mut f = Filter::new(
+        &prior(0.5),
+        FilterConfig::default(),
+        MeasurementConfig::default(),
+        band(0.5),
+    )
+    .unwrap();
+    let d = Drive {
+        heading: false,
+        fix_hz: 1.0,
+        std_xy: 0.3,
+        duration: 300.0,
+        ..Default::default()
+    };
+    let ((_, _, yaw), truth) = run(&mut f, &d);
+    assert_eq!(f.anchored(), [true, true]);
+    let err = angle::wrap(f.pose().2 - yaw);
+    assert!(err.abs() < 0.1, "{err}");
+    assert!((f.icr().spread() - truth.spread()).abs() < 0.1);
+}
+
+#[test]
+fn the_change_detector_finds_a_new_ground_and_relearns() {
+    let mut cfg = FilterConfig::default();
+    let new = IcrParams {
+        y_l: 0.65,
+        y_r: -0.63,
+        x_c: 0.03,
+        alpha_l: 0.82,
+        alpha_r: 0.83,
+    };
+    let d = Drive {
+        change: Some((100.0, new)),
+        fix_hz: 1.0,
+        std_xy: 0.5,
+        std_yaw: 0.0175,
+        ..Default::default()
+    };
+    let mut f = Filter::new(&prior(0.5), cfg, MeasurementConfig::default(), band(0.5)).unwrap();
+    run(&mut f, &d);
+    let with = (f.icr().spread() - new.spread()).abs();
+    cfg.change_window = 0;
+    let mut g = Filter::new(&prior(0.5), cfg, MeasurementConfig::default(), band(0.5)).unwrap();
+    run(&mut g, &d);
+    let without = (g.icr().spread() - new.spread()).abs();
+    assert!(with < 0.03, "{with}");
+    assert!(with < 0.5 * without, "{with} vs {without}");
+}
+
+#[test]
+fn the_papers_innovation_adaptive_form_can_break_and_is_refused_then() {
+    // Tiny innovations make the windowed covariance far smaller than
+    // H P H' + R (or singular): the gain exceeds one and (I - K H) P goes
+    // indefinite. The update is refused; the state stays finite.
+    let (mut cfg, meas) = papers_cfg();
+    cfg.variant = Variant::InnovationAdaptive;
+    cfg.innovation_window = 3;
+    let mut f = Filter::new(&prior(0.5), cfg, meas, band(0.5)).unwrap();
+    let fix = |e: f64, n: f64, y: f64| PoseFix {
+        position: Some((e, n)),
+        yaw: Some(y),
+        std_xy: 2.0,
+        std_yaw: 0.0175,
+        stated: true,
+    };
+    f.update(0.0, 0.0, &fix(0.0, 0.0, 0.0)).unwrap();
+    let mut refused = false;
+    for k in 0..10 {
+        f.predict(0.3, 0.3, 0.02).unwrap();
+        let (e, n, y) = f.pose();
+        let eps = 1e-4 * (k as f64 + 1.0);
+        match f.update(k as f64, 0.0, &fix(e + eps, n - eps, y + 1e-5)) {
+            Err(FilterError::LostDefiniteness | FilterError::SingularInnovation) => refused = true,
+            Ok(_) => {}
+            Err(e) => panic!("{e}"),
+        }
+        let (x, P) = f.raw();
+        assert!(x.iter().all(|v| v.is_finite()));
+        assert!((0..crate::model::N).all(|i| P[(i, i)] >= 0.0));
+    }
+    assert!(refused, "expected the paper's form to break");
+}
+
+#[test]
+fn covariance_stays_symmetric_positive_definite_through_anything() {
+    let mut rng = SplitMix64::new(11);
+    for chart in [Chart::Gain, Chart::Tread] {
+        let mut cfg = FilterConfig::default();
+        cfg.chart = chart;
+        let mut f = Filter::new(&prior(0.5), cfg, MeasurementConfig::default(), band(0.5)).unwrap();
+        f.predict(0.0, 0.0, 0.0).unwrap();
+        for k in 0..3000 {
+            let vl = 2.0 * rng.normal();
+            let vr = 2.0 * rng.normal();
+            f.predict(vl, vr, 0.01 + 0.05 * rng.uniform()).unwrap();
+            if k % 7 == 0 {
+                let (e, n, y) = f.pose();
+                let fix = PoseFix {
+                    position: (rng.uniform() < 0.8)
+                        .then(|| (e + 3.0 * rng.normal(), n + 3.0 * rng.normal())),
+                    yaw: (rng.uniform() < 0.7).then(|| y + 0.3 * rng.normal()),
+                    std_xy: 0.01 + 2.0 * rng.uniform(),
+                    std_yaw: 0.001 + 0.1 * rng.uniform(),
+                    stated: rng.uniform() < 0.5,
+                };
+                let lag = 0.3 * rng.normal();
+                f.update(k as f64, lag, &fix).unwrap();
+            }
+            if k % 500 == 0 {
+                let std = SlipStd {
+                    spread: 0.1,
+                    centre: 0.01,
+                    x_c: 0.02,
+                    alpha: 0.05,
+                    alpha_diff: 0.01,
+                };
+                f.reset_slip(None, &std, k % 1000 == 0).unwrap();
+            }
+        }
+        assert_spd(&f);
+        let (x, _) = f.raw();
+        assert!(x.iter().all(|v| v.is_finite()));
+        let p = f.icr();
+        let (q, moved) = band(0.5).project(&p);
+        assert!(!moved, "{q:?}");
+    }
+}

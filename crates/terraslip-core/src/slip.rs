@@ -1,0 +1,348 @@
+//! Coordinates in which a filter carries the five slip parameters of
+//! [`IcrParams`] (its "chart"), and the body twist with its partial
+//! derivatives in those coordinates.
+//!
+//! * [`Chart::Tread`]: `(y_l, y_r, x_c, alpha_l, alpha_r)` as they are: the
+//!   papers' filters (lv2019, wang2018, chen2023) estimate the ICRs in these
+//!   coordinates.
+//! * [`Chart::Gain`]: `(g, h, a, y_c, x_c)` with
+//!   `g = a / d` (1/m), `h = (alpha_l - alpha_r) / d` (1/m),
+//!   `a = (alpha_l + alpha_r) / 2`, `y_c = (y_l + y_r) / 2` (m) and `x_c`
+//!   (m), where `d = y_l - y_r`. In them the yaw rate is linear,
+//!   `omega = g (V_r - V_l) - h (V_l + V_r) / 2`, and the body velocity is
+//!   that of the point `(x_c, y_c)` moving straight ahead at the mean tread
+//!   speed: `v_x = vbar + y_c omega`, `v_y = -x_c omega`. A heading sensor
+//!   sees `g` and `h` only, position sees `a` (and the lever arms `y_c`,
+//!   `x_c` in turns), so no linearisation point makes one sensor "observe"
+//!   what only the other can: the spread `d = a / g` is as well known as
+//!   the speed factor is.
+//!
+//! Both give the same twist for the same [`IcrParams`] (unit-tested), so
+//! the choice only changes how an estimator's uncertainty and linearisation
+//! are shaped.
+
+use nalgebra::{SMatrix, SVector};
+
+use crate::kinematics::{IcrParams, Twist, MIN_SPREAD};
+
+/// Five slip parameters in a chart's coordinates.
+pub type Slip = SVector<f64, 5>;
+/// A 5x5 matrix over slip parameters (covariances, Jacobians).
+pub type SlipMat = SMatrix<f64, 5, 5>;
+/// Partial derivatives of the body twist `(v_x, v_y, omega)` by the five
+/// slip parameters of a chart.
+pub type TwistJac = SMatrix<f64, 3, 5>;
+
+/// Smallest turning gain `g` (1/m) the [`Chart::Gain`] conversions divide
+/// by: a spread of a kilometre.
+const MIN_GAIN: f64 = 1e-3;
+
+/// Measured tread speeds of one step, m/s (encoder speeds, before the
+/// speed factors `alpha`).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct TreadInput {
+    /// Left tread speed, m/s.
+    pub v_left: f64,
+    /// Right tread speed, m/s.
+    pub v_right: f64,
+}
+
+/// Coordinates of the slip parameters. See the module documentation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "kebab-case"))]
+pub enum Chart {
+    /// `(y_l, y_r, x_c, alpha_l, alpha_r)`: the papers' coordinates.
+    Tread,
+    /// `(g, h, a, y_c, x_c)`: turning gain, heading drift per metre, common
+    /// speed factor, ICR centre offsets.
+    Gain,
+}
+
+impl Chart {
+    /// Indices (in the chart's five) of the parameters that hold the tread
+    /// speed factors (what `learn_alpha = false` keeps fixed).
+    pub fn factor_slots(self) -> [usize; 2] {
+        match self {
+            Chart::Tread => [3, 4],
+            Chart::Gain => [1, 2],
+        }
+    }
+
+    /// The chart coordinates of `p`.
+    pub fn from_icr(self, p: &IcrParams) -> Slip {
+        match self {
+            Chart::Tread => Slip::new(p.y_l, p.y_r, p.x_c, p.alpha_l, p.alpha_r),
+            Chart::Gain => {
+                let d = p.guarded_spread();
+                let a = 0.5 * (p.alpha_l + p.alpha_r);
+                Slip::new(
+                    a / d,
+                    (p.alpha_l - p.alpha_r) / d,
+                    a,
+                    0.5 * (p.y_l + p.y_r),
+                    p.x_c,
+                )
+            }
+        }
+    }
+
+    /// The ICR parameters of chart coordinates `s`.
+    pub fn to_icr(self, s: &Slip) -> IcrParams {
+        match self {
+            Chart::Tread => IcrParams {
+                y_l: s[0],
+                y_r: s[1],
+                x_c: s[2],
+                alpha_l: s[3],
+                alpha_r: s[4],
+            },
+            Chart::Gain => {
+                let (g, h, a, y_c) = (s[0].max(MIN_GAIN), s[1], s[2], s[3]);
+                let d = a / g;
+                let e = 0.5 * h * d;
+                IcrParams {
+                    y_l: y_c + 0.5 * d,
+                    y_r: y_c - 0.5 * d,
+                    x_c: s[4],
+                    alpha_l: a + e,
+                    alpha_r: a - e,
+                }
+            }
+        }
+    }
+
+    /// `d(y_l, y_r, x_c, alpha_l, alpha_r) / d(chart)` at `s`: carries a
+    /// covariance from the chart to the ICR parameters (`J P J'`).
+    pub fn icr_jacobian(self, s: &Slip) -> SlipMat {
+        match self {
+            Chart::Tread => SlipMat::identity(),
+            Chart::Gain => {
+                let (g, h, a) = (s[0].max(MIN_GAIN), s[1], s[2]);
+                let g2 = g * g;
+                let mut j = SlipMat::zeros();
+                // d = a/g; e = h a / (2 g)
+                let (dd_dg, dd_da) = (-a / g2, 1.0 / g);
+                let (de_dg, de_dh, de_da) = (-h * a / (2.0 * g2), a / (2.0 * g), h / (2.0 * g));
+                // y_l = y_c + d/2, y_r = y_c - d/2
+                j[(0, 0)] = 0.5 * dd_dg;
+                j[(0, 2)] = 0.5 * dd_da;
+                j[(0, 3)] = 1.0;
+                j[(1, 0)] = -0.5 * dd_dg;
+                j[(1, 2)] = -0.5 * dd_da;
+                j[(1, 3)] = 1.0;
+                j[(2, 4)] = 1.0;
+                // alpha_l = a + e, alpha_r = a - e
+                j[(3, 0)] = de_dg;
+                j[(3, 1)] = de_dh;
+                j[(3, 2)] = 1.0 + de_da;
+                j[(4, 0)] = -de_dg;
+                j[(4, 1)] = -de_dh;
+                j[(4, 2)] = 1.0 - de_da;
+                j
+            }
+        }
+    }
+
+    /// A covariance over the ICR parameters `(y_l, y_r, x_c, alpha_l,
+    /// alpha_r)` carried into the chart at `s` (first order). `None` when
+    /// the chart is singular there.
+    pub fn cov_from_icr(self, s: &Slip, icr_cov: &SlipMat) -> Option<SlipMat> {
+        match self {
+            Chart::Tread => Some(*icr_cov),
+            Chart::Gain => {
+                let inv = self.icr_jacobian(s).try_inverse()?;
+                let c = inv * icr_cov * inv.transpose();
+                Some(0.5 * (c + c.transpose()))
+            }
+        }
+    }
+
+    /// A chart covariance carried to the ICR parameters at `s`.
+    pub fn cov_to_icr(self, s: &Slip, cov: &SlipMat) -> SlipMat {
+        let j = self.icr_jacobian(s);
+        let c = j * cov * j.transpose();
+        0.5 * (c + c.transpose())
+    }
+
+    /// Body twist (REP-103 body frame) from measured tread speeds, and its
+    /// partial derivatives by the chart's parameters at `s`.
+    #[inline]
+    pub fn twist(self, s: &Slip, u: TreadInput) -> (Twist, TwistJac) {
+        let mut jac = TwistJac::zeros();
+        match self {
+            Chart::Tread => {
+                let (y_l, y_r, x_c) = (s[0], s[1], s[2]);
+                let d = (y_l - y_r).max(MIN_SPREAD);
+                let inv_d = 1.0 / d;
+                let (v_l, v_r) = (s[3] * u.v_left, s[4] * u.v_right);
+                let omega = (v_r - v_l) * inv_d;
+                let t = Twist {
+                    v_x: (v_r * y_l - v_l * y_r) * inv_d,
+                    v_y: -x_c * omega,
+                    omega,
+                };
+                let dlr = (v_l - v_r) * inv_d * inv_d;
+                // columns y_l, y_r, x_c, alpha_l, alpha_r; rows v_x, v_y, omega
+                let cols = [
+                    (y_r * dlr, dlr),
+                    (-y_l * dlr, -dlr),
+                    (0.0, 0.0),
+                    (-u.v_left * y_r * inv_d, -u.v_left * inv_d),
+                    (u.v_right * y_l * inv_d, u.v_right * inv_d),
+                ];
+                for (k, (dvx, dw)) in cols.into_iter().enumerate() {
+                    jac[(0, k)] = dvx;
+                    jac[(1, k)] = -x_c * dw;
+                    jac[(2, k)] = dw;
+                }
+                jac[(1, 2)] = -omega;
+                (t, jac)
+            }
+            Chart::Gain => {
+                let (g, h, a, y_c, x_c) = (s[0].max(MIN_GAIN), s[1], s[2], s[3], s[4]);
+                let dv = u.v_right - u.v_left;
+                let vm = 0.5 * (u.v_left + u.v_right);
+                let omega = g * dv - h * vm;
+                let q = dv / (4.0 * g);
+                let vbar = a * vm - h * a * q;
+                let t = Twist {
+                    v_x: vbar + y_c * omega,
+                    v_y: -x_c * omega,
+                    omega,
+                };
+                let dw = [dv, -vm, 0.0, 0.0, 0.0];
+                let dvbar = [h * a * q / g, -a * q, vm - h * q, 0.0, 0.0];
+                for k in 0..5 {
+                    jac[(0, k)] = dvbar[k] + y_c * dw[k];
+                    jac[(1, k)] = -x_c * dw[k];
+                    jac[(2, k)] = dw[k];
+                }
+                jac[(0, 3)] += omega;
+                jac[(1, 4)] -= omega;
+                (t, jac)
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn params() -> impl Strategy<Value = IcrParams> {
+        (
+            0.1f64..1.5,
+            -1.5f64..-0.1,
+            -0.3f64..0.3,
+            0.5f64..1.3,
+            0.5f64..1.3,
+        )
+            .prop_map(|(y_l, y_r, x_c, alpha_l, alpha_r)| IcrParams {
+                y_l,
+                y_r,
+                x_c,
+                alpha_l,
+                alpha_r,
+            })
+    }
+
+    fn close(a: f64, b: f64, tol: f64) -> bool {
+        (a - b).abs() <= tol * (1.0 + a.abs().max(b.abs()))
+    }
+
+    proptest! {
+        #[test]
+        fn charts_round_trip_and_agree_on_the_twist(
+            p in params(), vl in -3.0f64..3.0, vr in -3.0f64..3.0,
+        ) {
+            let u = TreadInput { v_left: vl, v_right: vr };
+            let want = p.twist(vl, vr);
+            for chart in [Chart::Tread, Chart::Gain] {
+                let s = chart.from_icr(&p);
+                let back = chart.to_icr(&s);
+                for (a, b) in [(back.y_l, p.y_l), (back.y_r, p.y_r), (back.x_c, p.x_c),
+                               (back.alpha_l, p.alpha_l), (back.alpha_r, p.alpha_r)] {
+                    prop_assert!(close(a, b, 1e-12));
+                }
+                let (t, _) = chart.twist(&s, u);
+                prop_assert!(close(t.v_x, want.v_x, 1e-12));
+                prop_assert!(close(t.v_y, want.v_y, 1e-12));
+                prop_assert!(close(t.omega, want.omega, 1e-12));
+            }
+        }
+
+        #[test]
+        fn jacobians_match_central_differences(
+            p in params(), vl in -3.0f64..3.0, vr in -3.0f64..3.0,
+        ) {
+            let u = TreadInput { v_left: vl, v_right: vr };
+            for chart in [Chart::Tread, Chart::Gain] {
+                let s = chart.from_icr(&p);
+                let (_, jt) = chart.twist(&s, u);
+                let ji = chart.icr_jacobian(&s);
+                for k in 0..5 {
+                    let h = 1e-6 * (1.0 + s[k].abs());
+                    let (mut sp, mut sm) = (s, s);
+                    sp[k] += h;
+                    sm[k] -= h;
+                    let (tp, _) = chart.twist(&sp, u);
+                    let (tm, _) = chart.twist(&sm, u);
+                    let num = [(tp.v_x - tm.v_x), (tp.v_y - tm.v_y), (tp.omega - tm.omega)];
+                    for r in 0..3 {
+                        prop_assert!((num[r] / (2.0 * h) - jt[(r, k)]).abs() < 1e-5,
+                            "{chart:?} twist d{r}/d{k}: {} vs {}", num[r] / (2.0 * h), jt[(r, k)]);
+                    }
+                    let (ip, im) = (chart.to_icr(&sp), chart.to_icr(&sm));
+                    let num = [ip.y_l - im.y_l, ip.y_r - im.y_r, ip.x_c - im.x_c,
+                               ip.alpha_l - im.alpha_l, ip.alpha_r - im.alpha_r];
+                    for r in 0..5 {
+                        prop_assert!((num[r] / (2.0 * h) - ji[(r, k)]).abs() < 1e-5 * (1.0 + ji[(r, k)].abs()),
+                            "{chart:?} icr d{r}/d{k}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn gain_chart_separates_what_heading_and_position_see() {
+        // Scaling the speed factors and the spread together leaves the yaw
+        // rate alone: in the gain chart that is a change of `a` alone, and
+        // the heading's row of the Jacobian has no `a` column.
+        let p = IcrParams {
+            y_l: 0.4,
+            y_r: -0.38,
+            x_c: 0.02,
+            alpha_l: 0.9,
+            alpha_r: 0.91,
+        };
+        let s = Chart::Gain.from_icr(&p);
+        let (_, j) = Chart::Gain.twist(
+            &s,
+            TreadInput {
+                v_left: 0.2,
+                v_right: 0.9,
+            },
+        );
+        assert_eq!(j[(2, 2)], 0.0);
+        let mut q = p;
+        for v in [&mut q.y_l, &mut q.y_r, &mut q.alpha_l, &mut q.alpha_r] {
+            *v *= 0.8;
+        }
+        let s2 = Chart::Gain.from_icr(&q);
+        assert!((s2[0] - s[0]).abs() < 1e-12 && (s2[1] - s[1]).abs() < 1e-12);
+        assert!((s2[2] - 0.8 * s[2]).abs() < 1e-12);
+    }
+
+    #[test]
+    fn covariances_carry_both_ways() {
+        let p = IcrParams::no_slip(0.5);
+        let s = Chart::Gain.from_icr(&p);
+        let c = SlipMat::from_diagonal(&Slip::new(0.01, 0.01, 1e-4, 1e-4, 1e-4));
+        let icr = Chart::Gain.cov_to_icr(&s, &c);
+        let back = Chart::Gain.cov_from_icr(&s, &icr).unwrap();
+        assert!((back - c).abs().max() < 1e-12);
+    }
+}

@@ -1,0 +1,542 @@
+//! Runs the online estimator over a drive log: the streams (tread speeds,
+//! pose fixes, terrain evidence) are merged by time and handed to
+//! [`terraslip_core::Estimator`] event by event, exactly as a robot would;
+//! one [`EstimateRow`] is taken after each wheels row.
+
+mod setup;
+
+use terraslip_core::estimator::{Estimator, FixCounts};
+use terraslip_core::filter::{IcrBand, PoseFix};
+use terraslip_core::schedule::ChangeAction;
+use terraslip_core::terrain_belief::TerrainBelief;
+use terraslip_core::IcrParams;
+use terraslip_io::{DriveLog, ParamsFile, TerrainLabel};
+
+use crate::config::EstimatorConfig;
+
+/// Where the estimator learns which terrain the robot is on.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum TerrainEvidence {
+    /// No terrain evidence: no schedule, no memory.
+    #[default]
+    None,
+    /// Labels (the log's `terrain.csv`): a perfect classifier.
+    Labels(Vec<TerrainLabel>),
+    /// Causal classifier outputs: `frames[i] = (t, p)` with `p[k]` the
+    /// probability (or likelihood) of `classes[k]` for the window ending at `t`.
+    Likelihoods {
+        classes: Vec<String>,
+        frames: Vec<(f64, Vec<f64>)>,
+        /// Times (s) at which a camera change detector fired (lv2019). The
+        /// next frame after one is fused as after an innovation jump (lower
+        /// stay probability), so the belief follows the change sooner.
+        changes: Vec<f64>,
+    },
+}
+
+impl From<terraslip_terrain::TerrainTimeline> for TerrainEvidence {
+    fn from(t: terraslip_terrain::TerrainTimeline) -> Self {
+        TerrainEvidence::Likelihoods {
+            classes: t.classes,
+            frames: t.frames,
+            changes: t.changes,
+        }
+    }
+}
+
+/// Options of one run besides the configuration.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RunOptions {
+    /// Drop every pose fix with `t0 <= t < t1` (a simulated GNSS + compass
+    /// outage, to measure dead reckoning).
+    pub outage: Option<(f64, f64)>,
+}
+
+/// The estimate after one wheels row (log-format.md columns and more).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EstimateRow {
+    /// Time of the wheels row, s.
+    pub t: f64,
+    /// Position east / north, m (ENU); yaw, rad (CCW from east).
+    pub east: f64,
+    pub north: f64,
+    pub yaw: f64,
+    /// ICRs, m (body frame).
+    pub y_l: f64,
+    pub y_r: f64,
+    pub x_c: f64,
+    /// Tread speed factors.
+    pub alpha_l: f64,
+    pub alpha_r: f64,
+    /// Standard deviations of east, north (m), yaw (rad), y_l, y_r, x_c (m),
+    /// alpha_l, alpha_r.
+    pub std: [f64; 8],
+    /// Std of the spread y_l - y_r, m.
+    pub std_spread: f64,
+    /// Index into [`EstimateRun::terrains`] of the believed terrain.
+    pub terrain: Option<usize>,
+    /// A pose fix part was fused since the previous row.
+    pub fused: bool,
+    /// A pose fix part was gated since the previous row.
+    pub gated: bool,
+    /// NIS of the last fix since the previous row (position + heading
+    /// parts; 0 if none).
+    pub nis: f64,
+    /// Factor the terrain schedule applies to the slip random walk.
+    pub q_scale: f64,
+    /// The slip-change detector fired since the previous row.
+    pub change: bool,
+    /// The pose stream's clock offset in effect, s.
+    pub clock_offset: f64,
+}
+
+/// One terrain change the schedule acted on.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TerrainChange {
+    /// Time, s.
+    pub t: f64,
+    /// Index into [`EstimateRun::terrains`].
+    pub terrain: usize,
+    /// What the schedule did.
+    pub action: ChangeAction,
+}
+
+/// Counters of one run.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RunStats {
+    /// What happened to the fixes.
+    pub fixes: FixCounts,
+    /// Fixes given to the estimator.
+    pub fixes_used: usize,
+    /// Fixes dropped by [`RunOptions::outage`].
+    pub dropped_fixes: usize,
+}
+
+/// The measurement noise the run used in the end.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NoiseUsed {
+    /// Position std per axis, m (as learned, for fixes at the stated std).
+    pub std_xy: f64,
+    /// Heading std, rad.
+    pub std_yaw: f64,
+    /// Std of the slowly wandering part of the position error, m.
+    pub correlated_std: f64,
+    /// Model noise of the speed, m^2/s per (m/s)^2, and of the yaw rate,
+    /// rad^2/s per (rad/s)^2 (learned with the rest).
+    pub model: (f64, f64),
+    /// Whether `pose.csv` stated the stds (`std_xy`, `std_yaw` columns).
+    pub stated: bool,
+    /// Whether the noise was learned from the residuals.
+    pub learned: bool,
+}
+
+/// Result of [`run`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct EstimateRun {
+    /// One row per wheels row.
+    pub rows: Vec<EstimateRow>,
+    /// Terrain names the rows' indices refer to.
+    pub terrains: Vec<String>,
+    /// Terrain changes the schedule acted on.
+    pub changes: Vec<TerrainChange>,
+    /// Track width used for the band and the prior, m.
+    pub track_width: f64,
+    /// The physical band the ICRs were kept in.
+    pub band: IcrBand,
+    /// Final slip parameters.
+    pub final_icr: IcrParams,
+    /// Where the starting slip parameters came from (`prior`, `init:<set>`).
+    pub init_source: String,
+    /// Final clock offset of the pose stream and its std, s.
+    pub clock_offset: (f64, f64),
+    /// The measurement noise in the end.
+    pub noise: NoiseUsed,
+    /// Counters.
+    pub stats: RunStats,
+    /// Things the user should know (data used with caveats, parameters that
+    /// sat on a limit).
+    pub warnings: Vec<String>,
+}
+
+impl EstimateRun {
+    /// Duration covered by the rows, s.
+    pub fn duration(&self) -> f64 {
+        match (self.rows.first(), self.rows.last()) {
+            (Some(a), Some(b)) => b.t - a.t,
+            _ => 0.0,
+        }
+    }
+
+    /// Name of a row's terrain.
+    pub fn terrain_name(&self, row: &EstimateRow) -> Option<&str> {
+        row.terrain
+            .and_then(|i| self.terrains.get(i))
+            .map(|s| s.as_str())
+    }
+}
+
+/// Why a run failed.
+#[derive(Debug, thiserror::Error)]
+pub enum PipelineError {
+    #[error("{dir}: wheels.csv has no rows")]
+    NoWheels { dir: String },
+    #[error("invalid configuration: {0}")]
+    Config(String),
+    #[error("initial parameters: {0}")]
+    Init(String),
+    #[error("{dir}: wheels.csv row at t = {t}: {source}")]
+    Filter {
+        dir: String,
+        t: f64,
+        #[source]
+        source: terraslip_core::FilterError,
+    },
+}
+
+/// Runs the estimator over `log`. See [`run_with`].
+pub fn run(
+    log: &DriveLog,
+    cfg: &EstimatorConfig,
+    evidence: &TerrainEvidence,
+    init: Option<&ParamsFile>,
+) -> Result<EstimateRun, PipelineError> {
+    run_with(
+        log,
+        cfg,
+        evidence,
+        init,
+        RunOptions::default(),
+        &mut |_, _| {},
+    )
+}
+
+/// Runs the estimator over `log` with options; `progress(done, total)` is
+/// called every few thousand wheels rows.
+pub fn run_with(
+    log: &DriveLog,
+    cfg: &EstimatorConfig,
+    evidence: &TerrainEvidence,
+    init: Option<&ParamsFile>,
+    opts: RunOptions,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<EstimateRun, PipelineError> {
+    cfg.validate().map_err(|e| PipelineError::Config(e.0))?;
+    let dir = log.dir.display().to_string();
+    if log.wheels.is_empty() {
+        return Err(PipelineError::NoWheels { dir });
+    }
+    let setup::Setup {
+        mut estimator,
+        terrains,
+        track_width,
+        init_source,
+        mut warnings,
+    } = setup::setup(log, cfg, evidence, init)?;
+    if log.pose.is_empty() {
+        warnings.push(format!(
+            "{dir}: no pose observations: dead reckoning from the origin with the initial ICRs"
+        ));
+    }
+    let filter_err = |t: f64, source| PipelineError::Filter {
+        dir: dir.clone(),
+        t,
+        source,
+    };
+    let mut terrain = TerrainFeed::new(evidence, cfg);
+    let mut rows = Vec::with_capacity(log.wheels.len());
+    let mut changes = Vec::new();
+    let mut dropped = 0usize;
+    let mut used = 0usize;
+    let mut pi = 0usize;
+    let total = log.wheels.len();
+    let mut t_prev: Option<f64> = None;
+    for (i, w) in log.wheels.iter().enumerate() {
+        if let Some(tp) = t_prev {
+            if w.t - tp > cfg.filter.max_wheel_gap
+                && !warnings.iter().any(|w| w.contains("without tread speeds"))
+            {
+                warnings.push(format!(
+                    "{dir}/wheels.csv: {:.1} s without tread speeds before t = {}; pose uncertainty widened instead of integrating",
+                    w.t - tp,
+                    w.t
+                ));
+            }
+        }
+        t_prev = Some(w.t);
+        if let Some(c) = terrain
+            .advance(&mut estimator, w.t)
+            .map_err(|e| filter_err(w.t, e))?
+        {
+            changes.push(c);
+        }
+        while pi < log.pose.len() && log.pose[pi].t <= w.t {
+            let p = &log.pose[pi];
+            pi += 1;
+            if opts.outage.is_some_and(|(t0, t1)| p.t >= t0 && p.t < t1) {
+                dropped += 1;
+                continue;
+            }
+            let fix = PoseFix {
+                position: p.east.zip(p.north),
+                yaw: p.yaw,
+                std_xy: p.std_xy.unwrap_or(cfg.measurement.std_xy),
+                std_yaw: p.std_yaw.unwrap_or(cfg.measurement.std_yaw),
+                stated: p.std_xy.is_some() || p.std_yaw.is_some(),
+            };
+            estimator
+                .on_pose(p.t, fix)
+                .map_err(|e| filter_err(p.t, e))?;
+            used += 1;
+        }
+        estimator
+            .on_wheels(w.t, w.v_left, w.v_right)
+            .map_err(|e| filter_err(w.t, e))?;
+        let summary = estimator.take_fix_summary();
+        terrain.jump |= summary.change;
+        rows.push(row(&estimator, w.t, terrain.current, &summary));
+        if i % 4096 == 0 {
+            progress(i, total);
+        }
+    }
+    progress(total, total);
+
+    let f = estimator.filter();
+    let stated = log
+        .pose
+        .iter()
+        .any(|p| p.std_xy.is_some() || p.std_yaw.is_some());
+    let (std_xy, std_yaw, correlated_std) = f.noise(
+        log.pose
+            .iter()
+            .find_map(|p| p.std_xy)
+            .unwrap_or(cfg.measurement.std_xy),
+        log.pose
+            .iter()
+            .find_map(|p| p.std_yaw)
+            .unwrap_or(cfg.measurement.std_yaw),
+    );
+    let band = cfg.band(track_width);
+    warnings.extend(band_warnings(&rows, &band));
+    let moved = log
+        .wheels
+        .iter()
+        .any(|w| w.v_left.abs().max(w.v_right.abs()) >= cfg.filter.still_speed);
+    if !moved {
+        warnings.push(format!(
+            "{dir}: the robot never moves (all tread speeds below {} m/s): the ICRs are unobservable and stay at their initial values",
+            cfg.filter.still_speed
+        ));
+    }
+    let counts = estimator.counts();
+    if counts.refused > 0 {
+        warnings.push(format!(
+            "{} pose fix(es) could not be fused (the update would have lost positive-definiteness)",
+            counts.refused
+        ));
+    }
+    Ok(EstimateRun {
+        rows,
+        terrains,
+        changes,
+        track_width,
+        band,
+        final_icr: f.icr(),
+        init_source,
+        clock_offset: f.clock_offset(),
+        noise: NoiseUsed {
+            std_xy,
+            std_yaw,
+            correlated_std,
+            model: f.model_noise(),
+            stated,
+            learned: cfg.filter.noise_memory > 0.0,
+        },
+        stats: RunStats {
+            fixes: counts,
+            fixes_used: used,
+            dropped_fixes: dropped,
+        },
+        warnings,
+    })
+}
+
+/// The estimate after a wheels row at `t`.
+fn row(
+    est: &Estimator,
+    t: f64,
+    terrain: Option<usize>,
+    s: &terraslip_core::estimator::FixSummary,
+) -> EstimateRow {
+    let f = est.filter();
+    let (east, north, yaw) = f.pose();
+    let icr = f.icr();
+    let pc = f.pose_covariance();
+    let ic = f.icr_covariance();
+    let sd = |v: f64| v.max(0.0).sqrt();
+    EstimateRow {
+        t,
+        east,
+        north,
+        yaw,
+        y_l: icr.y_l,
+        y_r: icr.y_r,
+        x_c: icr.x_c,
+        alpha_l: icr.alpha_l,
+        alpha_r: icr.alpha_r,
+        std: [
+            sd(pc[(0, 0)]),
+            sd(pc[(1, 1)]),
+            sd(pc[(2, 2)]),
+            sd(ic[(0, 0)]),
+            sd(ic[(1, 1)]),
+            sd(ic[(2, 2)]),
+            sd(ic[(3, 3)]),
+            sd(ic[(4, 4)]),
+        ],
+        std_spread: f.spread_std(),
+        terrain,
+        fused: s.fused,
+        gated: s.gated,
+        nis: s.nis_position + s.nis_yaw,
+        q_scale: f.schedule_scale(),
+        change: s.change,
+        clock_offset: f.clock_offset().0,
+    }
+}
+
+/// Feeds labels or classifier frames into the estimator up to a time.
+struct TerrainFeed<'a> {
+    evidence: &'a TerrainEvidence,
+    belief: Option<TerrainBelief>,
+    next: usize,
+    next_detection: usize,
+    /// The slip-change detector fired since the last classifier frame.
+    jump: bool,
+    current: Option<usize>,
+    names: Vec<String>,
+}
+
+impl<'a> TerrainFeed<'a> {
+    fn new(evidence: &'a TerrainEvidence, cfg: &EstimatorConfig) -> Self {
+        let belief = match evidence {
+            TerrainEvidence::Likelihoods { classes, .. } => {
+                Some(TerrainBelief::new(classes.len(), cfg.belief))
+            }
+            _ => None,
+        };
+        Self {
+            evidence,
+            belief,
+            next: 0,
+            next_detection: 0,
+            jump: false,
+            current: None,
+            names: setup_names(evidence),
+        }
+    }
+
+    /// Declares to `est` the terrain in effect at `t`; returns the change
+    /// the schedule acted on, if any.
+    fn advance(
+        &mut self,
+        est: &mut Estimator,
+        t: f64,
+    ) -> Result<Option<TerrainChange>, terraslip_core::FilterError> {
+        let mut out = None;
+        match self.evidence {
+            TerrainEvidence::None => {}
+            TerrainEvidence::Labels(labels) => {
+                while self.next < labels.len() && labels[self.next].t <= t {
+                    self.next += 1;
+                }
+                let k = self
+                    .next
+                    .checked_sub(1)
+                    .and_then(|i| self.names.iter().position(|n| *n == labels[i].terrain));
+                if let Some(k) = k.filter(|k| self.current != Some(*k)) {
+                    let action = est.on_terrain(k)?;
+                    out = Some(TerrainChange {
+                        t,
+                        terrain: k,
+                        action,
+                    });
+                    self.current = Some(k);
+                }
+            }
+            TerrainEvidence::Likelihoods {
+                frames, changes, ..
+            } => {
+                let Some(b) = self.belief.as_mut() else {
+                    return Ok(None);
+                };
+                while self.next < frames.len() && frames[self.next].0 <= t {
+                    let (tf, p) = &frames[self.next];
+                    while self.next_detection < changes.len() && changes[self.next_detection] <= *tf
+                    {
+                        self.jump = true;
+                        self.next_detection += 1;
+                    }
+                    if let Some(k) = b.update(p, self.jump) {
+                        let action = est.on_terrain(k)?;
+                        out = Some(TerrainChange {
+                            t: *tf,
+                            terrain: k,
+                            action,
+                        });
+                    }
+                    self.jump = false;
+                    self.next += 1;
+                }
+                self.current = b.current();
+            }
+        }
+        Ok(out)
+    }
+}
+
+fn setup_names(evidence: &TerrainEvidence) -> Vec<String> {
+    setup::terrain_names(evidence)
+}
+
+/// Warnings for slip parameters that sat on an edge of the physical band
+/// for more than 5 % of the run (a learned parameter at a clamp is a model
+/// or data problem the user must hear about).
+fn band_warnings(rows: &[EstimateRow], band: &IcrBand) -> Vec<String> {
+    if rows.is_empty() {
+        return Vec::new();
+    }
+    let n = rows.len() as f64;
+    let near = |v: f64, edge: f64| (v - edge).abs() <= 1e-6 * (1.0 + edge.abs());
+    let (lo, hi) = band.alpha_range;
+    let checks: [(&str, &dyn Fn(&EstimateRow) -> bool); 6] = [
+        ("the spread y_l - y_r at its lower limit", &|r| {
+            near(r.y_l - r.y_r, band.min_spread)
+        }),
+        ("the spread y_l - y_r at its upper limit", &|r| {
+            near(r.y_l - r.y_r, band.max_spread)
+        }),
+        ("a tread speed factor at its lower limit", &|r| {
+            near(r.alpha_l, lo) || near(r.alpha_r, lo)
+        }),
+        ("a tread speed factor at its upper limit", &|r| {
+            near(r.alpha_l, hi) || near(r.alpha_r, hi)
+        }),
+        ("x_c at its limit", &|r| near(r.x_c.abs(), band.max_x_c)),
+        ("the ICR centre at its limit", &|r| {
+            near((0.5 * (r.y_l + r.y_r)).abs(), band.max_centre)
+        }),
+    ];
+    checks
+        .iter()
+        .filter_map(|(what, test)| {
+            let frac = rows.iter().filter(|r| test(r)).count() as f64 / n;
+            (frac > 0.05).then(|| {
+                format!(
+                    "{what} for {:.0} % of the run: the data pull the model beyond what is physical \
+                     (clock offset, wrong track width in meta.toml, or a model that does not fit)",
+                    100.0 * frac
+                )
+            })
+        })
+        .collect()
+}

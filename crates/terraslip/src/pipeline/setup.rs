@@ -1,0 +1,180 @@
+//! What a run starts from: the track width, the terrain names, the
+//! starting slip parameters (prior, or `--init`), the clock offset, and the
+//! estimator built from them.
+
+use terraslip_core::estimator::Estimator;
+use terraslip_core::filter::{Filter, Prior};
+use terraslip_core::schedule::NoiseSchedule;
+use terraslip_core::terrain_belief::MAX_TERRAINS;
+use terraslip_core::IcrParams;
+use terraslip_io::{DriveLog, ParamsFile};
+
+use super::{PipelineError, TerrainEvidence};
+use crate::config::EstimatorConfig;
+
+/// A run's starting point.
+pub(super) struct Setup {
+    pub estimator: Estimator,
+    pub terrains: Vec<String>,
+    pub track_width: f64,
+    /// Where the starting slip parameters came from: `prior` or `init:<set>`.
+    pub init_source: String,
+    pub warnings: Vec<String>,
+}
+
+pub(super) fn setup(
+    log: &DriveLog,
+    cfg: &EstimatorConfig,
+    evidence: &TerrainEvidence,
+    init: Option<&ParamsFile>,
+) -> Result<Setup, PipelineError> {
+    let dir = log.dir.display().to_string();
+    let mut warnings = Vec::new();
+    let track_width = match log.meta.track_width {
+        Some(w) if w.is_finite() && w > 0.0 => w,
+        Some(w) => {
+            warnings.push(format!(
+                "{dir}/meta.toml: track_width = {w} is not usable; using init.default_track_width = {} m",
+                cfg.init.default_track_width
+            ));
+            cfg.init.default_track_width
+        }
+        None => {
+            warnings.push(format!(
+                "{dir}: no track_width in meta.toml; using init.default_track_width = {} m",
+                cfg.init.default_track_width
+            ));
+            cfg.init.default_track_width
+        }
+    };
+
+    let terrains = terrain_names(evidence);
+    if terrains.len() > MAX_TERRAINS {
+        warnings.push(format!(
+            "{} terrains; only the first {MAX_TERRAINS} can be remembered",
+            terrains.len()
+        ));
+    }
+
+    // Starting slip parameters: the --init set of the terrain the drive
+    // starts on (as far as anything tells), else the prior.
+    let mut prior = cfg.prior(track_width);
+    let mut init_source = "prior".to_string();
+    let mut meas = cfg.measurement;
+    if let Some(pf) = init {
+        match starting_set(pf, evidence, log) {
+            Some((name, p)) => {
+                p.validate()
+                    .map_err(|e| PipelineError::Init(format!("set `{name}`: {e}")))?;
+                prior = Prior {
+                    icr: p,
+                    std: cfg.init.calibrated_std,
+                };
+                init_source = format!("init:{name}");
+            }
+            None => warnings.push(
+                "--init has one set per terrain but nothing tells which terrain the drive is on \
+                 (no --terrain-labels or --terrain-model, and terrain.csv does not name a single \
+                 terrain): started from the prior; the sets are recalled once the terrain is known"
+                    .into(),
+            ),
+        }
+        // The wheel-to-pose offset calibrate found travels with its parameters.
+        if meas.clock_offset == 0.0 {
+            if let Some(off) = calibrated_offset(pf) {
+                meas.clock_offset = off;
+                meas.validate()
+                    .map_err(|e| PipelineError::Init(format!("time_offset_s: {e}")))?;
+            }
+        }
+    }
+    if meas.encoder_tick == 0.0 {
+        if let (Some(r), Some(n)) = (log.meta.wheel_radius, log.meta.ticks_per_rev) {
+            if r.is_finite() && r > 0.0 && n.is_finite() && n >= 1.0 {
+                meas.encoder_tick = 2.0 * std::f64::consts::PI * r / n;
+            }
+        }
+    }
+
+    let filter = Filter::new(&prior, cfg.filter, meas, cfg.band(track_width))
+        .map_err(|e| PipelineError::Config(e.to_string()))?;
+    let mut schedule = NoiseSchedule::new(cfg.schedule_config());
+    if let Some(pf) = init {
+        for (name, entry) in &pf.terrains {
+            match terrains.iter().position(|n| n == name) {
+                Some(k) => schedule.seed(k, &entry.params, cfg.init.calibrated_std),
+                None if !terrains.is_empty() => warnings.push(format!(
+                    "--init: terrain `{name}` never appears in the terrain evidence; ignored"
+                )),
+                None => {}
+            }
+        }
+    }
+    let estimator = Estimator::new(filter, schedule, cfg.filter.max_wheel_gap);
+    Ok(Setup {
+        estimator,
+        terrains,
+        track_width,
+        init_source,
+        warnings,
+    })
+}
+
+/// Terrain names: labels in order of appearance, or the classifier's classes.
+pub(super) fn terrain_names(evidence: &TerrainEvidence) -> Vec<String> {
+    match evidence {
+        TerrainEvidence::None => Vec::new(),
+        TerrainEvidence::Labels(l) => {
+            let mut names: Vec<String> = Vec::new();
+            for x in l {
+                if !names.contains(&x.terrain) {
+                    names.push(x.terrain.clone());
+                }
+            }
+            names
+        }
+        TerrainEvidence::Likelihoods { classes, .. } => classes.clone(),
+    }
+}
+
+/// The `--init` set to start from: the first labelled terrain's; else,
+/// without evidence, the terrain `terrain.csv` names if it names only one;
+/// else the only set of the file, or its pooled set. `None` when the file
+/// has several terrain sets and nothing picks one.
+fn starting_set(
+    pf: &ParamsFile,
+    evidence: &TerrainEvidence,
+    log: &DriveLog,
+) -> Option<(String, IcrParams)> {
+    let named = |t: &str| pf.terrains.get(t).map(|e| (t.to_string(), e.params));
+    if let TerrainEvidence::Labels(l) = evidence {
+        if let Some(found) = l.first().and_then(|x| named(&x.terrain)) {
+            return Some(found);
+        }
+    }
+    let mut labels: Vec<&str> = log.terrain.iter().map(|x| x.terrain.as_str()).collect();
+    labels.dedup();
+    if let [only] = labels.as_slice() {
+        if let Some(found) = named(only) {
+            return Some(found);
+        }
+    }
+    if let Some(p) = pf.params {
+        return Some(("params".into(), p));
+    }
+    match pf.terrains.iter().collect::<Vec<_>>().as_slice() {
+        [(name, e)] => Some(((*name).clone(), e.params)),
+        _ => None,
+    }
+}
+
+/// The wheel-to-pose time offset stored by `terraslip calibrate`
+/// (`time_offset_s`, pooled or of the first terrain set that has one).
+fn calibrated_offset(p: &ParamsFile) -> Option<f64> {
+    let get = |extra: &std::collections::BTreeMap<String, serde_json::Value>| {
+        extra.get("time_offset_s").and_then(|v| v.as_f64())
+    };
+    get(&p.extra)
+        .or_else(|| p.terrains.values().find_map(|e| get(&e.extra)))
+        .filter(|v| v.is_finite() && *v != 0.0)
+}

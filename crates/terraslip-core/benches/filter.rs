@@ -19,6 +19,8 @@ fn filter(cfg: FilterConfig) -> Filter {
             alpha: 0.1,
             alpha_diff: 0.01,
         },
+        turn_law: 0.0,
+        turn_law_std: 0.1,
     };
     let band = IcrBand {
         min_spread: 0.2,
@@ -49,7 +51,7 @@ fn bench(c: &mut Criterion) {
     papers.update_iterations = 1;
     papers.learn_alpha = false;
     papers.learn_clock = false;
-    papers.change_window = 0;
+    papers.change_window = 0.0;
     papers.noise_memory = 0.0;
     let mut iae = papers;
     iae.variant = Variant::InnovationAdaptive;

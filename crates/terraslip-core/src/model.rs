@@ -1,10 +1,14 @@
 //! The filter's state and its process model.
 //!
-//! State `x = [east, north, yaw, s0..s4, clock, bias_e, bias_n]`:
+//! State `x = [east, north, yaw, s0..s4, law, clock, bias_e, bias_n]`:
 //!
 //! * world ENU position (m) and yaw (rad, counter-clockwise from east) of
 //!   the body frame, on the wheels' clock;
-//! * five slip parameters in a [`Chart`]'s coordinates;
+//! * five slip parameters in a [`Chart`]'s coordinates (the straight-line
+//!   values);
+//! * `law` (s/m): the turn law's slope, the spread in effect being
+//!   `1 + law |V_r - V_l|` times the straight-line one
+//!   ([`Chart::twist_with_law`]): the treads' grip saturates in a turn;
 //! * `clock` (s): how late the pose stream is stamped against the wheels
 //!   (a pose stamped `t` describes the robot at wheel time `t - clock`);
 //! * `bias_e`, `bias_n` (m): the slowly wandering part of the position
@@ -12,7 +16,7 @@
 //!   correlated over tens of seconds are not read as motion.
 //!
 //! One Euler step of length `dt` with the body twist `(v_x, v_y, omega)` of
-//! [`Chart::twist`]:
+//! [`Chart::twist_with_law`]:
 //!
 //! ```text
 //! east'  = east  + dt (v_x cos(yaw) - v_y sin(yaw))
@@ -20,7 +24,7 @@
 //! yaw'   = yaw   + dt omega
 //! ```
 //!
-//! The slip parameters and the clock offset are random walks, the bias
+//! The slip parameters, the law and the clock offset are random walks, the bias
 //! decays ([`crate::filter`] adds the noise). [`step`] returns the new state
 //! and the rows of the Jacobian that differ from the identity's.
 
@@ -31,7 +35,7 @@ use crate::kinematics::Twist;
 use crate::slip::{Chart, Slip, TreadInput};
 
 /// Dimension of the state.
-pub const N: usize = 11;
+pub const N: usize = 12;
 /// Index of east, m.
 pub const EAST: usize = 0;
 /// Index of north, m.
@@ -40,12 +44,14 @@ pub const NORTH: usize = 1;
 pub const YAW: usize = 2;
 /// First of the five slip parameters.
 pub const SLIP: usize = 3;
+/// Index of the turn law's slope, s/m.
+pub const LAW: usize = 8;
 /// Index of the pose stream's clock offset, s.
-pub const CLOCK: usize = 8;
+pub const CLOCK: usize = 9;
 /// Index of the east bias of the position fixes, m.
-pub const BIAS_E: usize = 9;
+pub const BIAS_E: usize = 10;
 /// Index of the north bias of the position fixes, m.
-pub const BIAS_N: usize = 10;
+pub const BIAS_N: usize = 11;
 
 /// The state vector.
 pub type State = SVector<f64, N>;
@@ -60,13 +66,13 @@ pub fn slip_of(x: &State) -> Slip {
     x.fixed_rows::<5>(SLIP).into_owned()
 }
 
-/// One Euler step of `dt` seconds with tread speeds `u`: the new state
-/// (yaw wrapped to `(-pi, pi]`), the twist used, and the pose rows of
-/// `F = df/dx` at `x` (the other rows are the identity's; the bias decay is
-/// the filter's).
+/// One Euler step of `dt` seconds with tread speeds `u` and turn-law
+/// input `dv` (m/s): the new state (yaw wrapped to `(-pi, pi]`), the twist
+/// used, and the pose rows of `F = df/dx` at `x` (the other rows are the
+/// identity's; the bias decay is the filter's).
 #[inline]
-pub fn step(x: &State, chart: Chart, u: TreadInput, dt: f64) -> (State, Twist, PoseRows) {
-    let (t, j) = chart.twist(&slip_of(x), u);
+pub fn step(x: &State, chart: Chart, u: TreadInput, dv: f64, dt: f64) -> (State, Twist, PoseRows) {
+    let (t, j, dk) = chart.twist_with_law(&slip_of(x), x[LAW], dv, u);
     let (sn, cs) = (libm::sin(x[YAW]), libm::cos(x[YAW]));
     let mut out = *x;
     out[EAST] += dt * (t.v_x * cs - t.v_y * sn);
@@ -79,8 +85,12 @@ pub fn step(x: &State, chart: Chart, u: TreadInput, dt: f64) -> (State, Twist, P
     }
     rows[(EAST, YAW)] = -dt * (t.v_x * sn + t.v_y * cs);
     rows[(NORTH, YAW)] = dt * (t.v_x * cs - t.v_y * sn);
-    for k in 0..5 {
-        let (dvx, dvy, dw) = (j[(0, k)], j[(1, k)], j[(2, k)]);
+    for k in 0..6 {
+        let (dvx, dvy, dw) = if k < 5 {
+            (j[(0, k)], j[(1, k)], j[(2, k)])
+        } else {
+            (dk[0], dk[1], dk[2])
+        };
         rows[(EAST, SLIP + k)] = dt * (dvx * cs - dvy * sn);
         rows[(NORTH, SLIP + k)] = dt * (dvx * sn + dvy * cs);
         rows[(YAW, SLIP + k)] = dt * dw;
@@ -115,15 +125,17 @@ mod tests {
                 x[EAST] = 3.0;
                 x[NORTH] = -2.0;
                 x[YAW] = yaw;
+                x[LAW] = 0.1;
                 x.fixed_rows_mut::<5>(SLIP).copy_from(&chart.from_icr(&p));
-                let (_, _, rows) = step(&x, chart, u, dt);
+                let dv = (vr - vl).abs();
+                let (_, _, rows) = step(&x, chart, u, dv, dt);
                 for k in 0..N {
                     let h = 1e-6 * (1.0 + x[k].abs());
                     let (mut xp, mut xm) = (x, x);
                     xp[k] += h;
                     xm[k] -= h;
-                    let (fp, _, _) = step(&xp, chart, u, dt);
-                    let (fm, _, _) = step(&xm, chart, u, dt);
+                    let (fp, _, _) = step(&xp, chart, u, dv, dt);
+                    let (fm, _, _) = step(&xm, chart, u, dv, dt);
                     for r in 0..3 {
                         let diff = if r == YAW { angle::wrap(fp[r] - fm[r]) } else { fp[r] - fm[r] };
                         prop_assert!((diff / (2.0 * h) - rows[(r, k)]).abs() < 1e-5,

@@ -310,6 +310,8 @@ mod tests {
                 alpha: 0.001,
                 alpha_diff: 0.001,
             },
+            turn_law: 0.0,
+            turn_law_std: 0.1,
         };
         let band = IcrBand {
             min_spread: 0.4,

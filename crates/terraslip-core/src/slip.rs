@@ -226,6 +226,89 @@ impl Chart {
     }
 }
 
+/// Largest factor the turn law may apply to the spread (and its inverse
+/// the smallest), so a slope learned on gentle turns cannot make the model
+/// singular on a faster one.
+pub const MAX_LAW_FACTOR: f64 = 2.0;
+
+/// The spread factor of the turn law `1 + k dv` (clamped to
+/// `[1 / MAX_LAW_FACTOR, MAX_LAW_FACTOR]`) and its derivative by `k`
+/// (0 where clamped); `dv` is the law's input, the tread speed difference
+/// `|V_r - V_l|` (m/s) as the ground has taken it up.
+#[inline]
+pub fn law_factor(k: f64, dv: f64) -> (f64, f64) {
+    let f = 1.0 + k * dv;
+    if f < 1.0 / MAX_LAW_FACTOR {
+        (1.0 / MAX_LAW_FACTOR, 0.0)
+    } else if f > MAX_LAW_FACTOR {
+        (MAX_LAW_FACTOR, 0.0)
+    } else {
+        (f, dv)
+    }
+}
+
+impl Chart {
+    /// The parameters with the spread `y_l - y_r` scaled by `f` about the
+    /// ICR centre `(y_l + y_r) / 2` (speed factors, centre and `x_c`
+    /// unchanged), and the derivatives of the result by the parameters
+    /// (a matrix) and by `f` (a vector).
+    #[inline]
+    pub fn scale_spread(self, s: &Slip, f: f64) -> (Slip, SlipMat, Slip) {
+        let mut d = SlipMat::identity();
+        let mut df = Slip::zeros();
+        let mut out = *s;
+        match self {
+            Chart::Tread => {
+                // y_l' = c + f (y_l - c), y_r' = c + f (y_r - c), c = (y_l + y_r) / 2
+                let (hp, hm) = (0.5 * (1.0 + f), 0.5 * (1.0 - f));
+                out[0] = hp * s[0] + hm * s[1];
+                out[1] = hm * s[0] + hp * s[1];
+                d[(0, 0)] = hp;
+                d[(0, 1)] = hm;
+                d[(1, 0)] = hm;
+                d[(1, 1)] = hp;
+                df[0] = 0.5 * (s[0] - s[1]);
+                df[1] = -0.5 * (s[0] - s[1]);
+            }
+            Chart::Gain => {
+                // d' = f d: g' = g / f, h' = h / f
+                out[0] = s[0] / f;
+                out[1] = s[1] / f;
+                d[(0, 0)] = 1.0 / f;
+                d[(1, 1)] = 1.0 / f;
+                df[0] = -s[0] / (f * f);
+                df[1] = -s[1] / (f * f);
+            }
+        }
+        (out, d, df)
+    }
+
+    /// The body twist under the turn law of slope `k` (s/m) with input `dv`
+    /// (m/s): the spread in effect is `1 + k dv` times the straight-line one
+    /// of `s`. Returns the twist, its derivatives by the parameters and by
+    /// `k`.
+    #[inline]
+    pub fn twist_with_law(
+        self,
+        s: &Slip,
+        k: f64,
+        dv: f64,
+        u: TreadInput,
+    ) -> (Twist, TwistJac, [f64; 3]) {
+        let (f, df_dk) = law_factor(k, dv);
+        let (sf, d, dsf) = self.scale_spread(s, f);
+        let (t, j) = self.twist(&sf, u);
+        let dk = j * dsf * df_dk;
+        (t, j * d, [dk[0], dk[1], dk[2]])
+    }
+
+    /// The ICRs in effect under the turn law of slope `k` at input `dv`.
+    pub fn to_icr_at(self, s: &Slip, k: f64, dv: f64) -> IcrParams {
+        let (f, _) = law_factor(k, dv);
+        self.to_icr(&self.scale_spread(s, f).0)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -300,6 +383,48 @@ mod tests {
                     for r in 0..5 {
                         prop_assert!((num[r] / (2.0 * h) - ji[(r, k)]).abs() < 1e-5 * (1.0 + ji[(r, k)].abs()),
                             "{chart:?} icr d{r}/d{k}");
+                    }
+                }
+            }
+        }
+    }
+
+    proptest! {
+        #[test]
+        fn the_turn_law_scales_the_spread_alike_in_both_charts_and_its_jacobian_holds(
+            p in params(), vl in -3.0f64..3.0, vr in -3.0f64..3.0, k in -0.3f64..0.3,
+        ) {
+            let u = TreadInput { v_left: vl, v_right: vr };
+            let dv = (vr - vl).abs();
+            let (f, _) = law_factor(k, dv);
+            let a = Chart::Tread.to_icr_at(&Chart::Tread.from_icr(&p), k, dv);
+            let b = Chart::Gain.to_icr_at(&Chart::Gain.from_icr(&p), k, dv);
+            prop_assert!(close(a.spread(), f * p.spread(), 1e-12));
+            prop_assert!(close(b.spread(), f * p.spread(), 1e-12));
+            prop_assert!(close(a.y_l + a.y_r, p.y_l + p.y_r, 1e-12));
+            prop_assert!(close(b.alpha_l, p.alpha_l, 1e-12));
+            for chart in [Chart::Tread, Chart::Gain] {
+                let s = chart.from_icr(&p);
+                let (t, j, dk) = chart.twist_with_law(&s, k, dv, u);
+                let want = chart.to_icr_at(&s, k, dv).twist(vl, vr);
+                prop_assert!(close(t.omega, want.omega, 1e-9) && close(t.v_x, want.v_x, 1e-9));
+                let h = 1e-6;
+                let (tp, _, _) = chart.twist_with_law(&s, k + h, dv, u);
+                let (tm, _, _) = chart.twist_with_law(&s, k - h, dv, u);
+                let num = [tp.v_x - tm.v_x, tp.v_y - tm.v_y, tp.omega - tm.omega];
+                for r in 0..3 {
+                    prop_assert!((num[r] / (2.0 * h) - dk[r]).abs() < 1e-5, "{chart:?} dk {r}");
+                }
+                for c in 0..5 {
+                    let hc = 1e-6 * (1.0 + s[c].abs());
+                    let (mut sp, mut sm) = (s, s);
+                    sp[c] += hc;
+                    sm[c] -= hc;
+                    let (tp, _, _) = chart.twist_with_law(&sp, k, dv, u);
+                    let (tm, _, _) = chart.twist_with_law(&sm, k, dv, u);
+                    let num = [tp.v_x - tm.v_x, tp.v_y - tm.v_y, tp.omega - tm.omega];
+                    for r in 0..3 {
+                        prop_assert!((num[r] / (2.0 * hc) - j[(r, c)]).abs() < 1e-5, "{chart:?} d{r}/d{c}");
                     }
                 }
             }

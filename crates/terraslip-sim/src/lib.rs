@@ -20,6 +20,7 @@
 //! ```
 
 pub mod camera;
+pub mod family;
 mod operator;
 pub mod scenario;
 mod sensors;

@@ -131,11 +131,13 @@ pub struct Segment {
 pub struct Slip {
     /// Relative change of the spread y_l - y_r between straight driving and
     /// fast turning (|omega| >> `turn_rate_ref`): 0.04 = the spread is 2 %
-    /// below nominal going straight and about 2 % above in fast turns.
+    /// below nominal going straight and about 2 % above in fast turns;
+    /// negative = the spread shrinks in fast turns (-0.5..0.5).
     pub turn_sensitivity: f64,
     /// Turn rate where the turn effect is half way, rad/s.
     pub turn_rate_ref: f64,
-    /// Relative change of the spread per m/s of forward speed away from 0.5 m/s.
+    /// Relative change of the spread per m/s of forward speed away from
+    /// 0.5 m/s (-0.2..0.2).
     pub speed_sensitivity: f64,
     /// Time constant with which the slip follows the motion, s.
     pub lag: f64,
@@ -621,12 +623,15 @@ impl Scenario {
             spec.resolve(name)?;
         }
         let s = &self.slip;
-        nonneg("slip.turn_sensitivity", s.turn_sensitivity)?;
-        if s.turn_sensitivity > 0.5 {
-            return Err("`slip.turn_sensitivity` above 0.5 is not a plausible robot".into());
+        if !(s.turn_sensitivity.abs() <= 0.5) {
+            return Err("`slip.turn_sensitivity` beyond +-0.5 is not a plausible robot".into());
         }
         pos("slip.turn_rate_ref", s.turn_rate_ref)?;
-        nonneg("slip.speed_sensitivity", s.speed_sensitivity)?;
+        if !(s.speed_sensitivity.abs() <= 0.2) {
+            return Err(
+                "`slip.speed_sensitivity` beyond +-0.2 per m/s is not a plausible robot".into(),
+            );
+        }
         nonneg("slip.lag", s.lag)?;
         nonneg("slip.transition", s.transition)?;
         let d = &self.drive;

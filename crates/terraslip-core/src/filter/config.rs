@@ -209,6 +209,11 @@ pub struct FilterConfig {
     pub slip_walk: SlipStd,
     /// Random walk of the clock offset, s per square-root second.
     pub clock_walk: f64,
+    /// Random walk of the turn law's slope, s/m per square-root second.
+    pub turn_law_walk: f64,
+    /// Time constant with which the ICRs follow a change of turn, s: the
+    /// turn law reads `|V_r - V_l|` low-passed with it (0 = at once).
+    pub turn_law_lag: f64,
     /// Chi-square gate on the 2-dof position innovation (13.8 = 99.9 %;
     /// 0 = off). The gate is applied with the noise as learned, so it keeps
     /// its meaning whatever the noise learning does.
@@ -224,15 +229,17 @@ pub struct FilterConfig {
     /// A gap between wheels rows longer than this (s) is not integrated with
     /// held speeds: the pose uncertainty grows instead.
     pub max_wheel_gap: f64,
-    /// Fixes over which the slip-change detector averages the normalised
-    /// innovations (0 = no detector). A change of ground shows as
-    /// innovations of one sign, sensor noise as innovations of either.
-    pub change_window: usize,
+    /// Time over which the slip-change detector averages the normalised
+    /// innovations, s (0 = no detector). A change of ground shows as
+    /// innovations of one sign for longer than this, sensor noise and a
+    /// turn that slips more than the last as innovations of either sign.
+    pub change_window: f64,
     /// Chi-square threshold on the detector's mean normalised innovation
     /// (per dof of the heading and of the position; 10.8 = 99.9 % for one).
     pub change_threshold: f64,
     /// Uncertainty added to the slip parameters when the detector fires
-    /// (a covariance reset, chen2023's P_B, triggered by the data).
+    /// (a covariance reset, chen2023's P_B, triggered by the data). Here
+    /// `spread` is relative: a fraction of the current spread.
     pub change_reset: SlipStd,
     /// Time over which the noise learned from the innovations (the pose
     /// fixes' noise, the model's speed and heading-rate noise) is averaged,
@@ -262,12 +269,14 @@ impl Default for FilterConfig {
                 alpha_diff: 1e-4,
             },
             clock_walk: 1e-4,
+            turn_law_walk: 1e-3,
+            turn_law_lag: 0.25,
             gate_position: 13.8,
             gate_yaw: 10.8,
             max_rejections: 10,
             still_speed: 0.02,
             max_wheel_gap: 1.0,
-            change_window: 5,
+            change_window: 10.0,
             change_threshold: 10.8,
             change_reset: SlipStd {
                 spread: 0.1,
@@ -285,7 +294,7 @@ impl FilterConfig {
     /// Checks every setting; the error names the key.
     pub fn validate(&self) -> Result<(), FilterError> {
         let finite_nonneg = |v: f64| v.is_finite() && v >= 0.0;
-        let checks: [(&'static str, bool); 15] = [
+        let checks: [(&'static str, bool); 17] = [
             (
                 "filter.innovation_window must be 1..=64",
                 (1..=MAX_WINDOW).contains(&self.innovation_window),
@@ -317,6 +326,14 @@ impl FilterConfig {
             (
                 "filter.clock_walk must be finite and >= 0",
                 finite_nonneg(self.clock_walk),
+            ),
+            (
+                "filter.turn_law_walk must be finite and >= 0",
+                finite_nonneg(self.turn_law_walk),
+            ),
+            (
+                "filter.turn_law_lag must be finite and >= 0",
+                finite_nonneg(self.turn_law_lag),
             ),
             (
                 "filter.gate_position must be finite and >= 0",
@@ -352,9 +369,9 @@ impl FilterConfig {
                 return Err(FilterError::BadConfig(what));
             }
         }
-        if self.change_window > super::detector::MAX_CHANGE_WINDOW {
+        if !(self.change_window.is_finite() && self.change_window >= 0.0) {
             return Err(FilterError::BadConfig(
-                "filter.change_window must be 0..=32",
+                "filter.change_window must be finite and >= 0",
             ));
         }
         Ok(())
@@ -439,8 +456,8 @@ impl MeasurementConfig {
                 self.encoder_tick.is_finite() && self.encoder_tick >= 0.0,
             ),
             (
-                "measurement.clock_offset must be within +-2 s",
-                self.clock_offset.abs() <= 2.0,
+                "measurement.clock_offset must be within +-1 s",
+                self.clock_offset.abs() <= super::MAX_CLOCK_OFFSET,
             ),
             (
                 "measurement.clock_offset_std must be in 0..=2 s",

@@ -20,6 +20,8 @@ pub(super) const CAPACITY: usize = 256;
 struct Step {
     dt: f64,
     u: TreadInput,
+    /// The turn law's input, m/s.
+    dv: f64,
 }
 
 /// Motion over a lag: displacement (world frame) and heading change from
@@ -52,15 +54,17 @@ impl History {
                     v_left: 0.0,
                     v_right: 0.0,
                 },
+                dv: 0.0,
             }; CAPACITY],
             len: 0,
             next: 0,
         }
     }
 
-    /// Records one prediction step of `dt` s with tread speeds `u`.
-    pub(super) fn push(&mut self, dt: f64, u: TreadInput) {
-        self.steps[self.next] = Step { dt, u };
+    /// Records one prediction step of `dt` s with tread speeds `u` and
+    /// turn-law input `dv`.
+    pub(super) fn push(&mut self, dt: f64, u: TreadInput, dv: f64) {
+        self.steps[self.next] = Step { dt, u, dv };
         self.next = (self.next + 1) % CAPACITY;
         self.len = (self.len + 1).min(CAPACITY);
     }
@@ -72,7 +76,7 @@ impl History {
 
     /// The motion of the last `lag` seconds with slip parameters `s` in
     /// `chart`, ending at heading `yaw` (negative lag: extrapolated ahead).
-    pub(super) fn over(&self, lag: f64, chart: Chart, s: &Slip, yaw: f64) -> Motion {
+    pub(super) fn over(&self, lag: f64, chart: Chart, s: &Slip, law: f64, yaw: f64) -> Motion {
         let newest = if self.len > 0 {
             self.steps[(self.next + CAPACITY - 1) % CAPACITY]
         } else {
@@ -82,7 +86,7 @@ impl History {
         let lag = if lag.is_finite() { lag } else { 0.0 };
         if lag <= 0.0 {
             // Ahead of the newest step: the motion to come, negated.
-            let (t, j) = chart.twist(s, newest.u);
+            let (t, j, _) = chart.twist_with_law(s, law, newest.dv, newest.u);
             let (sn, cs) = (libm::sin(yaw), libm::cos(yaw));
             m.v_east = t.v_x * cs - t.v_y * sn;
             m.v_north = t.v_x * sn + t.v_y * cs;
@@ -106,16 +110,13 @@ impl History {
             let step = if i < self.len {
                 self.steps[(self.next + CAPACITY - 1 - i) % CAPACITY]
             } else {
-                Step {
-                    dt: left,
-                    u: last.u,
-                }
+                Step { dt: left, ..last }
             };
             i += 1;
             last = step;
             let dt = step.dt.min(left);
             left -= dt;
-            let (t, j) = chart.twist(s, step.u);
+            let (t, j, _) = chart.twist_with_law(s, law, step.dv, step.u);
             // Integrated backwards: the heading at the start of this step.
             heading -= dt * t.omega;
             let (sn, cs) = (libm::sin(heading), libm::cos(heading));
@@ -153,6 +154,7 @@ mod tests {
                 v_left: 1.0,
                 v_right: 1.0,
             },
+            0.0,
         );
         h.push(
             0.1,
@@ -160,18 +162,19 @@ mod tests {
                 v_left: -0.5,
                 v_right: 0.5,
             },
+            1.0,
         );
         let yaw = 0.1;
-        let m = h.over(0.2, chart, &s, yaw);
+        let m = h.over(0.2, chart, &s, 0.0, yaw);
         assert!((m.d_yaw - 0.1).abs() < 1e-12);
         // The straight was driven at heading 0.
         assert!((m.d_east - 0.1).abs() < 1e-12 && m.d_north.abs() < 1e-12);
         assert!((m.v_east - 1.0).abs() < 1e-12 && m.omega == 0.0);
-        let half = h.over(0.05, chart, &s, yaw);
+        let half = h.over(0.05, chart, &s, 0.0, yaw);
         assert!((half.d_yaw - 0.05).abs() < 1e-12 && (half.omega - 1.0).abs() < 1e-12);
-        let ahead = h.over(-0.5, chart, &s, yaw);
+        let ahead = h.over(-0.5, chart, &s, 0.0, yaw);
         assert!((ahead.d_yaw + 0.5).abs() < 1e-12);
-        let beyond = h.over(1.2, chart, &s, yaw);
+        let beyond = h.over(1.2, chart, &s, 0.0, yaw);
         assert!((beyond.d_east - 1.1).abs() < 1e-9);
     }
 }

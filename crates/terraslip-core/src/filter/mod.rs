@@ -29,8 +29,8 @@ pub use config::{FilterConfig, IcrBand, MeasurementConfig, SlipStd, Variant, MAX
 use nalgebra::SMatrix;
 
 use crate::kinematics::{IcrParams, Twist};
-use crate::model::{self, MatN, State, BIAS_E, BIAS_N, CLOCK, EAST, N, NORTH, SLIP, YAW};
-use crate::slip::{Slip, SlipMat};
+use crate::model::{self, MatN, State, BIAS_E, BIAS_N, CLOCK, EAST, LAW, N, NORTH, SLIP, YAW};
+use crate::slip::{Slip, SlipMat, TreadInput};
 
 use detector::Detector;
 use history::History;
@@ -121,10 +121,14 @@ pub struct UpdateReport {
 /// Starting slip parameters and their uncertainty.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Prior {
-    /// Starting ICR parameters.
+    /// Starting ICR parameters (straight-line values).
     pub icr: IcrParams,
     /// Their standard deviations.
     pub std: SlipStd,
+    /// Starting slope of the turn law, s/m (0 = constant ICRs).
+    pub turn_law: f64,
+    /// Its standard deviation, s/m (0 = held at `turn_law`).
+    pub turn_law_std: f64,
 }
 
 /// Chord of the first position fix to now, for finding the heading when no
@@ -152,6 +156,10 @@ pub struct Filter {
     schedule_scale: f64,
     /// Twist of the last step (body frame).
     twist: Twist,
+    /// Tread speeds of the last step.
+    tread: TreadInput,
+    /// The turn law's input: `|V_r - V_l|` low-passed, m/s.
+    law_input: f64,
     still: bool,
     history: History,
     /// Noise of the position and heading fixes (a scale of the stated
@@ -169,6 +177,8 @@ pub struct Filter {
     /// Pose parts taken from a fix yet (position, heading).
     anchored: [bool; 2],
     chord: Option<Chord>,
+    /// Whether any fix has carried a heading.
+    heading_seen: bool,
     rejected: [u32; 2],
     last_fix_t: Option<f64>,
     /// Innovation window of [`Variant::InnovationAdaptive`].
@@ -176,6 +186,11 @@ pub struct Filter {
 }
 
 type Mat3xN = SMatrix<f64, 3, N>;
+
+/// Largest clock offset of the pose stream the filter accepts, s.
+pub const MAX_CLOCK_OFFSET: f64 = 1.0;
+/// Largest turn law slope, s/m.
+pub const MAX_TURN_LAW: f64 = 1.0;
 
 /// Prior weight (fixes' dimensions) of a stated fix std.
 const STATED_WEIGHT: f64 = 2.0;
@@ -210,12 +225,21 @@ impl Filter {
         if !prior.std.is_valid() {
             return Err(FilterError::BadInput("prior std not finite or negative"));
         }
+        if !(prior.turn_law.abs() <= 2.0
+            && prior.turn_law_std.is_finite()
+            && prior.turn_law_std >= 0.0)
+        {
+            return Err(FilterError::BadInput(
+                "turn law slope must be within +-2 s/m with a finite std",
+            ));
+        }
         let chart = cfg.chart;
         let (icr0, _) = band.project(&prior.icr);
         let mut x = State::zeros();
         x.fixed_rows_mut::<5>(SLIP)
             .copy_from(&chart.from_icr(&icr0));
         x[CLOCK] = meas.clock_offset;
+        x[LAW] = prior.turn_law;
         let mut P = MatN::zeros();
         let slip_cov = prior
             .std
@@ -225,6 +249,7 @@ impl Filter {
         if cfg.learn_clock {
             P[(CLOCK, CLOCK)] = meas.clock_offset_std * meas.clock_offset_std;
         }
+        P[(LAW, LAW)] = prior.turn_law_std * prior.turn_law_std;
         let q_slip = cfg
             .slip_walk
             .chart_cov(chart, &icr0)
@@ -246,6 +271,8 @@ impl Filter {
             q_slip,
             schedule_scale: 1.0,
             twist: Twist::default(),
+            tread: TreadInput::default(),
+            law_input: 0.0,
             still: true,
             history: History::new(),
             noise: [fit(cfg.q_pos_per_speed2), fit(cfg.q_yaw_per_rate2)],
@@ -255,6 +282,7 @@ impl Filter {
             detector: [Detector::new(), Detector::new()],
             anchored: [false; 2],
             chord: None,
+            heading_seen: false,
             rejected: [0; 2],
             last_fix_t: None,
             window: update::InnovationWindow::new(),
@@ -276,9 +304,33 @@ impl Filter {
         self.P.fixed_view::<3, 3>(EAST, EAST).into_owned()
     }
 
-    /// The slip parameters as ICRs (body frame, m) and tread speed factors.
+    /// The straight-line slip parameters as ICRs (body frame, m) and tread
+    /// speed factors (what the terrain memory keeps).
     pub fn icr(&self) -> IcrParams {
         self.cfg.chart.to_icr(&self.slip())
+    }
+
+    /// The ICRs in effect at the last step's tread speeds (the turn law
+    /// applied): what the plain ICR model needs to give the filter's twist.
+    pub fn icr_now(&self) -> IcrParams {
+        self.cfg
+            .chart
+            .to_icr_at(&self.slip(), self.x[LAW], self.law_input)
+    }
+
+    /// Covariance of [`Self::icr_now`] (the law's slope taken as known).
+    pub fn icr_now_covariance(&self) -> SlipMat {
+        let chart = self.cfg.chart;
+        let (f, _) = crate::slip::law_factor(self.x[LAW], self.law_input);
+        let (sf, d, _) = chart.scale_spread(&self.slip(), f);
+        let c = self.P.fixed_view::<5, 5>(SLIP, SLIP).into_owned();
+        chart.cov_to_icr(&sf, &(d * c * d.transpose()))
+    }
+
+    /// Slope of the turn law and its std, s/m: the spread in effect is
+    /// `1 + slope |V_r - V_l|` times the straight-line one.
+    pub fn turn_law(&self) -> (f64, f64) {
+        (self.x[LAW], libm::sqrt(self.P[(LAW, LAW)].max(0.0)))
     }
 
     /// Covariance of `(y_l, y_r, x_c, alpha_l, alpha_r)` (first order).
@@ -383,6 +435,10 @@ impl Filter {
         if moved {
             x.fixed_rows_mut::<5>(SLIP).copy_from(&chart.from_icr(&p));
         }
+        // Outside the slip band: the turn law and the clock offset have
+        // physical limits too.
+        x[LAW] = x[LAW].clamp(-MAX_TURN_LAW, MAX_TURN_LAW);
+        x[CLOCK] = x[CLOCK].clamp(-MAX_CLOCK_OFFSET, MAX_CLOCK_OFFSET);
         moved
     }
 

@@ -3,7 +3,7 @@
 use nalgebra::SMatrix;
 
 use super::{finite_mat, Filter, FilterError};
-use crate::model::{self, BIAS_E, BIAS_N, CLOCK, EAST, N, NORTH, SLIP, YAW};
+use crate::model::{self, BIAS_E, BIAS_N, CLOCK, EAST, LAW, N, NORTH, SLIP, YAW};
 use crate::slip::TreadInput;
 
 impl Filter {
@@ -22,7 +22,16 @@ impl Filter {
             return Ok(());
         }
         let u = TreadInput { v_left, v_right };
-        let (x, twist, rows) = model::step(&self.x, cfg.chart, u, dt);
+        // The ground takes a new turn up with a lag: the law reads the
+        // tread speed difference low-passed.
+        let dv = (v_right - v_left).abs();
+        let a = if cfg.turn_law_lag > 0.0 {
+            1.0 - libm::exp(-dt / cfg.turn_law_lag)
+        } else {
+            1.0
+        };
+        self.law_input += a * (dv - self.law_input);
+        let (x, twist, rows) = model::step(&self.x, cfg.chart, u, self.law_input, dt);
 
         // F = I except the pose rows (`rows`) and the bias decay `phi` on
         // the bias diagonal: F P F' in two products of 3 rows / 3 columns.
@@ -75,6 +84,9 @@ impl Filter {
             if cfg.learn_clock {
                 P[(CLOCK, CLOCK)] += dt * cfg.clock_walk * cfg.clock_walk;
             }
+            if P[(LAW, LAW)] > 0.0 {
+                P[(LAW, LAW)] += dt * cfg.turn_law_walk * cfg.turn_law_walk;
+            }
         }
         let qb = self.bias_std * self.bias_std * (1.0 - phi * phi);
         P[(BIAS_E, BIAS_E)] += qb;
@@ -93,7 +105,8 @@ impl Filter {
         self.x[BIAS_N] *= phi;
         self.P = P;
         self.twist = twist;
-        self.history.push(dt, u);
+        self.tread = u;
+        self.history.push(dt, u, self.law_input);
         self.basis[0] += v * v * dt;
         self.basis[1] += w * w * dt;
         Ok(())

@@ -11,10 +11,11 @@ impl Filter {
     /// Adds [`super::FilterConfig::change_reset`] to the slip uncertainty
     /// (its correlations with the pose kept: the pose has not changed).
     pub(super) fn raise_slip_uncertainty(&mut self) -> Result<(), FilterError> {
-        let add = self
-            .cfg
-            .change_reset
-            .chart_cov(self.cfg.chart, &self.icr())
+        let icr = self.icr();
+        let mut std = self.cfg.change_reset;
+        std.spread *= icr.spread();
+        let add = std
+            .chart_cov(self.cfg.chart, &icr)
             .ok_or(FilterError::NonFinite)?;
         let mut blk = self.P.fixed_view_mut::<5, 5>(SLIP, SLIP);
         blk += add;

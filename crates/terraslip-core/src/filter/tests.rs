@@ -25,6 +25,8 @@ fn prior(w: f64) -> Prior {
             alpha: 0.15,
             alpha_diff: 0.01,
         },
+        turn_law: 0.0,
+        turn_law_std: 0.15,
     }
 }
 
@@ -34,7 +36,7 @@ fn papers_cfg() -> (FilterConfig, MeasurementConfig) {
     cfg.update_iterations = 1;
     cfg.learn_alpha = false;
     cfg.learn_clock = false;
-    cfg.change_window = 0;
+    cfg.change_window = 0.0;
     cfg.noise_memory = 0.0;
     let mut meas = MeasurementConfig::default();
     meas.correlated_fraction = 0.0;
@@ -354,7 +356,7 @@ fn the_change_detector_finds_a_new_ground_and_relearns() {
     let mut f = Filter::new(&prior(0.5), cfg, MeasurementConfig::default(), band(0.5)).unwrap();
     run(&mut f, &d);
     let with = (f.icr().spread() - new.spread()).abs();
-    cfg.change_window = 0;
+    cfg.change_window = 0.0;
     let mut g = Filter::new(&prior(0.5), cfg, MeasurementConfig::default(), band(0.5)).unwrap();
     run(&mut g, &d);
     let without = (g.icr().spread() - new.spread()).abs();

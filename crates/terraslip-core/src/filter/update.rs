@@ -24,7 +24,7 @@ use super::{
     finite_mat, isolate, Chord, Fate, Filter, FilterError, Mat3xN, PoseFix, UpdateReport, Variant,
 };
 use crate::angle;
-use crate::model::{MatN, BIAS_E, BIAS_N, CLOCK, EAST, N, NORTH, SLIP, YAW};
+use crate::model::{MatN, BIAS_E, BIAS_N, CLOCK, EAST, LAW, N, NORTH, SLIP, YAW};
 
 type MatNx3 = SMatrix<f64, N, 3>;
 
@@ -130,6 +130,7 @@ impl Filter {
         // First fix of a kind: take it as the pose.
         let mut use_pos = pos.is_some();
         let mut use_yaw = yaw.is_some();
+        self.heading_seen |= yaw.is_some();
         if yaw.is_some() && !self.anchored[1] {
             let m = self.motion(&self.x, lag);
             self.anchor(YAW, angle::wrap(z[2] + m.d_yaw), &[(CLOCK, m.omega)], r[2]);
@@ -172,7 +173,9 @@ impl Filter {
         for (k, used) in [(0usize, use_pos), (1, use_yaw)] {
             if used && moving && self.noise[k].count() >= DETECTOR_WARMUP {
                 let dims = if k == 0 { 2 } else { 1 };
-                if let Some(stat) = self.detector[k].push(z_norm[k], dims, self.cfg.change_window) {
+                if let Some(stat) =
+                    self.detector[k].push(t, z_norm[k], dims, self.cfg.change_window)
+                {
                     let threshold =
                         self.cfg.change_threshold * if k == 0 { 13.8 / 10.8 } else { 1.0 };
                     fired |= stat > threshold;
@@ -251,6 +254,18 @@ impl Filter {
         if reanchor[0] {
             self.anchor_position(&z, lag, r[0]);
             self.rejected[0] = 0;
+            if !self.heading_seen {
+                // Without heading fixes, a run of rejected positions means
+                // the heading found from them is lost: find it again, and
+                // let the slip parameters learn again too.
+                self.anchored[1] = false;
+                isolate(&mut self.P, YAW, 0.0);
+                self.chord = Some(Chord {
+                    start: (z[0], z[1]),
+                    odo: (0.0, 0.0),
+                });
+                self.raise_slip_uncertainty()?;
+            }
         }
         if !use_pos && !use_yaw {
             return Ok(report);
@@ -336,6 +351,7 @@ impl Filter {
             lag + x[CLOCK],
             self.cfg.chart,
             &crate::model::slip_of(x),
+            x[LAW],
             x[YAW],
         )
     }
@@ -457,7 +473,7 @@ impl Filter {
                 *f = !matches!(i, EAST | NORTH | BIAS_E | BIAS_N);
             }
         }
-        for i in SLIP..SLIP + 5 {
+        for i in SLIP..=LAW {
             frozen[i] |= self.still || !cfg.learn_icr;
         }
         if !cfg.learn_alpha {

@@ -302,6 +302,8 @@ fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) -> ser
         "variant": cfg.filter.variant,
         "init": est.init_source,
         "clock_offset_s": {"value": est.clock_offset.0, "std": est.clock_offset.1},
+        // The spread in effect is (1 + slope |v_r - v_l|) times "icr"'s.
+        "turn_law_s_per_m": {"slope": est.turn_law.0, "std": est.turn_law.1},
         // The pose noise the filter ended with, and whether pose.csv stated it.
         "pose_noise": {
             "std_xy_m": est.noise.std_xy,

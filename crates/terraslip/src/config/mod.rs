@@ -59,6 +59,13 @@ pub struct InitSection {
     pub std_alpha_diff: f64,
     /// Std of calibrated parameters from `--init`.
     pub calibrated_std: SlipStd,
+    /// Starting slope of the turn law, s/m: the spread in effect is
+    /// `1 + slope |V_r - V_l|` times the straight-line one (negative: the
+    /// robot turns as if narrower in fast turns, as the treads' grip
+    /// saturates). `--init` files from `calibrate` carry one.
+    pub turn_law: f64,
+    /// Std of the turn law's slope, s/m (0 = held at `turn_law`).
+    pub std_turn_law: f64,
 }
 
 /// `[band]`: multiples of the track width W.
@@ -125,6 +132,8 @@ impl Default for InitSection {
                 alpha: 0.01,
                 alpha_diff: 0.003,
             },
+            turn_law: 0.0,
+            std_turn_law: 0.15,
         }
     }
 }
@@ -246,6 +255,7 @@ impl EstimatorConfig {
             ("init.std_x_c", i.std_x_c),
             ("init.std_alpha", i.std_alpha),
             ("init.std_alpha_diff", i.std_alpha_diff),
+            ("init.std_turn_law", i.std_turn_law),
             ("schedule.boost_factor", self.schedule.boost_factor),
             ("schedule.memory_min_dwell", self.schedule.memory_min_dwell),
             ("schedule.memory_average", self.schedule.memory_average),
@@ -281,6 +291,12 @@ impl EstimatorConfig {
                  0 < min_alpha < max_alpha (all finite)"
                     .into(),
             ));
+        }
+        if !(i.turn_law.abs() <= 2.0) {
+            return Err(ConfigError(format!(
+                "init.turn_law = {} s/m must be within +-2",
+                i.turn_law
+            )));
         }
         if !(i.spread_factor >= b.min_spread && i.spread_factor <= b.max_spread) {
             return Err(ConfigError(format!(
@@ -326,6 +342,8 @@ impl EstimatorConfig {
                 alpha: i.std_alpha,
                 alpha_diff: i.std_alpha_diff,
             },
+            turn_law: i.turn_law,
+            turn_law_std: i.std_turn_law,
         }
     }
 

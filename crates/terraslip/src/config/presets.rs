@@ -40,7 +40,7 @@ fn papers(q: f64) -> EstimatorConfig {
         alpha_diff: 0.0,
     };
     f.q_yaw_per_rate2 = 1e-4;
-    f.change_window = 0;
+    f.change_window = 0.0;
     f.noise_memory = 0.0;
     let m = &mut c.measurement;
     m.std_xy = 2.0;
@@ -53,6 +53,8 @@ fn papers(q: f64) -> EstimatorConfig {
     i.std_x_c = 0.1;
     i.std_alpha = 1e-6;
     i.std_alpha_diff = 1e-6;
+    // ... and constant ICRs.
+    i.std_turn_law = 0.0;
     c.schedule.reset = false;
     c.schedule.memory = false;
     c

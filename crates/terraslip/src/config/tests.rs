@@ -74,7 +74,7 @@ fn presets_are_valid_and_distinct_and_the_papers_keep_their_model() {
             assert_eq!(c.filter.chart, terraslip_core::Chart::Tread, "{name}");
             assert!(!c.filter.learn_alpha && !c.filter.learn_clock, "{name}");
             assert_eq!(c.filter.noise_memory, 0.0, "{name}");
-            assert_eq!(c.filter.change_window, 0, "{name}");
+            assert_eq!(c.filter.change_window, 0.0, "{name}");
             assert_eq!(c.measurement.correlated_fraction, 0.0, "{name}");
         }
     }

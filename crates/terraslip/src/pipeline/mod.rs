@@ -143,8 +143,10 @@ pub struct EstimateRun {
     pub track_width: f64,
     /// The physical band the ICRs were kept in.
     pub band: IcrBand,
-    /// Final slip parameters.
+    /// Final slip parameters (straight-line values).
     pub final_icr: IcrParams,
+    /// Final turn law slope and its std, s/m.
+    pub turn_law: (f64, f64),
     /// Where the starting slip parameters came from (`prior`, `init:<set>`).
     pub init_source: String,
     /// Final clock offset of the pose stream and its std, s.
@@ -341,6 +343,7 @@ pub fn run_with(
         track_width,
         band,
         final_icr: f.icr(),
+        turn_law: f.turn_law(),
         init_source,
         clock_offset: f.clock_offset(),
         noise: NoiseUsed {
@@ -369,9 +372,10 @@ fn row(
 ) -> EstimateRow {
     let f = est.filter();
     let (east, north, yaw) = f.pose();
-    let icr = f.icr();
+    // The ICRs in effect at this row's tread speeds.
+    let icr = f.icr_now();
     let pc = f.pose_covariance();
-    let ic = f.icr_covariance();
+    let ic = f.icr_now_covariance();
     let sd = |v: f64| v.max(0.0).sqrt();
     EstimateRow {
         t,
@@ -386,14 +390,19 @@ fn row(
         std: [
             sd(pc[(0, 0)]),
             sd(pc[(1, 1)]),
-            sd(pc[(2, 2)]),
+            // A heading not yet found from any fix is unknown.
+            if f.anchored()[1] {
+                sd(pc[(2, 2)])
+            } else {
+                std::f64::consts::PI
+            },
             sd(ic[(0, 0)]),
             sd(ic[(1, 1)]),
             sd(ic[(2, 2)]),
             sd(ic[(3, 3)]),
             sd(ic[(4, 4)]),
         ],
-        std_spread: f.spread_std(),
+        std_spread: (ic[(0, 0)] + ic[(1, 1)] - 2.0 * ic[(0, 1)]).max(0.0).sqrt(),
         terrain,
         fused: s.fused,
         gated: s.gated,

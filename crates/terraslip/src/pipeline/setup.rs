@@ -3,7 +3,7 @@
 //! estimator built from them.
 
 use terraslip_core::estimator::Estimator;
-use terraslip_core::filter::{Filter, Prior};
+use terraslip_core::filter::Filter;
 use terraslip_core::schedule::NoiseSchedule;
 use terraslip_core::terrain_belief::MAX_TERRAINS;
 use terraslip_core::IcrParams;
@@ -63,13 +63,28 @@ pub(super) fn setup(
     let mut meas = cfg.measurement;
     if let Some(pf) = init {
         match starting_set(pf, evidence, log) {
-            Some((name, p)) => {
+            Some((name, p, extra)) => {
                 p.validate()
                     .map_err(|e| PipelineError::Init(format!("set `{name}`: {e}")))?;
-                prior = Prior {
-                    icr: p,
-                    std: cfg.init.calibrated_std,
-                };
+                prior.icr = p;
+                prior.std = cfg.init.calibrated_std;
+                // A turn law the calibration selected comes with its own
+                // straight-line parameters.
+                let law = terraslip_io::RateModelEntry::selected(extra)
+                    .map_err(|e| PipelineError::Init(format!("set `{name}`: rate_model {e}")))?;
+                if let Some(r) = law {
+                    r.params.validate().map_err(|e| {
+                        PipelineError::Init(format!("set `{name}`: rate_model params: {e}"))
+                    })?;
+                    if !(r.k_spread.abs() <= 2.0) {
+                        return Err(PipelineError::Init(format!(
+                            "set `{name}`: rate_model k_spread = {} s/m is beyond +-2",
+                            r.k_spread
+                        )));
+                    }
+                    prior.icr = r.params;
+                    prior.turn_law = r.k_spread;
+                }
                 init_source = format!("init:{name}");
             }
             None => warnings.push(
@@ -141,12 +156,16 @@ pub(super) fn terrain_names(evidence: &TerrainEvidence) -> Vec<String> {
 /// without evidence, the terrain `terrain.csv` names if it names only one;
 /// else the only set of the file, or its pooled set. `None` when the file
 /// has several terrain sets and nothing picks one.
-fn starting_set(
-    pf: &ParamsFile,
+fn starting_set<'a>(
+    pf: &'a ParamsFile,
     evidence: &TerrainEvidence,
     log: &DriveLog,
-) -> Option<(String, IcrParams)> {
-    let named = |t: &str| pf.terrains.get(t).map(|e| (t.to_string(), e.params));
+) -> Option<(String, IcrParams, &'a Extra)> {
+    let named = |t: &str| {
+        pf.terrains
+            .get(t)
+            .map(|e| (t.to_string(), e.params, &e.extra))
+    };
     if let TerrainEvidence::Labels(l) = evidence {
         if let Some(found) = l.first().and_then(|x| named(&x.terrain)) {
             return Some(found);
@@ -160,13 +179,15 @@ fn starting_set(
         }
     }
     if let Some(p) = pf.params {
-        return Some(("params".into(), p));
+        return Some(("params".into(), p, &pf.extra));
     }
     match pf.terrains.iter().collect::<Vec<_>>().as_slice() {
-        [(name, e)] => Some(((*name).clone(), e.params)),
+        [(name, e)] => Some(((*name).clone(), e.params, &e.extra)),
         _ => None,
     }
 }
+
+type Extra = std::collections::BTreeMap<String, serde_json::Value>;
 
 /// The wheel-to-pose time offset stored by `terraslip calibrate`
 /// (`time_offset_s`, pooled or of the first terrain set that has one).

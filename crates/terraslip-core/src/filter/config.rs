@@ -421,7 +421,7 @@ impl Default for MeasurementConfig {
             correlation_time: 30.0,
             encoder_tick: 0.0,
             clock_offset: 0.0,
-            clock_offset_std: 0.3,
+            clock_offset_std: 0.1,
         }
     }
 }

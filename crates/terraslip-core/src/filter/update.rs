@@ -33,6 +33,10 @@ type MatNx3 = SMatrix<f64, N, 3>;
 const CHORD_STDS: f64 = 8.0;
 const MIN_CHORD: f64 = 2.0;
 
+/// Smallest position std (m) and heading std (rad) a fix is trusted with.
+const MIN_STD_XY: f64 = 0.005;
+const MIN_STD_YAW: f64 = 0.001;
+
 /// Measured dimensions behind the noise belief before the gates apply.
 const GATE_WARMUP: f64 = 2.0;
 
@@ -106,10 +110,13 @@ impl Filter {
             fix.std_xy * fix.std_xy,
             fix.std_yaw * fix.std_yaw,
         ];
+        // No sensor is better than a floor (a localiser standing still
+        // repeats its pose exactly; moving, it does not).
+        let floor = [MIN_STD_XY * MIN_STD_XY, MIN_STD_YAW * MIN_STD_YAW];
         let r = [
-            r_nom[0] * self.noise[0].sensor(),
-            r_nom[1] * self.noise[0].sensor(),
-            r_nom[2] * self.noise[1].sensor(),
+            (r_nom[0] * self.noise[0].sensor()).max(floor[0]),
+            (r_nom[1] * self.noise[0].sensor()).max(floor[0]),
+            (r_nom[2] * self.noise[1].sensor()).max(floor[1]),
         ];
         if pos.is_some() {
             // A stated GNSS std describes the whole error, most of it slow;
@@ -502,13 +509,6 @@ impl Filter {
             return;
         }
         let turn = libm::atan2(g.1, g.0) - libm::atan2(c.odo.1, c.odo.0);
-        #[cfg(feature = "std")]
-        if std::env::var("DBG").is_ok() {
-            std::eprintln!(
-                "heading: chord gnss {g:?} odo {:?} std {std_xy} turn {turn}",
-                c.odo
-            );
-        }
         self.x[YAW] = angle::wrap(self.x[YAW] + turn);
         let sd = 2.0 * std_xy / lg;
         isolate(&mut self.P, YAW, sd * sd);

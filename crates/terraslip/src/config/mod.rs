@@ -133,7 +133,7 @@ impl Default for InitSection {
                 alpha_diff: 0.003,
             },
             turn_law: 0.0,
-            std_turn_law: 0.15,
+            std_turn_law: 0.1,
         }
     }
 }

@@ -35,6 +35,7 @@ pub mod ga;
 pub mod lm;
 pub mod model;
 pub mod offset;
+pub mod prediction;
 pub mod sandwich;
 pub mod segment;
 pub mod symmetric;

@@ -216,7 +216,7 @@ impl Estimator {
         let mut best: Option<(usize, Pending)> = None;
         for (i, p) in self.pending.iter().enumerate() {
             if let Some(p) = p {
-                if best.map_or(true, |(_, b)| p.t < b.t) {
+                if best.is_none_or(|(_, b)| p.t < b.t) {
                     best = Some((i, *p));
                 }
             }

@@ -18,6 +18,8 @@
 //! * [`terrain_belief`]: the terrain HMM and vote over classifier outputs.
 #![cfg_attr(not(feature = "std"), no_std)]
 #![allow(non_snake_case)]
+// `!(x > 0.0)` is meant: it is also true for NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod angle;
 pub mod estimator;

@@ -19,6 +19,8 @@
 //! run.write("papers-log").unwrap();
 //! ```
 
+// `!(x <= 0.5)` is meant: it is also true for NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 pub mod camera;
 pub mod family;
 mod operator;

@@ -86,9 +86,12 @@ impl NoiseFit {
         self.theta[1]
     }
 
-    /// Evidence behind the fit, fixes (priors included).
+    /// Evidence behind the fit, fixes (priors included; infinite for a
+    /// fit that does not learn: its noise is as stated).
     pub(super) fn count(&self) -> f64 {
-        if self.placed[0] {
+        if !self.learns {
+            f64::INFINITY
+        } else if self.placed[0] {
             self.count
         } else {
             self.weight0[0]
@@ -122,7 +125,7 @@ impl NoiseFit {
     /// predicted variance, `r` the stated sensor variance and `b` the model
     /// basis since the previous fix.
     pub(super) fn add(&mut self, nu2: f64, s: f64, r: f64, b: f64) {
-        if !self.learns || !(s > 0.0 && nu2.is_finite() && r > 0.0 && b >= 0.0) {
+        if !(self.learns && s > 0.0 && nu2.is_finite() && r > 0.0 && b >= 0.0) {
             return;
         }
         let x = Vector2::new(r, b);

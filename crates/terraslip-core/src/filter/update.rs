@@ -423,9 +423,9 @@ impl Filter {
             *v = dep.iter().map(|&(m, c)| c * self.P[(m, k)]).sum();
         }
         let var = r + dep.iter().map(|&(m, c)| c * row[m]).sum::<f64>();
-        for k in 0..N {
-            self.P[(i, k)] = row[k];
-            self.P[(k, i)] = row[k];
+        for (k, v) in row.iter().enumerate() {
+            self.P[(i, k)] = *v;
+            self.P[(k, i)] = *v;
         }
         self.P[(i, i)] = var.max(r);
         self.x[i] = value;
@@ -480,8 +480,8 @@ impl Filter {
                 *f = !matches!(i, EAST | NORTH | BIAS_E | BIAS_N);
             }
         }
-        for i in SLIP..=LAW {
-            frozen[i] |= self.still || !cfg.learn_icr;
+        for f in &mut frozen[SLIP..=LAW] {
+            *f |= self.still || !cfg.learn_icr;
         }
         if !cfg.learn_alpha {
             for k in cfg.chart.factor_slots() {

@@ -556,6 +556,18 @@ fn run_validate(a: ValidateArgs) -> anyhow::Result<()> {
             ratio(nm.position(), m.position())
         );
     }
+    // The 2 s prediction error, as `estimate` reports it: the parameters of
+    // the terrain in effect (or the pooled set) held over each 2 s.
+    let prediction = validation_prediction(&logs, &params);
+    if let Some(p) = &prediction {
+        eprintln!(
+            "  2 s prediction: {} segments, mean {:.3} m (no-slip {:.3} m), p90 {:.3} m",
+            p.segments.len(),
+            p.stats.mean_m,
+            p.no_slip.mean_m,
+            p.stats.p90_m
+        );
+    }
     if let Some(path) = &a.plot {
         plot_validation(&v, path)?;
         eprintln!("wrote {}", path.display());
@@ -587,10 +599,35 @@ fn run_validate(a: ValidateArgs) -> anyhow::Result<()> {
             "mistimed_poses_dropped": v.stats.mistimed_poses,
             "held_poses_dropped": v.stats.stale_poses,
             "terrains": per,
+            "prediction": prediction.as_ref().map(|p| p.to_json()),
         });
         println!("{j}");
     }
     Ok(())
+}
+
+/// The 2 s prediction score of `params` over all `logs` together.
+fn validation_prediction(
+    logs: &[terraslip_io::DriveLog],
+    params: &ParamsFile,
+) -> Option<terraslip_calib::prediction::PredictionScore> {
+    use terraslip_calib::prediction::{score, PredictionScore};
+    let mut all: Option<PredictionScore> = None;
+    for log in logs {
+        let w = log.meta.track_width.filter(|w| w.is_finite() && *w > 0.0)?;
+        let set_at = |t: f64| {
+            let k = log.terrain.partition_point(|l| l.t <= t);
+            let name = k.checked_sub(1).map(|k| log.terrain[k].terrain.as_str());
+            params.for_terrain(name)
+        };
+        if let Some(s) = score(&log.wheels, &log.pose, w, &set_at, Default::default()) {
+            match all.as_mut() {
+                Some(a) => a.segments.extend(s.segments),
+                None => all = Some(s),
+            }
+        }
+    }
+    all.map(|a| terraslip_calib::prediction::PredictionScore::from_segments(a.spec, a.segments))
 }
 
 /// Three panels: segment end points in the start frame (reference,

@@ -332,6 +332,9 @@ fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) -> ser
             "dropped_fixes": est.stats.dropped_fixes,
         },
         "warnings": log.warnings.iter().chain(&est.warnings).collect::<Vec<_>>(),
+        // How well the parameters the filter reported at each time predict
+        // the next 2 s of motion against the pose reference (absent without one).
+        "prediction": terraslip::prediction_score(log, est).map(|p| p.to_json()),
     })
 }
 

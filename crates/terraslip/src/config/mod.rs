@@ -123,7 +123,7 @@ impl Default for InitSection {
             spread_std_factor: 0.5,
             std_centre: 0.05,
             std_x_c: 0.1,
-            std_alpha: 0.15,
+            std_alpha: 0.1,
             std_alpha_diff: 0.01,
             calibrated_std: SlipStd {
                 spread: 0.01,
@@ -292,7 +292,7 @@ impl EstimatorConfig {
                     .into(),
             ));
         }
-        if !(i.turn_law.abs() <= 2.0) {
+        if i.turn_law.is_nan() || i.turn_law.abs() > 2.0 {
             return Err(ConfigError(format!(
                 "init.turn_law = {} s/m must be within +-2",
                 i.turn_law

@@ -1,0 +1,299 @@
+//! The 2 s motion-prediction error: how a user judges whether learned slip
+//! parameters are worth using (the yardstick DRIVE, Baril et al. 2024, uses
+//! for slip models).
+//!
+//! Every `stride` seconds after a `warmup`, from the reference pose at `t`
+//! (linear interpolation of `pose.csv`, the yaw unwrapped), the tread
+//! speeds of `wheels.csv` are integrated over `[t, t + horizon]` with the
+//! ICR model and the parameters in effect at `t`, held for the whole
+//! horizon; the error is the distance to the reference position at
+//! `t + horizon`. Starts where the pose stream has a gap longer than
+//! `max_gap` inside the horizon are skipped. The same segments are scored
+//! with the no-slip model of the track width, for comparison.
+
+use terraslip_core::IcrParams;
+use terraslip_io::{PoseObs, WheelSample};
+
+/// Settings of the score.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PredictionSpec {
+    /// Prediction horizon, s.
+    pub horizon: f64,
+    /// Time from the first wheels row before the first start, s.
+    pub warmup: f64,
+    /// Time between starts, s.
+    pub stride: f64,
+    /// Longest gap in the pose stream a segment may contain, s.
+    pub max_gap: f64,
+}
+
+impl Default for PredictionSpec {
+    fn default() -> Self {
+        Self {
+            horizon: 2.0,
+            warmup: 60.0,
+            stride: 1.0,
+            max_gap: 0.5,
+        }
+    }
+}
+
+/// One scored start.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PredictionSegment {
+    /// Start time, s.
+    pub t: f64,
+    /// Position error of the parameters' prediction, m.
+    pub error: f64,
+    /// Position error of the no-slip model's prediction, m.
+    pub no_slip: f64,
+}
+
+/// Summary statistics of errors, m.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
+pub struct ErrorStats {
+    pub mean_m: f64,
+    pub rmse_m: f64,
+    pub p90_m: f64,
+}
+
+impl ErrorStats {
+    fn of(v: impl Iterator<Item = f64>) -> Self {
+        let mut v: Vec<f64> = v.collect();
+        if v.is_empty() {
+            return Self::default();
+        }
+        let n = v.len() as f64;
+        let mean_m = v.iter().sum::<f64>() / n;
+        let rmse_m = (v.iter().map(|e| e * e).sum::<f64>() / n).sqrt();
+        v.sort_by(|a, b| a.total_cmp(b));
+        let p90_m = v[((v.len() - 1) as f64 * 0.9).round() as usize];
+        Self {
+            mean_m,
+            rmse_m,
+            p90_m,
+        }
+    }
+}
+
+/// The score of a run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PredictionScore {
+    pub spec: PredictionSpec,
+    pub segments: Vec<PredictionSegment>,
+    /// Of the parameters.
+    pub stats: ErrorStats,
+    /// Of the no-slip model on the same segments.
+    pub no_slip: ErrorStats,
+}
+
+impl PredictionScore {
+    /// The score of given segments.
+    pub fn from_segments(spec: PredictionSpec, segments: Vec<PredictionSegment>) -> Self {
+        Self {
+            spec,
+            stats: ErrorStats::of(segments.iter().map(|s| s.error)),
+            no_slip: ErrorStats::of(segments.iter().map(|s| s.no_slip)),
+            segments,
+        }
+    }
+
+    /// The `prediction` object of `summary.json` and `calibrate validate --json`.
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "horizon_s": self.spec.horizon,
+            "segments": self.segments.len(),
+            "mean_m": self.stats.mean_m,
+            "rmse_m": self.stats.rmse_m,
+            "p90_m": self.stats.p90_m,
+            "no_slip": self.no_slip,
+        })
+    }
+}
+
+/// Reference poses with all of east, north and yaw, the yaw unwrapped.
+fn reference(pose: &[PoseObs]) -> Vec<(f64, f64, f64, f64)> {
+    let mut out: Vec<(f64, f64, f64, f64)> = Vec::with_capacity(pose.len());
+    for p in pose {
+        if let (Some(e), Some(n), Some(y)) = (p.east, p.north, p.yaw) {
+            let y = match out.last() {
+                Some(&(_, _, _, prev)) => prev + terraslip_core::angle::wrap(y - prev),
+                None => y,
+            };
+            out.push((p.t, e, n, y));
+        }
+    }
+    out
+}
+
+fn interpolate(r: &[(f64, f64, f64, f64)], t: f64) -> Option<(f64, f64, f64)> {
+    let i = r.partition_point(|p| p.0 < t);
+    if let Some(p) = r.get(i).filter(|p| p.0 == t) {
+        return Some((p.1, p.2, p.3));
+    }
+    if i == 0 || i >= r.len() {
+        return None;
+    }
+    let (a, b) = (r[i - 1], r[i]);
+    let f = if b.0 > a.0 {
+        (t - a.0) / (b.0 - a.0)
+    } else {
+        0.0
+    };
+    Some((
+        a.1 + f * (b.1 - a.1),
+        a.2 + f * (b.2 - a.2),
+        a.3 + f * (b.3 - a.3),
+    ))
+}
+
+/// Integrates the wheels over `[t0, t1]` from pose `start` (east, north,
+/// yaw) with `p` (a row's speeds hold over the interval that ends at its
+/// time): the position at `t1`.
+pub fn predict(
+    wheels: &[WheelSample],
+    p: &IcrParams,
+    t0: f64,
+    t1: f64,
+    start: (f64, f64, f64),
+) -> (f64, f64) {
+    let (mut e, mut n, mut y) = start;
+    let mut i = wheels.partition_point(|w| w.t <= t0);
+    let mut t = t0;
+    while t < t1 && i < wheels.len() {
+        let tn = wheels[i].t.min(t1);
+        let dt = tn - t;
+        let tw = p.twist(wheels[i].v_left, wheels[i].v_right);
+        e += dt * (tw.v_x * y.cos() - tw.v_y * y.sin());
+        n += dt * (tw.v_x * y.sin() + tw.v_y * y.cos());
+        y += dt * tw.omega;
+        t = tn;
+        if tn >= wheels[i].t {
+            i += 1;
+        }
+    }
+    (e, n)
+}
+
+/// Scores the parameters `params_at(t)` (those in effect at `t`) on the
+/// drive; `None` without a pose reference with headings or wheels, or when
+/// no segment qualifies.
+pub fn score(
+    wheels: &[WheelSample],
+    pose: &[PoseObs],
+    track_width: f64,
+    params_at: &dyn Fn(f64) -> Option<IcrParams>,
+    spec: PredictionSpec,
+) -> Option<PredictionScore> {
+    let r = reference(pose);
+    let (first, last) = (wheels.first()?.t, wheels.last()?.t);
+    if r.len() < 2 || !(spec.horizon > 0.0 && spec.stride > 0.0) {
+        return None;
+    }
+    let no_slip = IcrParams::no_slip(track_width);
+    let mut segments = Vec::new();
+    let mut t = first + spec.warmup;
+    let end = r[r.len() - 1].0.min(last) - spec.horizon;
+    while t <= end {
+        let t1 = t + spec.horizon;
+        let i = r.partition_point(|p| p.0 <= t).saturating_sub(1);
+        let j = r.partition_point(|p| p.0 < t1);
+        let gap_free = j < r.len() && r[i..=j].windows(2).all(|w| w[1].0 - w[0].0 <= spec.max_gap);
+        if gap_free {
+            if let (Some(a), Some(b), Some(p)) =
+                (interpolate(&r, t), interpolate(&r, t1), params_at(t))
+            {
+                let (e, n) = predict(wheels, &p, t, t1, a);
+                let (en, nn) = predict(wheels, &no_slip, t, t1, a);
+                segments.push(PredictionSegment {
+                    t,
+                    error: (e - b.0).hypot(n - b.1),
+                    no_slip: (en - b.0).hypot(nn - b.1),
+                });
+            }
+        }
+        t += spec.stride;
+    }
+    if segments.is_empty() {
+        return None;
+    }
+    Some(PredictionScore::from_segments(spec, segments))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A drive with exact ICR-model truth as pose (10 Hz) and wheels (50 Hz).
+    fn drive(
+        truth: &IcrParams,
+        turn: bool,
+        gap: Option<(f64, f64)>,
+    ) -> (Vec<WheelSample>, Vec<PoseObs>) {
+        let (mut e, mut n, mut y) = (0.0f64, 0.0f64, 0.3f64);
+        let mut wheels = Vec::new();
+        let mut pose = Vec::new();
+        for k in 0..=5000 {
+            let t = k as f64 * 0.02;
+            let (vl, vr) = if turn { (0.6, 1.0) } else { (0.8, 0.8) };
+            if k > 0 {
+                let tw = truth.twist(vl, vr);
+                e += 0.02 * (tw.v_x * y.cos() - tw.v_y * y.sin());
+                n += 0.02 * (tw.v_x * y.sin() + tw.v_y * y.cos());
+                y += 0.02 * tw.omega;
+            }
+            wheels.push(WheelSample {
+                t,
+                v_left: vl,
+                v_right: vr,
+            });
+            if k % 5 == 0 && !gap.is_some_and(|(a, b)| t > a && t < b) {
+                pose.push(PoseObs {
+                    t,
+                    east: Some(e),
+                    north: Some(n),
+                    yaw: Some(terraslip_core::angle::wrap(y)),
+                    std_xy: None,
+                    std_yaw: None,
+                });
+            }
+        }
+        (wheels, pose)
+    }
+
+    #[test]
+    fn exact_parameters_predict_exactly_and_no_slip_does_not() {
+        let mut truth = IcrParams::new(0.4, -0.38, 0.02);
+        truth.alpha_l = 0.9;
+        truth.alpha_r = 0.92;
+        for turn in [false, true] {
+            let (w, p) = drive(&truth, turn, None);
+            let s = score(&w, &p, 0.5, &|_| Some(truth), PredictionSpec::default()).unwrap();
+            // Starts every second from 60 s while t + 2 s is inside.
+            assert_eq!(s.segments.len(), 39, "{turn}");
+            assert!(s.stats.mean_m < 1e-6, "{:?}", s.stats);
+            // A 9 % slower robot: 0.15 m short over 2 s at 0.8 m/s.
+            assert!(s.no_slip.mean_m > 0.1, "{:?}", s.no_slip);
+            assert!(s.no_slip.p90_m >= s.no_slip.mean_m * 0.99);
+        }
+    }
+
+    #[test]
+    fn gaps_and_missing_parameters_are_skipped() {
+        let truth = IcrParams::new(0.4, -0.38, 0.02);
+        let (w, p) = drive(&truth, true, Some((70.0, 71.0)));
+        let s = score(
+            &w,
+            &p,
+            0.5,
+            &|t| (t < 90.0).then_some(truth),
+            PredictionSpec::default(),
+        )
+        .unwrap();
+        // 60..=97 in steps of 1 s; starts 69 and 70 reach into the gap; 90.. have no parameters.
+        assert!(s.segments.iter().all(|g| !(68.5..70.5).contains(&g.t)));
+        assert!(s.segments.iter().all(|g| g.t < 90.0));
+        assert_eq!(s.segments.len(), 28);
+        assert!(score(&w, &[], 0.5, &|_| Some(truth), PredictionSpec::default()).is_none());
+    }
+}

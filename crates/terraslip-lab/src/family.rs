@@ -1,0 +1,298 @@
+//! `terraslip-lab family`: each estimator over the family of worlds
+//! (`terraslip_sim::family`), without terrain labels and without `--init`.
+//!
+//! Figures per world (rows at least 20 s after the start and after every
+//! terrain change, sampled every second for the NEES):
+//!
+//! * steady-state RMS of the spread `d`, of `y_l`/`y_r` (the larger), of
+//!   the common speed factor (%);
+//! * re-convergence after each terrain change, counted from the first
+//!   0.5 rad the truth turned after it (the worst change of the world;
+//!   "never" counts as infinite);
+//! * the dead-reckoning drift over the world's 30 s outage (every pose fix
+//!   dropped, compass included), % of the distance driven;
+//! * the 2 s prediction error against the true pose, m;
+//! * the NEES (normalised estimation error squared, 1 per dof for an
+//!   honest filter) of east, north, yaw, `d`, the speed factor and `x_c`.
+
+use std::sync::Mutex;
+
+use terraslip::metrics::{self, ReconvergenceSpec};
+use terraslip::pipeline::{self, EstimateRun, RunOptions, TerrainEvidence};
+use terraslip_core::IcrParams;
+use terraslip_sim::family::{world, Subset, World};
+use terraslip_sim::{simulate, SimRun};
+
+use crate::estimators;
+use crate::stats::summary;
+
+/// Run every estimator over a family of simulated worlds.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Number of worlds.
+    #[arg(long, default_value_t = 50)]
+    worlds: u64,
+    /// Seed of the first world.
+    #[arg(long, default_value_t = 1)]
+    first_seed: u64,
+    /// `all`, or `gnss2m` (2 m GNSS at 1 Hz, 1 degree compass).
+    #[arg(long, default_value = "all")]
+    subset: String,
+    /// Estimators to compare (repeatable): a preset or `config:FILE.toml`.
+    #[arg(long = "estimator", default_values_t = ["terraslip".to_string(), "ekf-qmin".to_string(), "no-slip".to_string()])]
+    estimators: Vec<String>,
+    /// Print one line per world and estimator.
+    #[arg(long)]
+    verbose: bool,
+    /// Write the per-world figures as JSON.
+    #[arg(long, value_name = "FILE")]
+    json: Option<std::path::PathBuf>,
+    /// Write world --first-seed as a log directory (as the family runs it)
+    /// and exit.
+    #[arg(long, value_name = "DIR")]
+    write: Option<std::path::PathBuf>,
+}
+
+/// Figures of one run over one world.
+#[derive(Debug, Clone, Default, serde::Serialize)]
+struct Figures {
+    rms_d_cm: f64,
+    rms_y_cm: f64,
+    rms_alpha_pct: f64,
+    /// Worst re-convergence from the first turn, s (infinite: never).
+    reconvergence_s: f64,
+    drift_pct: f64,
+    prediction_m: f64,
+    /// east, north, yaw, d, alpha, x_c.
+    nees: [f64; 6],
+}
+
+/// The world's log as the family runs it: the pose stream on its own
+/// clock, the std columns only where the world states them.
+fn simulate_world(w: &World, seed: u64) -> anyhow::Result<SimRun> {
+    let mut sim = simulate(&w.scenario, seed)?;
+    for p in &mut sim.log.pose {
+        p.t += w.clock_offset;
+        if !w.stated_std {
+            p.std_xy = None;
+            p.std_yaw = None;
+        }
+    }
+    Ok(sim)
+}
+
+fn truth_at(sim: &SimRun, t: f64) -> &terraslip_sim::TruthState {
+    let i = sim.truth.partition_point(|s| s.t < t);
+    &sim.truth[i.min(sim.truth.len() - 1)]
+}
+
+/// 2 s prediction error against the true pose (starts every second after
+/// 60 s), with the ICRs the run reported at each start.
+fn prediction(run: &EstimateRun, sim: &SimRun) -> f64 {
+    let w = &sim.log.wheels;
+    let end = sim.truth.last().map_or(0.0, |s| s.t) - 2.0;
+    let (mut sum, mut n) = (0.0, 0usize);
+    let mut t = w[0].t + 60.0;
+    while t < end {
+        let k = run.rows.partition_point(|r| r.t <= t).max(1) - 1;
+        let r = &run.rows[k];
+        let p = IcrParams {
+            y_l: r.y_l,
+            y_r: r.y_r,
+            x_c: r.x_c,
+            alpha_l: r.alpha_l,
+            alpha_r: r.alpha_r,
+        };
+        let s0 = truth_at(sim, t);
+        let (e, nn) =
+            terraslip_calib::prediction::predict(w, &p, t, t + 2.0, (s0.east, s0.north, s0.yaw));
+        let s1 = truth_at(sim, t + 2.0);
+        sum += (e - s1.east).hypot(nn - s1.north);
+        n += 1;
+        t += 1.0;
+    }
+    sum / n.max(1) as f64
+}
+
+fn figures(run: &EstimateRun, sim: &SimRun, outage: (f64, f64)) -> Figures {
+    let log = &sim.log;
+    let rms = metrics::steady_state_rms(run, &log.truth, &log.terrain, 20.0);
+    let spec = ReconvergenceSpec {
+        turn_angle: 0.5,
+        ..Default::default()
+    };
+    let worst = metrics::reconvergence(run, &log.truth, &log.terrain, spec)
+        .iter()
+        .filter(|r| r.first_turn.is_some())
+        .map(|r| r.from_turn.unwrap_or(f64::INFINITY))
+        .fold(0.0f64, f64::max);
+    let drift = metrics::outage_drift(run, &log.truth, outage.0, outage.1);
+    let changes: Vec<f64> = log
+        .terrain
+        .windows(2)
+        .filter(|w| w[0].terrain != w[1].terrain)
+        .map(|w| w[1].t)
+        .collect();
+    let (mut sa, mut nees, mut n) = (0.0, [0.0; 6], 0usize);
+    let mut next = run.rows[0].t + 20.0;
+    for r in &run.rows {
+        if r.t < next || changes.iter().any(|c| r.t >= *c && r.t < c + 20.0) {
+            continue;
+        }
+        next = r.t + 1.0;
+        let s = truth_at(sim, r.t);
+        let ea = 0.5 * (r.alpha_l + r.alpha_r - s.icr.alpha_l - s.icr.alpha_r);
+        sa += ea * ea;
+        let ed = (r.y_l - r.y_r) - s.icr.spread();
+        let errs = [
+            (r.east - s.east) / r.std[0],
+            (r.north - s.north) / r.std[1],
+            terraslip_core::angle::wrap(r.yaw - s.yaw) / r.std[2],
+            ed / r.std_spread,
+            ea / (0.5 * (r.std[6] + r.std[7])),
+            (r.x_c - s.icr.x_c) / r.std[5],
+        ];
+        for (acc, e) in nees.iter_mut().zip(errs) {
+            *acc += e * e;
+        }
+        n += 1;
+    }
+    let n = n.max(1) as f64;
+    Figures {
+        rms_d_cm: 100.0 * rms.d,
+        rms_y_cm: 100.0 * rms.y_l.max(rms.y_r),
+        rms_alpha_pct: 100.0 * (sa / n).sqrt(),
+        reconvergence_s: worst,
+        drift_pct: drift.map_or(f64::NAN, |d| d.percent),
+        prediction_m: prediction(run, sim),
+        nees: nees.map(|v| v / n),
+    }
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let subset = match a.subset.as_str() {
+        "all" => Subset::All,
+        "gnss2m" => Subset::Gnss2m,
+        other => anyhow::bail!("--subset {other}: expected `all` or `gnss2m`"),
+    };
+    if let Some(dir) = &a.write {
+        let w = world(a.first_seed, subset);
+        let sim = simulate_world(&w, a.first_seed)?;
+        sim.write(dir)?;
+        eprintln!(
+            "wrote world {} to {}: outage {:.1}..{:.1} s on the wheels' clock, pose clock offset {:+.3} s",
+            a.first_seed,
+            dir.display(),
+            w.outage.0,
+            w.outage.1,
+            w.clock_offset
+        );
+        return Ok(());
+    }
+    let cfgs = estimators::resolve(&a.estimators)?;
+    let seeds: Vec<u64> = (a.first_seed..a.first_seed + a.worlds).collect();
+    let results: Mutex<Vec<(u64, usize, Figures)>> = Mutex::new(Vec::new());
+    let next = Mutex::new(0usize);
+    let started = std::time::Instant::now();
+    let threads = std::thread::available_parallelism().map_or(2, |n| n.get());
+    std::thread::scope(|s| {
+        for _ in 0..threads {
+            s.spawn(|| -> anyhow::Result<()> {
+                loop {
+                    let k = {
+                        let mut g = next.lock().unwrap_or_else(|e| e.into_inner());
+                        *g += 1;
+                        *g - 1
+                    };
+                    let Some(&seed) = seeds.get(k) else {
+                        return Ok(());
+                    };
+                    let w = world(seed, subset);
+                    let sim = simulate_world(&w, seed)?;
+                    // The outage on the pose stream's clock.
+                    let outage = (w.outage.0 + w.clock_offset, w.outage.1 + w.clock_offset);
+                    for (i, (name, cfg)) in cfgs.iter().enumerate() {
+                        let opts = RunOptions {
+                            outage: Some(outage),
+                        };
+                        let run = pipeline::run_with(
+                            &sim.log,
+                            cfg,
+                            &TerrainEvidence::None,
+                            None,
+                            opts,
+                            &mut |_, _| {},
+                        )?;
+                        let f = figures(&run, &sim, w.outage);
+                        if a.verbose {
+                            eprintln!(
+                                "world {seed:3} gnss {:5.2} m tau {:3.0} s compass {:5} std {:5} clock {:+.2} | {name:14} d {:6.2} y {:6.2} a {:5.2}% rec {:>6} drift {:6.2}% pred {:.3}",
+                                w.gnss_std,
+                                w.scenario.gnss.markov_tau * f64::from(u8::from(w.scenario.gnss.markov_std > 0.0)),
+                                w.scenario.compass.rate > 0.0,
+                                w.stated_std,
+                                w.clock_offset,
+                                f.rms_d_cm,
+                                f.rms_y_cm,
+                                f.rms_alpha_pct,
+                                if f.reconvergence_s.is_finite() { format!("{:.1}", f.reconvergence_s) } else { "never".into() },
+                                f.drift_pct,
+                                f.prediction_m
+                            );
+                        }
+                        results
+                            .lock()
+                            .unwrap_or_else(|e| e.into_inner())
+                            .push((seed, i, f));
+                    }
+                    let done = results.lock().map_or(0, |r| r.len()) / cfgs.len();
+                    eprint!("\r{done}/{} worlds", seeds.len());
+                }
+            });
+        }
+    });
+    eprintln!(
+        "\r{} worlds in {:.0} s",
+        seeds.len(),
+        started.elapsed().as_secs_f64()
+    );
+    let results = results.into_inner().unwrap_or_else(|e| e.into_inner());
+    println!(
+        "{} worlds ({}), without terrain labels or --init: median / p90 / worst",
+        a.worlds, a.subset
+    );
+    for (i, (name, _)) in cfgs.iter().enumerate() {
+        let of = |f: &dyn Fn(&Figures) -> f64| {
+            let v: Vec<(u64, f64)> = results
+                .iter()
+                .filter(|r| r.1 == i)
+                .map(|r| (r.0, f(&r.2)))
+                .collect();
+            summary(&v)
+        };
+        println!("{name}");
+        println!("  RMS d, cm                  {}", of(&|f| f.rms_d_cm));
+        println!("  RMS y_l / y_r, cm          {}", of(&|f| f.rms_y_cm));
+        println!("  RMS speed factor, %        {}", of(&|f| f.rms_alpha_pct));
+        println!(
+            "  re-convergence, s          {}",
+            of(&|f| f.reconvergence_s)
+        );
+        println!("  30 s outage drift, %       {}", of(&|f| f.drift_pct));
+        println!("  2 s prediction, m          {}", of(&|f| f.prediction_m));
+        for (k, part) in ["east", "north", "yaw", "d", "speed factor", "x_c"]
+            .iter()
+            .enumerate()
+        {
+            println!("  NEES {part:12} (1 dof)   {}", of(&|f| f.nees[k]));
+        }
+    }
+    if let Some(path) = &a.json {
+        let rows: Vec<serde_json::Value> = results
+            .iter()
+            .map(|(seed, i, f)| serde_json::json!({"world": seed, "estimator": cfgs[*i].0, "figures": f}))
+            .collect();
+        std::fs::write(path, serde_json::to_string_pretty(&rows)?)?;
+    }
+    Ok(())
+}

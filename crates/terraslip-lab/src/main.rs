@@ -1,0 +1,42 @@
+//! `terraslip-lab`: the estimator's quality benchmarks. Every change to the
+//! default estimator is judged on both:
+//!
+//!     cargo run -p terraslip-lab --release -- family --worlds 50
+//!     cargo run -p terraslip-lab --release -- family --worlds 50 --subset gnss2m
+//!     cargo run -p terraslip-lab --release -- drives
+//!
+//! Estimators are named presets (`terraslip`, `ekf-qmin`, `no-slip`, ...)
+//! or `config:FILE.toml` (the default overridden by that file's keys).
+//! docs/benchmarks.md has the figures.
+
+use clap::{Parser, Subcommand};
+
+mod drives;
+mod estimators;
+mod family;
+mod stats;
+
+/// The estimator's quality benchmarks.
+#[derive(Parser)]
+#[command(name = "terraslip-lab")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// The family of simulated worlds: distributions of each estimator's
+    /// figures (median, 90th percentile, worst).
+    Family(family::Args),
+    /// The real drives: the 2 s prediction error of each estimator, against
+    /// the no-slip model and a calibration of the same drive.
+    Drives(drives::Args),
+}
+
+fn main() -> anyhow::Result<()> {
+    match Cli::parse().command {
+        Command::Family(a) => family::run(a),
+        Command::Drives(a) => drives::run(a),
+    }
+}

@@ -38,7 +38,10 @@ pub struct Args {
     /// `all`, or `gnss2m` (2 m GNSS at 1 Hz, 1 degree compass).
     #[arg(long, default_value = "all")]
     subset: String,
-    /// Estimators to compare (repeatable): a preset or `config:FILE.toml`.
+    /// Estimators to compare (repeatable): a preset, `config:FILE.toml`,
+    /// or `oracle` (the default told each terrain's nominal ICRs and speed
+    /// factors and when the terrain changes: the floor the turn law, the
+    /// sensors' noise and the drive leave).
     #[arg(long = "estimator", default_values_t = ["terraslip".to_string(), "ekf-qmin".to_string(), "no-slip".to_string()])]
     estimators: Vec<String>,
     /// Print one line per world and estimator.
@@ -169,6 +172,19 @@ fn figures(run: &EstimateRun, sim: &SimRun, outage: (f64, f64)) -> Figures {
     }
 }
 
+/// What the oracle is told: the terrain labels and each terrain's nominal
+/// parameters.
+fn oracle(w: &World, sim: &SimRun) -> (TerrainEvidence, Option<terraslip_io::ParamsFile>) {
+    let mut pf = terraslip_io::ParamsFile::default();
+    for l in &sim.log.terrain {
+        if let Ok(p) = w.scenario.terrain_icr(&l.terrain) {
+            pf.terrains
+                .insert(l.terrain.clone(), terraslip_io::ParamEntry::new(p));
+        }
+    }
+    (TerrainEvidence::Labels(sim.log.terrain.clone()), Some(pf))
+}
+
 pub fn run(a: Args) -> anyhow::Result<()> {
     let subset = match a.subset.as_str() {
         "all" => Subset::All,
@@ -189,7 +205,21 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         );
         return Ok(());
     }
-    let cfgs = estimators::resolve(&a.estimators)?;
+    let names: Vec<String> = a
+        .estimators
+        .iter()
+        .map(|n| {
+            if n == "oracle" {
+                "terraslip".to_string()
+            } else {
+                n.clone()
+            }
+        })
+        .collect();
+    let mut cfgs = estimators::resolve(&names)?;
+    for ((name, _), asked) in cfgs.iter_mut().zip(&a.estimators) {
+        name.clone_from(asked);
+    }
     let seeds: Vec<u64> = (a.first_seed..a.first_seed + a.worlds).collect();
     let results: Mutex<Vec<(u64, usize, Figures)>> = Mutex::new(Vec::new());
     let next = Mutex::new(0usize);
@@ -215,11 +245,16 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                         let opts = RunOptions {
                             outage: Some(outage),
                         };
+                        let (evidence, init) = if name == "oracle" {
+                            oracle(&w, &sim)
+                        } else {
+                            (TerrainEvidence::None, None)
+                        };
                         let run = pipeline::run_with(
                             &sim.log,
                             cfg,
-                            &TerrainEvidence::None,
-                            None,
+                            &evidence,
+                            init.as_ref(),
                             opts,
                             &mut |_, _| {},
                         )?;

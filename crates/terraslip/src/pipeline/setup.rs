@@ -3,7 +3,7 @@
 //! estimator built from them.
 
 use terraslip_core::estimator::Estimator;
-use terraslip_core::filter::Filter;
+use terraslip_core::filter::{Filter, SlipStd};
 use terraslip_core::schedule::NoiseSchedule;
 use terraslip_core::terrain_belief::MAX_TERRAINS;
 use terraslip_core::IcrParams;
@@ -67,7 +67,11 @@ pub(super) fn setup(
                 p.validate()
                     .map_err(|e| PipelineError::Init(format!("set `{name}`: {e}")))?;
                 prior.icr = p;
-                prior.std = cfg.init.calibrated_std;
+                // The calibration's own uncertainty where it reports one,
+                // never tighter than `init.calibrated_std`.
+                prior.std = stated_std(extra).map_or(cfg.init.calibrated_std, |s| {
+                    wider(s, cfg.init.calibrated_std)
+                });
                 // A turn law the calibration selected comes with its own
                 // straight-line parameters.
                 let law = terraslip_io::RateModelEntry::selected(extra)
@@ -93,14 +97,6 @@ pub(super) fn setup(
                  terrain): started from the prior; the sets are recalled once the terrain is known"
                     .into(),
             ),
-        }
-        // The wheel-to-pose offset calibrate found travels with its parameters.
-        if meas.clock_offset == 0.0 {
-            if let Some(off) = calibrated_offset(pf) {
-                meas.clock_offset = off;
-                meas.validate()
-                    .map_err(|e| PipelineError::Init(format!("time_offset_s: {e}")))?;
-            }
         }
     }
     if meas.encoder_tick == 0.0 {
@@ -189,13 +185,39 @@ fn starting_set<'a>(
 
 type Extra = std::collections::BTreeMap<String, serde_json::Value>;
 
-/// The wheel-to-pose time offset stored by `terraslip calibrate`
-/// (`time_offset_s`, pooled or of the first terrain set that has one).
-fn calibrated_offset(p: &ParamsFile) -> Option<f64> {
-    let get = |extra: &std::collections::BTreeMap<String, serde_json::Value>| {
-        extra.get("time_offset_s").and_then(|v| v.as_f64())
+/// The `std` object `terraslip calibrate` writes with a parameter set
+/// (`y_l, y_r, x_c, alpha_l, alpha_r`), as independent stds of spread,
+/// centre, x_c, speed factor and factor difference.
+fn stated_std(extra: &Extra) -> Option<SlipStd> {
+    let s = extra.get("std")?;
+    let get = |k: &str| {
+        s.get(k)
+            .and_then(|v| v.as_f64())
+            .filter(|v| v.is_finite() && *v >= 0.0)
     };
-    get(&p.extra)
-        .or_else(|| p.terrains.values().find_map(|e| get(&e.extra)))
-        .filter(|v| v.is_finite() && *v != 0.0)
+    let (yl, yr, xc, al, ar) = (
+        get("y_l")?,
+        get("y_r")?,
+        get("x_c")?,
+        get("alpha_l")?,
+        get("alpha_r")?,
+    );
+    Some(SlipStd {
+        spread: yl.hypot(yr),
+        centre: 0.5 * yl.hypot(yr),
+        x_c: xc,
+        alpha: 0.5 * al.hypot(ar),
+        alpha_diff: al.hypot(ar),
+    })
+}
+
+/// The larger of two stds, entry by entry.
+fn wider(a: SlipStd, b: SlipStd) -> SlipStd {
+    SlipStd {
+        spread: a.spread.max(b.spread),
+        centre: a.centre.max(b.centre),
+        x_c: a.x_c.max(b.x_c),
+        alpha: a.alpha.max(b.alpha),
+        alpha_diff: a.alpha_diff.max(b.alpha_diff),
+    }
 }

@@ -78,7 +78,7 @@ pub struct CalibConfig {
     /// Mandow et al. use 1. The default 0.5 is about the sideways shift a
     /// heading error causes at the end of a 1 s segment driven at 1 m/s
     /// (`d * dphi / 2`); on the Warthog drives it predicted held-out
-    /// positions better than 1 (see docs/benchmarks-calib.md).
+    /// positions better than 1 (see docs/research-log.md).
     pub yaw_weight: f64,
     /// `None` runs every method and keeps the best.
     pub method: Option<Method>,
@@ -157,7 +157,7 @@ impl Default for CalibConfig {
             // Fit on a segment from every pose (see `SegmentConfig::overlap`):
             // it uses all the data, and on simulated drives it recovers the
             // true parameters best of all the segmentations tried
-            // (docs/benchmarks-calib.md, `fit_segments`). Overlap costs
+            // (docs/research-log.md, `fit_segments`). Overlap costs
             // little: the LM integrates each drive once per parameter vector.
             segment: SegmentConfig {
                 overlap: Some(0.0),

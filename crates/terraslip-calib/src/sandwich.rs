@@ -8,7 +8,7 @@
 //! overlapping chains most of a pose's noise cancels in the fit (a
 //! telescoping sum). The plain least-squares covariance `s² (JᵀWJ)⁻¹`
 //! treats residuals as independent and overstates the uncertainty 4-7x on
-//! overlapping fit segments (see `docs/benchmarks-calib.md`).
+//! overlapping fit segments (see `docs/research-log.md`).
 //!
 //! Noise model, per log:
 //! - every pose carries independent noise: `σ_xy` on each position axis

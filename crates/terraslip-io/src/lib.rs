@@ -1,4 +1,4 @@
-//! The drive-log directory format, version 1 (`shared/spec/log-format.md`).
+//! The drive-log directory format, version 1 (`docs/log-format.md`).
 //!
 //! A log is a directory of CSV files sharing one clock. [`DriveLog::read`]
 //! loads and validates one, reporting bad input with file, line and reason;

@@ -2,12 +2,12 @@
 //!
 //! `cargo run -p terraslip-terrain --release --example crossval -- DIR [tree|knn|forest] [paper|full] [folds]`
 //!
-//! Spatial bands (docs/benchmarks-terrain.md, "tried, not kept"):
+//! Spatial bands (docs/research-log.md, "tried, not kept"):
 //! `TS_SBANDS=6` adds them to the temporal bands, `TS_SBANDS=6 TS_BANDS=0`
 //! replaces the temporal bands with them.
 //!
 //! Learnt speed normalisation (`VibrationConfig::speed_norm`, default on):
-//! `TS_SPEEDNORM=0` gives the session-2 default; `TS_VREF`, `TS_VMIN` (m/s).
+//! `TS_SPEEDNORM=0` turns the speed normalisation off; `TS_VREF`, `TS_VMIN` (m/s).
 
 use terraslip_terrain::*;
 

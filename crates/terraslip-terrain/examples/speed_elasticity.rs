@@ -2,7 +2,7 @@
 //! d feature / d ln v (for log powers: the elasticity d ln P / d ln v),
 //! pooled over the terrains of a directory of labelled runs, over the
 //! windows faster than 0.1 m/s. Used to check whether spatial bands
-//! depend less on speed than temporal ones (docs/benchmarks-terrain.md).
+//! depend less on speed than temporal ones (docs/research-log.md).
 //!
 //! `cargo run -p terraslip-terrain --release --example speed_elasticity -- DIR [jacobian|profile]`
 

@@ -2,7 +2,7 @@
 //!
 //! Within one terrain the vibration energy grows with the tread speed
 //! (about v¹ for the Husky's temporal band powers, see
-//! docs/benchmarks-terrain.md). A forest sees the speed as a feature but can
+//! docs/research-log.md). A forest sees the speed as a feature but can
 //! only split on speeds it was trained at: a run faster than every training
 //! run of its terrain looks like a rougher terrain. Here each amplitude-like
 //! feature (log variance, log band powers, log σ per speed) gets one slope

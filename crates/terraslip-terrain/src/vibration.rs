@@ -89,8 +89,7 @@ pub struct VibrationConfig {
     /// band powers) to the tread speed `speed_norm_ref` with per-feature
     /// slopes on ln v learnt from the training windows (see
     /// [`crate::speed_norm`]; the model file holds the slopes). On by
-    /// default (session 3); a settings file without the field means off,
-    /// the behaviour before it existed.
+    /// default; a settings file without the field means off.
     #[serde(default)]
     pub speed_norm: bool,
     /// Reference tread speed of the speed normalisation, m/s.

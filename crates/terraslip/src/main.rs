@@ -11,7 +11,7 @@ mod cmd;
 /// terrain awareness and offline calibration.
 ///
 /// Frames: ROS REP-103 (body x forward, y left; world ENU, yaw counter-clockwise
-/// from east). Units: SI. Log directories follow shared/spec/log-format.md.
+/// from east). Units: SI. Log directories follow docs/log-format.md.
 #[derive(Parser)]
 #[command(
     name = "terraslip",

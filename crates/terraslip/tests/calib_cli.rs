@@ -1,5 +1,5 @@
 //! The `calibrate` and `calibrate validate` command-line contract
-//! (shared/spec/cli.md): exit codes, one JSON object on stdout, one-line errors.
+//! (docs/cli.md): exit codes, one JSON object on stdout, one-line errors.
 
 use std::ffi::OsStr;
 use std::path::Path;

@@ -11,7 +11,7 @@ use terraslip_io::{AtomicFile, DriveLog, ParamsFile};
 
 /// Run the online ICR estimator over a drive log.
 ///
-/// Reads LOG (shared/spec/log-format.md: wheels.csv required, pose.csv for
+/// Reads LOG (docs/log-format.md: wheels.csv required, pose.csv for
 /// the fixes), runs the filter event by event on the log's timestamps and
 /// writes DIR/estimate.csv (one row per wheels row: pose, ICRs y_l, y_r,
 /// x_c in m in the body frame, their standard deviations, the terrain) and

@@ -150,7 +150,7 @@ struct EvalArgs {
     #[arg(long)]
     model: PathBuf,
     /// Directory for the plots (confusion matrix, one timeline per log).
-    #[arg(long, default_value = "terrain-eval")]
+    #[arg(long, default_value = "out/terrain-eval")]
     plots: PathBuf,
     /// Print one JSON object on stdout: windows, accuracy, accuracy_filtered,
     /// classes, confusion (rows = true class), confusion_filtered, per-log scores.
@@ -295,9 +295,10 @@ fn train(a: TrainArgs) -> anyhow::Result<()> {
         .save(&a.out)
         .with_context(|| format!("writing model {}", a.out.display()))?;
     eprintln!(
-        "trained a {} model on {} logs: {} classes, {} features, samples per class {}",
+        "trained the {} model on {} log{}: {} classes, {} features, samples per class {}",
         model.source.name(),
         logs.len(),
+        if logs.len() == 1 { "" } else { "s" },
         model.classes.len(),
         model.feature_names.len(),
         model

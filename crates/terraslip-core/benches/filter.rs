@@ -46,15 +46,19 @@ fn anchored(cfg: FilterConfig) -> Filter {
 }
 
 fn bench(c: &mut Criterion) {
-    let mut papers = FilterConfig::default();
-    papers.chart = Chart::Tread;
-    papers.update_iterations = 1;
-    papers.learn_alpha = false;
-    papers.learn_clock = false;
-    papers.change_window = 0.0;
-    papers.noise_memory = 0.0;
-    let mut iae = papers;
-    iae.variant = Variant::InnovationAdaptive;
+    let papers = FilterConfig {
+        chart: Chart::Tread,
+        update_iterations: 1,
+        learn_alpha: false,
+        learn_clock: false,
+        change_window: 0.0,
+        noise_memory: 0.0,
+        ..Default::default()
+    };
+    let iae = FilterConfig {
+        variant: Variant::InnovationAdaptive,
+        ..papers
+    };
     for (name, cfg) in [
         ("default", FilterConfig::default()),
         ("ekf-qmin", papers),

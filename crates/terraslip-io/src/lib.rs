@@ -8,12 +8,14 @@
 //! to (-pi, pi] on read); body REP-103.
 
 pub mod atomic;
+mod estimate;
 pub mod params;
 mod read;
 mod types;
 mod write;
 
 pub use atomic::{write_atomic, AtomicFile};
+pub use estimate::{read_estimate, EstimateRecord};
 pub use params::{ParamEntry, ParamsFile, RateModelEntry};
 pub use read::{
     read_csv_table, read_images, read_imu, read_meta, read_pose, read_terrain, read_truth,

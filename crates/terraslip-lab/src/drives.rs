@@ -71,9 +71,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             println!("  {:14} {:6.3} ({:6.3})", "(no-slip)", n.mean_m, n.p90_m);
         }
         if !a.no_calibrate {
-            let mut cc = CalibConfig::default();
-            cc.method = Some(Method::Lm);
-            match calibrate(&[log.clone()], &cc, &|_| {}) {
+            let cc = CalibConfig {
+                method: Some(Method::Lm),
+                ..Default::default()
+            };
+            match calibrate(std::slice::from_ref(&log), &cc, &|_| {}) {
                 Ok(cal) => {
                     let pf = cal.params_file();
                     let params_at = |t: f64| {

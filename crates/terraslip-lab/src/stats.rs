@@ -40,6 +40,6 @@ mod tests {
             6.0
         );
         assert!(summary(&v).contains("(world 11)"));
-        assert_eq!(quantile(&[f64::NAN], 0.5).is_nan(), true);
+        assert!(quantile(&[f64::NAN], 0.5).is_nan());
     }
 }

@@ -5,11 +5,13 @@
 //! * [`pipeline`]: runs the online estimator over a [`terraslip_io::DriveLog`];
 //! * [`metrics`]: scores a run against ground truth;
 //! * [`prediction_score`]: the 2 s motion-prediction error of a run against
-//!   the log's pose reference.
+//!   the log's pose reference;
+//! * [`report`]: plots and an HTML page of an estimate against its log.
 
 pub mod config;
 pub mod metrics;
 pub mod pipeline;
+pub mod report;
 
 pub use config::EstimatorConfig;
 pub use pipeline::{run, EstimateRow, EstimateRun, RunOptions, TerrainEvidence};
@@ -24,22 +26,27 @@ pub fn prediction_score(
     log: &terraslip_io::DriveLog,
     run: &EstimateRun,
 ) -> Option<PredictionScore> {
-    let rows = &run.rows;
+    let timeline: Vec<_> = run.rows.iter().map(|r| (r.t, r.icr())).collect();
+    prediction_of(log, run.track_width, &timeline)
+}
+
+/// How well a timeline of ICR parameters (`(t, params)` in time order, each
+/// in effect from its `t` on) predicts the next 2 s of motion from the log's
+/// pose reference; `None` without a pose reference. `track_width` in m
+/// scales the no-slip baseline.
+pub fn prediction_of(
+    log: &terraslip_io::DriveLog,
+    track_width: f64,
+    timeline: &[(f64, terraslip_core::IcrParams)],
+) -> Option<PredictionScore> {
     let params_at = |t: f64| {
-        let k = rows.partition_point(|r| r.t <= t).checked_sub(1)?;
-        let r = &rows[k];
-        Some(terraslip_core::IcrParams {
-            y_l: r.y_l,
-            y_r: r.y_r,
-            x_c: r.x_c,
-            alpha_l: r.alpha_l,
-            alpha_r: r.alpha_r,
-        })
+        let k = timeline.partition_point(|r| r.0 <= t).checked_sub(1)?;
+        Some(timeline[k].1)
     };
     terraslip_calib::prediction::score(
         &log.wheels,
         &log.pose,
-        run.track_width,
+        track_width,
         &params_at,
         PredictionSpec::default(),
     )

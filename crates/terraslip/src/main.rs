@@ -22,6 +22,7 @@ mod cmd;
   terraslip simulate papers --out log               # a log with ground truth (see `simulate --list`)
   terraslip calibrate log --out params.json         # ICR parameters per terrain from a drive with a pose reference
   terraslip estimate log --out est --init params.json --terrain-labels
+  terraslip report est                              # est/report.html: track, ICRs, prediction error
 Each command's --help has more examples; docs/ has the method and the figures."
 )]
 struct Cli {
@@ -37,6 +38,8 @@ enum Command {
     Simulate(cmd::simulate::Args),
     /// Run the online ICR estimator over a drive log.
     Estimate(cmd::estimate::Args),
+    /// Draw an estimate: track, ICRs with 2σ bands, prediction error (report.html).
+    Report(cmd::report::Args),
     /// Train and evaluate terrain classifiers.
     Terrain(cmd::terrain::Args),
     /// Identify ICR kinematic parameters offline from drives with a pose reference.
@@ -50,6 +53,7 @@ fn main() -> ExitCode {
         Command::Demo(a) => cmd::demo::run(a),
         Command::Simulate(a) => cmd::simulate::run(a),
         Command::Estimate(a) => cmd::estimate::run(a),
+        Command::Report(a) => cmd::report::run(a),
         Command::Terrain(a) => cmd::terrain::run(a),
         Command::Calibrate(a) => cmd::calibrate::run(*a),
     };

@@ -362,3 +362,57 @@ fn init_per_terrain_sets_are_recalled() {
         "spread right after recall {d}"
     );
 }
+
+/// `terraslip report` draws an estimate against the log named in its
+/// summary; a directory without estimate.csv fails naming the file.
+#[test]
+fn report_draws_an_estimate() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (log, out) = (tmp.path().join("log"), tmp.path().join("out"));
+    // A dense pose reference, as a lidar gives: the 2 s prediction needs one.
+    write_log(
+        &log,
+        &SynthSpec {
+            pose_hz: 10.0,
+            ..short()
+        },
+    );
+    let o = estimate()
+        .args([
+            "estimate",
+            log.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = estimate()
+        .args(["report", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let html = fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(
+        html.contains("2 s prediction error against the ground truth over"),
+        "{html}"
+    );
+    for svg in ["track.svg", "slip.svg", "prediction.svg"] {
+        let text = fs::read_to_string(out.join(svg)).unwrap();
+        assert!(text.contains("<svg") && text.contains("polyline"), "{svg}");
+    }
+
+    let empty = tmp.path().join("empty");
+    fs::create_dir(&empty).unwrap();
+    let o = estimate()
+        .args(["report", empty.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert!(err.contains("estimate.csv"), "{err}");
+    assert!(
+        fs::read_dir(&empty).unwrap().next().is_none(),
+        "wrote into {empty:?}"
+    );
+}

@@ -28,10 +28,14 @@ fn truth() -> IcrParams {
     }
 }
 
+/// With the pose on time or 0.3 s late, noise stated or not, the default
+/// learns the slip (spread to 1 cm, speed factors to 0.005), the clock
+/// offset to 20 ms and the pose noise to 15 %.
 #[test]
-fn debug_learning() {
+fn learns_slip_clock_and_pose_noise() {
+    let t = truth();
     for (delay, stated) in [(0.0, true), (0.0, false), (0.3, true), (0.3, false)] {
-        let mut s = spec(truth());
+        let mut s = spec(t);
         s.pose_delay = delay;
         s.stated_std = stated;
         let log = drive(&s);
@@ -43,9 +47,32 @@ fn debug_learning() {
         )
         .unwrap();
         let p = r.final_icr;
-        println!(
-            "delay {delay} stated {stated}: d {:.4} yc {:.4} xc {:.4} al {:.4} ar {:.4} clock {:.3?} noise {:?} stats {:?}",
-            p.y_l - p.y_r, 0.5 * (p.y_l + p.y_r), p.x_c, p.alpha_l, p.alpha_r, r.clock_offset, r.noise, r.stats.fixes
+        let case = format!(
+            "delay {delay} stated {stated}: {p:?} clock {:?} noise {:?}",
+            r.clock_offset, r.noise
+        );
+        assert!(
+            ((p.y_l - p.y_r) - (t.y_l - t.y_r)).abs() < 0.01,
+            "spread: {case}"
+        );
+        assert!(
+            (0.5 * (p.y_l + p.y_r) - 0.5 * (t.y_l + t.y_r)).abs() < 0.01,
+            "centre: {case}"
+        );
+        assert!((p.x_c - t.x_c).abs() < 0.015, "x_c: {case}");
+        assert!(
+            (p.alpha_l - t.alpha_l).abs() < 0.005 && (p.alpha_r - t.alpha_r).abs() < 0.005,
+            "alpha: {case}"
+        );
+        let clock = r.clock_offset.0;
+        assert!((clock - delay).abs() < 0.02, "clock: {case}");
+        assert!(
+            (r.noise.std_xy / s.std_xy - 1.0).abs() < 0.15,
+            "std_xy: {case}"
+        );
+        assert!(
+            (r.noise.std_yaw / s.std_yaw - 1.0).abs() < 0.15,
+            "std_yaw: {case}"
         );
     }
 }

@@ -1,4 +1,5 @@
 //! Filter tests on small exact-model drives.
+#![allow(clippy::field_reassign_with_default)]
 
 use super::*;
 use crate::angle;

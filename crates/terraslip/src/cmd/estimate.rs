@@ -147,7 +147,7 @@ pub fn run(args: Args) -> Result<()> {
     let log = if args.terrain_model.is_some() {
         DriveLog::read(log_dir)
     } else {
-        read_log(log_dir)
+        super::read_log(log_dir)
     }
     .with_context(|| format!("reading log {}", log_dir.display()))?;
     let init = match &args.init {
@@ -237,36 +237,6 @@ pub fn run(args: Args) -> Result<()> {
         println!("{}", serde_json::to_string(&summary)?);
     }
     Ok(())
-}
-
-/// Reads only what the estimator uses: wheels, pose, meta and terrain.
-/// The imu stream alone can be four times the size of everything else;
-/// truth is for scoring, not estimating.
-fn read_log(dir: &Path) -> Result<DriveLog, terraslip_io::LogError> {
-    if !dir.is_dir() {
-        return Err(terraslip_io::LogError::Invalid {
-            path: dir.to_path_buf(),
-            reason: "not a log directory".into(),
-        });
-    }
-    let mut log = DriveLog {
-        dir: dir.to_path_buf(),
-        ..Default::default()
-    };
-    log.wheels = terraslip_io::read_wheels(&dir.join("wheels.csv"), &mut log.warnings)?;
-    let pose = dir.join("pose.csv");
-    if pose.exists() {
-        log.pose = terraslip_io::read_pose(&pose, &mut log.warnings)?;
-    }
-    let terrain = dir.join("terrain.csv");
-    if terrain.exists() {
-        log.terrain = terraslip_io::read_terrain(&terrain)?;
-    }
-    let meta = dir.join("meta.toml");
-    if meta.exists() {
-        log.meta = terraslip_io::read_meta(&meta)?;
-    }
-    Ok(log)
 }
 
 fn progress_bar(total: usize) -> Option<indicatif::ProgressBar> {

@@ -90,6 +90,19 @@ pub struct EstimateRow {
     pub clock_offset: f64,
 }
 
+impl EstimateRow {
+    /// The ICR parameters in effect at this row.
+    pub fn icr(&self) -> terraslip_core::IcrParams {
+        terraslip_core::IcrParams {
+            y_l: self.y_l,
+            y_r: self.y_r,
+            x_c: self.x_c,
+            alpha_l: self.alpha_l,
+            alpha_r: self.alpha_r,
+        }
+    }
+}
+
 /// One terrain change the schedule acted on.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TerrainChange {
@@ -517,7 +530,8 @@ fn band_warnings(rows: &[EstimateRow], band: &IcrBand) -> Vec<String> {
     let n = rows.len() as f64;
     let near = |v: f64, edge: f64| (v - edge).abs() <= 1e-6 * (1.0 + edge.abs());
     let (lo, hi) = band.alpha_range;
-    let checks: [(&str, &dyn Fn(&EstimateRow) -> bool); 6] = [
+    type Check<'a> = (&'a str, &'a dyn Fn(&EstimateRow) -> bool);
+    let checks: [Check; 6] = [
         ("the spread y_l - y_r at its lower limit", &|r| {
             near(r.y_l - r.y_r, band.min_spread)
         }),

@@ -80,7 +80,7 @@ pub(super) fn setup(
                     r.params.validate().map_err(|e| {
                         PipelineError::Init(format!("set `{name}`: rate_model params: {e}"))
                     })?;
-                    if !(r.k_spread.abs() <= 2.0) {
+                    if r.k_spread.is_nan() || r.k_spread.abs() > 2.0 {
                         return Err(PipelineError::Init(format!(
                             "set `{name}`: rate_model k_spread = {} s/m is beyond +-2",
                             r.k_spread

@@ -1,0 +1,253 @@
+//! What `terraslip report EST_DIR` draws from an estimate and its log: the
+//! track against the pose reference, the ICRs and speed factors with 2σ
+//! bands and the terrain, and the 2 s prediction error over time.
+
+use std::path::{Path, PathBuf};
+
+use terraslip_core::IcrParams;
+use terraslip_io::{DriveLog, EstimateRecord};
+use terraslip_report::{Figure, LinePlot, Section, Series, SeriesStyle};
+
+/// Why a report could not be drawn.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    #[error("{0}")]
+    Log(#[from] terraslip_io::LogError),
+    #[error("{0}")]
+    Plot(#[from] terraslip_report::ReportError),
+    #[error("{path}: cannot write: {source}")]
+    Write {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{0}: has no rows")]
+    Empty(PathBuf),
+}
+
+/// The files a report wrote.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Written {
+    pub page: PathBuf,
+    pub plots: Vec<PathBuf>,
+}
+
+/// Every `stride`-th element and the last one (plots need no 50 Hz).
+fn thin<T: Clone>(v: &[T], max: usize) -> Vec<T> {
+    let stride = (v.len() / max.max(1)).max(1);
+    let mut out: Vec<T> = v.iter().step_by(stride).cloned().collect();
+    if let Some(last) = v.last() {
+        if v.len() % stride != 1 {
+            out.push(last.clone());
+        }
+    }
+    out
+}
+
+/// `log` with its ground truth as the pose stream.
+fn truth_as_reference(log: &DriveLog) -> DriveLog {
+    let pose = log
+        .truth
+        .iter()
+        .map(|s| terraslip_io::PoseObs {
+            t: s.t,
+            east: Some(s.east),
+            north: Some(s.north),
+            yaw: Some(s.yaw),
+            std_xy: None,
+            std_yaw: None,
+        })
+        .collect();
+    DriveLog {
+        wheels: log.wheels.clone(),
+        pose,
+        meta: log.meta.clone(),
+        ..Default::default()
+    }
+}
+
+/// Times where the estimate's terrain changes, with the new name.
+fn terrain_changes(rows: &[EstimateRecord]) -> Vec<(f64, String)> {
+    rows.windows(2)
+        .filter(|w| w[0].terrain != w[1].terrain && !w[1].terrain.is_empty())
+        .map(|w| (w[1].t, w[1].terrain.clone()))
+        .collect()
+}
+
+/// Draws the report of `rows` (an `estimate.csv`) over `log` (for the pose
+/// reference and the wheels; `None` leaves the reference and the
+/// prediction out; `track_width` in m for the no-slip baseline, else the
+/// log's) into `out`: `report.html` and three SVG plots.
+pub fn write(
+    rows: &[EstimateRecord],
+    log: Option<&DriveLog>,
+    track_width: Option<f64>,
+    out: &Path,
+    title: &str,
+) -> Result<Written, ReportError> {
+    if rows.is_empty() {
+        return Err(ReportError::Empty(out.join("estimate.csv")));
+    }
+    std::fs::create_dir_all(out).map_err(|source| ReportError::Write {
+        path: out.to_path_buf(),
+        source,
+    })?;
+    let thin_rows = thin(rows, 3000);
+    let changes = terrain_changes(rows);
+    let mut plots = Vec::new();
+
+    // The track.
+    let mut track = LinePlot::new("Track", "east [m]", "north [m]").equal_aspect(true);
+    if let Some(log) = log {
+        let (name, reference): (&str, Vec<(f64, f64)>) = if log.truth.is_empty() {
+            let pose = log.pose.iter().filter_map(|p| p.east.zip(p.north));
+            ("pose reference", pose.collect())
+        } else {
+            (
+                "ground truth",
+                log.truth.iter().map(|s| (s.east, s.north)).collect(),
+            )
+        };
+        if !reference.is_empty() {
+            track = track.series(Series::line(name, thin(&reference, 3000)).color(0));
+        }
+    }
+    track = track.series(
+        Series::line(
+            "estimate",
+            thin_rows.iter().map(|r| (r.east, r.north)).collect(),
+        )
+        .color(5),
+    );
+    let path = out.join("track.svg");
+    track.write_svg(&path)?;
+    plots.push(path);
+
+    // The slip parameters with 2σ bands and the terrain.
+    let band = |f: &dyn Fn(&EstimateRecord) -> (f64, f64)| -> Vec<(f64, f64, f64)> {
+        thin_rows
+            .iter()
+            .map(|r| {
+                let (v, s) = f(r);
+                (r.t, v - 2.0 * s, v + 2.0 * s)
+            })
+            .collect()
+    };
+    let line = |f: &dyn Fn(&EstimateRecord) -> f64| -> Vec<(f64, f64)> {
+        thin_rows.iter().map(|r| (r.t, f(r))).collect()
+    };
+    let mut spread = LinePlot::new("ICRs in effect (2σ bands)", "t [s]", "[m]")
+        .band("y_l 2σ", band(&|r| (r.y_l, r.std_y_l)), Some(1))
+        .band("y_r 2σ", band(&|r| (r.y_r, r.std_y_r)), Some(2))
+        .series(Series::line("y_l", line(&|r| r.y_l)).color(1))
+        .series(Series::line("y_r", line(&|r| r.y_r)).color(2))
+        .series(Series::line("x_c", line(&|r| r.x_c)).color(3));
+    let mut factors = LinePlot::new("Tread speed factors (2σ bands)", "t [s]", "alpha")
+        .band("alpha_l 2σ", band(&|r| (r.alpha_l, r.std_alpha_l)), Some(1))
+        .band("alpha_r 2σ", band(&|r| (r.alpha_r, r.std_alpha_r)), Some(2))
+        .series(Series::line("alpha_l", line(&|r| r.alpha_l)).color(1))
+        .series(Series::line("alpha_r", line(&|r| r.alpha_r)).color(2));
+    for (t, name) in &changes {
+        spread = spread.marker(*t, name.clone());
+        factors = factors.marker(*t, name.clone());
+    }
+    let path = out.join("slip.svg");
+    Figure::new(vec![spread, factors]).write_svg(&path)?;
+    plots.push(path);
+
+    // The 2 s prediction error over time.
+    let mut summary = String::from("No log: no pose reference, no prediction error.");
+    if let Some(log) = log {
+        let timeline: Vec<(f64, IcrParams)> = rows.iter().map(|r| (r.t, r.icr())).collect();
+        let w = track_width.or(log.meta.track_width).unwrap_or_else(|| {
+            let first = &rows[0];
+            first.y_l - first.y_r
+        });
+        // A simulated log's ground truth is the better reference.
+        let (reference, against) = if log.truth.is_empty() {
+            (None, "the pose reference")
+        } else {
+            (Some(truth_as_reference(log)), "the ground truth")
+        };
+        let scored = crate::prediction_of(reference.as_ref().unwrap_or(log), w, &timeline);
+        summary = format!(
+            "No 2 s prediction error: {against} has no headings or no stretch of 2 s without a gap over 0.5 s (a 1 Hz GNSS is too sparse; a lidar, RTK or motion-capture pose is not)."
+        );
+        if let Some(p) = scored {
+            let mut plot =
+                LinePlot::new("2 s prediction error", "start t [s]", "position error [m]")
+                    .series(
+                        Series::line(
+                            "no-slip",
+                            p.segments.iter().map(|s| (s.t, s.no_slip)).collect(),
+                        )
+                        .color(6)
+                        .style(SeriesStyle::Dashed),
+                    )
+                    .series(
+                        Series::line(
+                            "learned ICRs",
+                            p.segments.iter().map(|s| (s.t, s.error)).collect(),
+                        )
+                        .color(5),
+                    );
+            for (t, name) in &changes {
+                plot = plot.marker(*t, name.clone());
+            }
+            let path = out.join("prediction.svg");
+            plot.write_svg(&path)?;
+            plots.push(path);
+            summary = format!(
+                "2 s prediction error against {against} over {} segments: mean {:.3} m, p90 {:.3} m with the learned ICRs; mean {:.3} m, p90 {:.3} m with the no-slip model.",
+                p.segments.len(),
+                p.stats.mean_m,
+                p.stats.p90_m,
+                p.no_slip.mean_m,
+                p.no_slip.p90_m
+            );
+        }
+    }
+    let last = &rows[rows.len() - 1];
+    let mut sections = vec![
+        Section::Paragraph(format!(
+            "{} rows over {:.1} s. At the end: y_l = {:.3} m, y_r = {:.3} m, x_c = {:.3} m, alpha_l = {:.3}, alpha_r = {:.3}.",
+            rows.len(),
+            last.t - rows[0].t,
+            last.y_l,
+            last.y_r,
+            last.x_c,
+            last.alpha_l,
+            last.alpha_r
+        )),
+        Section::Paragraph(summary),
+    ];
+    for (p, caption) in plots.iter().zip([
+        "Track: the estimate against the pose reference (the ground truth of a simulated log)",
+        "ICRs in effect and speed factors, with 2σ bands; vertical lines: terrain changes",
+        "2 s prediction error per start: learned ICRs against the no-slip model",
+    ]) {
+        sections.push(Section::Image {
+            src: p
+                .file_name()
+                .map_or(String::new(), |n| n.to_string_lossy().into()),
+            caption: caption.into(),
+        });
+    }
+    let page = out.join("report.html");
+    let html = terraslip_report::html_page(title, &sections);
+    terraslip_io::write_atomic(&page, html.as_bytes())?;
+    Ok(Written { page, plots })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn thinning_keeps_the_ends() {
+        let v: Vec<usize> = (0..10_001).collect();
+        let t = thin(&v, 100);
+        assert_eq!(t.first(), Some(&0));
+        assert_eq!(t.last(), Some(&10_000));
+        assert!(t.len() <= 102);
+    }
+}

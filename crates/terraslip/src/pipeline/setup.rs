@@ -64,31 +64,7 @@ pub(super) fn setup(
     if let Some(pf) = init {
         match starting_set(pf, evidence, log) {
             Some((name, p, extra)) => {
-                p.validate()
-                    .map_err(|e| PipelineError::Init(format!("set `{name}`: {e}")))?;
-                prior.icr = p;
-                // The calibration's own uncertainty where it reports one,
-                // never tighter than `init.calibrated_std`.
-                prior.std = stated_std(extra).map_or(cfg.init.calibrated_std, |s| {
-                    wider(s, cfg.init.calibrated_std)
-                });
-                // A turn law the calibration selected comes with its own
-                // straight-line parameters.
-                let law = terraslip_io::RateModelEntry::selected(extra)
-                    .map_err(|e| PipelineError::Init(format!("set `{name}`: rate_model {e}")))?;
-                if let Some(r) = law {
-                    r.params.validate().map_err(|e| {
-                        PipelineError::Init(format!("set `{name}`: rate_model params: {e}"))
-                    })?;
-                    if r.k_spread.is_nan() || r.k_spread.abs() > 2.0 {
-                        return Err(PipelineError::Init(format!(
-                            "set `{name}`: rate_model k_spread = {} s/m is beyond +-2",
-                            r.k_spread
-                        )));
-                    }
-                    prior.icr = r.params;
-                    prior.turn_law = r.k_spread;
-                }
+                prior = init_prior(cfg, &name, p, extra, prior)?;
                 init_source = format!("init:{name}");
             }
             None => warnings.push(
@@ -185,11 +161,56 @@ fn starting_set<'a>(
 
 type Extra = std::collections::BTreeMap<String, serde_json::Value>;
 
-/// The `std` object `terraslip calibrate` writes with a parameter set
+/// `prior` started from the `--init` set `name`: its parameters (those of
+/// its turn law when calibration selected one) with their stated stds,
+/// never tighter than `init.calibrated_std`.
+fn init_prior(
+    cfg: &EstimatorConfig,
+    name: &str,
+    p: IcrParams,
+    extra: &Extra,
+    mut prior: terraslip_core::filter::Prior,
+) -> Result<terraslip_core::filter::Prior, PipelineError> {
+    p.validate()
+        .map_err(|e| PipelineError::Init(format!("set `{name}`: {e}")))?;
+    prior.icr = p;
+    // The calibration's own uncertainty where it reports one,
+    // never tighter than `init.calibrated_std`.
+    let stated = |std: Option<&serde_json::Value>| {
+        std.and_then(stated_std)
+            .map_or(cfg.init.calibrated_std, |s| {
+                wider(s, cfg.init.calibrated_std)
+            })
+    };
+    prior.std = stated(extra.get("std"));
+    // A turn law the calibration selected comes with its own
+    // straight-line parameters.
+    let law = terraslip_io::RateModelEntry::selected(extra)
+        .map_err(|e| PipelineError::Init(format!("set `{name}`: rate_model {e}")))?;
+    if let Some(r) = law {
+        r.params
+            .validate()
+            .map_err(|e| PipelineError::Init(format!("set `{name}`: rate_model params: {e}")))?;
+        if r.k_spread.is_nan() || r.k_spread.abs() > 2.0 {
+            return Err(PipelineError::Init(format!(
+                "set `{name}`: rate_model k_spread = {} s/m is beyond +-2",
+                r.k_spread
+            )));
+        }
+        prior.icr = r.params;
+        prior.turn_law = r.k_spread;
+        // Those parameters' own uncertainty, not the constant
+        // model's.
+        let law_std = extra.get("rate_model").and_then(|m| m.get("std"));
+        prior.std = stated(law_std);
+    }
+    Ok(prior)
+}
+
+/// A `std` object `terraslip calibrate` writes with a parameter set
 /// (`y_l, y_r, x_c, alpha_l, alpha_r`), as independent stds of spread,
 /// centre, x_c, speed factor and factor difference.
-fn stated_std(extra: &Extra) -> Option<SlipStd> {
-    let s = extra.get("std")?;
+fn stated_std(s: &serde_json::Value) -> Option<SlipStd> {
     let get = |k: &str| {
         s.get(k)
             .and_then(|v| v.as_f64())
@@ -219,5 +240,62 @@ fn wider(a: SlipStd, b: SlipStd) -> SlipStd {
         x_c: a.x_c.max(b.x_c),
         alpha: a.alpha.max(b.alpha),
         alpha_diff: a.alpha_diff.max(b.alpha_diff),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A calibrated set whose turn law was selected: the constant model's
+    /// parameters and std at the top, the law's own under `rate_model`.
+    fn calibrated_set() -> (IcrParams, Extra) {
+        let json = serde_json::json!({
+            "std": {"y_l": 0.04, "y_r": 0.04, "x_c": 0.03, "alpha_l": 0.009, "alpha_r": 0.009},
+            "rate_model": {
+                "selected": true,
+                "k_spread": -0.06, "k_alpha": -0.05,
+                "params": {"y_l": 1.36, "y_r": -1.38, "x_c": 0.02, "alpha_l": 0.93, "alpha_r": 0.95},
+                "std": {"y_l": 0.097, "y_r": 0.095, "x_c": 0.028, "alpha_l": 0.03, "alpha_r": 0.03}
+            }
+        });
+        let extra: Extra = serde_json::from_value(json).unwrap();
+        (IcrParams::new(1.25, -1.27, 0.016), extra)
+    }
+
+    #[test]
+    fn a_selected_turn_law_starts_with_its_own_std() {
+        let cfg = EstimatorConfig::default();
+        let (p, extra) = calibrated_set();
+        let prior = init_prior(&cfg, "gravel", p, &extra, cfg.prior(1.1)).unwrap();
+        assert_eq!(prior.icr.y_l, 1.36);
+        assert_eq!(prior.turn_law, -0.06);
+        assert!(
+            (prior.std.spread - 0.097f64.hypot(0.095)).abs() < 1e-12,
+            "{:?}",
+            prior.std
+        );
+        assert!(
+            (prior.std.alpha - 0.5 * 0.03f64.hypot(0.03)).abs() < 1e-12,
+            "{:?}",
+            prior.std
+        );
+    }
+
+    #[test]
+    fn a_constant_set_keeps_its_std_never_tighter_than_the_floor() {
+        let cfg = EstimatorConfig::default();
+        let (p, mut extra) = calibrated_set();
+        extra.remove("rate_model");
+        let prior = init_prior(&cfg, "gravel", p, &extra, cfg.prior(1.1)).unwrap();
+        assert_eq!(prior.icr, p);
+        assert!((prior.std.spread - 0.04f64.hypot(0.04)).abs() < 1e-12);
+        assert_eq!(
+            prior.std.alpha_diff,
+            cfg.init
+                .calibrated_std
+                .alpha_diff
+                .max(0.009f64.hypot(0.009))
+        );
     }
 }

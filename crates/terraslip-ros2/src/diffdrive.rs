@@ -1,0 +1,1 @@
+//! ICR parameters to diff_drive_controller.

@@ -1,0 +1,1 @@
+//! Estimates as ROS 2 messages in MCAP.

@@ -1,0 +1,60 @@
+//! The Husky recording in ../shared/data/ros2, in both storage formats
+//! (skipped where the shared data is absent).
+
+use std::path::PathBuf;
+
+use terraslip_ros2::{import, TopicsConfig};
+
+fn bag(name: &str) -> Option<PathBuf> {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/data/ros2")
+        .join(name);
+    p.is_dir().then_some(p)
+}
+
+fn cfg() -> TopicsConfig {
+    toml::from_str("[wheels]\nseparation = 1.040625\n").unwrap()
+}
+
+#[test]
+fn both_storage_formats_give_the_same_log() {
+    let (Some(m), Some(d)) = (bag("husky_test1_mcap"), bag("husky_test1_db3")) else {
+        eprintln!("shared data absent: skipped");
+        return;
+    };
+    let (a, ra) = import(&m, &cfg(), None).unwrap();
+    let (b, rb) = import(&d, &cfg(), None).unwrap();
+    assert_eq!(a.wheels, b.wheels);
+    assert_eq!(a.pose, b.pose);
+    assert_eq!(a.imu, b.imu);
+    assert_eq!(ra.time_origin_ns, rb.time_origin_ns);
+    print!("{}", ra.to_text());
+    assert_eq!(a.wheels.len(), 3952);
+    assert_eq!(a.imu.len(), 11865);
+    let fixes = a.pose.iter().filter(|p| p.east.is_some()).count();
+    assert!(fixes > 900 && fixes <= 989, "{fixes}");
+    let yaws = a.pose.iter().filter(|p| p.yaw.is_some()).count();
+    assert_eq!(yaws, 11865);
+    // The first good fix is the ENU origin; a 395 s drive stays within a few hundred metres.
+    let first = a.pose.iter().find(|p| p.east.is_some()).unwrap();
+    assert!(first.east.unwrap().abs() < 1e-6 && first.north.unwrap().abs() < 1e-6);
+    for p in a.pose.iter().filter(|p| p.east.is_some()) {
+        assert!(p.east.unwrap().hypot(p.north.unwrap()) < 1000.0);
+        let s = p.std_xy.expect("covariance type approximated (1)");
+        assert!(s > 0.1 && s < 5.0, "{s}");
+    }
+}
+
+#[test]
+fn an_odometry_wheel_source_without_separation_is_refused_with_the_fix() {
+    let Some(m) = bag("husky_test1_mcap") else {
+        return;
+    };
+    let e = import(&m, &TopicsConfig::default(), None)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("separation") && e.contains("/husky_velocity_controller/odom"),
+        "{e}"
+    );
+}

@@ -235,6 +235,7 @@ impl Bag {
             match s {
                 Storage::Mcap => {
                     let file = File::open(&p).map_err(|e| self.file_err(&p, e))?;
+                    let size = file.metadata().map(|m| m.len()).unwrap_or(0);
                     let reader: Box<dyn Read> = match w {
                         Whole::None => Box::new(BufReader::with_capacity(1 << 16, file)),
                         Whole::Zstd => Box::new(
@@ -245,7 +246,7 @@ impl Bag {
                             Box::new(lz4::Decoder::new(file).map_err(|e| self.file_err(&p, e))?)
                         }
                     };
-                    self.stream_mcap(&p, reader, &mut index, want, f)?;
+                    self.stream_mcap(&p, reader, record_limit(size), &mut index, want, f)?;
                 }
                 Storage::Sqlite => {
                     let (db, _tmp) = match w {
@@ -283,13 +284,15 @@ impl Bag {
         &mut self,
         p: &Path,
         reader: Box<dyn Read>,
+        limit: usize,
         index: &mut u64,
         want: &dyn Fn(usize) -> bool,
         f: &mut dyn FnMut(&Bag, RawMessage) -> Result<(), Ros2Error>,
     ) -> Result<(), Ros2Error> {
         let mut map: Vec<Option<usize>> = Vec::new();
         let mut buf = Vec::new();
-        for m in mcap::io::MessageReader::new(reader) {
+        let options = mcap::sans_io::LinearReaderOptions::default().with_record_length_limit(limit);
+        for m in mcap::io::MessageReader::new_with_options(reader, options) {
             let m = m.map_err(|e| {
                 self.file_err(p, format!("after message {}: {e}", index.saturating_sub(0)))
             })?;
@@ -422,6 +425,13 @@ impl Bag {
             reason: reason.to_string(),
         }
     }
+}
+
+/// The largest MCAP record (or decompressed chunk) accepted from a file of
+/// `size` bytes: 16 times the file, within 64 MiB to 4 GiB, so a corrupt
+/// length cannot make the reader allocate without bound.
+fn record_limit(size: u64) -> usize {
+    size.saturating_mul(16).clamp(64 << 20, 4 << 30) as usize
 }
 
 fn open_sqlite(p: &Path) -> rusqlite::Result<rusqlite::Connection> {

@@ -1,1 +1,189 @@
-//! ICR parameters to diff_drive_controller.
+//! Calibrated ICRs as `diff_drive_controller` (ros2_controllers) parameters.
+//!
+//! The controller's odometry (`diff_drive_controller/src/odometry.cpp`) turns
+//! wheel angular velocities ω_l, ω_r (rad/s) into a body twist with
+//! r_l = left_wheel_radius_multiplier · wheel_radius,
+//! r_r = right_wheel_radius_multiplier · wheel_radius,
+//! S = wheel_separation_multiplier · wheel_separation:
+//! linear = (r_l ω_l + r_r ω_r)/2, angular = (r_r ω_r − r_l ω_l)/S.
+//! The ICR model (`terraslip_core::IcrParams::twist`) with tread speeds
+//! v = R ω gives v_x = (α_r v_r y_l − α_l v_l y_r)/(y_l − y_r),
+//! ω = (α_r v_r − α_l v_l)/(y_l − y_r), v_y = x_c (α_l v_l − α_r v_r)/(y_l − y_r).
+//! They agree exactly when y_l = −y_r and x_c = 0 with the radius
+//! multipliers α_l, α_r and S = y_l − y_r; the controller cannot represent
+//! x_c (it has no lateral velocity) nor y_l ≠ −y_r (its forward speed is
+//! always the mean of the treads').
+
+use std::fmt::Write as _;
+
+/// The five `diff_drive_controller` parameters terraslip sets.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DiffDriveParams {
+    /// m: the nominal separation the multiplier scales.
+    pub wheel_separation: f64,
+    pub wheel_separation_multiplier: f64,
+    /// m
+    pub wheel_radius: f64,
+    pub left_wheel_radius_multiplier: f64,
+    pub right_wheel_radius_multiplier: f64,
+}
+
+impl DiffDriveParams {
+    /// From calibrated ICRs (m, body frame) and speed factors, keeping the
+    /// nominal `wheel_separation` and `wheel_radius` (m) the robot's config
+    /// already has: the multipliers carry the calibration.
+    pub fn from_icr(
+        y_l: f64,
+        y_r: f64,
+        alpha_l: f64,
+        alpha_r: f64,
+        wheel_separation: f64,
+        wheel_radius: f64,
+    ) -> Self {
+        Self {
+            wheel_separation,
+            wheel_separation_multiplier: (y_l - y_r) / wheel_separation,
+            wheel_radius,
+            left_wheel_radius_multiplier: alpha_l,
+            right_wheel_radius_multiplier: alpha_r,
+        }
+    }
+
+    /// The controller's odometry twist `(linear m/s, angular rad/s)` from
+    /// wheel angular velocities (rad/s), as odometry.cpp computes it.
+    pub fn odometry_twist(&self, omega_left: f64, omega_right: f64) -> (f64, f64) {
+        let left_vel = omega_left * self.left_wheel_radius_multiplier * self.wheel_radius;
+        let right_vel = omega_right * self.right_wheel_radius_multiplier * self.wheel_radius;
+        let separation = self.wheel_separation * self.wheel_separation_multiplier;
+        (
+            (left_vel + right_vel) * 0.5,
+            (right_vel - left_vel) / separation,
+        )
+    }
+}
+
+/// One block of the parameter file.
+#[derive(Debug, Clone)]
+pub struct ParamsBlock {
+    /// Terrain name (`all` for a pooled set).
+    pub terrain: String,
+    pub params: DiffDriveParams,
+    /// The ICRs it came from, m.
+    pub y_l: f64,
+    pub y_r: f64,
+    pub x_c: f64,
+    /// 2 s prediction position error on the calibration drives, m RMS:
+    /// (full ICR model, the diff-drive approximation), when known.
+    pub cost: Option<(f64, f64)>,
+}
+
+/// A ROS 2 parameter YAML, one controller block per terrain, named
+/// `<controller>_<terrain>` (the pooled set keeps the plain name).
+pub fn params_yaml(controller: &str, blocks: &[ParamsBlock]) -> String {
+    let mut s = String::new();
+    s.push_str("# diff_drive_controller parameters from `terraslip calibrate`.\n");
+    s.push_str("# The differential-drive model cannot represent the ICR model's longitudinal\n");
+    s.push_str("# ICR x_c (a lateral velocity -x_c*omega in turns) nor unequal ICRs y_l != -y_r\n");
+    s.push_str("# (forward speed weighted towards one tread): it keeps the spread y_l - y_r as\n");
+    s.push_str("# the effective separation and the speed factors as radius multipliers.\n");
+    s.push_str("# wheel_separation and wheel_radius are the nominal values; the multipliers\n");
+    s.push_str("# assume the recording's controller ran with radius multipliers of 1.\n");
+    for b in blocks {
+        let name = if b.terrain == "all" || blocks.len() == 1 {
+            controller.to_string()
+        } else {
+            format!("{controller}_{}", b.terrain)
+        };
+        let p = &b.params;
+        let _ = writeln!(
+            s,
+            "\n# terrain {}: y_l = {:.4} m, y_r = {:.4} m, x_c = {:.4} m",
+            b.terrain, b.y_l, b.y_r, b.x_c
+        );
+        if let Some((full, dd)) = b.cost {
+            let _ = writeln!(
+                s,
+                "# 2 s prediction error on the calibration drive: {full:.3} m RMS with the ICR model, {dd:.3} m as diff-drive (+{:.3} m)",
+                dd - full
+            );
+        }
+        let _ = write!(
+            s,
+            "{name}:\n  ros__parameters:\n    wheel_separation: {:.6}\n    wheel_separation_multiplier: {:.6}\n    wheel_radius: {:.6}\n    left_wheel_radius_multiplier: {:.6}\n    right_wheel_radius_multiplier: {:.6}\n",
+            p.wheel_separation,
+            p.wheel_separation_multiplier,
+            p.wheel_radius,
+            p.left_wheel_radius_multiplier,
+            p.right_wheel_radius_multiplier
+        );
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The ICR model's body twist (terraslip-core's formula, restated so this
+    /// crate stays free of the core).
+    fn icr_twist(
+        y_l: f64,
+        y_r: f64,
+        x_c: f64,
+        a_l: f64,
+        a_r: f64,
+        v_l: f64,
+        v_r: f64,
+    ) -> (f64, f64, f64) {
+        let (v_l, v_r) = (a_l * v_l, a_r * v_r);
+        let d = y_l - y_r;
+        (
+            (v_r * y_l - v_l * y_r) / d,
+            x_c * (v_l - v_r) / d,
+            (v_r - v_l) / d,
+        )
+    }
+
+    #[test]
+    fn controller_odometry_reproduces_symmetric_icr_twist() {
+        let (radius, sep) = (0.165, 0.555);
+        for &(y, a_l, a_r) in &[(0.52, 0.95, 0.97), (0.30, 1.0, 1.0), (0.9, 0.8, 1.1)] {
+            let p = DiffDriveParams::from_icr(y, -y, a_l, a_r, sep, radius);
+            for &(w_l, w_r) in &[(1.0, 3.0), (-2.0, 2.0), (4.0, 4.0), (0.5, -1.5)] {
+                let (lin, ang) = p.odometry_twist(w_l, w_r);
+                let (vx, vy, om) = icr_twist(y, -y, 0.0, a_l, a_r, w_l * radius, w_r * radius);
+                assert!((lin - vx).abs() < 1e-12, "{lin} {vx}");
+                assert!((ang - om).abs() < 1e-12, "{ang} {om}");
+                assert_eq!(vy, 0.0);
+            }
+        }
+    }
+
+    #[test]
+    fn asymmetric_icrs_are_not_reproduced() {
+        // Control for the test above: the equality is not automatic.
+        let p = DiffDriveParams::from_icr(0.7, -0.3, 1.0, 1.0, 0.555, 0.165);
+        let (lin, ang) = p.odometry_twist(1.0, 3.0);
+        let (vx, _, om) = icr_twist(0.7, -0.3, 0.0, 1.0, 1.0, 0.165, 0.495);
+        assert!((ang - om).abs() < 1e-12);
+        assert!((lin - vx).abs() > 1e-3);
+    }
+
+    #[test]
+    fn yaml_has_one_block_per_terrain() {
+        let p = DiffDriveParams::from_icr(0.52, -0.52, 1.0, 1.0, 0.555, 0.165);
+        let b = |t: &str| ParamsBlock {
+            terrain: t.into(),
+            params: p,
+            y_l: 0.52,
+            y_r: -0.52,
+            x_c: 0.0,
+            cost: Some((0.1, 0.12)),
+        };
+        let y = params_yaml("diff_drive_base_controller", &[b("grass"), b("asphalt")]);
+        assert!(y.contains("diff_drive_base_controller_grass:\n  ros__parameters:"));
+        assert!(y.contains("diff_drive_base_controller_asphalt:"));
+        assert!(y.contains("wheel_separation_multiplier: 1.873874"));
+        assert!(y.contains("cannot represent"));
+    }
+}

@@ -297,7 +297,7 @@ fn choose(
                 for &i in &c {
                     let _ = write!(
                         lines,
-                        "\n  [{}]\n  topic = \"{}\"",
+                        " `[{}] topic = \"{}\"`",
                         role.key(),
                         bag.topics[i].name
                     );
@@ -305,7 +305,7 @@ fn choose(
                 return Err(Ros2Error::Bag {
                     bag: bag.path.clone(),
                     reason: format!(
-                        "{} topics could be the {} source: {}. Name one in a --topics file, one of:{lines}",
+                        "{} topics could be the {} source: {}; name one in a --topics file with one of the lines{lines}",
                         c.len(),
                         role.key(),
                         list(bag, &c)
@@ -488,8 +488,8 @@ pub fn import(
                 return Err(Ros2Error::Bag {
                     bag: bag.path.clone(),
                     reason: format!(
-                        "the wheel source is {} ({}): tread speeds from its twist need the controller's effective wheel separation S = wheel_separation × wheel_separation_multiplier (not the track width). Give it in a --topics file:\n  [wheels]\n  topic = \"{}\"\n  separation = <S in m>",
-                        bag.topics[wheels].name, bag.topics[wheels].ty, bag.topics[wheels].name
+                        "the wheel source is {} ({}): tread speeds from its twist need the controller's effective wheel separation S = wheel_separation × wheel_separation_multiplier (not the track width). Give it in a --topics file: `[wheels] separation = <S in m>`",
+                        bag.topics[wheels].name, bag.topics[wheels].ty
                     ),
                 })
             }
@@ -502,7 +502,7 @@ pub fn import(
         return Err(Ros2Error::Bag {
             bag: bag.path.clone(),
             reason: format!(
-                "the wheel source is {} (sensor_msgs/JointState): wheel speeds in rad/s need the wheel radius. Give it in a --topics file:\n  [wheels]\n  wheel_radius = <m>",
+                "the wheel source is {} (sensor_msgs/JointState): wheel speeds in rad/s need the wheel radius. Give it in a --topics file: `[wheels] wheel_radius = <m>`",
                 bag.topics[wheels].name
             ),
         });
@@ -585,11 +585,17 @@ pub fn import(
             .decode(sel.dec.root, m.data)
             .map_err(|e| bag.msg_err(m.topic, m.index, e))?;
         let d = &sel.dec;
-        let stamp_ns = match (d.f(&v, "header.stamp.sec"), d.f(&v, "header.stamp.nanosec")) {
-            (Some(s), Some(n)) if !receive_only && (s != 0.0 || n != 0.0) => s * 1e9 + n,
-            _ => m.recv_ns as f64,
+        // Integer nanoseconds: f64 of ns since the epoch would lose ~0.2 µs.
+        let stamp_ns: i128 = match (
+            d.f(&v, "header.stamp.sec"),
+            d.f(&v, "header.stamp.nanosec"),
+        ) {
+            (Some(s), Some(n)) if !receive_only && (s != 0.0 || n != 0.0) => {
+                s as i128 * 1_000_000_000 + n as i128
+            }
+            _ => m.recv_ns as i128,
         };
-        let t = (stamp_ns - org as f64) * 1e-9;
+        let t = (stamp_ns - org as i128) as f64 * 1e-9;
         let need = |name: &str| {
             d.f(&v, name)
                 .ok_or_else(|| bag.msg_err(m.topic, m.index, format!("no field `{name}`")))

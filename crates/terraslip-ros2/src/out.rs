@@ -1,1 +1,289 @@
-//! Estimates as ROS 2 messages in MCAP.
+//! Estimates as ROS 2 messages in an MCAP file that Foxglove opens with no
+//! plugin: every channel carries its `ros2msg` schema.
+//!
+//! Topics written by [`EstimateMcap`]: `/terraslip/odom` (nav_msgs/Odometry,
+//! frame `odom` → `base_link`), `/tf` (tf2_msgs/TFMessage), `/terraslip/icr`
+//! ([`ICR_TYPE`]), `/terraslip/terrain` (std_msgs/String),
+//! `/terraslip/innovation` ([`INNOVATION_TYPE`]); input topics may be copied
+//! through with [`EstimateMcap::pass_through`].
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+
+use crate::msg::CdrWriter;
+use crate::{Bag, Ros2Error};
+
+/// Our ICR message: the ICRs (m, body frame) and speed factors with 1σ.
+pub const ICR_TYPE: &str = "terraslip_msgs/msg/Icr";
+pub const ICR_DEF: &str = "std_msgs/Header header\nfloat64 y_l\nfloat64 y_r\nfloat64 x_c\nfloat64 alpha_l\nfloat64 alpha_r\nfloat64 std_y_l\nfloat64 std_y_r\nfloat64 std_x_c\nfloat64 std_alpha_l\nfloat64 std_alpha_r\n";
+/// Innovation statistics of the filter at a wheel sample.
+pub const INNOVATION_TYPE: &str = "terraslip_msgs/msg/Innovation";
+pub const INNOVATION_DEF: &str =
+    "std_msgs/Header header\nfloat64 nis\nbool fused\nbool gated\nfloat64 q_scale\nbool change\n";
+
+/// One estimate row to publish; SI units, world ENU, body REP-103.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct EstimateSample {
+    /// ns since the epoch.
+    pub stamp_ns: u64,
+    pub east: f64,
+    pub north: f64,
+    pub yaw: f64,
+    /// 1σ of east, north (m) and yaw (rad).
+    pub std_pose: [f64; 3],
+    /// Body twist: v_x, v_y (m/s), ω (rad/s).
+    pub twist: [f64; 3],
+    /// y_l, y_r, x_c (m), alpha_l, alpha_r.
+    pub icr: [f64; 5],
+    pub std_icr: [f64; 5],
+    pub nis: f64,
+    pub fused: bool,
+    pub gated: bool,
+    pub q_scale: f64,
+    pub change: bool,
+}
+
+/// An MCAP file being written; it appears under its name on [`Self::finish`].
+pub struct EstimateMcap {
+    writer: mcap::Writer<BufWriter<File>>,
+    tmp: PathBuf,
+    target: PathBuf,
+    channels: BTreeMap<String, u16>,
+    seq: u32,
+    last_terrain: Option<String>,
+}
+
+fn err(path: &Path, e: impl std::fmt::Display) -> Ros2Error {
+    Ros2Error::Bag {
+        bag: path.to_path_buf(),
+        reason: e.to_string(),
+    }
+}
+
+impl EstimateMcap {
+    pub fn create(path: &Path) -> Result<Self, Ros2Error> {
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "out.mcap".into());
+        let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
+        let f = File::create(&tmp).map_err(|e| err(&tmp, e))?;
+        let writer = mcap::WriteOptions::new()
+            .profile("ros2")
+            .compression(Some(mcap::Compression::Zstd))
+            .create(BufWriter::new(f))
+            .map_err(|e| err(path, e))?;
+        Ok(Self {
+            writer,
+            tmp,
+            target: path.to_path_buf(),
+            channels: BTreeMap::new(),
+            seq: 0,
+            last_terrain: None,
+        })
+    }
+
+    /// The channel of `topic`, registered with its type and definition on first use.
+    pub fn channel(&mut self, topic: &str, ty: &str, definition: &str) -> Result<u16, Ros2Error> {
+        if let Some(&c) = self.channels.get(topic) {
+            return Ok(c);
+        }
+        let schema = self
+            .writer
+            .add_schema(ty, "ros2msg", definition.as_bytes())
+            .map_err(|e| err(&self.target, e))?;
+        let c = self
+            .writer
+            .add_channel(schema, topic, "cdr", &BTreeMap::new())
+            .map_err(|e| err(&self.target, e))?;
+        self.channels.insert(topic.to_string(), c);
+        Ok(c)
+    }
+
+    fn builtin_channel(&mut self, topic: &str, ty: &str) -> Result<u16, Ros2Error> {
+        let def = crate::defs::definition_of(ty).unwrap_or_default();
+        self.channel(topic, ty, &def)
+    }
+
+    /// Writes one CDR message.
+    pub fn write(&mut self, channel: u16, ns: u64, data: &[u8]) -> Result<(), Ros2Error> {
+        self.seq = self.seq.wrapping_add(1);
+        self.writer
+            .write_to_known_channel(
+                &mcap::records::MessageHeader {
+                    channel_id: channel,
+                    sequence: self.seq,
+                    log_time: ns,
+                    publish_time: ns,
+                },
+                data,
+            )
+            .map_err(|e| err(&self.target, e))
+    }
+
+    /// Publishes one estimate row on the terraslip topics.
+    pub fn estimate(&mut self, s: &EstimateSample, terrain: Option<&str>) -> Result<(), Ros2Error> {
+        // Quaternion of a rotation by yaw about z: (0, 0, sin yaw/2, cos yaw/2).
+        let (sz, cz) = (s.yaw / 2.0).sin_cos();
+        let mut w = CdrWriter::new();
+        w.header(s.stamp_ns, "odom").string("base_link");
+        planar_pose(&mut w, s.east, s.north, sz, cz);
+        let mut cov = [0.0; 36];
+        cov[0] = s.std_pose[0].powi(2);
+        cov[7] = s.std_pose[1].powi(2);
+        cov[35] = s.std_pose[2].powi(2);
+        for c in cov {
+            w.f64(c);
+        }
+        w.f64(s.twist[0])
+            .f64(s.twist[1])
+            .f64(0.0)
+            .f64(0.0)
+            .f64(0.0)
+            .f64(s.twist[2]);
+        for _ in 0..36 {
+            w.f64(0.0);
+        }
+        let c = self.builtin_channel("/terraslip/odom", "nav_msgs/msg/Odometry")?;
+        self.write(c, s.stamp_ns, &w.finish())?;
+
+        let mut w = CdrWriter::new();
+        w.u32(1).header(s.stamp_ns, "odom").string("base_link");
+        planar_pose(&mut w, s.east, s.north, sz, cz);
+        let c = self.builtin_channel("/tf", "tf2_msgs/msg/TFMessage")?;
+        self.write(c, s.stamp_ns, &w.finish())?;
+
+        let mut w = CdrWriter::new();
+        w.header(s.stamp_ns, "base_link");
+        for v in s.icr.iter().chain(&s.std_icr) {
+            w.f64(*v);
+        }
+        let def = format!("{ICR_DEF}{}", header_sections());
+        let c = self.channel("/terraslip/icr", ICR_TYPE, &def)?;
+        self.write(c, s.stamp_ns, &w.finish())?;
+
+        let mut w = CdrWriter::new();
+        w.header(s.stamp_ns, "base_link");
+        w.f64(s.nis)
+            .u8(s.fused as u8)
+            .u8(s.gated as u8)
+            .f64(s.q_scale)
+            .u8(s.change as u8);
+        let def = format!("{INNOVATION_DEF}{}", header_sections());
+        let c = self.channel("/terraslip/innovation", INNOVATION_TYPE, &def)?;
+        self.write(c, s.stamp_ns, &w.finish())?;
+
+        // The terrain label when it changes (and first), latched for Foxglove's state view.
+        let t = terrain.unwrap_or("");
+        if self.last_terrain.as_deref() != Some(t) {
+            let mut w = CdrWriter::new();
+            w.string(t);
+            let c = self.builtin_channel("/terraslip/terrain", "std_msgs/msg/String")?;
+            self.write(c, s.stamp_ns, &w.finish())?;
+            self.last_terrain = Some(t.to_string());
+        }
+        Ok(())
+    }
+
+    /// Copies `topics` of `bag` through unchanged (receive times kept).
+    pub fn pass_through(&mut self, bag: &mut Bag, topics: &[usize]) -> Result<u64, Ros2Error> {
+        let mut chans = Vec::new();
+        for &t in topics {
+            let topic = &bag.topics[t];
+            let def = if topic.definition.trim().is_empty() {
+                crate::defs::definition_of(&topic.ty).unwrap_or_default()
+            } else {
+                topic.definition.clone()
+            };
+            chans.push((
+                t,
+                self.channel(&topic.name.clone(), &topic.ty.clone(), &def)?,
+            ));
+        }
+        let mut n = 0;
+        bag.for_each(&|t| topics.contains(&t), &mut |_, m| {
+            if let Some(&(_, c)) = chans.iter().find(|(t, _)| *t == m.topic) {
+                self.write(c, m.recv_ns, m.data)?;
+                n += 1;
+            }
+            Ok(())
+        })?;
+        Ok(n)
+    }
+
+    /// Finishes the file and moves it into place.
+    pub fn finish(mut self) -> Result<(), Ros2Error> {
+        self.writer.finish().map_err(|e| err(&self.target, e))?;
+        std::fs::rename(&self.tmp, &self.target).map_err(|e| err(&self.target, e))?;
+        Ok(())
+    }
+}
+
+impl Drop for EstimateMcap {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.tmp);
+    }
+}
+
+/// A `geometry_msgs/Pose` (or `Transform`) in the plane: x, y, z = 0, and
+/// the quaternion (0, 0, sz, cz).
+fn planar_pose(w: &mut CdrWriter, x: f64, y: f64, sz: f64, cz: f64) {
+    for v in [x, y, 0.0, 0.0, 0.0, sz, cz] {
+        w.f64(v);
+    }
+}
+
+fn header_sections() -> String {
+    let d = crate::defs::definition_of("std_msgs/Header").unwrap_or_default();
+    format!("================================================================================\nMSG: std_msgs/Header\n{d}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn written_estimates_read_back_with_their_schemas() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("e.mcap");
+        let mut m = EstimateMcap::create(&p).unwrap();
+        for k in 0..10u64 {
+            let s = EstimateSample {
+                stamp_ns: 1_000_000_000 + k * 100_000_000,
+                east: k as f64,
+                yaw: 0.5,
+                icr: [0.5, -0.5, 0.1, 1.0, 1.0],
+                ..Default::default()
+            };
+            m.estimate(&s, Some(if k < 5 { "grass" } else { "asphalt" }))
+                .unwrap();
+        }
+        m.finish().unwrap();
+        let mut bag = Bag::open(&p).unwrap();
+        let mut seen: BTreeMap<String, u64> = BTreeMap::new();
+        let mut easts = Vec::new();
+        let odom = bag.topic("/terraslip/odom").unwrap();
+        let (reg, root) =
+            crate::msg::Registry::parse(&bag.topics[odom].ty, &bag.topics[odom].definition, None)
+                .unwrap();
+        let path = reg.resolve(root, "pose.pose.position.x").unwrap();
+        bag.for_each(&|_| true, &mut |b, msg| {
+            *seen.entry(b.topics[msg.topic].name.clone()).or_default() += 1;
+            if msg.topic == odom {
+                easts.push(reg.decode(root, msg.data).unwrap().f64_at(&path).unwrap());
+            }
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!(seen["/terraslip/odom"], 10);
+        assert_eq!(seen["/tf"], 10);
+        assert_eq!(seen["/terraslip/icr"], 10);
+        assert_eq!(seen["/terraslip/innovation"], 10);
+        assert_eq!(seen["/terraslip/terrain"], 2);
+        assert_eq!(easts, (0..10).map(|k| k as f64).collect::<Vec<_>>());
+        let icr = bag.topic("/terraslip/icr").unwrap();
+        assert!(crate::msg::Registry::parse(ICR_TYPE, &bag.topics[icr].definition, None).is_ok());
+    }
+}

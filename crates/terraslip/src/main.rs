@@ -28,6 +28,9 @@ Each command's --help has more examples; docs/ has the method and the figures."
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// ROS 2 bags given as LOG: which topic feeds which stream (see `import --help`).
+    #[arg(long, global = true, value_name = "FILE.toml")]
+    topics: Option<std::path::PathBuf>,
 }
 
 #[derive(Subcommand)]
@@ -45,10 +48,14 @@ enum Command {
     /// Identify ICR kinematic parameters offline from drives with a pose reference.
     // Boxed: its many flags make it much larger than the other variants.
     Calibrate(Box<cmd::calibrate::Args>),
+    /// Convert a ROS 2 bag (MCAP or sqlite3) into a drive log.
+    #[cfg(feature = "ros2")]
+    Import(cmd::import::Args),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    cmd::bag::set_topics(cli.topics);
     let result = match cli.command {
         Command::Demo(a) => cmd::demo::run(a),
         Command::Simulate(a) => cmd::simulate::run(a),
@@ -56,7 +63,10 @@ fn main() -> ExitCode {
         Command::Report(a) => cmd::report::run(a),
         Command::Terrain(a) => cmd::terrain::run(a),
         Command::Calibrate(a) => cmd::calibrate::run(*a),
+        #[cfg(feature = "ros2")]
+        Command::Import(a) => cmd::import::run(a),
     };
+    cmd::bag::cleanup();
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

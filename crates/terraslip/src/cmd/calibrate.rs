@@ -69,6 +69,11 @@ pub struct Args {
     /// Print the parameters file as one JSON object on stdout.
     #[arg(long)]
     json: bool,
+    /// Also write a diff_drive_controller parameter file (ROS 2 YAML, one
+    /// block per terrain) from the calibrated ICRs.
+    #[cfg(feature = "ros2")]
+    #[arg(long, value_name = "FILE.yaml")]
+    ros2_params: Option<PathBuf>,
     /// Weight between metres and radians in eq. 13 (m/rad). Mandow et al. use 1.
     #[arg(long, default_value_t = 0.5, value_name = "M_PER_RAD")]
     yaw_weight: f64,
@@ -241,10 +246,7 @@ struct ValidateArgs {
 }
 
 fn read_logs(paths: &[PathBuf]) -> anyhow::Result<Vec<DriveLog>> {
-    paths
-        .iter()
-        .map(|p| DriveLog::read(p).with_context(|| format!("reading log {}", p.display())))
-        .collect()
+    paths.iter().map(|p| super::bag::read_full(p)).collect()
 }
 
 fn parse_bound(s: &str) -> anyhow::Result<(usize, (f64, f64))> {
@@ -489,6 +491,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     pf.write(&out)
         .with_context(|| format!("writing {}", out.display()))?;
     eprintln!("wrote {}", out.display());
+    #[cfg(feature = "ros2")]
+    if let Some(p) = &args.ros2_params {
+        super::ros2out::write_params(p, &pf, &logs, |l, f| {
+            validation_prediction(l, f).map(|s| s.stats.rmse_m)
+        })?;
+    }
     if args.json {
         println!("{}", serde_json::to_string(&pf)?);
     }

@@ -61,6 +61,11 @@ pub struct Args {
     /// Print the summary as one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Also write the estimate as ROS 2 messages (Odometry, TF, ICRs,
+    /// terrain, innovations; a bag's input topics copied through) to this MCAP file.
+    #[cfg(feature = "ros2")]
+    #[arg(long, value_name = "OUT.mcap")]
+    pub mcap: Option<PathBuf>,
 }
 
 const AFTER_HELP: &str = "\
@@ -145,11 +150,10 @@ pub fn run(args: Args) -> Result<()> {
     };
     // A terrain model needs the sensor streams it classifies (imu or images).
     let log = if args.terrain_model.is_some() {
-        DriveLog::read(log_dir)
+        super::bag::read_full(log_dir)
     } else {
-        super::read_log(log_dir)
-    }
-    .with_context(|| format!("reading log {}", log_dir.display()))?;
+        super::bag::read_with(log_dir, super::read_log)
+    }?;
     let init = match &args.init {
         Some(p) => Some(ParamsFile::read(p).with_context(|| "--init")?),
         None => None,
@@ -216,6 +220,10 @@ pub fn run(args: Args) -> Result<()> {
     let mut summary = summary_json(&log, &est, &cfg);
     summary["terrain_evidence"] = serde_json::Value::String(evidence_name);
     write_outputs(out, &est, &summary)?;
+    #[cfg(feature = "ros2")]
+    if let Some(p) = &args.mcap {
+        super::ros2out::write_mcap(p, log_dir, &log, &est)?;
+    }
 
     for w in log.warnings.iter().chain(&est.warnings) {
         eprintln!("warning: {w}");

@@ -1,9 +1,14 @@
 use std::path::Path;
 
+pub mod bag;
 pub mod calibrate;
 pub mod demo;
 pub mod estimate;
+#[cfg(feature = "ros2")]
+pub mod import;
 pub mod report;
+#[cfg(feature = "ros2")]
+pub mod ros2out;
 pub mod simulate;
 pub mod terrain;
 

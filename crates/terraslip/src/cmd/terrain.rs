@@ -186,7 +186,7 @@ fn read_logs(paths: &[PathBuf], quiet: bool) -> anyhow::Result<Vec<DriveLog>> {
     let bar = progress(paths.len() as u64, "reading logs", quiet);
     let mut logs = Vec::with_capacity(paths.len());
     for p in paths {
-        let log = DriveLog::read(p).with_context(|| format!("reading log {}", p.display()))?;
+        let log = super::bag::read_full(p)?;
         logs.push(log);
         bar.inc(1);
     }

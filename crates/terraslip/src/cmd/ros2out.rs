@@ -1,0 +1,112 @@
+//! ROS 2 outputs of `estimate --mcap` and `calibrate --ros2-params`.
+
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use terraslip::pipeline::EstimateRun;
+use terraslip_io::{DriveLog, ParamsFile};
+use terraslip_ros2::diffdrive::{params_yaml, DiffDriveParams, ParamsBlock};
+use terraslip_ros2::out::{EstimateMcap, EstimateSample};
+
+/// Writes the estimate (and, for a bag input, its used topics) into `path`.
+pub fn write_mcap(path: &Path, input: &Path, log: &DriveLog, est: &EstimateRun) -> Result<()> {
+    let imported = super::bag::imported(input);
+    let origin = imported.as_ref().map_or(0, |i| i.0);
+    let ns = |t: f64| (origin as f64 + t * 1e9).max(0.0) as u64;
+    let mut m = EstimateMcap::create(path)?;
+    for (k, r) in est.rows.iter().enumerate() {
+        let w = log.wheels.get(k).copied();
+        let tw = w.map(|w| r.icr().twist(w.v_left, w.v_right));
+        let s = EstimateSample {
+            stamp_ns: ns(r.t),
+            east: r.east,
+            north: r.north,
+            yaw: r.yaw,
+            std_pose: [r.std[0], r.std[1], r.std[2]],
+            twist: tw.map_or([0.0; 3], |t| [t.v_x, t.v_y, t.omega]),
+            icr: [r.y_l, r.y_r, r.x_c, r.alpha_l, r.alpha_r],
+            std_icr: [r.std[3], r.std[4], r.std[5], r.std[6], r.std[7]],
+            nis: r.nis,
+            fused: r.fused,
+            gated: r.gated,
+            q_scale: r.q_scale,
+            change: r.change,
+        };
+        m.estimate(&s, est.terrain_name(r))?;
+    }
+    let mut passed = 0;
+    if let Some((_, topics)) = &imported {
+        let mut bag = terraslip_ros2::Bag::open(input)?;
+        let idx: Vec<usize> = topics.iter().filter_map(|t| bag.topic(t)).collect();
+        passed = m.pass_through(&mut bag, &idx)?;
+    }
+    m.finish()?;
+    eprintln!(
+        "mcap: {} estimate rows{} -> {}",
+        est.rows.len(),
+        if passed > 0 {
+            format!(" and {passed} input messages")
+        } else {
+            String::new()
+        },
+        path.display()
+    );
+    Ok(())
+}
+
+/// Writes a diff_drive_controller parameter file from calibrated `pf`, with
+/// the 2 s prediction error of each set and of its diff-drive approximation
+/// on `logs`.
+pub fn write_params(
+    path: &Path,
+    pf: &ParamsFile,
+    logs: &[DriveLog],
+    score: impl Fn(&[DriveLog], &ParamsFile) -> Option<f64>,
+) -> Result<()> {
+    let meta = &logs.first().context("no logs")?.meta;
+    let sep = meta.track_width.filter(|w| *w > 0.0).context(
+        "--ros2-params: the log's meta.toml needs track_width (the nominal wheel_separation)",
+    )?;
+    let radius = meta.wheel_radius.filter(|r| *r > 0.0).unwrap_or(1.0);
+    let mut sets: Vec<(String, terraslip_core::IcrParams)> = Vec::new();
+    if let Some(p) = pf.params {
+        sets.push(("all".into(), p));
+    }
+    for (name, e) in &pf.terrains {
+        sets.push((name.clone(), e.params));
+    }
+    let diff_drive = |p: &terraslip_core::IcrParams| terraslip_core::IcrParams {
+        y_l: p.spread() / 2.0,
+        y_r: -p.spread() / 2.0,
+        x_c: 0.0,
+        ..*p
+    };
+    let mut blocks = Vec::new();
+    for (name, p) in &sets {
+        let only = |q: terraslip_core::IcrParams| {
+            let mut f = pf.clone();
+            if name == "all" {
+                f.params = Some(q);
+            } else if let Some(e) = f.terrains.get_mut(name) {
+                e.params = q;
+            }
+            f
+        };
+        let cost = match (score(logs, &only(*p)), score(logs, &only(diff_drive(p)))) {
+            (Some(a), Some(b)) => Some((a, b)),
+            _ => None,
+        };
+        blocks.push(ParamsBlock {
+            terrain: name.clone(),
+            params: DiffDriveParams::from_icr(p.y_l, p.y_r, p.alpha_l, p.alpha_r, sep, radius),
+            y_l: p.y_l,
+            y_r: p.y_r,
+            x_c: p.x_c,
+            cost,
+        });
+    }
+    let text = params_yaml("diff_drive_controller", &blocks);
+    terraslip_io::write_atomic(path, text.as_bytes())?;
+    eprintln!("wrote {}", path.display());
+    Ok(())
+}

@@ -103,7 +103,7 @@ pub fn params_yaml(controller: &str, blocks: &[ParamsBlock]) -> String {
         if let Some((full, dd)) = b.cost {
             let _ = writeln!(
                 s,
-                "# 2 s prediction error on the calibration drive: {full:.3} m RMS with the ICR model, {dd:.3} m as diff-drive (+{:.3} m)",
+                "# 2 s prediction error on the calibration drive (RMS, this set in its two forms): {full:.3} m as ICRs, {dd:.3} m as diff-drive (+{:.3} m)",
                 dd - full
             );
         }

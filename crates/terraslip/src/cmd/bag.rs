@@ -13,10 +13,13 @@ static TOPICS: OnceLock<Option<PathBuf>> = OnceLock::new();
 /// Temporary logs made from bags, removed by [`cleanup`].
 static TEMP: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 /// Bags read: path, time origin (ns since the epoch) and the topics used.
+#[cfg(feature = "ros2")]
 type Imported = (PathBuf, u64, Vec<String>);
+#[cfg(feature = "ros2")]
 static IMPORTED: Mutex<Vec<Imported>> = Mutex::new(Vec::new());
 
 /// The time origin (ns) of the log made from bag `path`, and the topics it used.
+#[cfg(feature = "ros2")]
 pub fn imported(path: &Path) -> Option<(u64, Vec<String>)> {
     let v = IMPORTED.lock().ok()?;
     v.iter()

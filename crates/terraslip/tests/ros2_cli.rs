@@ -1,0 +1,162 @@
+//! ROS 2 on the command line: `import`, a bag in place of a LOG (identical
+//! results), `estimate --mcap`, and refusals that name the problem.
+#![cfg(feature = "ros2")]
+
+use std::path::Path;
+
+use assert_cmd::Command;
+use terraslip_ros2::defs::definition_of;
+use terraslip_ros2::msg::CdrWriter;
+use terraslip_ros2::out::{EstimateMcap, EstimateSample};
+
+const T0: u64 = 1_700_000_000_000_000_000;
+
+/// 60 s on a circle (1 m/s, 0.2 rad/s): odometry twist at 20 Hz, a
+/// PoseStamped reference at 5 Hz.
+fn write_bag(p: &Path) {
+    let mut m = EstimateMcap::create(p).unwrap();
+    let ty = "geometry_msgs/msg/PoseStamped";
+    let pose = m.channel("/ref", ty, &definition_of(ty).unwrap()).unwrap();
+    for k in 0..1200u64 {
+        let t = k as f64 * 0.05;
+        let ns = T0 + k * 50_000_000;
+        let yaw = 0.2 * t;
+        let (x, y) = (5.0 * yaw.sin(), 5.0 * (1.0 - yaw.cos()));
+        let s = EstimateSample {
+            stamp_ns: ns,
+            twist: [1.0, 0.0, 0.2],
+            ..Default::default()
+        };
+        m.estimate(&s, None).unwrap();
+        if k % 4 == 0 {
+            let mut w = CdrWriter::new();
+            w.header(ns, "map");
+            let (sz, cz) = (yaw / 2.0).sin_cos();
+            for v in [x, y, 0.0, 0.0, 0.0, sz, cz] {
+                w.f64(v);
+            }
+            m.write(pose, ns, &w.finish()).unwrap();
+        }
+    }
+    m.finish().unwrap();
+}
+
+fn run(args: &[&str]) -> std::process::Output {
+    Command::cargo_bin("terraslip")
+        .unwrap()
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn a_bag_and_its_imported_log_give_the_same_estimate() {
+    let d = tempfile::tempdir().unwrap();
+    let bag = d.path().join("drive.mcap");
+    write_bag(&bag);
+    let topics = d.path().join("t.toml");
+    std::fs::write(
+        &topics,
+        "[wheels]\ntopic = \"/terraslip/odom\"\nseparation = 0.6\n[meta]\ntrack_width = 0.5\n",
+    )
+    .unwrap();
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let (log, e1, e2, mc) = (
+        d.path().join("log"),
+        d.path().join("e1"),
+        d.path().join("e2"),
+        d.path().join("e.mcap"),
+    );
+
+    // Without the separation: refused, naming the topic and the key.
+    let out = run(&["import", &s(&bag), "--out", &s(&log)]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("/terraslip/odom") && err.contains("separation"),
+        "{err}"
+    );
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+
+    let out = run(&[
+        "import",
+        &s(&bag),
+        "--out",
+        &s(&log),
+        "--topics",
+        &s(&topics),
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(report["time_origin_ns"], T0);
+    let text = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        text.contains(
+            "/terraslip/odom (nav_msgs/Odometry) -> wheels.csv: 1200 of 1200 messages, 20.0 Hz"
+        ),
+        "{text}"
+    );
+    assert!(
+        text.contains("/ref (geometry_msgs/PoseStamped) -> pose.csv"),
+        "{text}"
+    );
+    let wheels = std::fs::read_to_string(log.join("wheels.csv")).unwrap();
+    // v -/+ w S / 2 = 1 -/+ 0.06
+    assert!(
+        wheels.lines().nth(1).unwrap().starts_with("0,0.94,1.06"),
+        "{wheels}"
+    );
+
+    let out = run(&[
+        "estimate",
+        &s(&bag),
+        "--topics",
+        &s(&topics),
+        "--out",
+        &s(&e1),
+        "--mcap",
+        &s(&mc),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = run(&["estimate", &s(&log), "--out", &s(&e2)]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let a = std::fs::read(e1.join("estimate.csv")).unwrap();
+    assert_eq!(a, std::fs::read(e2.join("estimate.csv")).unwrap());
+    assert_eq!(a.iter().filter(|&&b| b == b'\n').count(), 1201);
+
+    // The MCAP holds the estimate and the two input topics.
+    let mut b = terraslip_ros2::Bag::open(&mc).unwrap();
+    b.for_each(&|_| true, &mut |_, _| Ok(())).unwrap();
+    let count = |name: &str| b.topics[b.topic(name).unwrap()].count;
+    assert_eq!(count("/terraslip/icr"), 1200);
+    assert_eq!(count("/ref"), 300);
+    // The input's /terraslip/odom is passed through beside the estimate's own.
+    assert_eq!(count("/terraslip/odom"), 2400);
+
+    // Never into the bag.
+    let bagdir = d.path().join("bagdir");
+    std::fs::create_dir(&bagdir).unwrap();
+    std::fs::write(bagdir.join("metadata.yaml"), "x").unwrap();
+    let out = run(&[
+        "import",
+        &s(&bag),
+        "--out",
+        &s(&bagdir),
+        "--topics",
+        &s(&topics),
+    ]);
+    assert!(!out.status.success());
+}

@@ -191,16 +191,14 @@ impl Bag {
                         }
                     }
                 }
-                (Storage::Mcap, _) => {
-                    // Definitions come with the channels while streaming; the
-                    // summary, when present, lists them up front.
-                    if w == Whole::None {
-                        if let Ok(summary) = mcap_summary(&p) {
-                            for (name, ty, def) in summary {
-                                let i = self.topic_index(&name, &ty);
-                                if self.topics[i].definition.is_empty() {
-                                    self.topics[i].definition = def;
-                                }
+                // Definitions come with the channels while streaming; the
+                // summary, when present, lists them up front.
+                (Storage::Mcap, Whole::None) => {
+                    if let Ok(summary) = mcap_summary(&p) {
+                        for (name, ty, def) in summary {
+                            let i = self.topic_index(&name, &ty);
+                            if self.topics[i].definition.is_empty() {
+                                self.topics[i].definition = def;
                             }
                         }
                     }

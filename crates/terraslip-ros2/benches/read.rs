@@ -2,7 +2,7 @@
 //! chunks) streamed and CDR-decoded. `cargo bench -p terraslip-ros2 --bench read`.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use terraslip_ros2::msg::{CdrWriter, Registry};
+use terraslip_ros2::msg::{CdrWriter, Registry, Selection};
 use terraslip_ros2::out::EstimateMcap;
 use terraslip_ros2::Bag;
 
@@ -26,6 +26,8 @@ fn bench(c: &mut Criterion) {
     m.finish().unwrap();
     let (reg, root) = Registry::parse(ty, &def, None).unwrap();
     let wz = reg.resolve(root, "twist.angular.z").unwrap();
+    let mut sel = Selection::default();
+    sel.add(&wz);
     let mut g = c.benchmark_group("mcap");
     g.throughput(Throughput::Elements(N));
     g.sample_size(10);
@@ -35,6 +37,19 @@ fn bench(c: &mut Criterion) {
             let mut sum = 0.0;
             bag.for_each(&|_| true, &mut |_, m| {
                 let v = reg.decode(root, m.data).unwrap();
+                sum += v.f64_at(&wz).unwrap_or(0.0);
+                Ok(())
+            })
+            .unwrap();
+            sum
+        })
+    });
+    g.bench_function("read_decode_selected", |b| {
+        b.iter(|| {
+            let mut bag = Bag::open(&p).unwrap();
+            let mut sum = 0.0;
+            bag.for_each(&|_| true, &mut |_, m| {
+                let v = reg.decode_selected(root, m.data, &sel).unwrap();
                 sum += v.f64_at(&wz).unwrap_or(0.0);
                 Ok(())
             })

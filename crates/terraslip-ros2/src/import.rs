@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 use terraslip_io::{DriveLog, ImageRef, ImuSample, PoseObs, WheelSample};
 
-use crate::msg::{short_type, Registry, Value};
+use crate::msg::{short_type, Registry, Selection, Value};
 use crate::{Bag, Ros2Error};
 
 /// `--topics FILE.toml`: which topic feeds which stream, and the numbers a
@@ -329,6 +329,7 @@ struct Decoder {
     reg: Registry,
     root: usize,
     paths: HashMap<&'static str, Vec<usize>>,
+    sel: Selection,
 }
 
 impl Decoder {
@@ -355,7 +356,16 @@ impl Decoder {
                 }
             }
         }
-        Ok(Self { reg, root, paths })
+        let mut sel = Selection::default();
+        for p in paths.values() {
+            sel.add(p);
+        }
+        Ok(Self {
+            reg,
+            root,
+            paths,
+            sel,
+        })
     }
     fn f(&self, v: &Value, name: &str) -> Option<f64> {
         v.f64_at(self.paths.get(name)?)
@@ -582,7 +592,7 @@ pub fn import(
         let v = sel
             .dec
             .reg
-            .decode(sel.dec.root, m.data)
+            .decode_selected(sel.dec.root, m.data, &sel.dec.sel)
             .map_err(|e| bag.msg_err(m.topic, m.index, e))?;
         let d = &sel.dec;
         // Integer nanoseconds: f64 of ns since the epoch would lose ~0.2 µs.

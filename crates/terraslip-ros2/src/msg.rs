@@ -132,6 +132,36 @@ impl Value {
     }
 }
 
+/// Which fields [`Registry::decode_selected`] decodes: a trie of resolved
+/// field paths. A path's last field is decoded whole.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Selection {
+    children: Vec<(usize, Selection)>,
+}
+
+impl Selection {
+    /// Adds a path from [`Registry::resolve`].
+    pub fn add(&mut self, path: &[usize]) {
+        let Some((&first, rest)) = path.split_first() else {
+            return;
+        };
+        match self.children.iter_mut().find(|(i, _)| *i == first) {
+            // A field asked for whole stays whole; a shorter path makes it whole.
+            Some((_, child)) if rest.is_empty() => child.children.clear(),
+            Some((_, child)) if !child.children.is_empty() => child.add(rest),
+            Some(_) => {}
+            None => {
+                let mut child = Selection::default();
+                child.add(rest);
+                self.children.push((first, child));
+            }
+        }
+    }
+    fn child(&self, i: usize) -> Option<&Selection> {
+        self.children.iter().find(|(j, _)| *j == i).map(|(_, s)| s)
+    }
+}
+
 /// Normalises `pkg/msg/Name` to `pkg/Name`.
 pub fn short_type(name: &str) -> String {
     let parts: Vec<&str> = name.split('/').collect();
@@ -258,37 +288,101 @@ impl Registry {
 
     /// Decodes one CDR-encapsulated message of type `root`.
     pub fn decode(&self, root: usize, data: &[u8]) -> Result<Value, String> {
-        if data.len() < 4 {
-            return Err(format!("{} bytes: shorter than the CDR header", data.len()));
-        }
-        let le = match data[1] {
-            0x00 | 0x02 => false,
-            0x01 | 0x03 => true,
-            k => return Err(format!("unknown CDR encapsulation kind {k:#04x}")),
-        };
-        let mut c = Cursor {
-            buf: &data[4..],
-            pos: 0,
-            le,
-        };
+        let mut c = Cursor::new(data)?;
         self.decode_msg(root, &mut c)
+    }
+
+    /// Decodes only the selected fields of one CDR message of type `root`;
+    /// the others are skipped (bounds-checked) and stand as `UInt(0)`, so
+    /// resolved paths stay valid.
+    pub fn decode_selected(
+        &self,
+        root: usize,
+        data: &[u8],
+        sel: &Selection,
+    ) -> Result<Value, String> {
+        let mut c = Cursor::new(data)?;
+        self.decode_msg_sel(root, &mut c, sel)
+    }
+
+    fn decode_msg_sel(&self, m: usize, c: &mut Cursor, sel: &Selection) -> Result<Value, String> {
+        let def = &self.msgs[m];
+        let mut out = Vec::with_capacity(def.fields.len());
+        for (i, f) in def.fields.iter().enumerate() {
+            let v = match (sel.child(i), &f.ty, f.arity) {
+                (Some(s), Ty::Msg(j), Arity::One) if !s.children.is_empty() => {
+                    self.decode_msg_sel(*j, c, s)?
+                }
+                (Some(_), _, _) => self.decode_field(f, c)?,
+                (None, _, _) => {
+                    self.skip_field(f, c)?;
+                    Value::UInt(0)
+                }
+            };
+            out.push(v);
+        }
+        Ok(Value::Struct(out))
+    }
+
+    fn skip_field(&self, f: &Field, c: &mut Cursor) -> Result<(), String> {
+        let n = match f.arity {
+            Arity::One => 1,
+            Arity::Fixed(n) => n,
+            Arity::Seq => c.u32()? as usize,
+        };
+        match f.ty {
+            Ty::Prim(p @ (Prim::Str | Prim::WStr)) => {
+                for _ in 0..n {
+                    let len = c.u32()? as usize;
+                    c.take(if p == Prim::Str {
+                        len
+                    } else {
+                        len.saturating_mul(4)
+                    })?;
+                }
+            }
+            Ty::Prim(p) => {
+                if n > 0 {
+                    c.align(p.size());
+                    c.take(n.saturating_mul(p.size()))?;
+                }
+            }
+            Ty::Msg(j) => {
+                if n > c.remaining() && !self.msgs[j].fields.is_empty() {
+                    return Err(format!(
+                        "field `{}`: {n} elements overrun the message",
+                        f.name
+                    ));
+                }
+                for _ in 0..n {
+                    for g in &self.msgs[j].fields {
+                        self.skip_field(g, c)?;
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn decode_field(&self, f: &Field, c: &mut Cursor) -> Result<Value, String> {
+        match f.arity {
+            Arity::One => match f.ty {
+                Ty::Prim(p) => c.prim(p),
+                Ty::Msg(i) => self.decode_msg(i, c),
+            },
+            Arity::Fixed(n) => self.decode_array(f, n, c),
+            Arity::Seq => {
+                let n = c.u32()? as usize;
+                self.decode_array(f, n, c)
+            }
+        }
     }
 
     fn decode_msg(&self, m: usize, c: &mut Cursor) -> Result<Value, String> {
         let def = &self.msgs[m];
         let mut out = Vec::with_capacity(def.fields.len());
         for f in &def.fields {
-            let v = match f.arity {
-                Arity::One => match f.ty {
-                    Ty::Prim(p) => c.prim(p)?,
-                    Ty::Msg(i) => self.decode_msg(i, c)?,
-                },
-                Arity::Fixed(n) => self.decode_array(f, n, c)?,
-                Arity::Seq => {
-                    let n = c.u32()? as usize;
-                    self.decode_array(f, n, c)?
-                }
-            };
+            let v = self.decode_field(f, c)?;
             out.push(v);
         }
         Ok(Value::Struct(out))
@@ -426,6 +520,22 @@ struct Cursor<'a> {
 }
 
 impl<'a> Cursor<'a> {
+    /// After the 4-byte encapsulation header (CDR, little or big endian).
+    fn new(data: &'a [u8]) -> Result<Self, String> {
+        if data.len() < 4 {
+            return Err(format!("{} bytes: shorter than the CDR header", data.len()));
+        }
+        let le = match data[1] {
+            0x00 | 0x02 => false,
+            0x01 | 0x03 => true,
+            k => return Err(format!("unknown CDR encapsulation kind {k:#04x}")),
+        };
+        Ok(Self {
+            buf: &data[4..],
+            pos: 0,
+            le,
+        })
+    }
     fn remaining(&self) -> usize {
         self.buf.len() - self.pos
     }
@@ -560,9 +670,8 @@ mod tests {
 ================\nMSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n\
 ================\nMSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n";
 
-    #[test]
-    fn decodes_what_the_writer_wrote() {
-        let (reg, root) = Registry::parse("sensor_msgs/msg/Thing", DEF, None).unwrap();
+    /// A `DEF` message: stamp 3.5 s, joints left/right at 1.5 and -2.0, pair (0.25, 4).
+    fn sample() -> Vec<u8> {
         let mut w = CdrWriter::new();
         w.header(3_500_000_000, "base_link");
         w.u32(2).string("left").string("right");
@@ -570,7 +679,13 @@ mod tests {
         w.align(4);
         w.buf.extend_from_slice(&0.25f32.to_le_bytes());
         w.buf.extend_from_slice(&4.0f32.to_le_bytes());
-        let v = reg.decode(root, &w.finish()).unwrap();
+        w.finish()
+    }
+
+    #[test]
+    fn decodes_what_the_writer_wrote() {
+        let (reg, root) = Registry::parse("sensor_msgs/msg/Thing", DEF, None).unwrap();
+        let v = reg.decode(root, &sample()).unwrap();
         let sec = reg.resolve(root, "header.stamp.sec").unwrap();
         let ns = reg.resolve(root, "header.stamp.nanosec").unwrap();
         assert_eq!(v.f64_at(&sec), Some(3.0));
@@ -587,6 +702,31 @@ mod tests {
             Some(&Value::Nums(vec![0.25, 4.0]))
         );
         assert!(reg.resolve(root, "header.nope").is_none());
+    }
+
+    #[test]
+    fn selected_decoding_reads_the_same_fields() {
+        let (reg, root) = Registry::parse("sensor_msgs/msg/Thing", DEF, None).unwrap();
+        let data = sample();
+        let full = reg.decode(root, &data).unwrap();
+        let mut sel = Selection::default();
+        let ns = reg.resolve(root, "header.stamp.nanosec").unwrap();
+        let pair = reg.resolve(root, "pair").unwrap();
+        sel.add(&ns);
+        sel.add(&pair);
+        let part = reg.decode_selected(root, &data, &sel).unwrap();
+        assert_eq!(part.at(&ns), full.at(&ns));
+        assert_eq!(part.at(&pair), full.at(&pair));
+        assert_eq!(
+            part.at(&reg.resolve(root, "velocity").unwrap()),
+            Some(&Value::UInt(0))
+        );
+        for n in 0..data.len() {
+            assert!(
+                reg.decode_selected(root, &data[..n], &sel).is_err(),
+                "prefix {n}"
+            );
+        }
     }
 
     #[test]

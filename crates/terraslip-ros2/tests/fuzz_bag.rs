@@ -83,6 +83,9 @@ proptest! {
         let def = terraslip_ros2::defs::definition_of("nav_msgs/msg/Odometry").unwrap();
         let (reg, root) = terraslip_ros2::msg::Registry::parse("nav_msgs/msg/Odometry", &def, None).unwrap();
         let _ = reg.decode(root, &data);
+        let mut sel = terraslip_ros2::msg::Selection::default();
+        sel.add(&reg.resolve(root, "twist.twist.angular.z").unwrap());
+        let _ = reg.decode_selected(root, &data, &sel);
         let def = terraslip_ros2::defs::definition_of("sensor_msgs/msg/JointState").unwrap();
         let (reg, root) = terraslip_ros2::msg::Registry::parse("sensor_msgs/msg/JointState", &def, None).unwrap();
         let _ = reg.decode(root, &data);

@@ -178,6 +178,7 @@ impl Bag {
     /// Reads topic types and definitions from the storage files' own tables
     /// (sqlite3) or from the MCAP summary when it has one.
     fn scan_definitions(&mut self) -> Result<(), Ros2Error> {
+        let mut needs_pass = false;
         for k in 0..self.files.len() {
             let (p, s, w) = self.files[k].clone();
             match (s, w) {
@@ -193,8 +194,8 @@ impl Bag {
                 }
                 // Definitions come with the channels while streaming; the
                 // summary, when present, lists them up front.
-                (Storage::Mcap, Whole::None) => {
-                    if let Ok(summary) = mcap_summary(&p) {
+                (Storage::Mcap, Whole::None) => match mcap_summary(&p) {
+                    Ok(summary) => {
                         for (name, ty, def) in summary {
                             let i = self.topic_index(&name, &ty);
                             if self.topics[i].definition.is_empty() {
@@ -202,9 +203,15 @@ impl Bag {
                             }
                         }
                     }
-                }
+                    Err(_) => needs_pass = true,
+                },
+                // Compressed whole: channels are known only by reading.
+                (Storage::Mcap, _) => needs_pass = true,
                 _ => {}
             }
+        }
+        if needs_pass {
+            self.for_each(&|_| false, &mut |_, _| Ok(()))?;
         }
         Ok(())
     }

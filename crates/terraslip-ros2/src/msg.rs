@@ -191,7 +191,10 @@ impl Registry {
     /// (built-in definitions). Returns the index of the root message.
     pub fn parse(root: &str, text: &str, fallback: Option<&str>) -> Result<(Self, usize), String> {
         let mut sections: Vec<(String, Vec<RawField>)> = Vec::new();
-        add_sections(&mut sections, &short_type(root), text)?;
+        // An empty definition (older sqlite3 bags) leaves the root to `fallback`.
+        if !text.trim().is_empty() {
+            add_sections(&mut sections, &short_type(root), text)?;
+        }
         if let Some(fb) = fallback {
             let mut extra = Vec::new();
             add_sections(&mut extra, "", fb)?;
@@ -739,6 +742,14 @@ mod tests {
         for n in 0..data.len() {
             assert!(reg.decode(root, &data[..n]).is_err(), "prefix {n}");
         }
+    }
+
+    #[test]
+    fn an_empty_definition_takes_the_builtin_one() {
+        let (reg, root) =
+            Registry::parse("nav_msgs/msg/Odometry", "", Some(crate::defs::BUILTIN)).unwrap();
+        assert!(reg.resolve(root, "twist.twist.linear.x").is_some());
+        assert!(Registry::parse("nav_msgs/msg/Path", "", Some(crate::defs::BUILTIN)).is_err());
     }
 
     #[test]

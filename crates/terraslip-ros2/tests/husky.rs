@@ -58,3 +58,24 @@ fn an_odometry_wheel_source_without_separation_is_refused_with_the_fix() {
         "{e}"
     );
 }
+
+#[test]
+fn a_zstd_file_compressed_sqlite_bag_reads_the_same() {
+    let Some(d) = bag("husky_test1_db3") else {
+        return;
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let raw = std::fs::read(d.join("test1_db3.db3")).unwrap();
+    let z = zstd::encode_all(&raw[..], 3).unwrap();
+    std::fs::write(tmp.path().join("test1_db3.db3.zstd"), z).unwrap();
+    let meta = std::fs::read_to_string(d.join("metadata.yaml"))
+        .unwrap()
+        .replace("- test1_db3.db3", "- test1_db3.db3.zstd")
+        .replace("compression_format: ''", "compression_format: zstd")
+        .replace("compression_mode: ''", "compression_mode: FILE");
+    std::fs::write(tmp.path().join("metadata.yaml"), meta).unwrap();
+    let (a, _) = import(&d, &cfg(), None).unwrap();
+    let (b, _) = import(tmp.path(), &cfg(), None).unwrap();
+    assert_eq!(a.wheels, b.wheels);
+    assert_eq!(a.pose, b.pose);
+}

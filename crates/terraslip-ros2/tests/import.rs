@@ -170,3 +170,25 @@ fn a_topic_of_the_wrong_type_is_named() {
         "{e}"
     );
 }
+
+#[test]
+fn an_lz4_compressed_mcap_file_reads_the_same() {
+    use std::io::Write;
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path().join("b.mcap");
+    write_bag(&p);
+    let lz = d.path().join("c.mcap.lz4");
+    let mut enc = lz4::EncoderBuilder::new()
+        .build(std::fs::File::create(&lz).unwrap())
+        .unwrap();
+    enc.write_all(&std::fs::read(&p).unwrap()).unwrap();
+    let (_, r) = enc.finish();
+    r.unwrap();
+    let cfg: TopicsConfig =
+        toml::from_str("[wheels]\ntopic = \"/js_a\"\nwheel_radius = 0.5\n").unwrap();
+    let (a, _) = import(&p, &cfg, None).unwrap();
+    let (b, _) = import(&lz, &cfg, None).unwrap();
+    assert_eq!(a.wheels, b.wheels);
+    assert_eq!(a.pose, b.pose);
+    assert_eq!(a.imu, b.imu);
+}

@@ -79,3 +79,47 @@ fn a_zstd_file_compressed_sqlite_bag_reads_the_same() {
     assert_eq!(a.wheels, b.wheels);
     assert_eq!(a.pose, b.pose);
 }
+
+#[test]
+fn a_per_message_zstd_sqlite_bag_reads_the_same() {
+    let Some(d) = bag("husky_test1_db3") else {
+        return;
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let db = tmp.path().join("test1_db3.db3");
+    std::fs::copy(d.join("test1_db3.db3"), &db).unwrap();
+    let mut perms = std::fs::metadata(&db).unwrap().permissions();
+    #[allow(clippy::permissions_set_readonly_false)]
+    perms.set_readonly(false);
+    std::fs::set_permissions(&db, perms).unwrap();
+    {
+        let conn = rusqlite::Connection::open(&db).unwrap();
+        let rows: Vec<(i64, Vec<u8>)> = conn
+            .prepare("SELECT id, data FROM messages")
+            .unwrap()
+            .query_map([], |r| Ok((r.get(0)?, r.get(1)?)))
+            .unwrap()
+            .map(Result::unwrap)
+            .collect();
+        let tx = conn.unchecked_transaction().unwrap();
+        for (id, data) in rows {
+            let z = zstd::encode_all(&data[..], 1).unwrap();
+            tx.execute(
+                "UPDATE messages SET data = ?1 WHERE id = ?2",
+                rusqlite::params![z, id],
+            )
+            .unwrap();
+        }
+        tx.commit().unwrap();
+    }
+    let meta = std::fs::read_to_string(d.join("metadata.yaml"))
+        .unwrap()
+        .replace("compression_format: ''", "compression_format: zstd")
+        .replace("compression_mode: ''", "compression_mode: MESSAGE");
+    std::fs::write(tmp.path().join("metadata.yaml"), meta).unwrap();
+    let (a, _) = import(&d, &cfg(), None).unwrap();
+    let (b, _) = import(tmp.path(), &cfg(), None).unwrap();
+    assert_eq!(a.wheels, b.wheels);
+    assert_eq!(a.pose, b.pose);
+    assert_eq!(a.imu, b.imu);
+}

@@ -1,17 +1,21 @@
 //! `terraslip calibrate`: offline identification of the ICR kinematic
 //! parameters, and `terraslip calibrate validate`: scoring them on other drives.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{bail, Context};
-use indicatif::{ProgressBar, ProgressStyle};
+use serde::Serialize;
 use terraslip_calib::model::PARAM_NAMES;
 use terraslip_calib::{
-    calibrate, validate, CalibConfig, Method, ModelChoice, OffsetChoice, Progress, RateModel,
-    TimeOffset, ValidateConfig, Validation,
+    calibrate, CalibConfig, Method, OffsetChoice, Progress, RateModel, TimeOffset,
 };
-use terraslip_io::{DriveLog, ParamsFile};
-use terraslip_report::{Figure, LinePlot, Series, SeriesStyle};
+use terraslip_io::DriveLog;
+
+use crate::progress;
+
+mod print_config;
+mod summary;
+mod validate;
 
 const AFTER_HELP: &str = "\
 How it works: each drive is cut into segments between pose observations at
@@ -48,7 +52,9 @@ Examples:
 
 /// `terraslip calibrate LOG... --out PARAMS` and its `validate` subcommand;
 /// the user-facing text is in [`AFTER_HELP`] and the variant's doc in main.rs.
-#[derive(clap::Args)]
+// Serialize: `--print-config` prints the settings, keyed by their flags.
+#[derive(clap::Args, Serialize)]
+#[serde(rename_all = "kebab-case")]
 #[command(
     args_conflicts_with_subcommands = true,
     subcommand_negates_reqs = true,
@@ -56,23 +62,28 @@ Examples:
 )]
 pub struct Args {
     #[command(subcommand)]
+    #[serde(skip)]
     command: Option<Sub>,
     /// Log directories (wheels.csv + pose.csv, optional terrain.csv, meta.toml).
-    #[arg(required = true, value_name = "LOG")]
+    #[arg(required_unless_present = "print_config", value_name = "LOG")]
+    #[serde(skip)]
     logs: Vec<PathBuf>,
     /// Where to write the parameters (JSON, read by `estimate --init`).
-    #[arg(long, value_name = "PARAMS", required = true)]
+    #[arg(long, value_name = "PARAMS", required_unless_present = "print_config")]
+    #[serde(skip)]
     out: Option<PathBuf>,
     /// Identification method; all three and keep the best if not given.
     #[arg(long, value_enum)]
     method: Option<MethodArg>,
     /// Print the parameters file as one JSON object on stdout.
     #[arg(long)]
+    #[serde(skip)]
     json: bool,
     /// Weight between metres and radians in eq. 13 (m/rad). Mandow et al. use 1.
     #[arg(long, default_value_t = 0.5, value_name = "M_PER_RAD")]
     yaw_weight: f64,
     #[command(flatten)]
+    #[serde(flatten)]
     seg: SegmentArgs,
     /// Wheel/pose time offset: `auto` (searched per log within +-0.5 s, then
     /// +-0.15 s around that with the model) or seconds.
@@ -93,6 +104,7 @@ pub struct Args {
     /// GA gene bound, repeatable: NAME=LOW:HIGH with NAME one of y_l, y_r,
     /// x_c, alpha_l, alpha_r (default: scaled by the track width).
     #[arg(long = "bound", value_name = "NAME=LOW:HIGH")]
+    #[serde(rename = "bound")]
     bounds: Vec<String>,
     /// Worker threads for the GA (default: all cores).
     #[arg(long)]
@@ -136,28 +148,25 @@ pub struct Args {
     /// ended), as `validate` scores and as before the overlapping fit.
     #[arg(long)]
     chained: bool,
-    /// Print the configuration used to stderr.
+    /// Print the settings in effect (the defaults and the flags given) as
+    /// TOML on stdout, each key named after its flag and preceded by the
+    /// flag's documentation, and exit.
     #[arg(long)]
+    #[serde(skip)]
     print_config: bool,
 }
 
-#[derive(clap::ValueEnum, Clone, Copy)]
+#[derive(clap::ValueEnum, Clone, Copy, Serialize)]
+#[serde(rename_all = "kebab-case")]
 enum RateArg {
     Off,
     Auto,
     On,
 }
 
-#[derive(clap::ValueEnum, Clone, Copy)]
-enum ModelArg {
-    /// The turn-rate model where calibration selected one, else constant.
-    Params,
-    /// The constant ICRs (Mandow's five parameters).
-    Constant,
-}
-
 /// Segment selection shared by calibrate and validate.
-#[derive(clap::Args, Clone)]
+#[derive(clap::Args, Clone, Serialize)]
+#[serde(rename_all = "kebab-case")]
 struct SegmentArgs {
     /// Shortest segment between pose observations, s.
     #[arg(long, default_value_t = 1.0, value_name = "S")]
@@ -197,7 +206,8 @@ impl SegmentArgs {
     }
 }
 
-#[derive(clap::ValueEnum, Clone, Copy)]
+#[derive(clap::ValueEnum, Clone, Copy, Serialize)]
+#[serde(rename_all = "kebab-case")]
 enum MethodArg {
     Lm,
     Ga,
@@ -211,33 +221,7 @@ enum Sub {
     /// in the frame of each segment start, like Mandow et al.'s Table III.
     ///
     ///   terraslip calibrate validate drive/ --params p.json --json
-    Validate(ValidateArgs),
-}
-
-#[derive(clap::Args)]
-struct ValidateArgs {
-    #[arg(required = true, value_name = "LOG")]
-    logs: Vec<PathBuf>,
-    /// Parameters file written by `terraslip calibrate`.
-    #[arg(long, required = true, value_name = "PARAMS")]
-    params: PathBuf,
-    /// Print one JSON object on stdout.
-    #[arg(long)]
-    json: bool,
-    #[command(flatten)]
-    seg: SegmentArgs,
-    /// Wheel/pose time offset: `params` (stored at calibration), `auto`
-    /// (estimated on these logs, without any model parameter) or seconds.
-    #[arg(long, default_value = "params", value_name = "params|auto|SECONDS")]
-    time_offset: String,
-    /// Which model to score as `calibrated`: `params` (the turn-rate model
-    /// where the file has one selected, else the constant ICRs) or
-    /// `constant`. The constant model's scores are reported either way.
-    #[arg(long, value_enum, default_value = "params")]
-    model: ModelArg,
-    /// Draw predicted vs reference segments into this SVG file.
-    #[arg(long, value_name = "SVG")]
-    plot: Option<PathBuf>,
+    Validate(validate::ValidateArgs),
 }
 
 fn read_logs(paths: &[PathBuf]) -> anyhow::Result<Vec<DriveLog>> {
@@ -350,29 +334,18 @@ fn config(a: &Args) -> anyhow::Result<CalibConfig> {
     Ok(c)
 }
 
-fn fmt_std(s: f64) -> String {
-    if s.is_finite() {
-        format!("{s:.4}")
-    } else {
-        "-".into()
-    }
-}
-
 pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(Sub::Validate(v)) = args.command {
-        return run_validate(v);
+        return validate::run(v);
     }
-    let out = args.out.clone().context("--out PARAMS is required")?;
     let cfg = config(&args)?;
     if args.print_config {
-        eprintln!("{cfg:#?}");
+        print!("{}", print_config::documented_toml(&args)?);
+        return Ok(());
     }
+    let out = args.out.clone().context("--out PARAMS is required")?;
     let logs = read_logs(&args.logs)?;
-    let bar = ProgressBar::new_spinner();
-    bar.set_style(
-        ProgressStyle::with_template("{spinner} {msg} [{bar:30}] {pos}/{len}")
-            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
-    );
+    let bar = progress::Progress::new(0, "generations");
     let cal = calibrate(&logs, &cfg, &|p| match p {
         Progress::Stage(s) => bar.set_message(s.to_string()),
         Progress::Generation { done, total } => {
@@ -381,109 +354,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     })
     .context("calibration failed")?;
-    bar.finish_and_clear();
+    bar.finish();
     for w in &cal.warnings {
         eprintln!("warning: {w}");
     }
     for s in &cal.sets {
-        let name = s.terrain.as_deref().unwrap_or("all terrains");
-        eprintln!(
-            "[{name}] {} segments used, {} dropped as outliers (sigma {:.3} m), {} stationary, {} implausible references; {} held and {} mistimed poses dropped; time offset {}",
-            s.segments_used,
-            s.dropped.len(),
-            s.sigma,
-            s.stats.stationary,
-            s.stats.implausible,
-            s.stats.stale_poses,
-            s.stats.mistimed_poses,
-            s.time_offsets
-                .iter()
-                .map(|(n, o)| format!("{n}: {o:+.3} s"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        );
-        eprintln!("  method      cost(eq.13)      y_l      y_r      x_c  alpha_l  alpha_r");
-        for f in &s.fits {
-            let p = f.params;
-            eprintln!(
-                "  {:9} {:12.4} {:8.4} {:8.4} {:8.4} {:8.4} {:8.4}{}",
-                f.method.name(),
-                f.cost,
-                p.y_l,
-                p.y_r,
-                p.x_c,
-                p.alpha_l,
-                p.alpha_r,
-                if f.method == s.best.method {
-                    "  <- best"
-                } else {
-                    ""
-                }
-            );
-        }
-        eprintln!(
-            "  1-sigma     {:>12} {:>8} {:>8} {:>8} {:>8} {:>8}",
-            "",
-            fmt_std(s.best.std[0]),
-            fmt_std(s.best.std[1]),
-            fmt_std(s.best.std[2]),
-            fmt_std(s.best.std[3]),
-            fmt_std(s.best.std[4])
-        );
-        if let Some(chi) = s.chi() {
-            eprintln!(
-                "  steering efficiency chi = {chi:.3}, eccentricity e = {:.3}",
-                s.best.params.eccentricity()
-            );
-        }
-        if s.pioneer {
-            match s.pioneer_settings() {
-                Some((t, r)) => {
-                    eprintln!("  Pioneer server settings: Ticksmm = {t}, Revcount = {r}")
-                }
-                None => eprintln!("  Pioneer settings need wheel_radius in meta.toml"),
-            }
-        }
-        for n in &s.notes {
-            eprintln!("  note: {n}");
-        }
-        if let Some(r) = &s.rate {
-            let f = &r.fit;
-            eprintln!(
-                "  turn-rate model: k_spread {:.4} +- {} s/m, k_alpha {:.4} +- {} s/m, BIC {:.1} vs constant {:.1}: {}",
-                f.slopes.k_spread,
-                fmt_std(f.std[5]),
-                f.slopes.k_alpha,
-                fmt_std(f.std[6]),
-                r.bic_rate,
-                r.bic_constant,
-                match &r.reason {
-                    None if r.traction_selected => "superseded by the traction model".to_string(),
-                    None => "selected".to_string(),
-                    Some(why) => format!("not selected, {why}"),
-                }
-            );
-            if let Some((t, bic)) = &r.traction {
-                eprintln!(
-                    "  traction term: k_acc {:.4} +- {} s^2/m, k_dir {:.4} +- {} s^2/m, BIC {:.1}: {}",
-                    t.slopes.k_acc,
-                    fmt_std(t.std[7]),
-                    t.slopes.k_dir,
-                    fmt_std(t.std[8]),
-                    bic,
-                    match &r.traction_reason {
-                        None => "selected".to_string(),
-                        Some(why) => format!("not selected, {why}"),
-                    }
-                );
-            }
-        }
-        if !s.unidentified.is_empty() {
-            eprintln!(
-                "  warning: not identified by this data: {}",
-                s.unidentified.join(", ")
-            );
-        }
+        summary::print_set(s);
     }
     let pf = cal.params_file();
     pf.write(&out)
@@ -492,199 +368,5 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.json {
         println!("{}", serde_json::to_string(&pf)?);
     }
-    Ok(())
-}
-
-fn run_validate(a: ValidateArgs) -> anyhow::Result<()> {
-    let params = ParamsFile::read(&a.params)
-        .with_context(|| format!("reading parameters {}", a.params.display()))?;
-    let cfg = ValidateConfig {
-        segment: a.seg.config()?,
-        time_offset: parse_offset(&a.time_offset, "`params`, `auto` or seconds")?,
-        model: match a.model {
-            ModelArg::Params => ModelChoice::FromParams,
-            ModelArg::Constant => ModelChoice::Constant,
-        },
-    };
-    let logs = read_logs(&a.logs)?;
-    let v = validate(&logs, &params, &cfg).context("validation failed")?;
-    let ratio = |n: f64, c: f64| if c > 0.0 { n / c } else { f64::INFINITY };
-    eprintln!(
-        "{} segments ({} stationary skipped, {} implausible references dropped, {} held and {} mistimed poses dropped, {} without parameters); time offset {}",
-        v.segments.len(),
-        v.stats.stationary,
-        v.stats.implausible,
-        v.stats.stale_poses,
-        v.stats.mistimed_poses,
-        v.no_params,
-        v.offsets
-            .iter()
-            .map(|o| format!("{o:+.3} s"))
-            .collect::<Vec<_>>()
-            .join(", ")
-    );
-    eprintln!("                 dx [m^2]   dy [m^2]  dyaw [rad^2]");
-    eprintln!(
-        "  calibrated   {:10.5} {:10.5} {:10.5}",
-        v.mse.dx, v.mse.dy, v.mse.dyaw
-    );
-    if v.rate_segments > 0 {
-        eprintln!(
-            "  constant     {:10.5} {:10.5} {:10.5}   (the calibrated row uses the turn-rate model on {} segments)",
-            v.constant_mse.dx, v.constant_mse.dy, v.constant_mse.dyaw, v.rate_segments
-        );
-    }
-    eprintln!(
-        "  no-slip      {:10.5} {:10.5} {:10.5}",
-        v.nominal_mse.dx, v.nominal_mse.dy, v.nominal_mse.dyaw
-    );
-    eprintln!(
-        "  position MSE ratio no-slip / calibrated = {:.2}",
-        ratio(v.nominal_mse.position(), v.mse.position())
-    );
-    if v.rate_segments > 0 {
-        eprintln!(
-            "  position MSE ratio no-slip / constant   = {:.2}",
-            ratio(v.nominal_mse.position(), v.constant_mse.position())
-        );
-    }
-    for (t, (n, m, nm)) in &v.per_terrain {
-        eprintln!(
-            "  [{t}] {n} segments: position MSE {:.4} vs no-slip {:.4} ({:.2}x)",
-            m.position(),
-            nm.position(),
-            ratio(nm.position(), m.position())
-        );
-    }
-    // The 2 s prediction error, as `estimate` reports it: the parameters of
-    // the terrain in effect (or the pooled set) held over each 2 s.
-    let prediction = validation_prediction(&logs, &params);
-    if let Some(p) = &prediction {
-        eprintln!(
-            "  2 s prediction: {} segments, mean {:.3} m (no-slip {:.3} m), p90 {:.3} m",
-            p.segments.len(),
-            p.stats.mean_m,
-            p.no_slip.mean_m,
-            p.stats.p90_m
-        );
-    }
-    if let Some(path) = &a.plot {
-        plot_validation(&v, path)?;
-        eprintln!("wrote {}", path.display());
-    }
-    if a.json {
-        let mse =
-            |m: &terraslip_calib::Mse| serde_json::json!({"dx": m.dx, "dy": m.dy, "dyaw": m.dyaw});
-        let per: serde_json::Map<String, serde_json::Value> = v
-            .per_terrain
-            .iter()
-            .map(|(k, (n, m, nm))| {
-                (
-                    k.clone(),
-                    serde_json::json!({"segments": n, "mse": mse(m), "nominal_mse": mse(nm)}),
-                )
-            })
-            .collect();
-        let j = serde_json::json!({
-            "segments": v.segments.len(),
-            "mse": mse(&v.mse),
-            "nominal_mse": mse(&v.nominal_mse),
-            "position_mse_ratio": ratio(v.nominal_mse.position(), v.mse.position()),
-            "constant_mse": mse(&v.constant_mse),
-            "constant_position_mse_ratio": ratio(v.nominal_mse.position(), v.constant_mse.position()),
-            "rate_model_segments": v.rate_segments,
-            "time_offsets_s": v.offsets,
-            "stationary_skipped": v.stats.stationary,
-            "implausible_dropped": v.stats.implausible,
-            "mistimed_poses_dropped": v.stats.mistimed_poses,
-            "held_poses_dropped": v.stats.stale_poses,
-            "terrains": per,
-            "prediction": prediction.as_ref().map(|p| p.to_json()),
-        });
-        println!("{j}");
-    }
-    Ok(())
-}
-
-/// The 2 s prediction score of `params` over all `logs` together.
-fn validation_prediction(
-    logs: &[terraslip_io::DriveLog],
-    params: &ParamsFile,
-) -> Option<terraslip_calib::prediction::PredictionScore> {
-    use terraslip_calib::prediction::{score, PredictionScore};
-    let mut all: Option<PredictionScore> = None;
-    for log in logs {
-        let w = log.meta.track_width.filter(|w| w.is_finite() && *w > 0.0)?;
-        let set_at = |t: f64| {
-            let k = log.terrain.partition_point(|l| l.t <= t);
-            let name = k.checked_sub(1).map(|k| log.terrain[k].terrain.as_str());
-            params.for_terrain(name)
-        };
-        if let Some(s) = score(&log.wheels, &log.pose, w, &set_at, Default::default()) {
-            match all.as_mut() {
-                Some(a) => a.segments.extend(s.segments),
-                None => all = Some(s),
-            }
-        }
-    }
-    all.map(|a| terraslip_calib::prediction::PredictionScore::from_segments(a.spec, a.segments))
-}
-
-/// Three panels: segment end points in the start frame (reference,
-/// calibrated, no-slip), position error per segment over time, and the
-/// predicted against the reference heading change.
-fn plot_validation(v: &Validation, path: &Path) -> anyhow::Result<()> {
-    let pick = |f: &dyn Fn(&terraslip_calib::validate::SegmentScore) -> (f64, f64)| {
-        v.segments.iter().map(f).collect::<Vec<_>>()
-    };
-    let ends = LinePlot::new(
-        "Segment end points in the frame of each segment start",
-        "dx forward [m]",
-        "dy left [m]",
-    )
-    .series(Series::points("reference", pick(&|s| (s.reference.dx, s.reference.dy))).color(0))
-    .series(Series::points("calibrated", pick(&|s| (s.predicted.dx, s.predicted.dy))).color(5))
-    .series(Series::points("no-slip", pick(&|s| (s.nominal.dx, s.nominal.dy))).color(4))
-    .equal_aspect(true);
-    let err = |p: &terraslip_calib::Increment, r: &terraslip_calib::Increment| {
-        ((r.dx - p.dx).powi(2) + (r.dy - p.dy).powi(2)).sqrt()
-    };
-    let errors = LinePlot::new(
-        "Position error per segment",
-        "segment start [s]",
-        "error [m]",
-    )
-    .series(
-        Series::points(
-            "calibrated",
-            pick(&|s| (s.t0, err(&s.predicted, &s.reference))),
-        )
-        .color(5),
-    )
-    .series(Series::points("no-slip", pick(&|s| (s.t0, err(&s.nominal, &s.reference)))).color(4));
-    let (lo, hi) = v.segments.iter().fold((0.0f64, 0.0f64), |(lo, hi), s| {
-        (lo.min(s.reference.dyaw), hi.max(s.reference.dyaw))
-    });
-    let yaw = LinePlot::new(
-        "Heading change: predicted against reference",
-        "reference dyaw [rad]",
-        "predicted dyaw [rad]",
-    )
-    .series(
-        Series::line("ideal", vec![(lo, lo), (hi, hi)])
-            .style(SeriesStyle::Dashed)
-            .color(0),
-    )
-    .series(
-        Series::points(
-            "calibrated",
-            pick(&|s| (s.reference.dyaw, s.predicted.dyaw)),
-        )
-        .color(5),
-    )
-    .series(Series::points("no-slip", pick(&|s| (s.reference.dyaw, s.nominal.dyaw))).color(4));
-    Figure::new(vec![ends, errors, yaw])
-        .write_svg(path)
-        .with_context(|| format!("writing plot {}", path.display()))?;
     Ok(())
 }

@@ -151,4 +151,3 @@ fn scale_spread(p: &IcrParams, factor: f64) -> IcrParams {
         ..*p
     }
 }
-

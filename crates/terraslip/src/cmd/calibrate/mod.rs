@@ -145,7 +145,7 @@ pub struct Args {
     #[arg(long, default_value_t = 0.0, value_name = "S")]
     stride: f64,
     /// Fit on chained segments only (each starting where the previous one
-    /// ended), as `validate` scores and as before the overlapping fit.
+    /// ended), as `validate` scores.
     #[arg(long)]
     chained: bool,
     /// Print the settings in effect (the defaults and the flags given) as

@@ -52,7 +52,9 @@ fn esc(s: &str) -> String {
 /// an unpaired backtick stays as it is.
 fn inline(s: &str) -> String {
     let parts: Vec<&str> = s.split('`').collect();
-    if parts.len() % 2 == 0 {
+    // An even number of backticks splits the text into an odd number of parts.
+    let paired = parts.len() % 2 == 1;
+    if !paired {
         return esc(s);
     }
     parts

@@ -247,7 +247,7 @@ fn progress(total: usize) -> Progress {
         return Progress::hidden();
     }
     let p = Progress::new(total as u64, "wheels rows");
-    p.set_message("estimating");
+    p.set_message("estimate");
     p
 }
 

@@ -88,7 +88,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         Progress::new(run.frames.len() as u64, "frames")
     };
-    bar.set_message("rendering camera");
+    bar.set_message("simulate: rendering camera");
     let staging = staging_dir(out)?;
     let written = run.write_with_progress(&staging, |done, _| bar.set_position(done as u64));
     bar.finish();

@@ -347,7 +347,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let logs = read_logs(&args.logs)?;
     let bar = progress::Progress::new(0, "generations");
     let cal = calibrate(&logs, &cfg, &|p| match p {
-        Progress::Stage(s) => bar.set_message(s.to_string()),
+        Progress::Stage(s) => bar.set_message(format!("calibrate: {s}")),
         Progress::Generation { done, total } => {
             bar.set_length(total as u64);
             bar.set_position(done as u64);

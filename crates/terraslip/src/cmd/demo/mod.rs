@@ -90,7 +90,7 @@ pub fn run(args: Args) -> Result<()> {
     let evidence = TerrainEvidence::Labels(log.terrain.clone());
     let mut outcomes = Vec::new();
     for (name, cfg) in presets {
-        bar.set_message(name);
+        bar.set_message(format!("demo: {name}"));
         let run = pipeline::run_with(
             log,
             &cfg,

@@ -62,17 +62,22 @@ impl Progress {
     }
 
     fn bar(len: u64, unit: &str) -> Self {
-        let bar = if len == 0 {
-            ProgressBar::new_spinner()
+        // A total not known yet: a spinner until it is.
+        let (bar, template) = if len == 0 {
+            (
+                ProgressBar::new_spinner(),
+                format!("{{spinner}} {{msg}} [{{bar:30}}] {{pos}}/{{len}} {unit}"),
+            )
         } else {
-            ProgressBar::new(len)
+            (
+                ProgressBar::new(len),
+                format!("{{msg}} [{{bar:30}}] {{pos}}/{{len}} {unit} ({{eta}})"),
+            )
         };
         bar.set_style(
-            ProgressStyle::with_template(&format!(
-                "{{msg}} [{{bar:30}}] {{pos}}/{{len}} {unit} ({{eta}})"
-            ))
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
+            ProgressStyle::with_template(&template)
+                .unwrap_or_else(|_| ProgressStyle::default_bar())
+                .progress_chars("=> "),
         );
         Self {
             kind: Kind::Bar(bar),

@@ -290,12 +290,14 @@ fn calibrate_set(
         let fitness =
             |p: &IcrParams| model::robust_cost(p, segs, &chained_inliers, cfg.yaw_weight, c);
         let total = gcfg.generations;
+        progress(Progress::Stage("genetic algorithm"));
         let r = ga::minimise(&fitness, &gcfg, Some(&start), &|g| {
             progress(Progress::Generation { done: g + 1, total })
         });
         fits.push(score(Method::Ga, r.params));
     }
     if wants(Method::Symmetric) {
+        progress(Progress::Stage("symmetric fit"));
         match symmetric::fit(segs, &inlier) {
             Ok(s) => {
                 notes.push(format!(

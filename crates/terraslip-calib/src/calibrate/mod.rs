@@ -1,10 +1,10 @@
 //! The whole offline calibration: segments, time offset, the three methods,
 //! identifiability checks, one parameter set per terrain ([`calibrate()`]).
 //!
-//! - [`config`]: what is asked ([`CalibConfig`]);
-//! - [`offset_profile`]: the model-based second stage of the time offset;
-//! - [`rate`]: the turn-rate and traction terms and the criterion that keeps them;
-//! - [`result`]: what was found ([`Calibration`]) and the parameter file.
+//! - `config`: what is asked ([`CalibConfig`]);
+//! - `offset_profile`: the model-based second stage of the time offset;
+//! - `rate`: the turn-rate and traction terms and the criterion that keeps them;
+//! - `result`: what was found ([`Calibration`]) and the parameter file.
 
 use terraslip_core::IcrParams;
 use terraslip_io::DriveLog;

@@ -55,7 +55,7 @@ pub struct SetCalibration {
     pub notes: Vec<String>,
     /// The turn-rate dependent model, unless `RateModel::Off`.
     pub rate: Option<RateChoice>,
-    /// Mean number of segments covering an instant ([`Segments::coverage`]):
+    /// Mean number of segments covering an instant ([`Segments::coverage`](crate::segment::Segments::coverage)):
     /// 1 for chained segments; counts are corrected by it.
     pub coverage: f64,
     /// The residual noise (pose reference and excess) the uncertainties

@@ -1,4 +1,4 @@
-//! Issue 5 speed targets: Levenberg-Marquardt on a 600 s drive in under 1 s,
+//! Speed targets: Levenberg-Marquardt on a 600 s drive in under 1 s,
 //! the GA in under 10 s using all cores.
 //!
 //! `cargo bench -p terraslip-calib --bench calibrate`

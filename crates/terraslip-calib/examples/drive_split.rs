@@ -16,12 +16,11 @@
 use terraslip_calib::*;
 use terraslip_io::DriveLog;
 
+mod common;
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let dir = args
-        .first()
-        .cloned()
-        .unwrap_or("../shared/data/drive".into());
+    let dir = common::data_dir(&args);
     let flag = |n: &str| args.iter().any(|a| a == n);
     let value = |n: &str| {
         args.iter()
@@ -88,18 +87,7 @@ fn main() {
     if let Some(stride) = value("--stride") {
         cfg.segment.overlap = Some(stride);
     }
-    let mut paths: Vec<_> = match std::fs::read_dir(&dir) {
-        Ok(d) => d.filter_map(|e| e.ok()).map(|e| e.path()).collect(),
-        Err(e) => {
-            eprintln!("{dir}: {e}");
-            std::process::exit(1);
-        }
-    };
-    paths.sort();
-    let logs: Vec<DriveLog> = paths
-        .iter()
-        .filter_map(|p| DriveLog::read(p).ok())
-        .collect();
+    let logs = common::drives(&dir, "");
     let halves = |log: &DriveLog| {
         let (a, b) = (log.pose[0].t, log.pose[log.pose.len() - 1].t);
         ((a, 0.5 * (a + b)), (0.5 * (a + b), b))

@@ -22,6 +22,8 @@ use terraslip_calib::validate as validate_mod;
 use terraslip_calib::*;
 use terraslip_io::DriveLog;
 
+mod common;
+
 #[derive(Default, Clone, Copy)]
 struct Feat {
     err2: f64,
@@ -53,21 +55,10 @@ fn too_far(f: &Feat) -> bool {
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let dir = args
-        .first()
-        .cloned()
-        .unwrap_or("../shared/data/drive".into());
+    let dir = common::data_dir(&args);
     let only = args.get(1).cloned().unwrap_or_default();
     let n_worst: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(25);
-    let mut paths: Vec<_> = std::fs::read_dir(&dir)
-        .map(|d| d.filter_map(|e| e.ok()).map(|e| e.path()).collect())
-        .unwrap_or_default();
-    paths.sort();
-    let logs: Vec<DriveLog> = paths
-        .iter()
-        .filter(|p| p.to_string_lossy().contains(&only))
-        .filter_map(|p| DriveLog::read(p).ok())
-        .collect();
+    let logs = common::drives(&dir, &only);
     println!("| drive | split | N | worst-N share of MSE | worst-N: acc, v, dv, ref/tread, gap, jump>1.4, left turns | rest: acc, v, dv, ref/tread, gap, jump>1.4, left turns | corr(err2, acc) | corr(along err, signed acc) |");
     println!("|---|---|---|---|---|---|---|---|");
     let mut detail = String::new();

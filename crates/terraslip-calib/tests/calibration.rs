@@ -39,7 +39,7 @@ fn lm_recovers_mandow_table1_on_a_p3at_drive() {
     assert_eq!(cal.sets.len(), 1);
     let s = &cal.sets[0];
     assert_eq!(s.terrain.as_deref(), Some("asphalt"));
-    // Issue 5 targets: 1 cm on y_l, y_r; 2 cm on x_c; 1 % on alpha.
+    // Targets: 1 cm on y_l, y_r; 2 cm on x_c; 1 % on alpha.
     assert_close(&s.best.params, &truth, 0.01, 0.02, 0.01);
     // Uncertainties are finite, small, and cover the actual error.
     for k in 0..5 {

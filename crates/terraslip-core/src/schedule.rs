@@ -54,16 +54,29 @@ pub struct ScheduleConfig {
     pub recall_floor: SlipStd,
 }
 
+/// The slip uncertainty a declared change to an unlearned terrain resets
+/// to (chen2023's `P_B`).
+pub const RESET_STD: SlipStd = SlipStd {
+    spread: 0.1,
+    centre: 0.01,
+    x_c: 0.02,
+    alpha: 0.05,
+    alpha_diff: 0.01,
+};
+
+/// The shipped schedule: reset at a change to an unlearned terrain
+/// (keeping the robot's speed factor difference), recall on a revisit, no
+/// boost.
 impl Default for ScheduleConfig {
     fn default() -> Self {
         Self {
             boost_factor: 1.0,
             boost_updates: 0,
-            reset: None,
-            reset_keeps_alpha_diff: false,
-            memory: false,
+            reset: Some(RESET_STD),
+            reset_keeps_alpha_diff: true,
+            memory: true,
             memory_min_dwell: 20.0,
-            memory_average: 0.0,
+            memory_average: 40.0,
             recall_floor: SlipStd {
                 spread: 0.004,
                 centre: 0.005,

@@ -35,7 +35,9 @@ pub struct Args {
     /// Seed of the first world.
     #[arg(long, default_value_t = 1)]
     first_seed: u64,
-    /// `all`, or `gnss2m` (2 m GNSS at 1 Hz, 1 degree compass).
+    /// `all`; `gnss2m` (2 m GNSS at 1 Hz, 1 degree compass); `papers`
+    /// (gnss2m's sensors, constant ICRs per terrain and speed factors of 1:
+    /// the papers' world).
     #[arg(long, default_value = "all")]
     subset: String,
     /// Estimators to compare (repeatable): a preset, `config:FILE.toml`,
@@ -189,7 +191,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let subset = match a.subset.as_str() {
         "all" => Subset::All,
         "gnss2m" => Subset::Gnss2m,
-        other => anyhow::bail!("--subset {other}: expected `all` or `gnss2m`"),
+        "papers" => Subset::Papers,
+        other => anyhow::bail!("--subset {other}: expected `all`, `gnss2m` or `papers`"),
     };
     if let Some(dir) = &a.write {
         let w = world(a.first_seed, subset);

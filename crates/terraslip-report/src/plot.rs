@@ -101,6 +101,14 @@ pub enum LegendPosition {
     MiddleRight,
 }
 
+impl LegendPosition {
+    /// Whether the legend sits in the upper half (marker labels then go to
+    /// the bottom of the plot).
+    fn is_upper(self) -> bool {
+        matches!(self, Self::UpperRight | Self::UpperLeft)
+    }
+}
+
 impl LinePlot {
     pub fn new(
         title: impl Into<String>,
@@ -276,8 +284,14 @@ impl LinePlot {
                     grey.stroke_width(1),
                 ))
                 .map_err(e)?;
-            // Stagger labels so neighbouring markers don't overprint.
-            let yl = y1 - (y1 - y0) * (0.04 + 0.06 * f64::from(k % 2));
+            // Stagger labels so neighbouring markers don't overprint, on
+            // the side the legend leaves free so it cannot hide them.
+            let drop = (y1 - y0) * (0.04 + 0.06 * f64::from(k % 2));
+            let yl = if self.legend.is_upper() {
+                y0 + drop
+            } else {
+                y1 - drop
+            };
             chart
                 .draw_series(std::iter::once(Text::new(
                     label.clone(),
@@ -396,6 +410,38 @@ mod tests {
         ] {
             assert!(svg.contains(needle), "missing {needle}");
         }
+    }
+
+    /// The y pixel of the SVG text element holding `label`.
+    fn text_y(svg: &str, label: &str) -> f64 {
+        let end = svg.find(label).expect(label);
+        let start = svg[..end].rfind("<text").unwrap();
+        let tag = &svg[start..end];
+        let y = tag.find(" y=\"").unwrap() + 4;
+        tag[y..y + tag[y..].find('"').unwrap()].parse().unwrap()
+    }
+
+    #[test]
+    fn marker_labels_sit_on_the_side_the_legend_leaves_free() {
+        let plot = |legend| {
+            LinePlot::new("t", "x", "y")
+                .series(Series::line("truth", vec![(0.0, 0.0), (1.0, 1.0)]))
+                .marker(0.9, "GNSS back")
+                .legend(legend)
+                .size(800, 400)
+                .to_svg()
+                .unwrap()
+        };
+        let upper = text_y(&plot(LegendPosition::UpperRight), "GNSS back");
+        let lower = text_y(&plot(LegendPosition::LowerRight), "GNSS back");
+        assert!(
+            upper > 200.0,
+            "label at y = {upper} px under an upper legend"
+        );
+        assert!(
+            lower < 200.0,
+            "label at y = {lower} px above a lower legend"
+        );
     }
 
     #[test]

@@ -27,6 +27,8 @@ pub enum Section {
     Paragraph(String),
     /// Pre-formatted text (a table printed for the terminal, a command).
     Pre(String),
+    /// A bulleted list.
+    List(Vec<String>),
     /// An image file relative to the page, with a caption.
     Image {
         src: String,
@@ -46,30 +48,59 @@ fn esc(s: &str) -> String {
         .replace('"', "&quot;")
 }
 
+/// Escaped text with Markdown's inline code (`` `name` ``) as `<code>`;
+/// an unpaired backtick stays as it is.
+fn inline(s: &str) -> String {
+    let parts: Vec<&str> = s.split('`').collect();
+    // An even number of backticks splits the text into an odd number of parts.
+    let paired = parts.len() % 2 == 1;
+    if !paired {
+        return esc(s);
+    }
+    parts
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            if i % 2 == 1 {
+                format!("<code>{}</code>", esc(p))
+            } else {
+                esc(p)
+            }
+        })
+        .collect()
+}
+
 /// A self-contained HTML page (no scripts, no external resources).
 pub fn html_page(title: &str, sections: &[Section]) -> String {
     let mut body = String::new();
     for s in sections {
         match s {
-            Section::Heading(h) => body.push_str(&format!("<h2>{}</h2>\n", esc(h))),
-            Section::Paragraph(p) => body.push_str(&format!("<p>{}</p>\n", esc(p))),
+            Section::Heading(h) => body.push_str(&format!("<h2>{}</h2>\n", inline(h))),
+            Section::Paragraph(p) => body.push_str(&format!("<p>{}</p>\n", inline(p))),
             Section::Pre(p) => body.push_str(&format!("<pre>{}</pre>\n", esc(p))),
+            Section::List(items) => {
+                body.push_str("<ul>\n");
+                for i in items {
+                    body.push_str(&format!("<li>{}</li>\n", inline(i)));
+                }
+                body.push_str("</ul>\n");
+            }
             Section::Image { src, caption } => body.push_str(&format!(
                 "<figure><img src=\"{}\" alt=\"{}\"><figcaption>{}</figcaption></figure>\n",
                 esc(src),
-                esc(caption),
-                esc(caption)
+                esc(&caption.replace('`', "")),
+                inline(caption)
             )),
             Section::Table { headers, rows } => {
                 body.push_str("<table>\n<tr>");
                 for h in headers {
-                    body.push_str(&format!("<th>{}</th>", esc(h)));
+                    body.push_str(&format!("<th>{}</th>", inline(h)));
                 }
                 body.push_str("</tr>\n");
                 for r in rows {
                     body.push_str("<tr>");
                     for c in r {
-                        body.push_str(&format!("<td>{}</td>", esc(c)));
+                        body.push_str(&format!("<td>{}</td>", inline(c)));
                     }
                     body.push_str("</tr>\n");
                 }
@@ -101,5 +132,23 @@ mod tests {
     fn html_escapes_text() {
         let p = html_page("r<1>", &[Section::Paragraph("a & b".into())]);
         assert!(p.contains("r&lt;1&gt;") && p.contains("a &amp; b"));
+    }
+
+    #[test]
+    fn html_shows_inline_code_not_backticks() {
+        let p = html_page(
+            "t",
+            &[
+                Section::Paragraph("Scenario `papers` <1>".into()),
+                Section::List(vec!["`ekf-reset`: chen2023".into()]),
+                Section::Paragraph("one ` alone".into()),
+            ],
+        );
+        assert!(p.contains("Scenario <code>papers</code> &lt;1&gt;"), "{p}");
+        assert!(
+            p.contains("<li><code>ekf-reset</code>: chen2023</li>"),
+            "{p}"
+        );
+        assert!(p.contains("one ` alone"), "{p}");
     }
 }

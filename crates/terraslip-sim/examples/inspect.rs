@@ -1,8 +1,11 @@
-//! Prints a summary of a simulated drive: `cargo run -p terraslip-sim --release --example inspect -- papers 1 [OUTDIR]`.
+//! Prints a summary of a simulated drive:
+//! `cargo run -p terraslip-sim --release --example inspect -- papers 1 [OUTDIR] [--trace]`;
+//! `--trace` adds the truth every 100 samples.
 use terraslip_sim::{simulate, Scenario};
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
+    let trace = std::env::args().any(|a| a == "--trace");
+    let args: Vec<String> = std::env::args().filter(|a| a != "--trace").collect();
     let name = args.get(1).map(String::as_str).unwrap_or("papers");
     let seed: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(1);
     let sc = match Scenario::resolve(name) {
@@ -74,7 +77,7 @@ fn main() {
         run.log.imu.len(),
         run.frames.len()
     );
-    if std::env::var("TRACE").is_ok() {
+    if trace {
         for s in tr.iter().step_by(100) {
             println!(
                 "{:6.1} {:>8} e {:7.2} n {:7.2} r {:5.1} vx {:5.2} w {:6.3}",

@@ -45,6 +45,12 @@ pub enum Subset {
     /// GNSS of 2 m per axis (0.8 m white + 1.8 m correlated over 30 s) at
     /// 1 Hz with a 1 degree compass; everything else drawn as usual.
     Gnss2m,
+    /// The papers' world under [`Subset::Gnss2m`]'s sensors: constant ICRs
+    /// per terrain (no turn law, no speed dependence, no lag), tread speed
+    /// factors of exactly 1, spreads of 1.5-2.2 track widths. The class in
+    /// which the papers' EKF (speed factors fixed at 1) is right by
+    /// construction.
+    Papers,
 }
 
 /// A small deterministic generator (SplitMix64).
@@ -150,7 +156,7 @@ pub fn world(seed: u64, subset: Subset) -> World {
                 r.uniform(5.0, 60.0)
             },
         ),
-        Subset::Gnss2m => (2.0, 1.0, 30.0),
+        Subset::Gnss2m | Subset::Papers => (2.0, 1.0, 30.0),
     };
     let (white, markov) = if tau > 0.0 {
         (0.4 * gnss_std, 0.9165 * gnss_std)
@@ -173,7 +179,7 @@ pub fn world(seed: u64, subset: Subset) -> World {
         }],
     };
     let compass = match subset {
-        Subset::Gnss2m => Compass {
+        Subset::Gnss2m | Subset::Papers => Compass {
             rate: 1.0,
             std_deg: 1.0,
             bias_deg: r.uniform(-1.0, 1.0),
@@ -198,13 +204,28 @@ pub fn world(seed: u64, subset: Subset) -> World {
     } else {
         r.uniform(-0.3, 0.3)
     };
-    let slip = Slip {
+    let mut slip = Slip {
         turn_sensitivity: turn_law,
         turn_rate_ref: r.uniform(0.3, 1.0),
         speed_sensitivity: r.uniform(-0.02, 0.02),
         lag: r.uniform(0.1, 0.5),
         transition: 1.0,
     };
+    if subset == Subset::Papers {
+        slip.turn_sensitivity = 0.0;
+        slip.speed_sensitivity = 0.0;
+        for t in terrains.values_mut() {
+            // The drawn spread of 1-2.2 track widths mapped onto 1.5-2.2,
+            // eccentricity kept.
+            let (y_l, y_r) = (t.y_l.unwrap_or(0.0), t.y_r.unwrap_or(0.0));
+            let q = (y_l - y_r) / track;
+            let k = (1.5 + (q - 1.0) * 0.7 / 1.2) / q;
+            t.y_l = Some(y_l * k);
+            t.y_r = Some(y_r * k);
+            t.alpha_l = Some(1.0);
+            t.alpha_r = Some(1.0);
+        }
+    }
     let drive = Drive {
         speed: [0.25 * top, 0.65 * top],
         radii: [1.0, 2.0, 4.0, 8.0]
@@ -294,5 +315,27 @@ mod tests {
         let g = world(7, Subset::Gnss2m);
         assert_eq!((g.gnss_std, g.scenario.gnss.rate), (2.0, 1.0));
         assert_eq!(g.scenario.compass.rate, 1.0);
+    }
+
+    #[test]
+    fn the_papers_class_has_constant_icrs_unit_speed_factors_and_wide_spreads() {
+        for seed in 1..=30 {
+            let w = world(seed, Subset::Papers);
+            w.scenario.validate().unwrap();
+            assert_eq!((w.gnss_std, w.scenario.gnss.rate), (2.0, 1.0));
+            let slip = &w.scenario.slip;
+            assert_eq!((slip.turn_sensitivity, slip.speed_sensitivity), (0.0, 0.0));
+            let tw = w.scenario.robot.track_width;
+            for t in w.scenario.terrains.values() {
+                assert_eq!((t.alpha_l, t.alpha_r), (Some(1.0), Some(1.0)));
+                let q = (t.y_l.unwrap() - t.y_r.unwrap()) / tw;
+                assert!(
+                    (1.499..=2.201).contains(&q),
+                    "world {seed}: spread {q} track widths"
+                );
+            }
+            // The same robot and drive as the other subsets draw.
+            assert_eq!(w.scenario.robot, world(seed, Subset::Gnss2m).scenario.robot);
+        }
     }
 }

@@ -17,7 +17,7 @@
 use serde::{Deserialize, Serialize};
 use terraslip_core::kinematics::IcrParams;
 
-use crate::scenario::Robot;
+use crate::robot::Robot;
 
 /// Names of the catalogue terrains.
 pub const CATALOGUE: &[&str] = &[

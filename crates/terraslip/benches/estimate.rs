@@ -1,4 +1,4 @@
-//! Speed of `estimate` over one hour of 50 Hz wheels + 1 Hz pose (issue 2: < 1 s).
+//! Speed of `estimate` over one hour of 50 Hz wheels + 1 Hz pose (target: under 1 s).
 use criterion::{criterion_group, criterion_main, Criterion};
 use terraslip::config::EstimatorConfig;
 use terraslip::pipeline::{self, TerrainEvidence};

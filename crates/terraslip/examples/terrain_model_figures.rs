@@ -1,8 +1,8 @@
-//! Issue 4's estimator target: with a trained terrain classifier as evidence
-//! (`estimate --terrain-model`), the estimator must re-converge within 5 s
-//! of what the log's own labels (`--terrain-labels`) achieve.
+//! The estimator's target with a trained terrain classifier as evidence
+//! (`estimate --terrain-model`): re-converge within 5 s of what the log's
+//! own labels (`--terrain-labels`) achieve.
 //!
-//!     cargo run -p terraslip --release --example terrain_model_figures -- [SCENARIO] [--seeds N] [--window S]
+//!     cargo run -p terraslip --release --example terrain_model_figures -- [SCENARIO] [--seeds N] [--window S] [--verbose]
 //!
 //! Trains an IMU (vibration) model on seeds 101 and 102 of the scenario,
 //! then for test seeds 1..=N runs the default estimator twice, with labels
@@ -19,11 +19,13 @@ fn main() -> anyhow::Result<()> {
     let mut scenario = "papers".to_string();
     let mut seeds = 3u64;
     let mut window = 2.0;
+    let mut verbose = false;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
             "--seeds" => seeds = args.next().and_then(|s| s.parse().ok()).unwrap_or(seeds),
             "--window" => window = args.next().and_then(|s| s.parse().ok()).unwrap_or(window),
+            "--verbose" => verbose = true,
             _ => scenario = a,
         }
     }
@@ -56,7 +58,7 @@ fn main() -> anyhow::Result<()> {
         let mut cards = Vec::new();
         for (c, ev) in &runs {
             let run = pipeline::run_with(&log, c, ev, None, RunOptions::default(), &mut |_, _| {})?;
-            if std::env::var("VERBOSE").is_ok() {
+            if verbose {
                 for ch in &run.changes {
                     eprintln!(
                         "seed {seed}: declared {:?} at {:.1} s ({:?})",

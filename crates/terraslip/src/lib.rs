@@ -2,6 +2,7 @@
 //! from, for the demo, tests and other programs.
 //!
 //! * [`config`]: the estimator's TOML configuration and named presets;
+//! * [`glossary`]: the presets' and the papers' names, for `--help` and outputs;
 //! * [`pipeline`]: runs the online estimator over a [`terraslip_io::DriveLog`];
 //! * [`metrics`]: scores a run against ground truth;
 //! * [`prediction_score`]: the 2 s motion-prediction error of a run against
@@ -9,6 +10,7 @@
 //! * [`report`]: plots and an HTML page of an estimate against its log.
 
 pub mod config;
+pub mod glossary;
 pub mod metrics;
 pub mod pipeline;
 pub mod report;

@@ -6,6 +6,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod cmd;
+mod progress;
 
 /// How a skid-steering robot really moves: online ICR slip estimation,
 /// terrain awareness and offline calibration.
@@ -18,11 +19,11 @@ mod cmd;
     version,
     propagate_version = true,
     after_help = "Start here:
-  terraslip demo                                    # simulate, compare every estimator, write demo-out/report.html
-  terraslip simulate papers --out log               # a log with ground truth (see `simulate --list`)
-  terraslip calibrate log --out params.json         # ICR parameters per terrain from a drive with a pose reference
-  terraslip estimate log --out est --init params.json --terrain-labels
-  terraslip report est                              # est/report.html: track, ICRs, prediction error
+  terraslip demo                                      # simulate, compare every estimator, write demo-out/report.html
+  terraslip simulate papers --out out/log             # a log with ground truth (see `simulate --list`)
+  terraslip calibrate out/log --out out/params.json   # ICR parameters per terrain from a drive with a pose reference
+  terraslip estimate out/log --out out/est --init out/params.json --terrain-labels
+  terraslip report out/est                            # out/est/report.html: track, ICRs, prediction error
 Each command's --help has more examples; docs/ has the method and the figures."
 )]
 struct Cli {

@@ -64,9 +64,9 @@ pub struct Reconvergence {
 /// Settings of [`reconvergence`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ReconvergenceSpec {
-    /// Tolerance on the averaged spread error, m (issue 2: 0.02).
+    /// Tolerance on the averaged spread error, m (the target: 0.02).
     pub tolerance: f64,
-    /// Averaging window, s (issue 2: 5).
+    /// Averaging window, s (the target's: 5).
     pub window: f64,
     /// Total heading change (rad) that makes the first informative turn.
     pub turn_angle: f64,

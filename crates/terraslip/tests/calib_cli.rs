@@ -71,6 +71,12 @@ fn calibrate_json_and_validate_json_follow_the_contract() {
         true,
     );
     let j = json_of(&out.stdout);
+    // stderr is a pipe here: progress comes as plain lines, one per stage.
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.lines().any(|l| l == "calibrate: levenberg-marquardt"),
+        "{err}"
+    );
     let truth = mandow_table1();
     for (k, v) in [("y_l", truth.y_l), ("y_r", truth.y_r), ("x_c", truth.x_c)] {
         let got = j["params"][k].as_f64().expect("param present");

@@ -1,4 +1,4 @@
-//! Issue 5's simulated target, end to end through the binaries: a P3-AT
+//! The simulated calibration target, end to end through the binaries: a P3-AT
 //! drive from `terraslip simulate p3at-calib` (Mandow Table I kinematics,
 //! RTK-grade reference) calibrated by `terraslip calibrate` must recover
 //! y_l, y_r within 1 cm, x_c within 2 cm and the alphas within 1 %.

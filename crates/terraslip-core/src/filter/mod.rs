@@ -16,6 +16,7 @@
 //! Frames: REP-103 body frame, ENU world frame, yaw counter-clockwise from
 //! east. Units SI.
 
+mod adaptive;
 mod config;
 pub(crate) mod detector;
 mod history;
@@ -182,7 +183,7 @@ pub struct Filter {
     rejected: [u32; 2],
     last_fix_t: Option<f64>,
     /// Innovation window of [`Variant::InnovationAdaptive`].
-    window: update::InnovationWindow,
+    window: adaptive::InnovationWindow,
 }
 
 type Mat3xN = SMatrix<f64, 3, N>;
@@ -285,7 +286,7 @@ impl Filter {
             heading_seen: false,
             rejected: [0; 2],
             last_fix_t: None,
-            window: update::InnovationWindow::new(),
+            window: adaptive::InnovationWindow::new(),
         })
     }
 

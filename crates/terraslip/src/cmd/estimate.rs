@@ -9,6 +9,8 @@ use terraslip::config::EstimatorConfig;
 use terraslip::pipeline::{self, EstimateRun, RunOptions, TerrainEvidence};
 use terraslip_io::{AtomicFile, DriveLog, ParamsFile};
 
+use crate::progress::Progress;
+
 /// Run the online ICR estimator over a drive log.
 ///
 /// Reads LOG (docs/log-format.md: wheels.csv required, pose.csv for
@@ -23,7 +25,7 @@ use terraslip_io::{AtomicFile, DriveLog, ParamsFile};
 ///   terraslip estimate drive/ --out est/ --preset ta-iekf --json
 ///   terraslip estimate --print-config > estimator.toml
 #[derive(clap::Args, Debug)]
-#[command(after_help = AFTER_HELP)]
+#[command(after_help = after_help())]
 pub struct Args {
     /// Log directory to read.
     #[arg(required_unless_present = "print_config")]
@@ -36,7 +38,8 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
     /// Start from a named variant instead of the default: no-slip, ekf-qmin,
-    /// ekf-qmax, ta-ekf-boost, ta-iekf, ekf-reset, terraslip. Applied before --config.
+    /// ekf-qmax, ta-ekf-boost, ta-iekf, ekf-reset, terraslip (each explained
+    /// below). Applied before --config.
     #[arg(long, value_name = "NAME")]
     pub preset: Option<String>,
     /// Starting ICRs from `terraslip calibrate` (pooled set and/or one set per
@@ -82,6 +85,11 @@ Examples:
   terraslip estimate drive/ --out est/ --preset ta-iekf --json
   terraslip estimate drive/ --out est/ --outage 300,330   # dead reckoning test
   terraslip estimate --print-config > estimator.toml      # every constant, with its documentation";
+
+/// The examples, then the presets' and the papers' names explained.
+fn after_help() -> String {
+    format!("{AFTER_HELP}\n\n{}", terraslip::glossary::help_text(80))
+}
 
 fn parse_window(s: &str) -> Result<(f64, f64), String> {
     let (a, b) = s
@@ -195,7 +203,7 @@ pub fn run(args: Args) -> Result<()> {
         (TerrainEvidence::None, "none".to_string())
     };
 
-    let bar = progress_bar(log.wheels.len());
+    let bar = progress(log.wheels.len());
     let opts = RunOptions {
         outage: args.outage,
     };
@@ -205,15 +213,9 @@ pub fn run(args: Args) -> Result<()> {
         &evidence,
         init.as_ref(),
         opts,
-        &mut |done, _| {
-            if let Some(b) = &bar {
-                b.set_position(done as u64);
-            }
-        },
+        &mut |done, _| bar.set_position(done as u64),
     );
-    if let Some(b) = &bar {
-        b.finish_and_clear();
-    }
+    bar.finish();
     let est = result?;
 
     std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
@@ -247,19 +249,14 @@ pub fn run(args: Args) -> Result<()> {
     Ok(())
 }
 
-fn progress_bar(total: usize) -> Option<indicatif::ProgressBar> {
-    // Short logs finish before a bar is worth drawing.
+fn progress(total: usize) -> Progress {
+    // Short logs finish before progress is worth showing.
     if total < 200_000 {
-        return None;
+        return Progress::hidden();
     }
-    let b = indicatif::ProgressBar::new(total as u64);
-    b.set_style(
-        indicatif::ProgressStyle::with_template(
-            "estimating {bar:40} {pos}/{len} wheels rows ({eta})",
-        )
-        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-    );
-    Some(b)
+    let p = Progress::new(total as u64, "wheels rows");
+    p.set_message("estimate");
+    p
 }
 
 fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) -> serde_json::Value {

@@ -3,8 +3,9 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
-use indicatif::{ProgressBar, ProgressStyle};
 use terraslip_sim::{builtin_names, simulate, Scenario};
+
+use crate::progress::Progress;
 
 const DETAILS: &str = "\
 The truth follows the ICR kinematic model with per-terrain ICRs that vary a
@@ -83,18 +84,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let run = simulate(&scenario, args.seed)?;
 
     let bar = if run.frames.is_empty() {
-        ProgressBar::hidden()
+        Progress::hidden()
     } else {
-        ProgressBar::new(run.frames.len() as u64).with_style(
-            ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} frames ({eta})")
-                .unwrap_or_else(|_| ProgressStyle::default_bar())
-                .progress_chars("=> "),
-        )
+        Progress::new(run.frames.len() as u64, "frames")
     };
-    bar.set_message("rendering camera");
+    bar.set_message("simulate: rendering camera");
     let staging = staging_dir(out)?;
     let written = run.write_with_progress(&staging, |done, _| bar.set_position(done as u64));
-    bar.finish_and_clear();
+    bar.finish();
     if let Err(e) = written {
         let _ = std::fs::remove_dir_all(&staging);
         return Err(e.into());

@@ -153,28 +153,17 @@ impl Default for BandSection {
 
 impl Default for ScheduleSection {
     fn default() -> Self {
+        let c = ScheduleConfig::default();
         Self {
-            boost_factor: 1.0,
-            boost_updates: 0,
-            reset: true,
-            reset_std: SlipStd {
-                spread: 0.1,
-                centre: 0.01,
-                x_c: 0.02,
-                alpha: 0.05,
-                alpha_diff: 0.01,
-            },
-            reset_keeps_alpha_diff: true,
-            memory: true,
-            memory_min_dwell: 20.0,
-            memory_average: 40.0,
-            recall_floor: SlipStd {
-                spread: 0.004,
-                centre: 0.005,
-                x_c: 0.01,
-                alpha: 0.003,
-                alpha_diff: 0.001,
-            },
+            boost_factor: c.boost_factor,
+            boost_updates: c.boost_updates,
+            reset: c.reset.is_some(),
+            reset_std: c.reset.unwrap_or(terraslip_core::schedule::RESET_STD),
+            reset_keeps_alpha_diff: c.reset_keeps_alpha_diff,
+            memory: c.memory,
+            memory_min_dwell: c.memory_min_dwell,
+            memory_average: c.memory_average,
+            recall_floor: c.recall_floor,
         }
     }
 }

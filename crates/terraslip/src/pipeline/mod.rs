@@ -3,16 +3,19 @@
 //! [`terraslip_core::Estimator`] event by event, exactly as a robot would;
 //! one [`EstimateRow`] is taken after each wheels row.
 
+mod row;
 mod setup;
+mod terrain_feed;
 
 use terraslip_core::estimator::{Estimator, FixCounts};
 use terraslip_core::filter::{IcrBand, PoseFix};
 use terraslip_core::schedule::ChangeAction;
-use terraslip_core::terrain_belief::TerrainBelief;
 use terraslip_core::IcrParams;
 use terraslip_io::{DriveLog, ParamsFile, TerrainLabel};
 
 use crate::config::EstimatorConfig;
+use row::{band_warnings, row};
+use terrain_feed::TerrainFeed;
 
 /// Where the estimator learns which terrain the robot is on.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -252,6 +255,50 @@ pub fn run_with(
             "{dir}: no pose observations: dead reckoning from the origin with the initial ICRs"
         ));
     }
+    let replay = replay(
+        log,
+        cfg,
+        evidence,
+        opts,
+        &mut estimator,
+        &mut warnings,
+        progress,
+    )?;
+    Ok(finish(
+        log,
+        cfg,
+        &estimator,
+        replay,
+        RunInfo {
+            terrains,
+            track_width,
+            init_source,
+            warnings,
+        },
+    ))
+}
+
+/// What replaying a log produced.
+struct Replay {
+    rows: Vec<EstimateRow>,
+    changes: Vec<TerrainChange>,
+    /// Pose fixes handed to the estimator, and those dropped by the outage.
+    used: usize,
+    dropped: usize,
+}
+
+/// Merges the log's streams by time into `estimator`: terrain evidence,
+/// then the pose fixes up to each wheels row, then the row itself.
+fn replay(
+    log: &DriveLog,
+    cfg: &EstimatorConfig,
+    evidence: &TerrainEvidence,
+    opts: RunOptions,
+    estimator: &mut Estimator,
+    warnings: &mut Vec<String>,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<Replay, PipelineError> {
+    let dir = log.dir.display().to_string();
     let filter_err = |t: f64, source| PipelineError::Filter {
         dir: dir.clone(),
         t,
@@ -279,7 +326,7 @@ pub fn run_with(
         }
         t_prev = Some(w.t);
         if let Some(c) = terrain
-            .advance(&mut estimator, w.t)
+            .advance(estimator, w.t)
             .map_err(|e| filter_err(w.t, e))?
         {
             changes.push(c);
@@ -308,13 +355,51 @@ pub fn run_with(
             .map_err(|e| filter_err(w.t, e))?;
         let summary = estimator.take_fix_summary();
         terrain.jump |= summary.change;
-        rows.push(row(&estimator, w.t, terrain.current, &summary));
+        rows.push(row(estimator, w.t, terrain.current, &summary));
         if i % 4096 == 0 {
             progress(i, total);
         }
     }
     progress(total, total);
 
+    Ok(Replay {
+        rows,
+        changes,
+        used,
+        dropped,
+    })
+}
+
+/// What the set-up decided, carried into the result.
+struct RunInfo {
+    terrains: Vec<String>,
+    track_width: f64,
+    init_source: String,
+    warnings: Vec<String>,
+}
+
+/// The run's result: the learned noise, the warnings the whole run
+/// reveals, the counters.
+fn finish(
+    log: &DriveLog,
+    cfg: &EstimatorConfig,
+    estimator: &Estimator,
+    replay: Replay,
+    setup: RunInfo,
+) -> EstimateRun {
+    let Replay {
+        rows,
+        changes,
+        used,
+        dropped,
+    } = replay;
+    let RunInfo {
+        terrains,
+        track_width,
+        init_source,
+        mut warnings,
+    } = setup;
+    let dir = log.dir.display().to_string();
     let f = estimator.filter();
     let stated = log
         .pose
@@ -349,7 +434,7 @@ pub fn run_with(
             counts.refused
         ));
     }
-    Ok(EstimateRun {
+    EstimateRun {
         rows,
         terrains,
         changes,
@@ -373,193 +458,5 @@ pub fn run_with(
             dropped_fixes: dropped,
         },
         warnings,
-    })
-}
-
-/// The estimate after a wheels row at `t`.
-fn row(
-    est: &Estimator,
-    t: f64,
-    terrain: Option<usize>,
-    s: &terraslip_core::estimator::FixSummary,
-) -> EstimateRow {
-    let f = est.filter();
-    let (east, north, yaw) = f.pose();
-    // The ICRs in effect at this row's tread speeds.
-    let icr = f.icr_now();
-    let pc = f.pose_covariance();
-    let ic = f.icr_now_covariance();
-    let sd = |v: f64| v.max(0.0).sqrt();
-    EstimateRow {
-        t,
-        east,
-        north,
-        yaw,
-        y_l: icr.y_l,
-        y_r: icr.y_r,
-        x_c: icr.x_c,
-        alpha_l: icr.alpha_l,
-        alpha_r: icr.alpha_r,
-        std: [
-            sd(pc[(0, 0)]),
-            sd(pc[(1, 1)]),
-            // A heading not yet found from any fix is unknown.
-            if f.anchored()[1] {
-                sd(pc[(2, 2)])
-            } else {
-                std::f64::consts::PI
-            },
-            sd(ic[(0, 0)]),
-            sd(ic[(1, 1)]),
-            sd(ic[(2, 2)]),
-            sd(ic[(3, 3)]),
-            sd(ic[(4, 4)]),
-        ],
-        std_spread: (ic[(0, 0)] + ic[(1, 1)] - 2.0 * ic[(0, 1)]).max(0.0).sqrt(),
-        terrain,
-        fused: s.fused,
-        gated: s.gated,
-        nis: s.nis_position + s.nis_yaw,
-        q_scale: f.schedule_scale(),
-        change: s.change,
-        clock_offset: f.clock_offset().0,
     }
-}
-
-/// Feeds labels or classifier frames into the estimator up to a time.
-struct TerrainFeed<'a> {
-    evidence: &'a TerrainEvidence,
-    belief: Option<TerrainBelief>,
-    next: usize,
-    next_detection: usize,
-    /// The slip-change detector fired since the last classifier frame.
-    jump: bool,
-    current: Option<usize>,
-    names: Vec<String>,
-}
-
-impl<'a> TerrainFeed<'a> {
-    fn new(evidence: &'a TerrainEvidence, cfg: &EstimatorConfig) -> Self {
-        let belief = match evidence {
-            TerrainEvidence::Likelihoods { classes, .. } => {
-                Some(TerrainBelief::new(classes.len(), cfg.belief))
-            }
-            _ => None,
-        };
-        Self {
-            evidence,
-            belief,
-            next: 0,
-            next_detection: 0,
-            jump: false,
-            current: None,
-            names: setup_names(evidence),
-        }
-    }
-
-    /// Declares to `est` the terrain in effect at `t`; returns the change
-    /// the schedule acted on, if any.
-    fn advance(
-        &mut self,
-        est: &mut Estimator,
-        t: f64,
-    ) -> Result<Option<TerrainChange>, terraslip_core::FilterError> {
-        let mut out = None;
-        match self.evidence {
-            TerrainEvidence::None => {}
-            TerrainEvidence::Labels(labels) => {
-                while self.next < labels.len() && labels[self.next].t <= t {
-                    self.next += 1;
-                }
-                let k = self
-                    .next
-                    .checked_sub(1)
-                    .and_then(|i| self.names.iter().position(|n| *n == labels[i].terrain));
-                if let Some(k) = k.filter(|k| self.current != Some(*k)) {
-                    let action = est.on_terrain(k)?;
-                    out = Some(TerrainChange {
-                        t,
-                        terrain: k,
-                        action,
-                    });
-                    self.current = Some(k);
-                }
-            }
-            TerrainEvidence::Likelihoods {
-                frames, changes, ..
-            } => {
-                let Some(b) = self.belief.as_mut() else {
-                    return Ok(None);
-                };
-                while self.next < frames.len() && frames[self.next].0 <= t {
-                    let (tf, p) = &frames[self.next];
-                    while self.next_detection < changes.len() && changes[self.next_detection] <= *tf
-                    {
-                        self.jump = true;
-                        self.next_detection += 1;
-                    }
-                    if let Some(k) = b.update(p, self.jump) {
-                        let action = est.on_terrain(k)?;
-                        out = Some(TerrainChange {
-                            t: *tf,
-                            terrain: k,
-                            action,
-                        });
-                    }
-                    self.jump = false;
-                    self.next += 1;
-                }
-                self.current = b.current();
-            }
-        }
-        Ok(out)
-    }
-}
-
-fn setup_names(evidence: &TerrainEvidence) -> Vec<String> {
-    setup::terrain_names(evidence)
-}
-
-/// Warnings for slip parameters that sat on an edge of the physical band
-/// for more than 5 % of the run (a learned parameter at a clamp is a model
-/// or data problem the user must hear about).
-fn band_warnings(rows: &[EstimateRow], band: &IcrBand) -> Vec<String> {
-    if rows.is_empty() {
-        return Vec::new();
-    }
-    let n = rows.len() as f64;
-    let near = |v: f64, edge: f64| (v - edge).abs() <= 1e-6 * (1.0 + edge.abs());
-    let (lo, hi) = band.alpha_range;
-    type Check<'a> = (&'a str, &'a dyn Fn(&EstimateRow) -> bool);
-    let checks: [Check; 6] = [
-        ("the spread y_l - y_r at its lower limit", &|r| {
-            near(r.y_l - r.y_r, band.min_spread)
-        }),
-        ("the spread y_l - y_r at its upper limit", &|r| {
-            near(r.y_l - r.y_r, band.max_spread)
-        }),
-        ("a tread speed factor at its lower limit", &|r| {
-            near(r.alpha_l, lo) || near(r.alpha_r, lo)
-        }),
-        ("a tread speed factor at its upper limit", &|r| {
-            near(r.alpha_l, hi) || near(r.alpha_r, hi)
-        }),
-        ("x_c at its limit", &|r| near(r.x_c.abs(), band.max_x_c)),
-        ("the ICR centre at its limit", &|r| {
-            near((0.5 * (r.y_l + r.y_r)).abs(), band.max_centre)
-        }),
-    ];
-    checks
-        .iter()
-        .filter_map(|(what, test)| {
-            let frac = rows.iter().filter(|r| test(r)).count() as f64 / n;
-            (frac > 0.05).then(|| {
-                format!(
-                    "{what} for {:.0} % of the run: the data pull the model beyond what is physical \
-                     (clock offset, wrong track width in meta.toml, or a model that does not fit)",
-                    100.0 * frac
-                )
-            })
-        })
-        .collect()
 }

@@ -1,0 +1,394 @@
+//! The whole offline calibration: segments, time offset, the three methods,
+//! identifiability checks, one parameter set per terrain ([`calibrate()`]).
+//!
+//! - `config`: what is asked ([`CalibConfig`]);
+//! - `offset_profile`: the model-based second stage of the time offset;
+//! - `rate`: the turn-rate and traction terms and the criterion that keeps them;
+//! - `result`: what was found ([`Calibration`]) and the parameter file.
+
+use terraslip_core::IcrParams;
+use terraslip_io::DriveLog;
+
+use crate::ga::{self, GaConfig};
+use crate::lm;
+use crate::model::{self, PARAM_NAMES};
+use crate::offset::estimate_offset;
+use crate::segment::{SegmentConfig, SegmentStats, Segments};
+use crate::symmetric::{self, SymmetricMissing};
+use crate::CalibError;
+
+mod config;
+mod offset_profile;
+mod rate;
+mod result;
+
+use offset_profile::{refine_offset, spread_from_yaw};
+use rate::choose_rate;
+
+pub use config::{CalibConfig, GaSettings, Method, RateModel, TimeOffset};
+pub use rate::RateChoice;
+pub use result::{Calibration, DroppedSegment, MethodFit, SetCalibration};
+
+/// Progress events for a CLI progress bar.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Progress<'a> {
+    Stage(&'a str),
+    Generation { done: usize, total: usize },
+}
+
+/// Calibrates from `logs` (each must have `pose.csv`).
+pub fn calibrate(
+    logs: &[DriveLog],
+    cfg: &CalibConfig,
+    progress: &dyn Fn(Progress),
+) -> Result<Calibration, CalibError> {
+    if logs.is_empty() {
+        return Err(CalibError::NoLogs);
+    }
+    let mut warnings = Vec::new();
+    for log in logs {
+        if log.pose.is_empty() {
+            return Err(CalibError::NoPose {
+                log: log.dir.clone(),
+            });
+        }
+        warnings.extend(log.warnings.iter().cloned());
+    }
+    let scfg = cfg.segment.for_logs(logs);
+    // The offset search compares candidates; chained segments suffice and
+    // keep it fast.
+    let ocfg = SegmentConfig {
+        overlap: None,
+        ..scfg.clone()
+    };
+    progress(Progress::Stage("aligning wheel and pose streams"));
+    let mut offsets = Vec::with_capacity(logs.len());
+    for log in logs {
+        let o = match cfg.time_offset {
+            TimeOffset::Fixed(o) => o,
+            TimeOffset::Auto { max, step } => match estimate_offset(log, &ocfg, max, step) {
+                Some((o, _)) => o,
+                None => {
+                    warnings.push(format!(
+                        "{}: too few moving segments to estimate the time offset; using 0 s",
+                        log.dir.display()
+                    ));
+                    0.0
+                }
+            },
+        };
+        let o = match cfg.time_offset {
+            TimeOffset::Auto { max, .. } => refine_offset(log, &ocfg, o, max, cfg.yaw_weight),
+            TimeOffset::Fixed(_) => o,
+        };
+        offsets.push(o);
+    }
+    let refs: Vec<&DriveLog> = logs.iter().collect();
+    let all = Segments::build(&refs, &offsets, &scfg);
+    // Group by terrain; logs without labels go to the pooled set.
+    let mut names: Vec<Option<String>> = Vec::new();
+    for s in &all.segments {
+        if !names.contains(&s.terrain) {
+            names.push(s.terrain.clone());
+        }
+    }
+    if names.is_empty() {
+        names.push(None);
+    }
+    let track_width = logs.iter().find_map(|l| l.meta.track_width);
+    let wheel_radius = logs.iter().find_map(|l| l.meta.wheel_radius);
+    let pioneer = logs.iter().any(|l| {
+        l.meta.robot.as_deref().is_some_and(|r| {
+            let r = r.to_ascii_lowercase();
+            r.contains("p3at") || r.contains("p3-at") || r.contains("pioneer")
+        })
+    });
+    let mut sets = Vec::new();
+    let n_sets = names.len();
+    let mut first_err: Option<CalibError> = None;
+    for name in names {
+        let mut segs = all.clone();
+        segs.retain(|s| s.terrain == name);
+        let label = name.clone().unwrap_or_else(|| "all".into());
+        progress(Progress::Stage(&label));
+        let mut set = match calibrate_set(&segs, &label, track_width, cfg, progress) {
+            Ok(s) => s,
+            // One terrain patch too short to calibrate must not sink the others.
+            Err(e) if n_sets > 1 => {
+                warnings.push(format!("terrain `{label}` not calibrated: {e}"));
+                first_err.get_or_insert(e);
+                continue;
+            }
+            Err(e) => return Err(e),
+        };
+        set.terrain = name;
+        // Counts and offsets of the logs that drove on this terrain.
+        let mut used_logs: Vec<usize> = segs.segments.iter().map(|s| s.log).collect();
+        used_logs.dedup();
+        used_logs.sort_unstable();
+        used_logs.dedup();
+        for &i in &used_logs {
+            if let Some(st) = all.per_log.get(i) {
+                set.stats.add(st);
+            }
+        }
+        set.time_offsets = used_logs
+            .iter()
+            .map(|&i| (logs[i].name(), offsets[i]))
+            .collect();
+        set.track_width = track_width;
+        set.wheel_radius = wheel_radius;
+        set.pioneer = pioneer;
+        for d in &mut set.dropped {
+            if let Ok(i) = d.log.parse::<usize>() {
+                d.log = logs.get(i).map(|l| l.name()).unwrap_or_default();
+            }
+        }
+        sets.push(set);
+    }
+    if sets.is_empty() {
+        if let Some(e) = first_err {
+            return Err(e);
+        }
+    }
+    Ok(Calibration { sets, warnings })
+}
+
+/// Identifiability thresholds on the Jacobian uncertainties: a parameter
+/// whose 1-sigma exceeds this is reported as not identified.
+fn unidentified_by_std(std: &[f64; 5], spread: f64, free: &[bool; 5]) -> Vec<&'static str> {
+    let limits = [0.25 * spread, 0.25 * spread, 0.25 * spread, 0.1, 0.1];
+    (0..5)
+        .filter(|&k| free[k] && (std[k].is_nan() || std[k] > limits[k]))
+        .map(|k| PARAM_NAMES[k])
+        .collect()
+}
+
+fn calibrate_set(
+    segs: &Segments,
+    label: &str,
+    track_width: Option<f64>,
+    cfg: &CalibConfig,
+    progress: &dyn Fn(Progress),
+) -> Result<SetCalibration, CalibError> {
+    let n = segs.len();
+    // Overlapping segments share their poses: count and weigh the evidence
+    // as the equivalent chained segments.
+    let coverage = segs.coverage();
+    let chained = |k: usize| (k as f64 / coverage).round() as usize;
+    if chained(n) < cfg.min_segments {
+        return Err(CalibError::TooFewSegments {
+            set: label.into(),
+            moving: chained(n),
+            needed: cfg.min_segments,
+        });
+    }
+    let mut notes = Vec::new();
+    let mut unidentified: Vec<&'static str> = Vec::new();
+    let turning = chained(
+        segs.segments
+            .iter()
+            .filter(|s| s.reference.dyaw.abs() > 0.1)
+            .count(),
+    );
+    let mut lm_cfg = cfg.lm.clone();
+    if turning < cfg.min_turning_segments {
+        let names = vec!["y_l", "y_r", "x_c"];
+        let reason = format!(
+            "only {turning} of {n} moving segments turn more than 0.1 rad (need {}): the reference never turns enough to separate the tread ICRs",
+            cfg.min_turning_segments
+        );
+        if !cfg.allow_partial {
+            return Err(CalibError::Unobservable {
+                set: label.into(),
+                params: names,
+                reason,
+            });
+        }
+        notes.push(format!(
+            "{} kept at the no-slip values: {reason}",
+            names.join(", ")
+        ));
+        unidentified.extend(names);
+        lm_cfg.free = [false, false, false, true, true];
+    }
+    let width = match track_width.or_else(|| spread_from_yaw(segs)) {
+        Some(w) => w,
+        None => {
+            return Err(CalibError::Unobservable {
+                set: label.into(),
+                params: vec!["y_l", "y_r"],
+                reason: "no track_width in meta.toml and the yaw changes do not give one".into(),
+            })
+        }
+    };
+    let start = IcrParams::no_slip(width);
+    let active = vec![true; n];
+    progress(Progress::Stage("levenberg-marquardt"));
+    let lm_fit = lm::fit(segs, &start, &active, cfg.yaw_weight, &lm_cfg).ok_or_else(|| {
+        CalibError::TooFewSegments {
+            set: label.into(),
+            moving: 0,
+            needed: cfg.min_segments,
+        }
+    })?;
+    let inlier: Vec<bool> = lm_fit.weights.iter().map(|&w| w > 0.0).collect();
+    let used = inlier.iter().filter(|&&b| b).count();
+    if chained(used) < cfg.min_segments {
+        return Err(CalibError::TooFewSegments {
+            set: label.into(),
+            moving: chained(used),
+            needed: cfg.min_segments,
+        });
+    }
+    let c = cfg.lm.cauchy_c * lm_fit.sigma;
+    let ones: Vec<f64> = inlier.iter().map(|&b| if b { 1.0 } else { 0.0 }).collect();
+    let score = |method: Method, p: IcrParams| MethodFit {
+        method,
+        params: p,
+        cost: model::cost(&p, segs, &ones, cfg.yaw_weight),
+        robust_cost: model::robust_cost(&p, segs, &inlier, cfg.yaw_weight, c),
+        std: lm::uncertainties(
+            &model::to_vec(&p),
+            segs,
+            &lm_fit.weights,
+            cfg.yaw_weight,
+            &lm_cfg.free,
+        ),
+    };
+    let mut fits = Vec::new();
+    let wants = |m: Method| cfg.method.is_none() || cfg.method == Some(m);
+    if wants(Method::Lm) {
+        fits.push(score(Method::Lm, lm_fit.params));
+    }
+    if wants(Method::Ga) {
+        let mut gcfg = GaConfig::for_track_width(width);
+        gcfg.population = cfg.ga.population;
+        gcfg.generations = cfg.ga.generations;
+        gcfg.seed = cfg.ga.seed;
+        gcfg.gene_bits = cfg.ga.gene_bits;
+        gcfg.threads = cfg.ga.threads;
+        if let Some(b) = cfg.ga.bounds {
+            gcfg.bounds = b;
+        }
+        // Genes the data cannot identify stay at the start value.
+        let sv = model::to_vec(&start);
+        for ((b, &v), &free) in gcfg.bounds.iter_mut().zip(&sv).zip(&lm_cfg.free) {
+            if !free {
+                *b = (v, v);
+            }
+        }
+        // Mandow's GA scores chained segments: one pass over the drive per
+        // individual, so overlapping segments would multiply its cost; its
+        // answer is then scored on every segment like the others.
+        let chained_inliers: Vec<bool> = segs
+            .chained_mask()
+            .iter()
+            .zip(&inlier)
+            .map(|(&a, &b)| a && b)
+            .collect();
+        let fitness =
+            |p: &IcrParams| model::robust_cost(p, segs, &chained_inliers, cfg.yaw_weight, c);
+        let total = gcfg.generations;
+        progress(Progress::Stage("genetic algorithm"));
+        let r = ga::minimise(&fitness, &gcfg, Some(&start), &|g| {
+            progress(Progress::Generation { done: g + 1, total })
+        });
+        fits.push(score(Method::Ga, r.params));
+    }
+    if wants(Method::Symmetric) {
+        progress(Progress::Stage("symmetric fit"));
+        match symmetric::fit(segs, &inlier) {
+            Ok(s) => {
+                notes.push(format!(
+                    "symmetric: {} spin-in-place and {} straight segments",
+                    s.spin_segments, s.straight_segments
+                ));
+                fits.push(score(Method::Symmetric, s.params));
+            }
+            Err(missing) => {
+                let what = match missing {
+                    SymmetricMissing::Spins => "spin-in-place segments",
+                    SymmetricMissing::Straights => "straight segments",
+                };
+                if cfg.method == Some(Method::Symmetric) {
+                    return Err(CalibError::SymmetricNeeds {
+                        set: label.into(),
+                        what,
+                    });
+                }
+                notes.push(format!(
+                    "symmetric calibration skipped: the drive has no {what}"
+                ));
+            }
+        }
+    }
+    let best = fits
+        .iter()
+        .min_by(|a, b| a.robust_cost.total_cmp(&b.robust_cost))
+        .cloned()
+        .ok_or(CalibError::NoLogs)?;
+    for name in unidentified_by_std(&best.std, best.params.spread(), &lm_cfg.free) {
+        if !cfg.allow_partial {
+            return Err(CalibError::Unobservable {
+                set: label.into(),
+                params: vec![name],
+                reason: format!(
+                    "its 1-sigma uncertainty ({:.3}) is too large for the data to pin it down",
+                    best.std[PARAM_NAMES.iter().position(|n| *n == name).unwrap_or(0)]
+                ),
+            });
+        }
+        if !unidentified.contains(&name) {
+            unidentified.push(name);
+            notes.push(format!("{name} is poorly identified (large uncertainty)"));
+        }
+    }
+    let rate = match cfg.rate_model {
+        RateModel::Off => None,
+        m => choose_rate(
+            segs,
+            &best,
+            &lm_fit.weights,
+            cfg.yaw_weight,
+            &lm_cfg,
+            m,
+            (cfg.traction, cfg.traction_signed),
+            coverage,
+        ),
+    };
+    let dropped = segs
+        .segments
+        .iter()
+        .zip(&inlier)
+        .filter(|(_, &k)| !k)
+        .map(|(s, _)| {
+            let r = model::residual(&best.params, segs, s, cfg.yaw_weight);
+            DroppedSegment {
+                log: s.log.to_string(),
+                t0: s.t0,
+                t1: s.t1,
+                residual: (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt(),
+            }
+        })
+        .collect();
+    Ok(SetCalibration {
+        terrain: None,
+        best,
+        fits,
+        segments_used: used,
+        dropped,
+        stats: SegmentStats::default(),
+        sigma: lm_fit.sigma,
+        noise: lm_fit.noise,
+        time_offsets: Vec::new(),
+        unidentified,
+        notes,
+        yaw_weight: cfg.yaw_weight,
+        track_width,
+        wheel_radius: None,
+        pioneer: false,
+        rate,
+        coverage,
+    })
+}

@@ -1,0 +1,215 @@
+//! What a calibration found, per parameter set, and the parameter file it
+//! writes.
+
+use serde_json::{json, Value};
+use terraslip_core::IcrParams;
+use terraslip_io::{ParamEntry, ParamsFile};
+
+use super::{Method, RateChoice};
+use crate::model::PARAM_NAMES;
+use crate::segment::SegmentStats;
+
+/// One method's answer for one set.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MethodFit {
+    pub method: Method,
+    pub params: IcrParams,
+    /// Eq. 13 over the inlier segments.
+    pub cost: f64,
+    /// Cauchy-robust eq. 13 over the inlier segments (what the methods are
+    /// compared by).
+    pub robust_cost: f64,
+    /// 1-sigma uncertainties at `params`: the sandwich estimate of
+    /// [`crate::sandwich`] over the LM fit's segment weights.
+    pub std: [f64; 5],
+}
+
+/// A segment dropped as an outlier.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DroppedSegment {
+    pub log: String,
+    pub t0: f64,
+    pub t1: f64,
+    /// Residual norm at the best parameters, m.
+    pub residual: f64,
+}
+
+/// The calibration of one set (one terrain, or everything pooled).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SetCalibration {
+    /// Terrain name; `None` for an unlabelled pooled set.
+    pub terrain: Option<String>,
+    pub best: MethodFit,
+    pub fits: Vec<MethodFit>,
+    pub segments_used: usize,
+    pub dropped: Vec<DroppedSegment>,
+    /// Segmentation counts of the logs that contributed to this set (the
+    /// whole log, all its terrains).
+    pub stats: SegmentStats,
+    /// Robust per-component residual scale, m.
+    pub sigma: f64,
+    /// Per log: name and wheel-to-pose time offset, s.
+    pub time_offsets: Vec<(String, f64)>,
+    /// Parameters the data could not identify (kept at their start value).
+    pub unidentified: Vec<&'static str>,
+    pub notes: Vec<String>,
+    /// The turn-rate dependent model, unless `RateModel::Off`.
+    pub rate: Option<RateChoice>,
+    /// Mean number of segments covering an instant ([`Segments::coverage`](crate::segment::Segments::coverage)):
+    /// 1 for chained segments; counts are corrected by it.
+    pub coverage: f64,
+    /// The residual noise (pose reference and excess) the uncertainties
+    /// assume, estimated at the LM fit.
+    pub noise: crate::sandwich::ResidualNoise,
+    pub yaw_weight: f64,
+    pub track_width: Option<f64>,
+    pub wheel_radius: Option<f64>,
+    pub pioneer: bool,
+}
+
+/// The result for all sets.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Calibration {
+    pub sets: Vec<SetCalibration>,
+    /// Warnings about the input (from the log reader and the segmenter).
+    pub warnings: Vec<String>,
+}
+
+pub(super) fn finite_or_null(x: f64) -> Value {
+    if x.is_finite() {
+        json!(x)
+    } else {
+        Value::Null
+    }
+}
+
+pub(super) fn params_json(p: &IcrParams) -> Value {
+    json!({"y_l": p.y_l, "y_r": p.y_r, "x_c": p.x_c, "alpha_l": p.alpha_l, "alpha_r": p.alpha_r})
+}
+
+impl SetCalibration {
+    /// Steering efficiency chi (Mandow eq. 9), if the track width is known.
+    pub fn chi(&self) -> Option<f64> {
+        self.track_width
+            .map(|w| self.best.params.steering_efficiency(w))
+    }
+
+    /// Pioneer P3-AT server settings (Mandow eqs. 14-15, as printed there):
+    /// `Ticksmm = round(alpha r 138/110)` with `r` in mm and `alpha` the mean
+    /// factor; `Revcount = round(2 pi x_ICR Ticksmm / 8)` with `x_ICR` the
+    /// half-spread in mm. With the factory alpha = 1, x_ICR = 300 mm and
+    /// r = 110 mm this gives 138 and 32 515.
+    pub fn pioneer_settings(&self) -> Option<(i64, i64)> {
+        let r_mm = self.wheel_radius? * 1000.0;
+        let p = &self.best.params;
+        let alpha = 0.5 * (p.alpha_l + p.alpha_r);
+        let ticksmm = (alpha * r_mm * 138.0 / 110.0).round();
+        let x_icr_mm = 0.5 * p.spread() * 1000.0;
+        let revcount = (2.0 * std::f64::consts::PI * x_icr_mm * ticksmm / 8.0).round();
+        Some((ticksmm as i64, revcount as i64))
+    }
+
+    /// The file entry: params, eq. 13 cost and the extras.
+    pub fn entry(&self) -> ParamEntry {
+        let mut e = ParamEntry::new(self.best.params);
+        e.cost = Some(self.best.cost);
+        let x = &mut e.extra;
+        x.insert("method".into(), json!(self.best.method.name()));
+        let std: serde_json::Map<String, Value> = PARAM_NAMES
+            .iter()
+            .zip(self.best.std)
+            .map(|(n, s)| (n.to_string(), finite_or_null(s)))
+            .collect();
+        x.insert("std".into(), Value::Object(std));
+        let methods: serde_json::Map<String, Value> = self
+            .fits
+            .iter()
+            .map(|f| {
+                (
+                    f.method.name().to_string(),
+                    json!({"params": params_json(&f.params), "cost": f.cost, "robust_cost": f.robust_cost}),
+                )
+            })
+            .collect();
+        x.insert("methods".into(), Value::Object(methods));
+        if let Some(chi) = self.chi() {
+            x.insert("chi".into(), json!(chi));
+        }
+        x.insert("e".into(), json!(self.best.params.eccentricity()));
+        let offsets: Vec<f64> = self.time_offsets.iter().map(|o| o.1).collect();
+        if !offsets.is_empty() {
+            let mean = offsets.iter().sum::<f64>() / offsets.len() as f64;
+            x.insert("time_offset_s".into(), json!(mean));
+            let per_log: serde_json::Map<String, Value> = self
+                .time_offsets
+                .iter()
+                .map(|(n, o)| (n.clone(), json!(o)))
+                .collect();
+            x.insert("time_offsets".into(), Value::Object(per_log));
+        }
+        if let Some(r) = &self.rate {
+            x.insert("rate_model".into(), r.to_json());
+        }
+        x.insert("yaw_weight".into(), json!(self.yaw_weight));
+        x.insert("sigma_m".into(), json!(self.sigma));
+        x.insert(
+            "residual_noise".into(),
+            json!({
+                "pose_xy_m": self.noise.pose_xy,
+                "pose_yaw_rad": self.noise.pose_yaw,
+                "excess_xy_m_per_sqrt_s": self.noise.excess_xy,
+                "excess_yaw_rad_per_sqrt_s": self.noise.excess_yaw,
+            }),
+        );
+        x.insert("segments_used".into(), json!(self.segments_used));
+        if self.coverage > 1.0 {
+            x.insert("segment_coverage".into(), json!(self.coverage));
+        }
+        x.insert("segments_dropped".into(), json!(self.dropped.len()));
+        x.insert("segments_stationary".into(), json!(self.stats.stationary));
+        x.insert("stale_poses".into(), json!(self.stats.stale_poses));
+        x.insert("mistimed_poses".into(), json!(self.stats.mistimed_poses));
+        x.insert("implausible_segments".into(), json!(self.stats.implausible));
+        let dropped: Vec<Value> = self
+            .dropped
+            .iter()
+            .map(|d| json!({"log": d.log, "t0": d.t0, "t1": d.t1, "residual_m": d.residual}))
+            .collect();
+        x.insert("dropped".into(), Value::Array(dropped));
+        if !self.unidentified.is_empty() {
+            x.insert("unidentified".into(), json!(self.unidentified));
+        }
+        if !self.notes.is_empty() {
+            x.insert("notes".into(), json!(self.notes));
+        }
+        if self.pioneer {
+            if let Some((t, r)) = self.pioneer_settings() {
+                x.insert("ticksmm".into(), json!(t));
+                x.insert("revcount".into(), json!(r));
+            }
+        }
+        e
+    }
+}
+
+impl Calibration {
+    /// What `calibrate` writes and `estimate --init` reads: a pooled set as
+    /// top-level `params`, or one set per terrain under `terrains`.
+    pub fn params_file(&self) -> ParamsFile {
+        let mut pf = ParamsFile::default();
+        for s in &self.sets {
+            let e = s.entry();
+            match &s.terrain {
+                Some(name) => {
+                    pf.terrains.insert(name.clone(), e);
+                }
+                None => {
+                    pf.params = Some(e.params);
+                    pf.cost = e.cost;
+                    pf.extra = e.extra;
+                }
+            }
+        }
+        pf
+    }
+}

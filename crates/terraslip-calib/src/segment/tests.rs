@@ -1,0 +1,183 @@
+use super::*;
+use terraslip_io::{PoseObs, TerrainLabel};
+
+fn straight_log(speed: f64, duration: f64) -> DriveLog {
+    let mut log = DriveLog::default();
+    for k in 0..=(duration * 20.0) as usize {
+        let t = k as f64 * 0.05;
+        log.wheels.push(WheelSample {
+            t,
+            v_left: speed,
+            v_right: speed,
+        });
+        if k % 2 == 0 {
+            log.pose.push(PoseObs {
+                t,
+                east: Some(0.0),
+                north: Some(speed * t),
+                yaw: Some(std::f64::consts::FRAC_PI_2),
+                ..Default::default()
+            });
+        }
+    }
+    log
+}
+
+#[test]
+fn increments_are_in_the_frame_of_the_segment_start() {
+    // Heading north, moving north 1 m: 1 m forward, nothing sideways.
+    let inc = relative((5.0, 5.0, std::f64::consts::FRAC_PI_2), (5.0, 6.0, 3.0));
+    assert!((inc.dx - 1.0).abs() < 1e-12 && inc.dy.abs() < 1e-12);
+    assert!((inc.dyaw - angle::wrap(3.0 - std::f64::consts::FRAC_PI_2)).abs() < 1e-12);
+}
+
+#[test]
+fn segments_chain_at_least_min_duration_apart() {
+    let log = straight_log(1.0, 20.0);
+    let s = Segments::build(&[&log], &[0.0], &SegmentConfig::default());
+    assert_eq!(s.len(), 20);
+    for w in s.segments.windows(2) {
+        assert_eq!(w[0].t1, w[1].t0);
+    }
+    for seg in &s.segments {
+        assert!(seg.t1 - seg.t0 >= 1.0 - 1e-9);
+        assert!((seg.reference.dx - (seg.t1 - seg.t0)).abs() < 1e-9);
+        let steps = s.steps_of(seg);
+        let dt: f64 = steps.iter().map(|x| x.dt).sum();
+        assert!((dt - (seg.t1 - seg.t0)).abs() < 1e-9);
+    }
+}
+
+#[test]
+fn stationary_stale_and_implausible_segments_are_counted_not_used() {
+    let mut log = straight_log(0.0, 10.0);
+    // Standing still, with a millimetre of reference noise.
+    for (k, p) in log.pose.iter_mut().enumerate() {
+        p.east = Some(0.001 * (k % 2) as f64);
+    }
+    let s = Segments::build(&[&log], &[0.0], &SegmentConfig::default());
+    assert_eq!(s.len(), 0);
+    assert_eq!(s.stats.stationary, 10);
+    assert_eq!(s.stats.stale_poses, 0);
+    for p in log.pose.iter_mut() {
+        p.east = Some(0.0);
+    }
+    // The treads drive 1 m/s but the pose never moves: a stalled localiser.
+    for w in log.wheels.iter_mut() {
+        w.v_left = 1.0;
+        w.v_right = 1.0;
+    }
+    let s = Segments::build(&[&log], &[0.0], &SegmentConfig::default());
+    assert_eq!(s.len(), 0);
+    assert!(s.stats.stale_poses > 0);
+    let mut log = straight_log(1.0, 10.0);
+    // A 5 m jump cannot come from treads at 1 m/s.
+    log.pose[50].north = log.pose[50].north.map(|n| n + 5.0);
+    let s = Segments::build(&[&log], &[0.0], &SegmentConfig::default());
+    assert!(s.stats.implausible >= 1);
+}
+
+#[test]
+fn a_late_stamped_pose_is_dropped_and_a_clean_track_kept() {
+    let log = straight_log(2.0, 10.0);
+    let poses = clean_poses(&log.pose, &mut SegmentStats::default());
+    assert_eq!(drop_mistimed(&poses, &log.wheels, 0.0).len(), poses.len());
+    // Pose 20 (t = 2 s, poses 0.1 s apart) really shows where the
+    // robot was at 1.92 s.
+    let mut late = poses.clone();
+    late[20].2 -= 2.0 * 0.08;
+    let kept = drop_mistimed(&late, &log.wheels, 0.0);
+    assert_eq!(kept.len(), poses.len() - 1);
+    assert!(kept.iter().all(|p| p.0 != 2.0));
+    // Whatever the slip: the same track at 60 % of the tread speed.
+    let slow: Vec<_> = late.iter().map(|p| (p.0, p.1, 0.6 * p.2, p.3)).collect();
+    assert_eq!(
+        drop_mistimed(&slow, &log.wheels, 0.0).len(),
+        poses.len() - 1
+    );
+}
+
+#[test]
+fn overlapping_segments_start_at_every_pose_and_report_their_coverage() {
+    // Poses every 0.1 s, 1 m/s: chained segments are 1 s apart.
+    let log = straight_log(1.0, 20.0);
+    let chained = Segments::build(&[&log], &[0.0], &SegmentConfig::default());
+    assert!((chained.coverage() - 1.0).abs() < 1e-9);
+    assert!(chained.chained_mask().iter().all(|&k| k));
+    let cfg = SegmentConfig {
+        overlap: Some(0.0),
+        ..Default::default()
+    };
+    let s = Segments::build(&[&log], &[0.0], &cfg);
+    assert!(
+        s.len() > 8 * chained.len(),
+        "{} vs {}",
+        s.len(),
+        chained.len()
+    );
+    // Ten segments of 1 s start in every second.
+    assert!((s.coverage() - 10.0).abs() < 0.6, "{}", s.coverage());
+    assert!(s
+        .segments
+        .windows(2)
+        .all(|w| w[1].t0 > w[0].t0 && w[1].t0 < w[0].t1));
+    // Its chained subset is the chained segmentation.
+    let mask = s.chained_mask();
+    let sub: Vec<(f64, f64)> = s
+        .segments
+        .iter()
+        .zip(&mask)
+        .filter(|(_, &k)| k)
+        .map(|(g, _)| (g.t0, g.t1))
+        .collect();
+    let want: Vec<(f64, f64)> = chained.segments.iter().map(|g| (g.t0, g.t1)).collect();
+    assert_eq!(sub, want);
+    // A 0.25 s stride, poses 0.1 s apart, segments of 10 poses: new
+    // chains start at poses 0, 3, 6, 9, and then segments start where
+    // one of them ended (10, 13, 16, 19, 20, ...): four chains, a few
+    // more where a rounded pose time makes a segment 11 poses long.
+    let cfg = SegmentConfig {
+        overlap: Some(0.25),
+        ..Default::default()
+    };
+    let s = Segments::build(&[&log], &[0.0], &cfg);
+    assert!(s.coverage() > 3.9 && s.coverage() < 5.5, "{}", s.coverage());
+    let starts: Vec<f64> = s.segments.iter().map(|g| g.t0).collect();
+    for (a, b) in starts.iter().zip(&[0.0, 0.3, 0.6, 0.9, 1.0, 1.3]) {
+        assert!((a - b).abs() < 1e-9, "{starts:?}");
+    }
+    // No start is more than the stride (rounded up to a pose) after the
+    // previous one, and the starts after the first second also end a
+    // segment (their noise enters the fit from both sides), but for the
+    // few new chains (a start every third pose, the old rule, gives none).
+    assert!(starts.windows(2).all(|w| w[1] - w[0] < 0.3 + 1e-9));
+    let later: Vec<f64> = starts.iter().copied().filter(|&t| t >= 1.0).collect();
+    let both = later
+        .iter()
+        .filter(|&&t| s.segments.iter().any(|h| h.t1 == t))
+        .count();
+    assert!(
+        both as f64 > 0.9 * later.len() as f64,
+        "{both} of {}",
+        later.len()
+    );
+    assert_eq!(Segments::default().coverage(), 1.0);
+}
+
+#[test]
+fn segments_across_a_terrain_change_are_skipped() {
+    let mut log = straight_log(1.0, 10.0);
+    log.terrain = vec![
+        TerrainLabel {
+            t: 0.0,
+            terrain: "a".into(),
+        },
+        TerrainLabel {
+            t: 4.5,
+            terrain: "b".into(),
+        },
+    ];
+    let s = Segments::build(&[&log], &[0.0], &SegmentConfig::default());
+    assert_eq!(s.stats.terrain_change, 1);
+    assert!(s.segments.iter().any(|x| x.terrain.as_deref() == Some("b")));
+}

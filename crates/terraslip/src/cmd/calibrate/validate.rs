@@ -1,0 +1,240 @@
+//! `terraslip calibrate validate`: scores calibrated parameters on other
+//! drives, per segment (Mandow et al. 2007, Table III) and by the 2 s
+//! prediction error.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use terraslip_calib::{validate, ModelChoice, ValidateConfig, Validation};
+use terraslip_io::ParamsFile;
+use terraslip_report::{Figure, LinePlot, Series, SeriesStyle};
+
+use super::{parse_offset, read_logs, SegmentArgs};
+
+#[derive(clap::ValueEnum, Clone, Copy)]
+enum ModelArg {
+    /// The turn-rate model where calibration selected one, else constant.
+    Params,
+    /// The constant ICRs (Mandow's five parameters).
+    Constant,
+}
+
+#[derive(clap::Args)]
+pub(super) struct ValidateArgs {
+    #[arg(required = true, value_name = "LOG")]
+    logs: Vec<PathBuf>,
+    /// Parameters file written by `terraslip calibrate`.
+    #[arg(long, required = true, value_name = "PARAMS")]
+    params: PathBuf,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    seg: SegmentArgs,
+    /// Wheel/pose time offset: `params` (stored at calibration), `auto`
+    /// (estimated on these logs, without any model parameter) or seconds.
+    #[arg(long, default_value = "params", value_name = "params|auto|SECONDS")]
+    time_offset: String,
+    /// Which model to score as `calibrated`: `params` (the turn-rate model
+    /// where the file has one selected, else the constant ICRs) or
+    /// `constant`. The constant model's scores are reported either way.
+    #[arg(long, value_enum, default_value = "params")]
+    model: ModelArg,
+    /// Draw predicted vs reference segments into this SVG file.
+    #[arg(long, value_name = "SVG")]
+    plot: Option<PathBuf>,
+}
+
+pub(super) fn run(a: ValidateArgs) -> anyhow::Result<()> {
+    let params = ParamsFile::read(&a.params)
+        .with_context(|| format!("reading parameters {}", a.params.display()))?;
+    let cfg = ValidateConfig {
+        segment: a.seg.config()?,
+        time_offset: parse_offset(&a.time_offset, "`params`, `auto` or seconds")?,
+        model: match a.model {
+            ModelArg::Params => ModelChoice::FromParams,
+            ModelArg::Constant => ModelChoice::Constant,
+        },
+    };
+    let logs = read_logs(&a.logs)?;
+    let v = validate(&logs, &params, &cfg).context("validation failed")?;
+    let ratio = |n: f64, c: f64| if c > 0.0 { n / c } else { f64::INFINITY };
+    eprintln!(
+        "{} segments ({} stationary skipped, {} implausible references dropped, {} held and {} mistimed poses dropped, {} without parameters); time offset {}",
+        v.segments.len(),
+        v.stats.stationary,
+        v.stats.implausible,
+        v.stats.stale_poses,
+        v.stats.mistimed_poses,
+        v.no_params,
+        v.offsets
+            .iter()
+            .map(|o| format!("{o:+.3} s"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    eprintln!("                 dx [m^2]   dy [m^2]  dyaw [rad^2]");
+    eprintln!(
+        "  calibrated   {:10.5} {:10.5} {:10.5}",
+        v.mse.dx, v.mse.dy, v.mse.dyaw
+    );
+    if v.rate_segments > 0 {
+        eprintln!(
+            "  constant     {:10.5} {:10.5} {:10.5}   (the calibrated row uses the turn-rate model on {} segments)",
+            v.constant_mse.dx, v.constant_mse.dy, v.constant_mse.dyaw, v.rate_segments
+        );
+    }
+    eprintln!(
+        "  no-slip      {:10.5} {:10.5} {:10.5}",
+        v.nominal_mse.dx, v.nominal_mse.dy, v.nominal_mse.dyaw
+    );
+    eprintln!(
+        "  position MSE ratio no-slip / calibrated = {:.2}",
+        ratio(v.nominal_mse.position(), v.mse.position())
+    );
+    if v.rate_segments > 0 {
+        eprintln!(
+            "  position MSE ratio no-slip / constant   = {:.2}",
+            ratio(v.nominal_mse.position(), v.constant_mse.position())
+        );
+    }
+    for (t, (n, m, nm)) in &v.per_terrain {
+        eprintln!(
+            "  [{t}] {n} segments: position MSE {:.4} vs no-slip {:.4} ({:.2}x)",
+            m.position(),
+            nm.position(),
+            ratio(nm.position(), m.position())
+        );
+    }
+    // The 2 s prediction error, as `estimate` reports it: the parameters of
+    // the terrain in effect (or the pooled set) held over each 2 s.
+    let prediction = validation_prediction(&logs, &params);
+    if let Some(p) = &prediction {
+        eprintln!(
+            "  2 s prediction: {} segments, mean {:.3} m (no-slip {:.3} m), p90 {:.3} m",
+            p.segments.len(),
+            p.stats.mean_m,
+            p.no_slip.mean_m,
+            p.stats.p90_m
+        );
+    }
+    if let Some(path) = &a.plot {
+        plot_validation(&v, path)?;
+        eprintln!("wrote {}", path.display());
+    }
+    if a.json {
+        let mse =
+            |m: &terraslip_calib::Mse| serde_json::json!({"dx": m.dx, "dy": m.dy, "dyaw": m.dyaw});
+        let per: serde_json::Map<String, serde_json::Value> = v
+            .per_terrain
+            .iter()
+            .map(|(k, (n, m, nm))| {
+                (
+                    k.clone(),
+                    serde_json::json!({"segments": n, "mse": mse(m), "nominal_mse": mse(nm)}),
+                )
+            })
+            .collect();
+        let j = serde_json::json!({
+            "segments": v.segments.len(),
+            "mse": mse(&v.mse),
+            "nominal_mse": mse(&v.nominal_mse),
+            "position_mse_ratio": ratio(v.nominal_mse.position(), v.mse.position()),
+            "constant_mse": mse(&v.constant_mse),
+            "constant_position_mse_ratio": ratio(v.nominal_mse.position(), v.constant_mse.position()),
+            "rate_model_segments": v.rate_segments,
+            "time_offsets_s": v.offsets,
+            "stationary_skipped": v.stats.stationary,
+            "implausible_dropped": v.stats.implausible,
+            "mistimed_poses_dropped": v.stats.mistimed_poses,
+            "held_poses_dropped": v.stats.stale_poses,
+            "terrains": per,
+            "prediction": prediction.as_ref().map(|p| p.to_json()),
+        });
+        println!("{j}");
+    }
+    Ok(())
+}
+
+/// The 2 s prediction score of `params` over all `logs` together.
+pub(super) fn validation_prediction(
+    logs: &[terraslip_io::DriveLog],
+    params: &ParamsFile,
+) -> Option<terraslip_calib::prediction::PredictionScore> {
+    use terraslip_calib::prediction::{score, PredictionScore};
+    let mut all: Option<PredictionScore> = None;
+    for log in logs {
+        let w = log.meta.track_width.filter(|w| w.is_finite() && *w > 0.0)?;
+        let set_at = |t: f64| {
+            let k = log.terrain.partition_point(|l| l.t <= t);
+            let name = k.checked_sub(1).map(|k| log.terrain[k].terrain.as_str());
+            params.for_terrain(name)
+        };
+        if let Some(s) = score(&log.wheels, &log.pose, w, &set_at, Default::default()) {
+            match all.as_mut() {
+                Some(a) => a.segments.extend(s.segments),
+                None => all = Some(s),
+            }
+        }
+    }
+    all.map(|a| terraslip_calib::prediction::PredictionScore::from_segments(a.spec, a.segments))
+}
+
+/// Three panels: segment end points in the start frame (reference,
+/// calibrated, no-slip), position error per segment over time, and the
+/// predicted against the reference heading change.
+fn plot_validation(v: &Validation, path: &Path) -> anyhow::Result<()> {
+    let pick = |f: &dyn Fn(&terraslip_calib::validate::SegmentScore) -> (f64, f64)| {
+        v.segments.iter().map(f).collect::<Vec<_>>()
+    };
+    let ends = LinePlot::new(
+        "Segment end points in the frame of each segment start",
+        "dx forward [m]",
+        "dy left [m]",
+    )
+    .series(Series::points("reference", pick(&|s| (s.reference.dx, s.reference.dy))).color(0))
+    .series(Series::points("calibrated", pick(&|s| (s.predicted.dx, s.predicted.dy))).color(5))
+    .series(Series::points("no-slip", pick(&|s| (s.nominal.dx, s.nominal.dy))).color(4))
+    .equal_aspect(true);
+    let err = |p: &terraslip_calib::Increment, r: &terraslip_calib::Increment| {
+        ((r.dx - p.dx).powi(2) + (r.dy - p.dy).powi(2)).sqrt()
+    };
+    let errors = LinePlot::new(
+        "Position error per segment",
+        "segment start [s]",
+        "error [m]",
+    )
+    .series(
+        Series::points(
+            "calibrated",
+            pick(&|s| (s.t0, err(&s.predicted, &s.reference))),
+        )
+        .color(5),
+    )
+    .series(Series::points("no-slip", pick(&|s| (s.t0, err(&s.nominal, &s.reference)))).color(4));
+    let (lo, hi) = v.segments.iter().fold((0.0f64, 0.0f64), |(lo, hi), s| {
+        (lo.min(s.reference.dyaw), hi.max(s.reference.dyaw))
+    });
+    let yaw = LinePlot::new(
+        "Heading change: predicted against reference",
+        "reference dyaw [rad]",
+        "predicted dyaw [rad]",
+    )
+    .series(
+        Series::line("ideal", vec![(lo, lo), (hi, hi)])
+            .style(SeriesStyle::Dashed)
+            .color(0),
+    )
+    .series(
+        Series::points(
+            "calibrated",
+            pick(&|s| (s.reference.dyaw, s.predicted.dyaw)),
+        )
+        .color(5),
+    )
+    .series(Series::points("no-slip", pick(&|s| (s.reference.dyaw, s.nominal.dyaw))).color(4));
+    Figure::new(vec![ends, errors, yaw])
+        .write_svg(path)
+        .with_context(|| format!("writing plot {}", path.display()))?;
+    Ok(())
+}

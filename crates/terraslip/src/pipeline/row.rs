@@ -1,0 +1,96 @@
+//! The estimate after each wheels row, and what the rows of a whole run
+//! reveal (parameters stuck at a physical limit).
+
+use terraslip_core::estimator::{Estimator, FixSummary};
+use terraslip_core::filter::IcrBand;
+
+use super::EstimateRow;
+
+/// The estimate after a wheels row at `t`.
+pub(super) fn row(est: &Estimator, t: f64, terrain: Option<usize>, s: &FixSummary) -> EstimateRow {
+    let f = est.filter();
+    let (east, north, yaw) = f.pose();
+    // The ICRs in effect at this row's tread speeds.
+    let icr = f.icr_now();
+    let pc = f.pose_covariance();
+    let ic = f.icr_now_covariance();
+    let sd = |v: f64| v.max(0.0).sqrt();
+    EstimateRow {
+        t,
+        east,
+        north,
+        yaw,
+        y_l: icr.y_l,
+        y_r: icr.y_r,
+        x_c: icr.x_c,
+        alpha_l: icr.alpha_l,
+        alpha_r: icr.alpha_r,
+        std: [
+            sd(pc[(0, 0)]),
+            sd(pc[(1, 1)]),
+            // A heading not yet found from any fix is unknown.
+            if f.anchored()[1] {
+                sd(pc[(2, 2)])
+            } else {
+                std::f64::consts::PI
+            },
+            sd(ic[(0, 0)]),
+            sd(ic[(1, 1)]),
+            sd(ic[(2, 2)]),
+            sd(ic[(3, 3)]),
+            sd(ic[(4, 4)]),
+        ],
+        std_spread: (ic[(0, 0)] + ic[(1, 1)] - 2.0 * ic[(0, 1)]).max(0.0).sqrt(),
+        terrain,
+        fused: s.fused,
+        gated: s.gated,
+        nis: s.nis_position + s.nis_yaw,
+        q_scale: f.schedule_scale(),
+        change: s.change,
+        clock_offset: f.clock_offset().0,
+    }
+}
+
+/// Warnings for slip parameters that sat on an edge of the physical band
+/// for more than 5 % of the run (a learned parameter at a clamp is a model
+/// or data problem the user must hear about).
+pub(super) fn band_warnings(rows: &[EstimateRow], band: &IcrBand) -> Vec<String> {
+    if rows.is_empty() {
+        return Vec::new();
+    }
+    let n = rows.len() as f64;
+    let near = |v: f64, edge: f64| (v - edge).abs() <= 1e-6 * (1.0 + edge.abs());
+    let (lo, hi) = band.alpha_range;
+    type Check<'a> = (&'a str, &'a dyn Fn(&EstimateRow) -> bool);
+    let checks: [Check; 6] = [
+        ("the spread y_l - y_r at its lower limit", &|r| {
+            near(r.y_l - r.y_r, band.min_spread)
+        }),
+        ("the spread y_l - y_r at its upper limit", &|r| {
+            near(r.y_l - r.y_r, band.max_spread)
+        }),
+        ("a tread speed factor at its lower limit", &|r| {
+            near(r.alpha_l, lo) || near(r.alpha_r, lo)
+        }),
+        ("a tread speed factor at its upper limit", &|r| {
+            near(r.alpha_l, hi) || near(r.alpha_r, hi)
+        }),
+        ("x_c at its limit", &|r| near(r.x_c.abs(), band.max_x_c)),
+        ("the ICR centre at its limit", &|r| {
+            near((0.5 * (r.y_l + r.y_r)).abs(), band.max_centre)
+        }),
+    ];
+    checks
+        .iter()
+        .filter_map(|(what, test)| {
+            let frac = rows.iter().filter(|r| test(r)).count() as f64 / n;
+            (frac > 0.05).then(|| {
+                format!(
+                    "{what} for {:.0} % of the run: the data pull the model beyond what is physical \
+                     (clock offset, wrong track width in meta.toml, or a model that does not fit)",
+                    100.0 * frac
+                )
+            })
+        })
+        .collect()
+}

@@ -363,6 +363,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         return run_validate(v);
     }
     let out = args.out.clone().context("--out PARAMS is required")?;
+    let logs: Vec<&Path> = args.logs.iter().map(|p| p.as_path()).collect();
+    super::refuse_overwrite(&out, &[], &logs)?;
     let cfg = config(&args)?;
     if args.print_config {
         eprintln!("{cfg:#?}");
@@ -569,6 +571,8 @@ fn run_validate(a: ValidateArgs) -> anyhow::Result<()> {
         );
     }
     if let Some(path) = &a.plot {
+        let logs: Vec<&Path> = a.logs.iter().map(|p| p.as_path()).collect();
+        super::refuse_overwrite(path, &[&a.params], &logs)?;
         plot_validation(&v, path)?;
         eprintln!("wrote {}", path.display());
     }

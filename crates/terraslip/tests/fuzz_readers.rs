@@ -194,7 +194,7 @@ const META_KEYS: [&str; 6] = [
 ];
 
 #[test]
-fn fuzz_toml_files() {
+fn fuzz_meta_toml() {
     fuzz(toml_text(&META_KEYS), |text| {
         let d = tempfile::tempdir().unwrap();
         let p = d.path().join("meta.toml");
@@ -209,6 +209,10 @@ fn fuzz_toml_files() {
         }
         Ok(())
     });
+}
+
+#[test]
+fn fuzz_estimator_config() {
     // The estimator configuration: its tables' keys, as dotted keys.
     static KEYS: OnceLock<Vec<&'static str>> = OnceLock::new();
     let keys = KEYS.get_or_init(|| {

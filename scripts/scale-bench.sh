@@ -23,15 +23,19 @@ target/release/examples/synth_log "$work/probe" 600
 probe=$(stat -c %s "$work/probe/wheels.csv")
 secs=$(( 600 * mb * 1000000 / probe ))
 target/release/examples/synth_log "$work/log" "$secs"
+# A real drive has no ground truth (and calibrate would read it).
+rm "$work/log/truth.csv"
 size=$(stat -c %s "$work/log/wheels.csv")
 echo "wheels.csv: $((size / 1000000)) MB, $secs s of drive"
+# Wall time, CPU time (user + sys: what the figure is on a busy machine),
+# throughput of CSV per CPU second, and peak resident memory.
 measure() {
   local name=$1; shift
-  /usr/bin/time -f "%e %M" -o "$work/time" "$@" >/dev/null 2>"$work/err" || {
+  /usr/bin/time -f "%e %U %S %M" -o "$work/time" "$@" >/dev/null 2>"$work/err" || {
     cat "$work/err"; exit 1; }
-  read -r wall kb < "$work/time"
-  awk -v n="$name" -v w="$wall" -v kb="$kb" -v s="$size" \
-    'BEGIN { printf "%-10s %7.1f s  %6.1f MB/s  peak %5.0f MB\n", n, w, s / 1e6 / w, kb / 1024 }'
+  read -r wall user sys kb < "$work/time"
+  awk -v n="$name" -v w="$wall" -v u="$user" -v y="$sys" -v kb="$kb" -v s="$size" \
+    'BEGIN { c = u + y; printf "%-10s wall %6.1f s  cpu %6.1f s  %6.1f MB/s  peak %5.0f MB\n", n, w, c, s / 1e6 / c, kb / 1024 }'
 }
 measure estimate "$bin" estimate "$work/log" --out "$work/est"
 measure calibrate "$bin" calibrate "$work/log" --out "$work/params.json"

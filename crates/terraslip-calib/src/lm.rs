@@ -376,7 +376,7 @@ pub fn fit(
         }
         let c = cfg.cauchy_c * sigma;
         for i in 0..n {
-            w[i] = if !active[i] || !(norms[i] <= cfg.outlier_sigmas * sigma) {
+            w[i] = if !active[i] || !norms[i].is_finite() || norms[i] > cfg.outlier_sigmas * sigma {
                 0.0
             } else {
                 1.0 / (1.0 + (norms[i] / c).powi(2))

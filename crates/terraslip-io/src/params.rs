@@ -108,7 +108,7 @@ pub const MAX_ALPHA: f64 = 5.0;
 pub fn check_physical(p: &IcrParams) -> Result<(), String> {
     let fix = "fix the file or calibrate again";
     for (name, v) in [("y_l", p.y_l), ("y_r", p.y_r), ("x_c", p.x_c)] {
-        if !(v.abs() <= MAX_ICR_M) {
+        if !v.is_finite() || v.abs() > MAX_ICR_M {
             return Err(format!(
                 "{name} = {v} is outside [-{MAX_ICR_M}, {MAX_ICR_M}] m; {fix}"
             ));

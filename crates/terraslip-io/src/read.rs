@@ -137,7 +137,7 @@ impl CsvTable {
             return Err(self.err(line, format!("column `{name}`: `{cell}` is not finite; write a finite number, or leave the cell empty")));
         }
         if let Some((limit, unit)) = physical_limit(name) {
-            if !(v.abs() <= limit) {
+            if v.abs() > limit {
                 return Err(self.err(
                     line,
                     format!(

@@ -365,6 +365,10 @@ pub fn fit(
             })
             .collect();
         let mut act: Vec<f64> = norms.iter().copied().filter(|x| x.is_finite()).collect();
+        if act.is_empty() {
+            // Every residual overflowed: nothing finite to fit.
+            return None;
+        }
         act.sort_by(f64::total_cmp);
         sigma = (act[act.len() / 2] / CHI3_MEDIAN).max(1e-9);
         if cfg.irls_rounds <= 1 {
@@ -372,7 +376,7 @@ pub fn fit(
         }
         let c = cfg.cauchy_c * sigma;
         for i in 0..n {
-            w[i] = if !active[i] || norms[i] > cfg.outlier_sigmas * sigma {
+            w[i] = if !active[i] || !norms[i].is_finite() || norms[i] > cfg.outlier_sigmas * sigma {
                 0.0
             } else {
                 1.0 / (1.0 + (norms[i] / c).powi(2))

@@ -81,6 +81,104 @@ pub fn write_atomic(path: impl AsRef<Path>, bytes: &[u8]) -> Result<(), LogError
     f.commit()
 }
 
+/// An output directory held by one run while it writes: `DIR/.terraslip.lock`
+/// holds the process id of its owner and is removed when the lock is
+/// dropped. A lock left by a process that no longer runs is taken over.
+pub struct DirLock {
+    lock: PathBuf,
+}
+
+impl DirLock {
+    /// Name of the lock file inside the directory.
+    pub const FILE: &'static str = ".terraslip.lock";
+
+    /// Creates `dir` if needed and locks it, or fails naming the run that
+    /// holds it.
+    pub fn acquire(dir: &Path) -> Result<Self, LogError> {
+        std::fs::create_dir_all(dir).map_err(|e| LogError::io(dir, e))?;
+        let lock = dir.join(Self::FILE);
+        for _ in 0..2 {
+            match std::fs::OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                .open(&lock)
+            {
+                Ok(mut f) => {
+                    let _ = write!(f, "{}", std::process::id());
+                    return Ok(Self { lock });
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+                    let owner = std::fs::read_to_string(&lock).unwrap_or_default();
+                    let owner = owner.trim().parse::<u32>().ok();
+                    match owner {
+                        Some(pid) if process_alive(pid) => {
+                            return Err(LogError::Invalid {
+                                path: dir.to_path_buf(),
+                                reason: format!(
+                                    "another run (process {pid}) is writing into this \
+                                     directory; wait for it to finish or choose another --out"
+                                ),
+                            })
+                        }
+                        // Stale (its process is gone) or half-written: take it over.
+                        _ => {
+                            let _ = std::fs::remove_file(&lock);
+                        }
+                    }
+                }
+                Err(e) => return Err(LogError::io(&lock, e)),
+            }
+        }
+        Err(LogError::Invalid {
+            path: dir.to_path_buf(),
+            reason: format!(
+                "cannot take the lock {}; another run is starting, try again",
+                Self::FILE
+            ),
+        })
+    }
+
+    /// Removes the temporaries [`AtomicFile`] leaves for `names` when its
+    /// process is killed. Only the lock holder may call it: no other run
+    /// can be writing them.
+    pub fn remove_stale_temps(&self, names: &[&str]) {
+        let Some(dir) = self.lock.parent() else {
+            return;
+        };
+        let Ok(entries) = std::fs::read_dir(dir) else {
+            return;
+        };
+        for entry in entries.flatten() {
+            let file = entry.file_name();
+            let file = file.to_string_lossy();
+            let stale = names.iter().any(|n| {
+                file.strip_prefix(&format!(".{n}."))
+                    .and_then(|rest| rest.strip_suffix(".tmp"))
+                    .is_some_and(|pid| pid.parse::<u32>().is_ok())
+            });
+            if stale {
+                let _ = std::fs::remove_file(entry.path());
+            }
+        }
+    }
+}
+
+impl Drop for DirLock {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.lock);
+    }
+}
+
+/// Whether process `pid` runs. Where that cannot be told (no `/proc`),
+/// every process is taken to run, so a lock is never stolen.
+fn process_alive(pid: u32) -> bool {
+    if pid == std::process::id() {
+        return true;
+    }
+    let proc = Path::new("/proc");
+    !proc.is_dir() || proc.join(pid.to_string()).exists()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -98,5 +196,31 @@ mod tests {
         assert_eq!(std::fs::read(&p).unwrap(), b"old");
         let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
         assert_eq!(names.len(), 1, "temporary file left behind");
+    }
+}
+
+#[cfg(test)]
+mod lock_tests {
+    use super::*;
+
+    #[test]
+    fn a_held_directory_is_refused_and_a_stale_lock_taken_over() {
+        let dir = tempfile::tempdir().unwrap();
+        let lock = DirLock::acquire(dir.path()).unwrap();
+        let err = DirLock::acquire(dir.path())
+            .err()
+            .expect("held")
+            .to_string();
+        assert!(err.contains("another run (process"), "{err}");
+        drop(lock);
+        assert!(!dir.path().join(DirLock::FILE).exists());
+        // A pid beyond any real one: its process is gone.
+        std::fs::write(dir.path().join(DirLock::FILE), "4294967295").unwrap();
+        std::fs::write(dir.path().join(".estimate.csv.4294967295.tmp"), "half").unwrap();
+        std::fs::write(dir.path().join(".other.csv.12.tmp"), "not ours").unwrap();
+        let lock = DirLock::acquire(dir.path()).expect("stale lock taken over");
+        lock.remove_stale_temps(&["estimate.csv"]);
+        assert!(!dir.path().join(".estimate.csv.4294967295.tmp").exists());
+        assert!(dir.path().join(".other.csv.12.tmp").exists());
     }
 }

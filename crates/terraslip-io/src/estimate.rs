@@ -50,7 +50,7 @@ impl EstimateRecord {
 /// Reads `estimate.csv`; the contract's columns are required, the others
 /// optional.
 pub fn read_estimate(path: &Path) -> Result<Vec<EstimateRecord>, LogError> {
-    let tab = read_csv_table(path)?;
+    let mut tab = read_csv_table(path)?;
     let req = |n: &str| tab.require(n);
     let cols = [
         req("east")?,
@@ -75,8 +75,8 @@ pub fn read_estimate(path: &Path) -> Result<Vec<EstimateRecord>, LogError> {
         "std_spread",
     ]
     .map(|n| tab.optional(n));
-    let mut out = Vec::with_capacity(tab.rows.len());
-    for (line, t, rec) in tab.timed_rows()? {
+    let mut out = Vec::new();
+    tab.each_timed_row(|tab, line, t, rec| {
         let mut v = [0.0; 12];
         for (k, c) in cols.iter().enumerate() {
             v[k] = tab.req_f64(line, rec, *c)?;
@@ -108,6 +108,7 @@ pub fn read_estimate(path: &Path) -> Result<Vec<EstimateRecord>, LogError> {
             std_alpha_r: o[3],
             std_spread: o[4],
         });
-    }
+        Ok(())
+    })?;
     Ok(out)
 }

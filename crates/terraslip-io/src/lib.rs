@@ -14,7 +14,7 @@ mod read;
 mod types;
 mod write;
 
-pub use atomic::{write_atomic, AtomicFile};
+pub use atomic::{write_atomic, AtomicFile, DirLock};
 pub use estimate::{read_estimate, EstimateRecord};
 pub use params::{ParamEntry, ParamsFile, RateModelEntry};
 pub use read::{

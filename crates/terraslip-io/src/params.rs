@@ -85,7 +85,7 @@ impl RateModelEntry {
             alpha_l: num(q, "alpha_l")?,
             alpha_r: num(q, "alpha_r")?,
         };
-        params.validate().map_err(|e| format!("params: {e}"))?;
+        check_physical(&params).map_err(|e| format!("params.{e}"))?;
         Ok(Some(Self {
             params,
             k_spread: num(r, "k_spread")?,
@@ -94,6 +94,33 @@ impl RateModelEntry {
             k_dir: optional("k_dir")?,
         }))
     }
+}
+
+/// Largest |y_l|, |y_r|, |x_c| a skid-steering robot's ICRs can have, m.
+pub const MAX_ICR_M: f64 = 20.0;
+/// Largest tread speed factor alpha.
+pub const MAX_ALPHA: f64 = 5.0;
+
+/// Checks one parameter set against physical ranges: ICR coordinates
+/// within ±[`MAX_ICR_M`], the left ICR left of the right one (spread
+/// `y_l - y_r` at least [`terraslip_core::kinematics::MIN_SPREAD`]) and
+/// `alpha` in (0, [`MAX_ALPHA`]]. The error starts with the field's name.
+pub fn check_physical(p: &IcrParams) -> Result<(), String> {
+    let fix = "fix the file or calibrate again";
+    for (name, v) in [("y_l", p.y_l), ("y_r", p.y_r), ("x_c", p.x_c)] {
+        if !v.is_finite() || v.abs() > MAX_ICR_M {
+            return Err(format!(
+                "{name} = {v} is outside [-{MAX_ICR_M}, {MAX_ICR_M}] m; {fix}"
+            ));
+        }
+    }
+    for (name, v) in [("alpha_l", p.alpha_l), ("alpha_r", p.alpha_r)] {
+        if !(v > 0.0 && v <= MAX_ALPHA) {
+            return Err(format!("{name} = {v} is outside (0, {MAX_ALPHA}]; {fix}"));
+        }
+    }
+    p.validate()
+        .map_err(|e| format!("y_l, y_r: {e} (y_l must be left of y_r); {fix}"))
 }
 
 /// Calibrated parameters: a pooled set and/or one set per terrain.
@@ -116,22 +143,33 @@ impl ParamsFile {
         let pf: ParamsFile = serde_json::from_str(&text).map_err(|e| LogError::Parse {
             path: path.to_path_buf(),
             line: e.line() as u64,
-            reason: e.to_string(),
+            reason: format!(
+                "{e}; expected a parameters file as `terraslip calibrate` writes it \
+                 (docs/calibration.md)"
+            ),
         })?;
         let invalid = |reason: String| LogError::Invalid {
             path: path.to_path_buf(),
             reason,
         };
         if pf.params.is_none() && pf.terrains.is_empty() {
-            return Err(invalid("neither `params` nor `terrains` is present".into()));
+            return Err(invalid(
+                "neither `params` nor `terrains` is present; give at least one \
+                 (docs/calibration.md)"
+                    .into(),
+            ));
         }
+        let checked = |set: String, p: &IcrParams, extra: &BTreeMap<String, serde_json::Value>| {
+            check_physical(p).map_err(|e| invalid(format!("{set}params.{e}")))?;
+            RateModelEntry::selected(extra)
+                .map_err(|e| invalid(format!("{set}rate_model: {e}")))
+                .map(drop)
+        };
         if let Some(p) = &pf.params {
-            p.validate().map_err(|e| invalid(format!("params: {e}")))?;
+            checked(String::new(), p, &pf.extra)?;
         }
         for (name, e) in &pf.terrains {
-            e.params
-                .validate()
-                .map_err(|err| invalid(format!("terrains.{name}: {err}")))?;
+            checked(format!("terrains.{name}."), &e.params, &e.extra)?;
         }
         Ok(pf)
     }
@@ -191,7 +229,7 @@ mod tests {
             "params": {"y_l": -0.3, "y_r": 0.3, "x_c": 0.0, "alpha_l": 1.0, "alpha_r": 1.0}});
         assert!(RateModelEntry::selected(&extra(crossed))
             .expect_err("invalid ICRs")
-            .starts_with("params:"));
+            .starts_with("params.y_l, y_r:"));
         let no_params = json!({"selected": true, "k_spread": 0.0, "k_alpha": 0.0});
         assert!(RateModelEntry::selected(&extra(no_params))
             .expect_err("missing")

@@ -3,17 +3,20 @@ use std::path::{Path, PathBuf};
 
 use crate::types::*;
 
-/// A CSV file with its header indexed by column name. Rows keep their
-/// 1-based line numbers (the header is line 1) for error messages.
+/// A CSV file open for reading, with its header indexed by column name.
+/// Rows are streamed one at a time ([`CsvTable::each_timed_row`]) with
+/// their 1-based line numbers (the header is line 1) for error messages,
+/// so memory does not grow with the file.
 pub struct CsvTable {
     pub path: PathBuf,
     pub header: Vec<String>,
     index: HashMap<String, usize>,
-    pub rows: Vec<(u64, csv::StringRecord)>,
+    reader: Option<csv::Reader<std::fs::File>>,
 }
 
-/// Reads a whole CSV file. Fails with file and line on anything that is not
-/// well-formed UTF-8 CSV with a header.
+/// Opens a CSV file and reads its header. Fails with file and line on
+/// anything that is not well-formed UTF-8 CSV with a header; rows are
+/// checked as they are read.
 pub fn read_csv_table(path: &Path) -> Result<CsvTable, LogError> {
     if !path.exists() {
         return Err(LogError::MissingFile {
@@ -36,35 +39,43 @@ pub fn read_csv_table(path: &Path) -> Result<CsvTable, LogError> {
         return Err(LogError::Parse {
             path: path.to_path_buf(),
             line: 1,
-            reason: "empty file or empty header line".into(),
+            reason: "empty file or empty header line; the first line must name the columns (docs/log-format.md)".into(),
         });
     }
-    let index = header
-        .iter()
-        .enumerate()
-        .map(|(i, h)| (h.clone(), i))
-        .collect();
-    let mut rows = Vec::new();
-    for rec in rdr.records() {
-        let rec = rec.map_err(|e| csv_err(path, e))?;
-        let line = rec.position().map(|p| p.line()).unwrap_or(0);
-        rows.push((line, rec));
+    let mut index = HashMap::with_capacity(header.len());
+    for (i, h) in header.iter().enumerate() {
+        if h.is_empty() {
+            continue;
+        }
+        if let Some(first) = index.insert(h.clone(), i) {
+            return Err(LogError::Parse {
+                path: path.to_path_buf(),
+                line: 1,
+                reason: format!(
+                    "columns {} and {} are both named `{h}`; rename or remove one of them",
+                    first + 1,
+                    i + 1
+                ),
+            });
+        }
     }
     Ok(CsvTable {
         path: path.to_path_buf(),
         header,
         index,
-        rows,
+        reader: Some(rdr),
     })
 }
 
 fn csv_err(path: &Path, e: csv::Error) -> LogError {
     let line = e.position().map(|p| p.line()).unwrap_or(1);
     let reason = match e.kind() {
-        csv::ErrorKind::Utf8 { .. } => "not UTF-8 text (is this a CSV file?)".to_string(),
+        csv::ErrorKind::Utf8 { .. } => {
+            "not UTF-8 text; is this a CSV file? Save it as UTF-8 CSV".to_string()
+        }
         csv::ErrorKind::UnequalLengths {
             expected_len, len, ..
-        } => format!("row has {len} fields, header has {expected_len}"),
+        } => format!("row has {len} fields, header has {expected_len}; give every row one field per column (empty for not measured)"),
         _ => e.to_string(),
     };
     match e.kind() {
@@ -121,40 +132,90 @@ impl CsvTable {
         let name = &self.header[i];
         let v: f64 = cell
             .parse()
-            .map_err(|_| self.err(line, format!("column `{name}`: `{cell}` is not a number")))?;
+            .map_err(|_| self.err(line, format!("column `{name}`: `{cell}` is not a number; write a number with `.` as the decimal point, or leave the cell empty")))?;
         if !v.is_finite() {
-            return Err(self.err(line, format!("column `{name}`: `{cell}` is not finite")));
+            return Err(self.err(line, format!("column `{name}`: `{cell}` is not finite; write a finite number, or leave the cell empty")));
+        }
+        if let Some((limit, unit)) = physical_limit(name) {
+            if v.abs() > limit {
+                return Err(self.err(
+                    line,
+                    format!(
+                        "column `{name}`: {cell} is outside the physical range ±{limit:e} {unit}; \
+                         fix or remove the row (docs/log-format.md gives the units)"
+                    ),
+                ));
+            }
         }
         Ok(Some(v))
     }
 
     /// A finite number that must be present.
     pub fn req_f64(&self, line: u64, rec: &csv::StringRecord, col: usize) -> Result<f64, LogError> {
-        self.opt_f64(line, rec, Some(col))?
-            .ok_or_else(|| self.err(line, format!("column `{}` is empty", self.header[col])))
+        self.opt_f64(line, rec, Some(col))?.ok_or_else(|| {
+            self.err(
+                line,
+                format!(
+                    "column `{}` is empty; this column needs a number in every row",
+                    self.header[col]
+                ),
+            )
+        })
     }
 
-    /// Reads the `t` column of every row and checks it never decreases.
-    /// Returns `(line, t, record)` triples.
-    pub fn timed_rows(&self) -> Result<Vec<(u64, f64, &csv::StringRecord)>, LogError> {
+    /// Calls `f(table, line, t, record)` for every row in turn, with `t`
+    /// read from the `t` column and checked never to decrease. The rows
+    /// can be streamed once.
+    pub fn each_timed_row(
+        &mut self,
+        mut f: impl FnMut(&Self, u64, f64, &csv::StringRecord) -> Result<(), LogError>,
+    ) -> Result<(), LogError> {
         let ti = self.require("t")?;
-        let mut out = Vec::with_capacity(self.rows.len());
+        let Some(mut rdr) = self.reader.take() else {
+            return Ok(());
+        };
+        let mut rec = csv::StringRecord::new();
         let mut last: Option<(u64, f64)> = None;
-        for (line, rec) in &self.rows {
-            let t = self.req_f64(*line, rec, ti)?;
+        while rdr
+            .read_record(&mut rec)
+            .map_err(|e| csv_err(&self.path, e))?
+        {
+            let line = rec.position().map(|p| p.line()).unwrap_or(0);
+            let t = self.req_f64(line, &rec, ti)?;
             if let Some((pl, pt)) = last {
                 if t < pt {
                     return Err(self.err(
-                        *line,
-                        format!("time goes backwards: t = {t} after t = {pt} at line {pl}"),
+                        line,
+                        format!("time goes backwards: t = {t} after t = {pt} at line {pl}; sort the file by t"),
                     ));
                 }
             }
-            last = Some((*line, t));
-            out.push((*line, t, rec));
+            last = Some((line, t));
+            f(self, line, t, &rec)?;
         }
-        Ok(out)
+        Ok(())
     }
+}
+
+/// The largest magnitude a log column can physically have, with its unit.
+/// Values beyond it are corrupt (or in the wrong unit) and would overflow
+/// the arithmetic downstream.
+fn physical_limit(column: &str) -> Option<(f64, &'static str)> {
+    Some(match column {
+        // Seconds: an epoch in nanoseconds (~1.7e18) is refused here.
+        "t" => (1e11, "s"),
+        "v_left" | "v_right" => (100.0, "m/s"),
+        "current_left" | "current_right" => (1e4, "A"),
+        // ENU metres around a local origin: within the Earth's circumference.
+        "east" | "north" => (4e7, "m"),
+        "yaw" => (1e4, "rad"),
+        "std_xy" => (1e7, "m"),
+        "std_yaw" => (1e3, "rad"),
+        "accel_x" | "accel_y" | "accel_z" => (1e4, "m/s^2"),
+        "gyro_x" | "gyro_y" | "gyro_z" => (1e3, "rad/s"),
+        "y_l" | "y_r" | "x_c" => (1e3, "m"),
+        _ => return None,
+    })
 }
 
 /// Collapses rows that repeat the previous timestamp (keeping the first) and
@@ -197,7 +258,7 @@ impl DriveLog {
         if !dir.is_dir() {
             return Err(LogError::Invalid {
                 path: dir.to_path_buf(),
-                reason: "not a log directory".into(),
+                reason: "not a log directory; give the directory that holds wheels.csv".into(),
             });
         }
         let mut log = DriveLog {
@@ -233,21 +294,22 @@ impl DriveLog {
 
 /// Reads `wheels.csv`.
 pub fn read_wheels(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<WheelSample>, LogError> {
-    let tab = read_csv_table(path)?;
+    let mut tab = read_csv_table(path)?;
     let (l, r) = (tab.require("v_left")?, tab.require("v_right")?);
-    let mut out = Vec::with_capacity(tab.rows.len());
-    for (line, t, rec) in tab.timed_rows()? {
+    let mut out = Vec::new();
+    tab.each_timed_row(|tab, line, t, rec| {
         let w = WheelSample {
             t,
             v_left: tab.req_f64(line, rec, l)?,
             v_right: tab.req_f64(line, rec, r)?,
         };
         out.push((line, w));
-    }
+        Ok(())
+    })?;
     if out.is_empty() {
         return Err(LogError::Invalid {
             path: path.to_path_buf(),
-            reason: "no data rows".into(),
+            reason: "no data rows; a drive needs at least one wheels row".into(),
         });
     }
     warnings.extend(dedup_time(&mut out, |w| w.t, path));
@@ -256,16 +318,17 @@ pub fn read_wheels(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<WheelS
 
 /// Reads `pose.csv`. Rows with no field at all are dropped with a warning.
 pub fn read_pose(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<PoseObs>, LogError> {
-    let tab = read_csv_table(path)?;
+    let mut tab = read_csv_table(path)?;
     let (e, n, y) = (
         tab.require("east")?,
         tab.require("north")?,
         tab.require("yaw")?,
     );
     let (sxy, syaw) = (tab.optional("std_xy"), tab.optional("std_yaw"));
-    let mut out = Vec::with_capacity(tab.rows.len());
+    let mut out = Vec::new();
     let mut empty = Vec::new();
-    for (line, t, rec) in tab.timed_rows()? {
+    let mut half = Vec::new();
+    tab.each_timed_row(|tab, line, t, rec| {
         let mut p = PoseObs {
             t,
             east: tab.opt_f64(line, rec, Some(e))?,
@@ -276,17 +339,32 @@ pub fn read_pose(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<PoseObs>
         };
         for (name, s) in [("std_xy", &mut p.std_xy), ("std_yaw", &mut p.std_yaw)] {
             if matches!(*s, Some(v) if v <= 0.0) {
-                return Err(tab.err(line, format!("column `{name}` must be > 0")));
+                return Err(tab.err(
+                    line,
+                    format!(
+                        "column `{name}` must be > 0; give the 1-sigma error, or leave it empty"
+                    ),
+                ));
             }
         }
         if p.east.is_some() != p.north.is_some() {
-            return Err(tab.err(line, "east and north must both be given or both be empty"));
+            // Half a position is no position; the yaw (if any) is still used.
+            half.push(line);
+            (p.east, p.north) = (None, None);
         }
         if p.east.is_none() && p.yaw.is_none() {
             empty.push(line);
-            continue;
+            return Ok(());
         }
         out.push((line, p));
+        Ok(())
+    })?;
+    if let Some(first) = half.first() {
+        warnings.push(format!(
+            "{}:{first}: {} row(s) with only one of east/north; their position was not used",
+            path.display(),
+            half.len()
+        ));
     }
     if let Some(first) = empty.first() {
         warnings.push(format!(
@@ -301,11 +379,11 @@ pub fn read_pose(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<PoseObs>
 
 /// Reads `imu.csv`.
 pub fn read_imu(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<ImuSample>, LogError> {
-    let tab = read_csv_table(path)?;
+    let mut tab = read_csv_table(path)?;
     let az = tab.require("accel_z")?;
     let cols = ["accel_x", "accel_y", "gyro_x", "gyro_y", "gyro_z"].map(|c| tab.optional(c));
-    let mut out = Vec::with_capacity(tab.rows.len());
-    for (line, t, rec) in tab.timed_rows()? {
+    let mut out = Vec::new();
+    tab.each_timed_row(|tab, line, t, rec| {
         let o = |i: usize| tab.opt_f64(line, rec, cols[i]);
         out.push((
             line,
@@ -319,57 +397,80 @@ pub fn read_imu(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<ImuSample
                 gyro_z: o(4)?,
             },
         ));
-    }
+        Ok(())
+    })?;
     warnings.extend(dedup_time(&mut out, |s| s.t, path));
     Ok(strip(out))
 }
 
 /// Reads `images.csv` (paths are not opened here).
 pub fn read_images(path: &Path) -> Result<Vec<ImageRef>, LogError> {
-    let tab = read_csv_table(path)?;
+    let mut tab = read_csv_table(path)?;
     let pc = tab.require("path")?;
     let mut out = Vec::new();
-    for (line, t, rec) in tab.timed_rows()? {
+    tab.each_timed_row(|tab, line, t, rec| {
         let p = rec.get(pc).unwrap_or("");
         if p.is_empty() {
-            return Err(tab.err(line, "column `path` is empty"));
+            return Err(tab.err(
+                line,
+                "column `path` is empty; give the image file, relative to the log directory",
+            ));
+        }
+        let rel = Path::new(p);
+        if rel.is_absolute()
+            || rel.components().any(|c| {
+                !matches!(
+                    c,
+                    std::path::Component::Normal(_) | std::path::Component::CurDir
+                )
+            })
+        {
+            return Err(tab.err(
+                line,
+                format!(
+                    "column `path`: `{p}` leaves the log directory; \
+                     give a path relative to it, without `..`"
+                ),
+            ));
         }
         out.push(ImageRef {
             t,
             path: PathBuf::from(p),
         });
-    }
+        Ok(())
+    })?;
     Ok(out)
 }
 
 /// Reads `terrain.csv`.
 pub fn read_terrain(path: &Path) -> Result<Vec<TerrainLabel>, LogError> {
-    let tab = read_csv_table(path)?;
+    let mut tab = read_csv_table(path)?;
     let c = tab.require("terrain")?;
     let mut out = Vec::new();
-    for (line, t, rec) in tab.timed_rows()? {
+    tab.each_timed_row(|tab, line, t, rec| {
         let name = rec.get(c).unwrap_or("");
         if name.is_empty() {
-            return Err(tab.err(line, "column `terrain` is empty"));
+            return Err(tab.err(line, "column `terrain` is empty; give the terrain's name"));
         }
         out.push(TerrainLabel {
             t,
             terrain: name.to_string(),
         });
-    }
+        Ok(())
+    })?;
     Ok(out)
 }
 
 /// Reads `truth.csv`.
 pub fn read_truth(path: &Path) -> Result<Vec<TruthSample>, LogError> {
-    let tab = read_csv_table(path)?;
+    let mut tab = read_csv_table(path)?;
     let cols = ["east", "north", "yaw", "y_l", "y_r", "x_c"];
     let mut idx = [0usize; 6];
     for (i, c) in cols.iter().enumerate() {
         idx[i] = tab.require(c)?;
     }
-    let mut out = Vec::with_capacity(tab.rows.len());
-    for (line, t, rec) in tab.timed_rows()? {
+    let mut out = Vec::new();
+    tab.each_timed_row(|tab, line, t, rec| {
         let mut v = [0.0; 6];
         for i in 0..6 {
             v[i] = tab.req_f64(line, rec, idx[i])?;
@@ -383,41 +484,69 @@ pub fn read_truth(path: &Path) -> Result<Vec<TruthSample>, LogError> {
             y_r: v[4],
             x_c: v[5],
         });
-    }
+        Ok(())
+    })?;
     Ok(out)
 }
 
-/// Reads `meta.toml`. Unknown keys are ignored (other tools may add their own).
+/// The keys of `meta.toml`: the robot description, then the provenance
+/// `terraslip simulate` records.
+const META_KEYS: [&str; 7] = [
+    "robot",
+    "track_width",
+    "wheel_radius",
+    "length",
+    "ticks_per_rev",
+    "scenario",
+    "seed",
+];
+
+/// Reads `meta.toml`. Unknown keys are errors that list the valid ones.
 pub fn read_meta(path: &Path) -> Result<Meta, LogError> {
     let text = std::fs::read_to_string(path).map_err(|e| LogError::io(path, e))?;
-    let meta: Meta = toml::from_str(&text).map_err(|e| {
-        let line = e
-            .span()
-            .map(|s| {
-                text.as_bytes()[..s.start.min(text.len())]
-                    .iter()
-                    .filter(|&&b| b == b'\n')
-                    .count() as u64
-                    + 1
-            })
-            .unwrap_or(1);
-        LogError::Parse {
-            path: path.to_path_buf(),
-            line,
-            reason: e.message().to_string(),
+    let line_of = |offset: usize| {
+        text.as_bytes()[..offset.min(text.len())]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count() as u64
+            + 1
+    };
+    let parse_err = |e: toml::de::Error| LogError::Parse {
+        path: path.to_path_buf(),
+        line: e.span().map(|s| line_of(s.start)).unwrap_or(1),
+        reason: format!(
+            "{}; docs/log-format.md lists the keys and their types",
+            e.message().trim().replace('\n', " ")
+        ),
+    };
+    let table: toml::Table = toml::from_str(&text).map_err(parse_err)?;
+    for key in table.keys() {
+        if !META_KEYS.contains(&key.as_str()) {
+            let line = text.find(key.as_str()).map(line_of).unwrap_or(1);
+            return Err(LogError::Parse {
+                path: path.to_path_buf(),
+                line,
+                reason: format!(
+                    "unknown key `{key}`; valid keys are {}",
+                    META_KEYS.join(", ")
+                ),
+            });
         }
-    })?;
-    for (name, v) in [
-        ("track_width", meta.track_width),
-        ("wheel_radius", meta.wheel_radius),
-        ("length", meta.length),
-        ("ticks_per_rev", meta.ticks_per_rev),
+    }
+    let meta: Meta = toml::from_str(&text).map_err(parse_err)?;
+    for (name, v, max, unit) in [
+        ("track_width", meta.track_width, 20.0, "m"),
+        ("wheel_radius", meta.wheel_radius, 5.0, "m"),
+        ("length", meta.length, 50.0, "m"),
+        ("ticks_per_rev", meta.ticks_per_rev, 1e9, "ticks"),
     ] {
         if let Some(v) = v {
-            if !(v.is_finite() && v > 0.0) {
+            if !(v.is_finite() && v > 0.0 && v <= max) {
                 return Err(LogError::Invalid {
                     path: path.to_path_buf(),
-                    reason: format!("`{name}` = {v} must be a positive number"),
+                    reason: format!(
+                        "`{name}` = {v} is outside (0, {max}] {unit}; give the robot's value in {unit}"
+                    ),
                 });
             }
         }

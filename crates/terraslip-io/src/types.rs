@@ -100,6 +100,17 @@ pub struct DriveLog {
 }
 
 impl DriveLog {
+    /// The files of a log directory (docs/log-format.md).
+    pub const FILES: [&'static str; 7] = [
+        "wheels.csv",
+        "pose.csv",
+        "imu.csv",
+        "images.csv",
+        "terrain.csv",
+        "truth.csv",
+        "meta.toml",
+    ];
+
     /// Absolute path of an image referenced from `images.csv`.
     pub fn image_path(&self, image: &ImageRef) -> PathBuf {
         if image.path.is_absolute() {
@@ -153,7 +164,7 @@ pub fn terrain_at(labels: &[TerrainLabel], t: f64) -> Option<&str> {
 /// Error reading or writing a log. Every variant names the file.
 #[derive(Debug, thiserror::Error)]
 pub enum LogError {
-    #[error("{path}: {source}")]
+    #[error("{path}: {source}; check the path and its permissions")]
     Io {
         path: PathBuf,
         #[source]
@@ -165,13 +176,15 @@ pub enum LogError {
         line: u64,
         reason: String,
     },
-    #[error("{path}: missing required column `{column}` (header has: {header})")]
+    #[error("{path}: missing required column `{column}` (header has: {header}); add it, docs/log-format.md lists each file's columns")]
     MissingColumn {
         path: PathBuf,
         column: String,
         header: String,
     },
-    #[error("{path}: required file is missing")]
+    #[error(
+        "{path}: required file is missing; a log directory needs wheels.csv (docs/log-format.md)"
+    )]
     MissingFile { path: PathBuf },
     #[error("{path}: {reason}")]
     Invalid { path: PathBuf, reason: String },

@@ -261,14 +261,18 @@ fn camera_frames(log: &DriveLog, cfg: &VisionConfig) -> Result<Vec<(f64, Vec<f64
     let mut out = Vec::with_capacity(log.images.len());
     let mut prev: Option<Vec<f64>> = None;
     for im in &log.images {
-        let img = vision::load_frame(&log.image_path(im))?;
+        let path = log.image_path(im);
+        let img = vision::load_frame(&path)?;
         let roi = cfg.roi.as_ref().and_then(|r| {
             let i = log.wheels.partition_point(|w| w.t <= im.t);
             let w = log.wheels.get(i.saturating_sub(1))?;
             r.region(&icr.twist(w.v_left, w.v_right))
         });
         let mut f = Vec::new();
-        vision::frame_features(&img, cfg, roi, &mut f)?;
+        vision::frame_features(&img, cfg, roi, &mut f).map_err(|e| match e {
+            TerrainError::Data(reason) => TerrainError::Image { path, reason },
+            e => e,
+        })?;
         let sim = vision::similarity_vector(&img, cfg.hist_bins);
         let phi = vision::similarity_change(prev.as_deref(), &sim);
         prev = Some(sim);
@@ -577,7 +581,9 @@ impl TerrainModel {
         }
         let model: Self =
             serde_json::from_value(value).map_err(|e| err(format!("bad terrain model: {e}")))?;
-        model.validate().map_err(err)?;
+        model
+            .validate()
+            .map_err(|e| err(format!("{e}; retrain it with `terraslip terrain train`")))?;
         Ok(model)
     }
 
@@ -608,6 +614,7 @@ impl TerrainModel {
         if !(2..=MAX_TERRAINS).contains(&k) {
             return Err(format!("{k} classes; a model needs 2..={MAX_TERRAINS}"));
         }
+        check_class_names(&self.classes)?;
         let d = self.feature_names.len();
         if self.normalisation.mean.len() != d || self.normalisation.std.len() != d {
             return Err("normalisation does not match the feature list".into());
@@ -645,22 +652,10 @@ impl TerrainModel {
         {
             return Err("normalisation has a non-positive scale".into());
         }
-        let probs_ok = |probs: &Vec<f64>| probs.len() == k;
-        let ok = match &self.classifier {
-            Classifier::Tree(t) => t.nodes.iter().all(|n| probs_ok(&n.probs)),
-            Classifier::Forest(f) => f
-                .trees
-                .iter()
-                .flat_map(|t| &t.nodes)
-                .all(|n| probs_ok(&n.probs)),
-            Classifier::Knn(knn) => {
-                knn.y.iter().all(|&c| c < k) && knn.x.iter().all(|r| r.len() == d)
-            }
-        };
-        if !ok {
-            return Err("classifier does not match the classes or features".into());
+        if self.normalisation.mean.iter().any(|m| !m.is_finite()) {
+            return Err("normalisation has a non-finite mean".into());
         }
-        Ok(())
+        check_classifier(&self.classifier, k, d)
     }
 }
 
@@ -679,5 +674,86 @@ fn change_threshold_from(same: &[f64], change: &[f64]) -> f64 {
         (p99 * lo_change).sqrt()
     } else {
         2.0 * p99
+    }
+}
+
+/// Class names must be distinct and non-empty.
+fn check_class_names(classes: &[String]) -> std::result::Result<(), String> {
+    for (i, c) in classes.iter().enumerate() {
+        if c.trim().is_empty() {
+            return Err(format!("classes[{i}] is empty; every class needs a name"));
+        }
+        if let Some(j) = classes[..i].iter().position(|o| o == c) {
+            return Err(format!(
+                "classes[{j}] and classes[{i}] are both `{c}`; each class must appear once"
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The classifier must fit `k` classes and `d` features: no empty tree,
+/// forest or neighbour set, child links that point forward inside the
+/// tree, split features that exist, and probabilities in [0, 1] summing to 1.
+fn check_classifier(c: &Classifier, k: usize, d: usize) -> std::result::Result<(), String> {
+    let tree = |name: &str, t: &crate::classify::DecisionTree| {
+        if t.nodes.is_empty() {
+            return Err(format!("classifier: {name} has no nodes"));
+        }
+        for (i, n) in t.nodes.iter().enumerate() {
+            let at = format!("classifier: {name} node {i}");
+            if n.probs.len() != k {
+                return Err(format!(
+                    "{at}: {} probabilities for {k} classes",
+                    n.probs.len()
+                ));
+            }
+            if n.probs.iter().any(|p| !(0.0..=1.0).contains(p)) {
+                return Err(format!("{at}: a probability is outside [0, 1]"));
+            }
+            if (n.probs.iter().sum::<f64>() - 1.0).abs() > 1e-3 {
+                return Err(format!("{at}: probabilities do not sum to 1"));
+            }
+            if n.left != 0 {
+                let len = t.nodes.len();
+                let forward = |c: u32| (c as usize) > i && (c as usize) < len;
+                if !(forward(n.left) && forward(n.right)) {
+                    return Err(format!(
+                        "{at}: child links {}/{} are not later nodes",
+                        n.left, n.right
+                    ));
+                }
+                if n.feature as usize >= d {
+                    return Err(format!("{at}: feature {} of only {d}", n.feature));
+                }
+            }
+        }
+        Ok(())
+    };
+    match c {
+        Classifier::Tree(t) => tree("tree", t),
+        Classifier::Forest(f) => {
+            if f.trees.is_empty() {
+                return Err("classifier: the forest has no trees".into());
+            }
+            f.trees
+                .iter()
+                .enumerate()
+                .try_for_each(|(i, t)| tree(&format!("tree {i}"), t))
+        }
+        Classifier::Knn(knn) => {
+            if knn.x.is_empty() || knn.x.len() != knn.y.len() || knn.k == 0 {
+                return Err("classifier: k-NN needs k >= 1 and one class per stored sample".into());
+            }
+            if !knn.y.iter().all(|&c| c < k)
+                || !knn
+                    .x
+                    .iter()
+                    .all(|r| r.len() == d && r.iter().all(|v| v.is_finite()))
+            {
+                return Err("classifier: k-NN samples do not match the classes or features".into());
+            }
+            Ok(())
+        }
     }
 }

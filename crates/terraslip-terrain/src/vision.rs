@@ -596,7 +596,7 @@ pub fn frame_features(
     let (w, h) = (img.width() as usize, img.height() as usize);
     if w < 3 || h < 3 {
         return Err(TerrainError::Data(format!(
-            "image of {w}x{h} pixels is too small"
+            "image of {w}x{h} pixels is too small; frames need at least 3x3 pixels"
         )));
     }
     let g = grey(img);

@@ -78,7 +78,18 @@ pub fn calibrate(
             },
         };
         let o = match cfg.time_offset {
-            TimeOffset::Auto { max, .. } => refine_offset(log, &ocfg, o, max, cfg.yaw_weight),
+            TimeOffset::Auto { max, step } => {
+                let o = refine_offset(log, &ocfg, o, max, cfg.yaw_weight);
+                if o.abs() >= max - 0.5 * step {
+                    warnings.push(format!(
+                        "{}: the time offset {o:+.3} s is at the edge of its search range \
+                         (±{max} s), so the true offset may lie beyond it; check the two \
+                         clocks, or give it with --time-offset SECONDS",
+                        log.dir.display()
+                    ));
+                }
+                o
+            }
             TimeOffset::Fixed(_) => o,
         };
         offsets.push(o);

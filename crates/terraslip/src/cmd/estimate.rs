@@ -162,6 +162,14 @@ pub fn run(args: Args) -> Result<()> {
     } else {
         super::bag::read_with(log_dir, super::read_log)
     }?;
+    let inputs: Vec<&Path> = [&args.init, &args.config, &args.terrain_model]
+        .into_iter()
+        .flatten()
+        .map(|p| p.as_path())
+        .collect();
+    for name in OUTPUTS {
+        super::refuse_overwrite(&out.join(name), &inputs, &[log_dir])?;
+    }
     let init = match &args.init {
         Some(p) => Some(ParamsFile::read(p).with_context(|| "--init")?),
         None => None,
@@ -203,6 +211,10 @@ pub fn run(args: Args) -> Result<()> {
         (TerrainEvidence::None, "none".to_string())
     };
 
+    // Held from here until both files are in place: a second run into the
+    // same directory is told so instead of mixing its files with ours.
+    let lock = terraslip_io::DirLock::acquire(out)?;
+    lock.remove_stale_temps(&OUTPUTS);
     let bar = progress(log.wheels.len());
     let opts = RunOptions {
         outage: args.outage,
@@ -218,10 +230,10 @@ pub fn run(args: Args) -> Result<()> {
     bar.finish();
     let est = result?;
 
-    std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
     let mut summary = summary_json(&log, &est, &cfg);
     summary["terrain_evidence"] = serde_json::Value::String(evidence_name);
     write_outputs(out, &est, &summary)?;
+    drop(lock);
     #[cfg(feature = "ros2")]
     if let Some(p) = &args.mcap {
         super::ros2out::write_mcap(p, log_dir, &log, &est)?;
@@ -316,10 +328,16 @@ fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) -> ser
 /// CSV header of estimate.csv: log-format.md's columns, then extras.
 pub const HEADER: &str = "t,east,north,yaw,y_l,y_r,x_c,std_east,std_north,std_yaw,std_y_l,std_y_r,std_x_c,terrain,alpha_l,alpha_r,std_alpha_l,std_alpha_r,std_spread,fused,gated,nis,q_scale,change,clock_offset";
 
-/// Writes both files; neither appears unless both are complete.
+/// The files `estimate` writes into its output directory.
+const OUTPUTS: [&str; 2] = ["estimate.csv", "summary.json"];
+
+/// Writes both files as a pair (the caller holds the directory's lock):
+/// neither appears unless both are complete, and summary.json is removed
+/// first and renamed into place last, so a summary.json always describes
+/// the estimate.csv beside it.
 fn write_outputs(out: &Path, est: &EstimateRun, summary: &serde_json::Value) -> Result<()> {
-    let csv_path = out.join("estimate.csv");
-    let json_path = out.join("summary.json");
+    let csv_path = out.join(OUTPUTS[0]);
+    let json_path = out.join(OUTPUTS[1]);
     let mut csv = AtomicFile::create(&csv_path)?;
     let mut buf = String::with_capacity(1 << 16);
     buf.push_str(HEADER);
@@ -374,6 +392,12 @@ fn write_outputs(out: &Path, est: &EstimateRun, summary: &serde_json::Value) -> 
     let mut js = AtomicFile::create(&json_path)?;
     js.write_all(serde_json::to_string_pretty(summary)?.as_bytes())
         .with_context(|| format!("{}: write failed", json_path.display()))?;
+    match std::fs::remove_file(&json_path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+            return Err(e).with_context(|| format!("{}: cannot replace", json_path.display()));
+        }
+        _ => {}
+    }
     csv.commit()?;
     js.commit()?;
     Ok(())

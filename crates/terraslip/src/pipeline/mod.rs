@@ -196,13 +196,13 @@ impl EstimateRun {
 /// Why a run failed.
 #[derive(Debug, thiserror::Error)]
 pub enum PipelineError {
-    #[error("{dir}: wheels.csv has no rows")]
+    #[error("{dir}: wheels.csv has no rows; a drive needs at least one")]
     NoWheels { dir: String },
     #[error("invalid configuration: {0}")]
     Config(String),
     #[error("initial parameters: {0}")]
     Init(String),
-    #[error("{dir}: wheels.csv row at t = {t}: {source}")]
+    #[error("{dir}: the estimator failed at t = {t} s: {source}; check that row of wheels.csv and pose.csv, meta.toml's sizes and any --init or --config")]
     Filter {
         dir: String,
         t: f64,

@@ -1,7 +1,7 @@
 //! `terraslip calibrate`: offline identification of the ICR kinematic
 //! parameters, and `terraslip calibrate validate`: scoring them on other drives.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
 use serde::Serialize;
@@ -347,6 +347,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         return Ok(());
     }
     let out = args.out.clone().context("--out PARAMS is required")?;
+    let logs: Vec<&Path> = args.logs.iter().map(|p| p.as_path()).collect();
+    super::refuse_overwrite(&out, &[], &logs)?;
     let logs = read_logs(&args.logs)?;
     let bar = progress::Progress::new(0, "generations");
     let cal = calibrate(&logs, &cfg, &|p| match p {

@@ -119,6 +119,8 @@ pub(super) fn run(a: ValidateArgs) -> anyhow::Result<()> {
         );
     }
     if let Some(path) = &a.plot {
+        let logs: Vec<&Path> = a.logs.iter().map(|p| p.as_path()).collect();
+        super::super::refuse_overwrite(path, &[&a.params], &logs)?;
         plot_validation(&v, path)?;
         eprintln!("wrote {}", path.display());
     }

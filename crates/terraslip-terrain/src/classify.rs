@@ -4,6 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
+pub use crate::boost::{BoostParams, BoostedTrees};
 use crate::error::{Result, TerrainError};
 
 /// Feature scaling to zero mean, unit variance, learnt on training data.
@@ -418,6 +419,8 @@ pub enum ClassifierKind {
     Knn,
     /// Random forest of Gini trees over random feature subsets.
     Forest,
+    /// Gradient-boosted trees (softmax loss).
+    Boost,
 }
 
 /// Training settings for every kind.
@@ -428,6 +431,8 @@ pub struct ClassifierParams {
     pub tree: TreeParams,
     pub knn_k: usize,
     pub forest: ForestParams,
+    #[serde(default)]
+    pub boost: BoostParams,
 }
 
 impl Default for ClassifierParams {
@@ -437,6 +442,7 @@ impl Default for ClassifierParams {
             tree: TreeParams::default(),
             knn_k: 5,
             forest: ForestParams::default(),
+            boost: BoostParams::default(),
         }
     }
 }
@@ -448,6 +454,7 @@ pub enum Classifier {
     Tree(DecisionTree),
     Knn(Knn),
     Forest(RandomForest),
+    Boost(BoostedTrees),
 }
 
 /// Fewest training samples a class must have.
@@ -477,6 +484,21 @@ impl Classifier {
                 }
                 Self::Forest(RandomForest::fit(x, y, k, &p.forest))
             }
+            ClassifierKind::Boost => {
+                let b = &p.boost;
+                if b.rounds == 0
+                    || !(b.learning_rate > 0.0 && b.learning_rate.is_finite())
+                    || !(b.subsample > 0.0 && b.subsample <= 1.0)
+                    || !(b.colsample > 0.0 && b.colsample <= 1.0)
+                    || !(b.lambda >= 0.0 && b.lambda.is_finite())
+                {
+                    return Err(TerrainError::Config(format!(
+                        "boosted trees need rounds >= 1, learning rate > 0, \
+                         subsample and colsample in (0, 1], lambda >= 0; got {b:?}"
+                    )));
+                }
+                Self::Boost(BoostedTrees::fit(x, y, k, b))
+            }
         })
     }
 
@@ -492,6 +514,7 @@ impl Classifier {
                 }
             }
             Self::Knn(knn) => knn.proba(x, out),
+            Self::Boost(b) => b.proba(x, out),
             Self::Forest(f) => {
                 let w = 1.0 / f.trees.len().max(1) as f64;
                 for t in &f.trees {

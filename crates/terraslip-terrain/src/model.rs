@@ -12,15 +12,17 @@ use terraslip_io::DriveLog;
 use crate::classify::{Classifier, ClassifierParams, Standardizer};
 use crate::error::{Result, TerrainError};
 use crate::speed_norm::SpeedNormalisation;
-use crate::vibration::{self, VibrationConfig};
+use crate::vibration::{self, ChannelSet, VibrationConfig, VibrationFeatureSet};
 use crate::vision::{self, VisionConfig};
 
 /// Version of the model file format; a file of another version is refused.
 /// 2: the `full` vibration set gained the steering-efficiency (slip) and
 /// manoeuvre features. 3: the vibration settings gained the spatial bands
 /// (`spatial_bands`, grid, scaling). 4: the learnt speed normalisation
-/// (`speed_norm` settings, `speed_normalisation` slopes).
-pub const MODEL_FORMAT_VERSION: u32 = 4;
+/// (`speed_norm` settings, `speed_normalisation` slopes). 5: the vibration
+/// settings record the motor-current channels (`currents`); the spatial
+/// bands are gone.
+pub const MODEL_FORMAT_VERSION: u32 = 5;
 
 /// The sensor a model reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -100,6 +102,16 @@ pub struct TrainOptions {
     pub vision: VisionConfig,
     pub classifier: ClassifierParams,
     pub belief: BeliefSettings,
+    /// IMU channels of the `full` set; `None`: all six when every training
+    /// log has them, else `accel_z` (overrides `vibration.channels`).
+    pub imu_channels: Option<ChannelSet>,
+    /// Motor-current features of the `full` set; `None`: when every
+    /// training log has currents (overrides `vibration.currents`).
+    pub currents: Option<bool>,
+    /// Speed floor of the speed normalisation, m/s; `None`: chosen by inner
+    /// cross-validation over the training runs (overrides
+    /// `vibration.speed_norm_min`).
+    pub speed_floor: Option<f64>,
 }
 
 impl Default for TrainOptions {
@@ -110,6 +122,9 @@ impl Default for TrainOptions {
             vision: VisionConfig::default(),
             classifier: ClassifierParams::default(),
             belief: BeliefSettings::default(),
+            imu_channels: None,
+            currents: None,
+            speed_floor: None,
         }
     }
 }
@@ -387,8 +402,20 @@ impl TerrainModel {
                         sensor: "imu",
                         reason: "no training log has IMU data".into(),
                     })?;
+                let mut config = opts.vibration.clone();
+                if config.feature_set == VibrationFeatureSet::Full {
+                    crate::select::channels_from_logs(
+                        logs,
+                        &mut config,
+                        opts.imu_channels,
+                        opts.currents,
+                    )?;
+                }
+                if let Some(v) = opts.speed_floor {
+                    config.speed_norm_min = v;
+                }
                 Features::Vibration {
-                    config: opts.vibration.clone(),
+                    config,
                     rate_hz: first,
                 }
             }
@@ -399,10 +426,18 @@ impl TerrainModel {
         };
         let mut x = Vec::new();
         let mut y = Vec::new();
+        let mut run = Vec::new();
+        let mut run_class = Vec::new();
         let mut phi_same = Vec::new();
         let mut phi_change = Vec::new();
-        for log in logs {
+        for (r, log) in logs.iter().enumerate() {
             let samples = labelled(log, &features, classes)?;
+            run_class.push(
+                log.terrain
+                    .first()
+                    .and_then(|l| classes.iter().position(|c| *c == l.terrain))
+                    .unwrap_or(0),
+            );
             // A label change at frame i may show in the image only at frame
             // i + 1 (the camera looks ahead, the label is where the body
             // is): score a change by the larger φ of the two, and keep
@@ -424,6 +459,7 @@ impl TerrainModel {
             for s in samples {
                 x.push(s.x);
                 y.push(s.y);
+                run.push(r);
             }
         }
         if x.is_empty() {
@@ -451,6 +487,22 @@ impl TerrainModel {
         } = &mut features
         {
             *change_threshold = change_threshold_from(&phi_same, &phi_change);
+        }
+        if let Features::Vibration { config, .. } = &mut features {
+            if config.speed_norm && opts.speed_floor.is_none() {
+                if let Some(v) = crate::select::choose_speed_floor(
+                    &x,
+                    &y,
+                    &run,
+                    &run_class,
+                    classes.len(),
+                    &config.feature_names(),
+                    config,
+                    &opts.classifier,
+                ) {
+                    config.speed_norm_min = v;
+                }
+            }
         }
         let speed_normalisation = match &features {
             Features::Vibration { config, .. } if config.speed_norm => {
@@ -490,6 +542,27 @@ impl TerrainModel {
                 samples_per_class,
             },
         })
+    }
+
+    /// What the model reads from a log, for messages: e.g. `imu.csv (all
+    /// six channels), wheels.csv tread speeds and motor currents`.
+    pub fn channels_description(&self) -> String {
+        match &self.features {
+            Features::Vision { .. } => "images.csv frames".into(),
+            Features::Vibration { config, .. } => {
+                match (config.feature_set, config.channels, config.currents) {
+                    (VibrationFeatureSet::Paper, ..) => "imu.csv accel_z".into(),
+                    (_, c, cur) => format!(
+                        "imu.csv ({}), wheels.csv tread speeds{}",
+                        match c {
+                            ChannelSet::All => "all six channels",
+                            ChannelSet::AccelZ => "accel_z",
+                        },
+                        if cur { " and motor currents" } else { "" }
+                    ),
+                }
+            }
+        }
     }
 
     /// Length of the span of data behind one output, s: the IMU window, 0
@@ -656,6 +729,7 @@ impl TerrainModel {
             Classifier::Knn(knn) => {
                 knn.y.iter().all(|&c| c < k) && knn.x.iter().all(|r| r.len() == d)
             }
+            Classifier::Boost(b) => b.is_consistent(k, d),
         };
         if !ok {
             return Err("classifier does not match the classes or features".into());

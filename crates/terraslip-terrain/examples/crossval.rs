@@ -1,6 +1,6 @@
 //! Leave-runs-out cross-validation on a directory of labelled runs.
 //!
-//! `cargo run -p terraslip-terrain --release --example crossval -- DIR [tree|knn|forest] [paper|full] [folds]`
+//! `cargo run -p terraslip-terrain --release --example crossval -- DIR [tree|knn|boost] [paper|full] [folds]`
 //!
 //! Learnt speed normalisation (`VibrationConfig::speed_norm`, default on):
 //! `TS_SPEEDNORM=0` turns the speed normalisation off; `TS_VREF`, `TS_VMIN`
@@ -62,7 +62,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let dir = args
         .get(1)
-        .ok_or("usage: crossval DIR [tree|knn|forest|boost] [paper|full] [folds]")?;
+        .ok_or("usage: crossval DIR [tree|knn|boost] [paper|full] [folds]")?;
     let mut entries: Vec<_> = std::fs::read_dir(dir)?
         .filter_map(|e| e.ok())
         .map(|e| e.path())
@@ -76,14 +76,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     opts.classifier.kind = match args.get(2).map(String::as_str) {
         Some("tree") => ClassifierKind::Tree,
         Some("knn") => ClassifierKind::Knn,
-        Some("boost") => ClassifierKind::Boost,
-        _ => ClassifierKind::Forest,
+        _ => ClassifierKind::Boost,
     };
     if args.get(3).map(String::as_str) == Some("paper") {
         opts.vibration = VibrationConfig::paper();
     }
-    // Quick experiments: TS_WINDOW, TS_BANDS, TS_TREES, TS_MAXF, TS_SEED (forest),
-    // TS_SLIP=0 (format-1 features), TS_MINLEAF, TS_DEPTH, TS_CHANNELS=z.
+    // Quick experiments: TS_WINDOW, TS_BANDS, TS_SEED (boosted trees),
+    // TS_SLIP=0 (format-1 features), TS_CHANNELS=z.
     let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
     if let Some(w) = env("TS_WINDOW") {
         opts.vibration.window_s = w;
@@ -91,17 +90,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(b) = env("TS_BANDS") {
         opts.vibration.bands = b as usize;
     }
-    if let Some(t) = env("TS_TREES") {
-        opts.classifier.forest.n_trees = t as usize;
-    }
-    if let Some(m) = env("TS_MAXF") {
-        opts.classifier.forest.tree.max_features = Some(m as usize);
-    }
     if env("TS_SLIP") == Some(0.0) {
         opts.vibration.slip = false;
     }
     if let Some(m) = env("TS_SEED") {
-        opts.classifier.forest.seed = m as u64;
         opts.classifier.boost.seed = m as u64;
     }
     // Boosted trees: TS_ROUNDS, TS_LR, TS_BDEPTH, TS_COLS.
@@ -116,12 +108,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if let Some(v) = env("TS_COLS") {
         opts.classifier.boost.colsample = v;
-    }
-    if let Some(m) = env("TS_MINLEAF") {
-        opts.classifier.forest.tree.min_samples_leaf = m as usize;
-    }
-    if let Some(m) = env("TS_DEPTH") {
-        opts.classifier.forest.tree.max_depth = m as usize;
     }
     // Learnt speed normalisation (default on): TS_SPEEDNORM=0 turns it off;
     // TS_VREF / TS_VMIN (m/s).

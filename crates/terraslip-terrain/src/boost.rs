@@ -14,7 +14,8 @@ pub struct BoostParams {
     pub rounds: usize,
     pub learning_rate: f64,
     pub max_depth: usize,
-    /// Fewest training rows in a leaf.
+    /// Fewest training rows in a leaf (fewer on small training sets:
+    /// at most a tenth of the rows per class, at least 2).
     pub min_samples_leaf: usize,
     /// L2 weight on the leaf values.
     pub lambda: f64,
@@ -204,7 +205,14 @@ impl BoostedTrees {
         let n = x.len();
         let d = x.first().map_or(0, |r| r.len());
         let bins = p.bins.clamp(2, 256);
-        let p = &BoostParams { bins, ..p.clone() };
+        // Small training sets (a few dozen camera frames) get smaller
+        // leaves: about a tenth of a class's share of the rows, at least 2.
+        let min_samples_leaf = p.min_samples_leaf.min((n / (10 * k.max(1))).max(2));
+        let p = &BoostParams {
+            bins,
+            min_samples_leaf,
+            ..p.clone()
+        };
         let mut cuts = Vec::with_capacity(d);
         let mut binned = Vec::with_capacity(d);
         for f in 0..d {

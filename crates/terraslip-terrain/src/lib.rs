@@ -6,7 +6,7 @@
 //! - [`vision`]: ground-camera features: RGB histograms + uniform LBP and the
 //!   frame-to-frame change detector (lv2019), SFTA and the region of
 //!   interest predicted from the kinematic model (chen2023).
-//! - [`classify`]: pruned decision tree, k-nearest neighbours, random forest;
+//! - [`classify`]: pruned decision tree, k-nearest neighbours;
 //!   [`boost`]: gradient-boosted trees.
 //! - [`model`]: the serialisable [`TerrainModel`] and
 //!   [`TerrainModel::classify_log`], the call the estimator pipeline makes.

@@ -721,11 +721,6 @@ impl TerrainModel {
         let probs_ok = |probs: &Vec<f64>| probs.len() == k;
         let ok = match &self.classifier {
             Classifier::Tree(t) => t.nodes.iter().all(|n| probs_ok(&n.probs)),
-            Classifier::Forest(f) => f
-                .trees
-                .iter()
-                .flat_map(|t| &t.nodes)
-                .all(|n| probs_ok(&n.probs)),
             Classifier::Knn(knn) => {
                 knn.y.iter().all(|&c| c < k) && knn.x.iter().all(|r| r.len() == d)
             }

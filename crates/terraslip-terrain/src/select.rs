@@ -78,15 +78,13 @@ pub fn channels_from_logs(
 /// Inner folds of the speed-floor choice (over whole training runs).
 pub const INNER_FOLDS: usize = 3;
 
-/// The classifier of the inner cross-validation: the forest with fewer
-/// trees, the boosted trees with fewer rounds (the choice needs the
-/// ranking of a few floors, not the final accuracy), other kinds as given.
+/// The classifier of the inner cross-validation: the boosted trees with
+/// fewer rounds (the choice needs the ranking of a few floors, not the
+/// final accuracy), other kinds as given.
 fn inner_params(p: &ClassifierParams) -> ClassifierParams {
     let mut q = p.clone();
-    match q.kind {
-        ClassifierKind::Forest => q.forest.n_trees = q.forest.n_trees.min(60),
-        ClassifierKind::Boost => q.boost.rounds = q.boost.rounds.min(50),
-        _ => {}
+    if q.kind == ClassifierKind::Boost {
+        q.boost.rounds = q.boost.rounds.min(50);
     }
     q
 }

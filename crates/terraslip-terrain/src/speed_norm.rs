@@ -2,14 +2,14 @@
 //!
 //! Within one terrain the vibration energy grows with the tread speed
 //! (about v¹ for the Husky's temporal band powers, see
-//! docs/research-log.md). A forest sees the speed as a feature but can
+//! docs/research-log.md). A tree ensemble sees the speed as a feature but can
 //! only split on speeds it was trained at: a run faster than every training
 //! run of its terrain looks like a rougher terrain. Here each amplitude-like
 //! feature (log variance, log band powers, log σ per speed) gets one slope
 //! on ln v, fitted on the training windows *within* terrains (a regression
 //! with one intercept per class and one slope shared by all classes), and
 //! the classifier is fed `x − slope · ln(v / v_ref)`: the feature as it
-//! would read at `v_ref`, a linear extrapolation in ln v that a forest
+//! would read at `v_ref`, a linear extrapolation in ln v that trees
 //! cannot do by itself.
 
 use serde::{Deserialize, Serialize};

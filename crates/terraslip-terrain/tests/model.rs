@@ -17,7 +17,7 @@ fn imu_runs(seed: u64) -> Vec<DriveLog> {
 fn fast_opts() -> TrainOptions {
     let mut o = TrainOptions::default();
     o.vibration.window_s = 1.0;
-    o.classifier.forest.n_trees = 15;
+    o.classifier.boost.rounds = 40;
     o
 }
 
@@ -61,7 +61,7 @@ fn every_classifier_kind_trains_and_round_trips_through_json() {
     for kind in [
         ClassifierKind::Tree,
         ClassifierKind::Knn,
-        ClassifierKind::Forest,
+        ClassifierKind::Boost,
     ] {
         let mut o = fast_opts();
         o.classifier.kind = kind;

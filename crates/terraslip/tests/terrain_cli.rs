@@ -27,7 +27,7 @@ fn terraslip() -> Command {
 }
 
 /// Trains a small model on `runs` (1 s windows) into `model`.
-fn train_model(runs: &[String], model: &Path, trees: &str) {
+fn train_model(runs: &[String], model: &Path, rounds: &str) {
     terraslip()
         .args(["terrain", "train"])
         .args(runs)
@@ -36,8 +36,8 @@ fn train_model(runs: &[String], model: &Path, trees: &str) {
             model.to_str().unwrap(),
             "--window",
             "1",
-            "--trees",
-            trees,
+            "--rounds",
+            rounds,
         ])
         .assert()
         .success();
@@ -49,7 +49,7 @@ fn train_then_eval_json_has_the_contract_fields_and_draws_plots() {
     let dir = tempfile::tempdir().unwrap();
     let runs = write_runs(dir.path());
     let model = dir.path().join("model.json");
-    train_model(&runs[..3], &model, "10");
+    train_model(&runs[..3], &model, "40");
     // A spliced test log: asphalt -> soil -> grass.
     let test = dir.path().join("test");
     vibration_log(&NAMES, &[(0, 20.0), (2, 20.0), (1, 20.0)], 99, 0.0)
@@ -127,7 +127,7 @@ fn crossval_reports_leave_runs_out_accuracy() {
     let out = terraslip()
         .args(["terrain", "crossval"])
         .args(&runs)
-        .args(["--folds", "2", "--window", "1", "--trees", "10", "--json"])
+        .args(["--folds", "2", "--window", "1", "--rounds", "40", "--json"])
         .output()
         .unwrap();
     assert!(
@@ -182,7 +182,7 @@ fn bad_input_is_one_line_and_non_zero() {
     let dir = tempfile::tempdir().unwrap();
     let runs = write_runs(dir.path());
     let model = dir.path().join("model.json");
-    train_model(&runs[..3], &model, "5");
+    train_model(&runs[..3], &model, "40");
     let plots = dir.path().join("plots");
 
     // Model of another format version.
@@ -286,7 +286,7 @@ fn eval_that_scores_no_window_fails_and_says_why() {
     let dir = tempfile::tempdir().unwrap();
     let runs = write_runs(dir.path());
     let model = dir.path().join("model.json");
-    train_model(&runs[..3], &model, "5");
+    train_model(&runs[..3], &model, "40");
     // Half a second of data for a model of 1 s windows.
     let short = dir.path().join("short");
     vibration_log(&NAMES, &[(0, 0.5)], 3, 0.0)
@@ -308,7 +308,7 @@ fn crossval_refuses_a_run_given_twice_and_fewer_than_two_folds() {
     fails_with(
         terraslip()
             .args(["terrain", "crossval", &runs[0], &runs[1], &runs[2], &again])
-            .args(["--window", "1", "--trees", "5"]),
+            .args(["--window", "1", "--rounds", "40"]),
         "given twice",
     );
     for folds in ["0", "1"] {
@@ -335,7 +335,7 @@ fn crossval_prints_progress_lines_when_stderr_is_not_a_terminal() {
         .env("TERRASLIP_PROGRESS_SECS", "0")
         .args(["terrain", "crossval"])
         .args(&runs)
-        .args(["--folds", "2", "--window", "1", "--trees", "5"])
+        .args(["--folds", "2", "--window", "1", "--rounds", "40"])
         .output()
         .unwrap();
     assert!(out.status.success());
@@ -358,7 +358,7 @@ fn train_stderr(runs: &[String], model: &Path) -> String {
         .args(runs)
         .arg("--out")
         .arg(model)
-        .args(["--window", "1", "--trees", "5"])
+        .args(["--window", "1", "--rounds", "40"])
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr).into_owned();
@@ -440,7 +440,7 @@ fn train_reads_the_channels_every_log_has_and_names_what_is_missing() {
             "--no-currents",
             "--window",
             "1",
-            "--trees",
+            "--rounds",
             "5",
         ])
         .args(["--out", dir.path().join("x.json").to_str().unwrap()])

@@ -1,6 +1,7 @@
 //! Terrain evidence from sensors (issue 4).
 //!
-//! - [`vibration`]: IMU window features (wang2018 + spectral and speed terms).
+//! - [`vibration`]: IMU window features (wang2018 + spectral and speed
+//!   terms); [`windows`]: a log cut into windows.
 //! - [`motion`]: tread speeds and slip terms of a window; [`current`]:
 //!   drive-motor current features.
 //! - [`vision`]: ground-camera features: RGB histograms + uniform LBP and the
@@ -8,6 +9,7 @@
 //!   interest predicted from the kinematic model (chen2023).
 //! - [`classify`]: pruned decision tree, k-nearest neighbours;
 //!   [`boost`]: gradient-boosted trees.
+//! - [`select`]: channels and the speed floor chosen from the training logs.
 //! - [`model`]: the serialisable [`TerrainModel`] and
 //!   [`TerrainModel::classify_log`], the call the estimator pipeline makes.
 //! - [`eval`]: confusion matrices, scored and spliced logs; [`crossval`]:
@@ -26,12 +28,15 @@ pub mod current;
 pub mod error;
 pub mod eval;
 pub mod model;
+mod model_file;
 pub mod motion;
+mod samples;
 pub mod select;
 pub mod speed_norm;
 pub mod synth;
 pub mod vibration;
 pub mod vision;
+pub mod windows;
 
 pub use classify::{Classifier, ClassifierKind, ClassifierParams};
 pub use crossval::{crossval, run_folds, CrossvalReport, RunScore};

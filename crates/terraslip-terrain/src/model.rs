@@ -2,18 +2,17 @@
 //! how it scales them, the trained classifier and the filter settings; and
 //! the call the estimator pipeline makes, [`TerrainModel::classify_log`].
 
-use std::path::Path;
-
 use serde::{Deserialize, Serialize};
 use terraslip_core::terrain_belief::{BeliefConfig, TerrainBelief, MAX_TERRAINS};
-use terraslip_core::IcrParams;
 use terraslip_io::DriveLog;
 
 use crate::classify::{Classifier, ClassifierParams, Standardizer};
 use crate::error::{Result, TerrainError};
+pub use crate::samples::extract;
+use crate::samples::labelled;
 use crate::speed_norm::SpeedNormalisation;
 use crate::vibration::{self, ChannelSet, VibrationConfig, VibrationFeatureSet};
-use crate::vision::{self, VisionConfig};
+use crate::vision::VisionConfig;
 
 /// Version of the model file format; a file of another version is refused.
 /// 2: the `full` vibration set gained the steering-efficiency (slip) and
@@ -238,100 +237,6 @@ pub(crate) fn argmax(p: &[f64]) -> usize {
         }
     }
     best
-}
-
-/// Per-frame features of a log for `features`: `(t, feature vector)`, and
-/// the lv2019 similarity change `φ_t` of each frame (0 for IMU windows).
-pub fn extract(log: &DriveLog, features: &Features) -> Result<Vec<(f64, Vec<f64>, f64)>> {
-    match features {
-        Features::Vibration { config, rate_hz } => {
-            let (rate, windows) = vibration::log_windows(log, config)?;
-            if *rate_hz > 0.0 && (rate / rate_hz - 1.0).abs() > 0.1 {
-                return Err(TerrainError::MissingSource {
-                    log: log.name(),
-                    sensor: "imu",
-                    reason: format!("imu.csv is sampled at {rate:.1} Hz but the model was trained at {rate_hz:.1} Hz"),
-                });
-            }
-            Ok(windows.into_iter().map(|(t, f)| (t, f, 0.0)).collect())
-        }
-        Features::Vision { config, .. } => camera_frames(log, config),
-    }
-}
-
-fn camera_frames(log: &DriveLog, cfg: &VisionConfig) -> Result<Vec<(f64, Vec<f64>, f64)>> {
-    if log.images.is_empty() {
-        return Err(TerrainError::MissingSource {
-            log: log.name(),
-            sensor: "camera",
-            reason: "images.csv is missing or empty".into(),
-        });
-    }
-    let icr = IcrParams::no_slip(
-        log.meta
-            .track_width
-            .or(cfg.roi.as_ref().map(|r| r.width))
-            .unwrap_or(0.5),
-    );
-    let mut out = Vec::with_capacity(log.images.len());
-    let mut prev: Option<Vec<f64>> = None;
-    for im in &log.images {
-        let img = vision::load_frame(&log.image_path(im))?;
-        let roi = cfg.roi.as_ref().and_then(|r| {
-            let i = log.wheels.partition_point(|w| w.t <= im.t);
-            let w = log.wheels.get(i.saturating_sub(1))?;
-            r.region(&icr.twist(w.v_left, w.v_right))
-        });
-        let mut f = Vec::new();
-        vision::frame_features(&img, cfg, roi, &mut f)?;
-        let sim = vision::similarity_vector(&img, cfg.hist_bins);
-        let phi = vision::similarity_change(prev.as_deref(), &sim);
-        prev = Some(sim);
-        out.push((im.t, f, phi));
-    }
-    Ok(out)
-}
-
-/// A training sample: features and the label index.
-struct Labelled {
-    x: Vec<f64>,
-    y: usize,
-    phi: f64,
-    same_as_prev: Option<bool>,
-}
-
-/// Labelled samples of a log; IMU windows straddling a label change are
-/// dropped (they belong to neither terrain).
-fn labelled(log: &DriveLog, features: &Features, classes: &[String]) -> Result<Vec<Labelled>> {
-    if log.terrain.is_empty() {
-        return Err(TerrainError::MissingLabels { log: log.name() });
-    }
-    let window = match features {
-        Features::Vibration { config, .. } => config.window_s,
-        Features::Vision { .. } => 0.0,
-    };
-    let mut out = Vec::new();
-    let mut prev_label: Option<usize> = None;
-    for (t, x, phi) in extract(log, features)? {
-        let (Some(a), Some(b)) = (log.terrain_at(t - window), log.terrain_at(t)) else {
-            continue;
-        };
-        if a != b {
-            prev_label = None;
-            continue;
-        }
-        let Some(y) = classes.iter().position(|c| c == b) else {
-            continue;
-        };
-        out.push(Labelled {
-            x,
-            y,
-            phi,
-            same_as_prev: prev_label.map(|p| p == y),
-        });
-        prev_label = Some(y);
-    }
-    Ok(out)
 }
 
 /// Below this mean tread speed (m/s) over a vibration window the robot is
@@ -610,126 +515,6 @@ impl TerrainModel {
             tl.frames.push((t, p));
         }
         Ok(tl)
-    }
-
-    /// Writes the model as JSON, atomically.
-    pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
-        let path = path.as_ref();
-        let json = serde_json::to_vec_pretty(self).map_err(|e| TerrainError::ModelFile {
-            path: path.to_path_buf(),
-            reason: e.to_string(),
-        })?;
-        terraslip_io::write_atomic(path, &json).map_err(|e| TerrainError::ModelFile {
-            path: path.to_path_buf(),
-            reason: e.to_string(),
-        })
-    }
-
-    /// Reads a model, refusing other format versions and inconsistent files.
-    pub fn load(path: impl AsRef<Path>) -> Result<Self> {
-        let path = path.as_ref();
-        let err = |reason: String| TerrainError::ModelFile {
-            path: path.to_path_buf(),
-            reason,
-        };
-        let text = std::fs::read_to_string(path).map_err(|e| err(e.to_string()))?;
-        // Check the version before the full parse, so that a file of another
-        // version says so instead of failing on some renamed field.
-        let value: serde_json::Value = serde_json::from_str(&text)
-            .map_err(|e| err(format!("not a terrain model (JSON error: {e})")))?;
-        let found = value
-            .get("format_version")
-            .and_then(|v| v.as_u64())
-            .ok_or_else(|| err("not a terrain model: no `format_version`".into()))?;
-        if found != MODEL_FORMAT_VERSION as u64 {
-            return Err(TerrainError::ModelVersion {
-                path: path.to_path_buf(),
-                found: found.min(u32::MAX as u64) as u32,
-                expected: MODEL_FORMAT_VERSION,
-            });
-        }
-        let model: Self =
-            serde_json::from_value(value).map_err(|e| err(format!("bad terrain model: {e}")))?;
-        model.validate().map_err(err)?;
-        Ok(model)
-    }
-
-    /// Reads a model that must classify exactly `classes` (in any order).
-    pub fn load_for_classes(path: impl AsRef<Path>, classes: &[String]) -> Result<Self> {
-        let m = Self::load(path)?;
-        m.check_classes(classes)?;
-        Ok(m)
-    }
-
-    /// Fails unless the model's classes are `classes` (in any order).
-    pub fn check_classes(&self, classes: &[String]) -> Result<()> {
-        let mut a = self.classes.clone();
-        let mut b = classes.to_vec();
-        a.sort();
-        b.sort();
-        if a != b {
-            return Err(TerrainError::ClassMismatch {
-                model: self.classes.clone(),
-                expected: classes.to_vec(),
-            });
-        }
-        Ok(())
-    }
-
-    fn validate(&self) -> std::result::Result<(), String> {
-        let k = self.classes.len();
-        if !(2..=MAX_TERRAINS).contains(&k) {
-            return Err(format!("{k} classes; a model needs 2..={MAX_TERRAINS}"));
-        }
-        let d = self.feature_names.len();
-        if self.normalisation.mean.len() != d || self.normalisation.std.len() != d {
-            return Err("normalisation does not match the feature list".into());
-        }
-        let expected = match &self.features {
-            Features::Vibration { config, .. } => config.feature_names(),
-            Features::Vision { config, .. } => config.feature_names(),
-        };
-        if expected != self.feature_names {
-            return Err("feature list does not match the feature settings".into());
-        }
-        let wants_slopes =
-            matches!(&self.features, Features::Vibration { config, .. } if config.speed_norm);
-        match &self.speed_normalisation {
-            Some(sn) if wants_slopes => sn.check(&self.feature_names)?,
-            None if !wants_slopes => {}
-            Some(_) => return Err("speed slopes in a model trained without speed_norm".into()),
-            None => return Err("speed_norm is set but the model holds no speed slopes".into()),
-        }
-        let source_ok = matches!(
-            (&self.features, self.source),
-            (Features::Vibration { .. }, Source::Imu) | (Features::Vision { .. }, Source::Camera)
-        );
-        if !source_ok {
-            return Err(format!(
-                "source `{}` does not match the features",
-                self.source.name()
-            ));
-        }
-        if self
-            .normalisation
-            .std
-            .iter()
-            .any(|s| !(s.is_finite() && *s > 0.0))
-        {
-            return Err("normalisation has a non-positive scale".into());
-        }
-        let probs_ok = |probs: &Vec<f64>| probs.len() == k;
-        let ok = match &self.classifier {
-            Classifier::Tree(t) => t.nodes.iter().all(|n| probs_ok(&n.probs)),
-            Classifier::Knn(knn) => {
-                knn.y.iter().all(|&c| c < k) && knn.x.iter().all(|r| r.len() == d)
-            }
-            Classifier::Boost(b) => b.is_consistent(k, d),
-        };
-        if !ok {
-            return Err("classifier does not match the classes or features".into());
-        }
-        Ok(())
     }
 }
 

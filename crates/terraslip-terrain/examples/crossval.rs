@@ -162,6 +162,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         rep.raw.balanced_accuracy(),
         rep.raw.total()
     );
+    let (med, worst) = rep.fold_summary();
+    println!(
+        "per fold: median {:.3}, worst {:.3} ({} folds)",
+        med,
+        worst,
+        rep.fold_accuracy.len()
+    );
     println!("{}", rep.raw.to_table());
     println!("runs filtered: accuracy {:.3}", rep.filtered.accuracy());
     println!(

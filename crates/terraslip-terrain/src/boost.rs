@@ -298,7 +298,7 @@ impl BoostedTrees {
     pub fn is_consistent(&self, k: usize, d: usize) -> bool {
         self.classes == k
             && self.base.len() == k
-            && self.trees.len() % k.max(1) == 0
+            && self.trees.len().checked_rem(k) == Some(0)
             && self.trees.iter().all(|t| {
                 t.iter().all(|n| {
                     n.threshold.is_finite()

@@ -64,6 +64,8 @@ pub struct CrossvalReport {
     pub change: ChangeScore,
     /// Every held-out run on its own, in the order of the input logs.
     pub runs: Vec<RunScore>,
+    /// Single-window accuracy of each fold's held-out runs, 0..1, in fold order.
+    pub fold_accuracy: Vec<f64>,
     /// Per terrain change in the spliced logs, the time from the change to
     /// the first window whose filtered label is the new terrain, s (`None`
     /// when none is before the next change or the end).
@@ -71,6 +73,16 @@ pub struct CrossvalReport {
 }
 
 impl CrossvalReport {
+    /// Median and lowest [`Self::fold_accuracy`].
+    pub fn fold_summary(&self) -> (f64, f64) {
+        let mut a = self.fold_accuracy.clone();
+        a.sort_by(|x, y| x.total_cmp(y));
+        (
+            a.get(a.len() / 2).copied().unwrap_or(0.0),
+            a.first().copied().unwrap_or(0.0),
+        )
+    }
+
     /// Median and largest [`Self::change_latency_s`] of the changes that
     /// were followed, s, and how many never were.
     pub fn latency_summary(&self) -> (Option<f64>, Option<f64>, usize) {
@@ -326,13 +338,16 @@ pub fn crossval(
         change: ChangeScore::default(),
         runs: Vec::new(),
         change_latency_s: Vec::new(),
+        fold_accuracy: Vec::new(),
     };
     let mut runs: Vec<(usize, RunScore)> = Vec::with_capacity(logs.len());
     let mut held_out: Vec<Option<(TerrainTimeline, Vec<Option<usize>>)>> = vec![None; logs.len()];
     // In fold order, whatever order they finished in; the first error wins.
     for r in results.into_iter().flatten() {
         let f = r?;
+        let mut fold = Confusion::new(&classes);
         for (i, s, tl) in f.runs {
+            fold.merge(&s.raw);
             rep.raw.merge(&s.raw);
             rep.filtered.merge(&s.filtered);
             rep.change.merge(&s.change);
@@ -345,6 +360,7 @@ pub fn crossval(
         rep.spliced_filtered_settled.merge(&f.settled);
         rep.change.merge(&f.spliced.change);
         rep.change_latency_s.extend(f.latency);
+        rep.fold_accuracy.push(fold.accuracy());
     }
     if runs.len() != logs.len() {
         return Err(TerrainError::Training(

@@ -401,7 +401,6 @@ impl TerrainModel {
                     &run,
                     &run_class,
                     classes.len(),
-                    &config.feature_names(),
                     config,
                     &opts.classifier,
                 ) {

@@ -100,10 +100,10 @@ pub fn choose_speed_floor(
     run: &[usize],
     run_class: &[usize],
     n_classes: usize,
-    names: &[String],
     cfg: &VibrationConfig,
     params: &ClassifierParams,
 ) -> Option<f64> {
+    let names = cfg.feature_names();
     let n_runs = run_class.len();
     if n_runs < INNER_FOLDS {
         return None;
@@ -130,7 +130,7 @@ pub fn choose_speed_floor(
             let xt: Vec<Vec<f64>> = train.iter().map(|&i| x[i].clone()).collect();
             let yt: Vec<usize> = train.iter().map(|&i| y[i]).collect();
             let Ok(sn) =
-                SpeedNormalisation::fit(&xt, &yt, n_classes, names, cfg.speed_norm_ref, floor)
+                SpeedNormalisation::fit(&xt, &yt, n_classes, &names, cfg.speed_norm_ref, floor)
             else {
                 return None;
             };

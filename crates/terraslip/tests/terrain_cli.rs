@@ -137,6 +137,9 @@ fn crossval_reports_leave_runs_out_accuracy() {
     );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["folds"], 2);
+    let per_fold = v["fold_accuracy"].as_array().unwrap();
+    assert_eq!(per_fold.len(), 2);
+    assert!(per_fold.iter().all(|a| a.as_f64().unwrap() > 0.8), "{v}");
     assert!(v["accuracy"].as_f64().unwrap() > 0.85, "{v}");
     assert!(
         v["spliced_accuracy_filtered"].as_f64().unwrap() > 0.85,

@@ -634,11 +634,13 @@ fn run_crossval(a: CrossvalArgs) -> anyhow::Result<()> {
     bar.finish();
     let latency = rep.latency_summary();
     let text = format!(
-        "{} logs, {} folds (whole runs left out)\nsingle windows: accuracy {:.1} % (balanced {:.1} %)\n{}\nruns filtered one by one: accuracy {:.1} %\nspliced runs (terrain changes): raw {:.1} %, filtered {:.1} % (misclassification {:.2} %)\n{}",
+        "{} logs, {} folds (whole runs left out)\nsingle windows: accuracy {:.1} % (balanced {:.1} %; per fold median {:.1} %, worst {:.1} %)\n{}\nruns filtered one by one: accuracy {:.1} %\nspliced runs (terrain changes): raw {:.1} %, filtered {:.1} % (misclassification {:.2} %)\n{}",
         logs.len(),
         rep.folds,
         100.0 * rep.raw.accuracy(),
         100.0 * rep.raw.balanced_accuracy(),
+        100.0 * rep.fold_summary().0,
+        100.0 * rep.fold_summary().1,
         rep.raw.to_table(),
         100.0 * rep.filtered.accuracy(),
         100.0 * rep.spliced_raw.accuracy(),
@@ -686,6 +688,7 @@ fn run_crossval(a: CrossvalArgs) -> anyhow::Result<()> {
             "chained_changes": rep.chained_changes,
             "chained_accuracy_filtered": rep.chained_filtered.accuracy(),
             "change_latency_s": rep.change_latency_s,
+            "fold_accuracy": rep.fold_accuracy,
             "runs": rep.runs,
             "change_detection": rep.change,
         });

@@ -266,6 +266,7 @@ impl DriveLog {
             ..Default::default()
         };
         log.wheels = read_wheels(&dir.join("wheels.csv"), &mut log.warnings)?;
+        log.currents = read_currents(&dir.join("wheels.csv"))?;
         let opt = |name: &str| {
             let p = dir.join(name);
             p.exists().then_some(p)
@@ -313,6 +314,28 @@ pub fn read_wheels(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<WheelS
         });
     }
     warnings.extend(dedup_time(&mut out, |w| w.t, path));
+    Ok(strip(out))
+}
+
+/// Reads the optional `current_left,current_right` columns of `wheels.csv`:
+/// empty without them; rows where either cell is empty are skipped.
+pub fn read_currents(path: &Path) -> Result<Vec<MotorCurrent>, LogError> {
+    let tab = read_csv_table(path)?;
+    let (Some(l), Some(r)) = (tab.optional("current_left"), tab.optional("current_right")) else {
+        return Ok(Vec::new());
+    };
+    let mut out = Vec::with_capacity(tab.rows.len());
+    for (line, t, rec) in tab.timed_rows()? {
+        let (Some(left), Some(right)) = (
+            tab.opt_f64(line, rec, Some(l))?,
+            tab.opt_f64(line, rec, Some(r))?,
+        ) else {
+            continue;
+        };
+        out.push((line, MotorCurrent { t, left, right }));
+    }
+    // read_wheels has already warned about the repeated timestamps.
+    let _ = dedup_time(&mut out, |c| c.t, path);
     Ok(strip(out))
 }
 

@@ -8,6 +8,15 @@ pub struct WheelSample {
     pub v_right: f64,
 }
 
+/// Drive-motor currents at one `wheels.csv` row, A (optional columns
+/// `current_left,current_right`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MotorCurrent {
+    pub t: f64,
+    pub left: f64,
+    pub right: f64,
+}
+
 /// One absolute pose observation. Any of the fields may be missing.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct PoseObs {
@@ -88,6 +97,9 @@ pub struct DriveLog {
     /// The directory it was read from (empty for an in-memory log).
     pub dir: PathBuf,
     pub wheels: Vec<WheelSample>,
+    /// Drive-motor currents, from the rows of `wheels.csv` that give both
+    /// (empty when the log has none).
+    pub currents: Vec<MotorCurrent>,
     pub pose: Vec<PoseObs>,
     pub imu: Vec<ImuSample>,
     pub images: Vec<ImageRef>,

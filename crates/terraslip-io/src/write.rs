@@ -40,12 +40,28 @@ impl DriveLog {
     pub fn write(&self, dir: impl AsRef<Path>) -> Result<(), LogError> {
         let dir = dir.as_ref();
         std::fs::create_dir_all(dir).map_err(|e| LogError::io(dir, e))?;
+        // Currents are written when every wheel row has its own.
+        let currents = self.currents.len() == self.wheels.len()
+            && self
+                .currents
+                .iter()
+                .zip(&self.wheels)
+                .all(|(c, w)| c.t == w.t);
+        let header = if currents {
+            "t,v_left,v_right,current_left,current_right"
+        } else {
+            "t,v_left,v_right"
+        };
         write_csv(
             &dir.join("wheels.csv"),
-            "t,v_left,v_right",
-            &self.wheels,
-            |w, b| {
+            header,
+            &self.wheels.iter().enumerate().collect::<Vec<_>>(),
+            |(i, w), b| {
                 let _ = write!(b, "{},{},{}", w.t, w.v_left, w.v_right);
+                if currents {
+                    let c = &self.currents[*i];
+                    let _ = write!(b, ",{},{}", c.left, c.right);
+                }
             },
         )?;
         if !self.pose.is_empty() {

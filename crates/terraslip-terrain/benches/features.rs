@@ -1,10 +1,11 @@
 //! Feature extraction speed (issue 4 targets): SFTA of a 640x480 frame
 //! < 10 ms, RGB histograms + LBP < 3 ms, vibration features of a 1 s window
-//! (100 Hz, six channels, full set) < 20 µs.
+//! (100 Hz, six channels, full set, with motor currents) < 20 µs.
 //!
 //! `cargo bench -p terraslip-terrain --bench features`
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
+use terraslip_io::{MotorCurrent, WheelSample};
 use terraslip_terrain::synth::texture;
 use terraslip_terrain::vibration::{SpeedStats, VibrationExtractor};
 use terraslip_terrain::vision::{grey, lbp_histogram, rgb_histograms, sfta};
@@ -39,14 +40,12 @@ fn vibration(c: &mut Criterion) {
         window_s: 1.0,
         ..Default::default()
     };
-    // The spatial bands on top (6 per channel, 250 features): the PSD is
-    // shared, the extra cost is one pass over the bins per channel.
-    let spatial = VibrationConfig {
-        spatial_bands: 6,
+    let with_currents = VibrationConfig {
+        currents: true,
         ..cfg.clone()
     };
     let mut ex = VibrationExtractor::new(&cfg, 100.0).expect("valid settings");
-    let mut ex_spatial = VibrationExtractor::new(&spatial, 100.0).expect("valid settings");
+    let mut ex_c = VibrationExtractor::new(&with_currents, 100.0).expect("valid settings");
     let ch: Vec<Vec<f64>> = (0..6)
         .map(|k| {
             (0..100)
@@ -59,21 +58,39 @@ fn vibration(c: &mut Criterion) {
         speed: 0.5,
         ..Default::default()
     };
+    // 6.5 Hz wheels with currents over 10 s; the window is the last second.
+    let wheels: Vec<WheelSample> = (0..65)
+        .map(|i| WheelSample {
+            t: i as f64 / 6.5,
+            v_left: 0.4,
+            v_right: 0.5 + 0.1 * (i as f64 * 0.3).sin(),
+        })
+        .collect();
+    let currents: Vec<MotorCurrent> = wheels
+        .iter()
+        .enumerate()
+        .map(|(i, w)| MotorCurrent {
+            t: w.t,
+            left: 4.0 + (i as f64 * 0.7).sin(),
+            right: 5.0 + (i as f64 * 0.4).cos(),
+        })
+        .collect();
     c.bench_function("vibration_full_1s_100hz_6ch", |b| {
         let mut out = Vec::with_capacity(200);
         b.iter(|| {
             out.clear();
-            ex.features(black_box(&slices), speed, &mut out)
+            ex.features(black_box(&slices), speed, &[], &mut out)
                 .expect("window length matches");
             black_box(&out);
         })
     });
-    c.bench_function("vibration_full_spatial_1s_100hz_6ch", |b| {
-        let mut out = Vec::with_capacity(260);
+    c.bench_function("vibration_full_currents_1s_100hz_6ch", |b| {
+        let mut out = Vec::with_capacity(200);
         b.iter(|| {
             out.clear();
-            ex_spatial
-                .features(black_box(&slices), speed, &mut out)
+            let cur = terraslip_terrain::current::features(black_box(&currents), &wheels, 8.9, 9.9)
+                .expect("currents in the window");
+            ex_c.features(black_box(&slices), speed, &cur, &mut out)
                 .expect("window length matches");
             black_box(&out);
         })

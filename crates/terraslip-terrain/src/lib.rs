@@ -1,38 +1,51 @@
 //! Terrain evidence from sensors (issue 4).
 //!
-//! - [`vibration`]: IMU window features (wang2018 + spectral and speed terms).
+//! - [`vibration`]: IMU window features (wang2018 + spectral and speed
+//!   terms); [`windows`]: a log cut into windows.
+//! - [`motion`]: tread speeds and slip terms of a window; [`current`]:
+//!   drive-motor current features.
 //! - [`vision`]: ground-camera features: RGB histograms + uniform LBP and the
 //!   frame-to-frame change detector (lv2019), SFTA and the region of
 //!   interest predicted from the kinematic model (chen2023).
-//! - [`classify`]: pruned decision tree, k-nearest neighbours, random forest.
+//! - [`classify`]: pruned decision tree, k-nearest neighbours;
+//!   [`boost`]: gradient-boosted trees.
+//! - [`select`]: channels and the speed floor chosen from the training logs.
 //! - [`model`]: the serialisable [`TerrainModel`] and
 //!   [`TerrainModel::classify_log`], the call the estimator pipeline makes.
-//! - [`eval`]: confusion matrices, leave-runs-out cross-validation, spliced logs.
-//! - [`speed_norm`]: learnt per-feature speed slopes (optional).
+//! - [`eval`]: confusion matrices, scored and spliced logs; [`crossval`]:
+//!   leave-runs-out cross-validation (parallel folds).
+//! - [`speed_norm`]: learnt per-feature speed slopes.
 //! - [`synth`]: small synthetic labelled logs for tests and benchmarks.
 //!
 //! The Bayesian (HMM) filter and the λ-vote live in
 //! `terraslip_core::terrain_belief`, allocation-free, so the robot-side
 //! estimator can run them.
 
+pub mod boost;
 pub mod classify;
+pub mod crossval;
+pub mod current;
 pub mod error;
 pub mod eval;
 pub mod model;
+mod model_file;
+pub mod motion;
+mod samples;
+pub mod select;
 pub mod speed_norm;
 pub mod synth;
 pub mod vibration;
 pub mod vision;
+pub mod windows;
 
 pub use classify::{Classifier, ClassifierKind, ClassifierParams};
+pub use crossval::{crossval, run_folds, CrossvalReport, RunScore};
 pub use error::{Result, TerrainError};
-pub use eval::{
-    crossval, score_log, splice, ChangeScore, Confusion, CrossvalReport, LogScore, RunScore,
-};
+pub use eval::{score_log, splice, ChangeScore, Confusion, LogScore};
 pub use model::{
     BeliefSettings, Features, FilteredFrame, Source, TerrainModel, TerrainTimeline, TrainOptions,
     MIN_INFORMATIVE_SPEED, MODEL_FORMAT_VERSION,
 };
 pub use speed_norm::SpeedNormalisation;
-pub use vibration::{ChannelSet, SpatialScaling, VibrationConfig, VibrationFeatureSet};
+pub use vibration::{ChannelSet, VibrationConfig, VibrationFeatureSet};
 pub use vision::{CameraModel, RoiConfig, VisionConfig, VisionFeatureSet};

@@ -2,25 +2,26 @@
 //! how it scales them, the trained classifier and the filter settings; and
 //! the call the estimator pipeline makes, [`TerrainModel::classify_log`].
 
-use std::path::Path;
-
 use serde::{Deserialize, Serialize};
 use terraslip_core::terrain_belief::{BeliefConfig, TerrainBelief, MAX_TERRAINS};
-use terraslip_core::IcrParams;
 use terraslip_io::DriveLog;
 
 use crate::classify::{Classifier, ClassifierParams, Standardizer};
 use crate::error::{Result, TerrainError};
+pub use crate::samples::extract;
+use crate::samples::labelled;
 use crate::speed_norm::SpeedNormalisation;
-use crate::vibration::{self, VibrationConfig};
-use crate::vision::{self, VisionConfig};
+use crate::vibration::{self, ChannelSet, VibrationConfig, VibrationFeatureSet};
+use crate::vision::VisionConfig;
 
 /// Version of the model file format; a file of another version is refused.
 /// 2: the `full` vibration set gained the steering-efficiency (slip) and
 /// manoeuvre features. 3: the vibration settings gained the spatial bands
 /// (`spatial_bands`, grid, scaling). 4: the learnt speed normalisation
-/// (`speed_norm` settings, `speed_normalisation` slopes).
-pub const MODEL_FORMAT_VERSION: u32 = 4;
+/// (`speed_norm` settings, `speed_normalisation` slopes). 5: the vibration
+/// settings record the motor-current channels (`currents`); the spatial
+/// bands are gone.
+pub const MODEL_FORMAT_VERSION: u32 = 5;
 
 /// The sensor a model reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -100,6 +101,16 @@ pub struct TrainOptions {
     pub vision: VisionConfig,
     pub classifier: ClassifierParams,
     pub belief: BeliefSettings,
+    /// IMU channels of the `full` set; `None`: all six when every training
+    /// log has them, else `accel_z` (overrides `vibration.channels`).
+    pub imu_channels: Option<ChannelSet>,
+    /// Motor-current features of the `full` set; `None`: when every
+    /// training log has currents (overrides `vibration.currents`).
+    pub currents: Option<bool>,
+    /// Speed floor of the speed normalisation, m/s; `None`: chosen by inner
+    /// cross-validation over the training runs (overrides
+    /// `vibration.speed_norm_min`).
+    pub speed_floor: Option<f64>,
 }
 
 impl Default for TrainOptions {
@@ -110,6 +121,9 @@ impl Default for TrainOptions {
             vision: VisionConfig::default(),
             classifier: ClassifierParams::default(),
             belief: BeliefSettings::default(),
+            imu_channels: None,
+            currents: None,
+            speed_floor: None,
         }
     }
 }
@@ -225,104 +239,6 @@ pub(crate) fn argmax(p: &[f64]) -> usize {
     best
 }
 
-/// Per-frame features of a log for `features`: `(t, feature vector)`, and
-/// the lv2019 similarity change `φ_t` of each frame (0 for IMU windows).
-pub fn extract(log: &DriveLog, features: &Features) -> Result<Vec<(f64, Vec<f64>, f64)>> {
-    match features {
-        Features::Vibration { config, rate_hz } => {
-            let (rate, windows) = vibration::log_windows(log, config)?;
-            if *rate_hz > 0.0 && (rate / rate_hz - 1.0).abs() > 0.1 {
-                return Err(TerrainError::MissingSource {
-                    log: log.name(),
-                    sensor: "imu",
-                    reason: format!("imu.csv is sampled at {rate:.1} Hz but the model was trained at {rate_hz:.1} Hz"),
-                });
-            }
-            Ok(windows.into_iter().map(|(t, f)| (t, f, 0.0)).collect())
-        }
-        Features::Vision { config, .. } => camera_frames(log, config),
-    }
-}
-
-fn camera_frames(log: &DriveLog, cfg: &VisionConfig) -> Result<Vec<(f64, Vec<f64>, f64)>> {
-    if log.images.is_empty() {
-        return Err(TerrainError::MissingSource {
-            log: log.name(),
-            sensor: "camera",
-            reason: "images.csv is missing or empty".into(),
-        });
-    }
-    let icr = IcrParams::no_slip(
-        log.meta
-            .track_width
-            .or(cfg.roi.as_ref().map(|r| r.width))
-            .unwrap_or(0.5),
-    );
-    let mut out = Vec::with_capacity(log.images.len());
-    let mut prev: Option<Vec<f64>> = None;
-    for im in &log.images {
-        let path = log.image_path(im);
-        let img = vision::load_frame(&path)?;
-        let roi = cfg.roi.as_ref().and_then(|r| {
-            let i = log.wheels.partition_point(|w| w.t <= im.t);
-            let w = log.wheels.get(i.saturating_sub(1))?;
-            r.region(&icr.twist(w.v_left, w.v_right))
-        });
-        let mut f = Vec::new();
-        vision::frame_features(&img, cfg, roi, &mut f).map_err(|e| match e {
-            TerrainError::Data(reason) => TerrainError::Image { path, reason },
-            e => e,
-        })?;
-        let sim = vision::similarity_vector(&img, cfg.hist_bins);
-        let phi = vision::similarity_change(prev.as_deref(), &sim);
-        prev = Some(sim);
-        out.push((im.t, f, phi));
-    }
-    Ok(out)
-}
-
-/// A training sample: features and the label index.
-struct Labelled {
-    x: Vec<f64>,
-    y: usize,
-    phi: f64,
-    same_as_prev: Option<bool>,
-}
-
-/// Labelled samples of a log; IMU windows straddling a label change are
-/// dropped (they belong to neither terrain).
-fn labelled(log: &DriveLog, features: &Features, classes: &[String]) -> Result<Vec<Labelled>> {
-    if log.terrain.is_empty() {
-        return Err(TerrainError::MissingLabels { log: log.name() });
-    }
-    let window = match features {
-        Features::Vibration { config, .. } => config.window_s,
-        Features::Vision { .. } => 0.0,
-    };
-    let mut out = Vec::new();
-    let mut prev_label: Option<usize> = None;
-    for (t, x, phi) in extract(log, features)? {
-        let (Some(a), Some(b)) = (log.terrain_at(t - window), log.terrain_at(t)) else {
-            continue;
-        };
-        if a != b {
-            prev_label = None;
-            continue;
-        }
-        let Some(y) = classes.iter().position(|c| c == b) else {
-            continue;
-        };
-        out.push(Labelled {
-            x,
-            y,
-            phi,
-            same_as_prev: prev_label.map(|p| p == y),
-        });
-        prev_label = Some(y);
-    }
-    Ok(out)
-}
-
 /// Below this mean tread speed (m/s) over a vibration window the robot is
 /// standing or spinning slowly in place: the terrain hardly shakes it, and
 /// the classifier's verdict is a guess (on the simulated drives, every
@@ -391,8 +307,20 @@ impl TerrainModel {
                         sensor: "imu",
                         reason: "no training log has IMU data".into(),
                     })?;
+                let mut config = opts.vibration.clone();
+                if config.feature_set == VibrationFeatureSet::Full {
+                    crate::select::channels_from_logs(
+                        logs,
+                        &mut config,
+                        opts.imu_channels,
+                        opts.currents,
+                    )?;
+                }
+                if let Some(v) = opts.speed_floor {
+                    config.speed_norm_min = v;
+                }
                 Features::Vibration {
-                    config: opts.vibration.clone(),
+                    config,
                     rate_hz: first,
                 }
             }
@@ -403,10 +331,18 @@ impl TerrainModel {
         };
         let mut x = Vec::new();
         let mut y = Vec::new();
+        let mut run = Vec::new();
+        let mut run_class = Vec::new();
         let mut phi_same = Vec::new();
         let mut phi_change = Vec::new();
-        for log in logs {
+        for (r, log) in logs.iter().enumerate() {
             let samples = labelled(log, &features, classes)?;
+            run_class.push(
+                log.terrain
+                    .first()
+                    .and_then(|l| classes.iter().position(|c| *c == l.terrain))
+                    .unwrap_or(0),
+            );
             // A label change at frame i may show in the image only at frame
             // i + 1 (the camera looks ahead, the label is where the body
             // is): score a change by the larger φ of the two, and keep
@@ -428,6 +364,7 @@ impl TerrainModel {
             for s in samples {
                 x.push(s.x);
                 y.push(s.y);
+                run.push(r);
             }
         }
         if x.is_empty() {
@@ -455,6 +392,21 @@ impl TerrainModel {
         } = &mut features
         {
             *change_threshold = change_threshold_from(&phi_same, &phi_change);
+        }
+        if let Features::Vibration { config, .. } = &mut features {
+            if config.speed_norm && opts.speed_floor.is_none() {
+                if let Some(v) = crate::select::choose_speed_floor(
+                    &x,
+                    &y,
+                    &run,
+                    &run_class,
+                    classes.len(),
+                    config,
+                    &opts.classifier,
+                ) {
+                    config.speed_norm_min = v;
+                }
+            }
         }
         let speed_normalisation = match &features {
             Features::Vibration { config, .. } if config.speed_norm => {
@@ -494,6 +446,27 @@ impl TerrainModel {
                 samples_per_class,
             },
         })
+    }
+
+    /// What the model reads from a log, for messages: e.g. `imu.csv (all
+    /// six channels), wheels.csv tread speeds and motor currents`.
+    pub fn channels_description(&self) -> String {
+        match &self.features {
+            Features::Vision { .. } => "images.csv frames".into(),
+            Features::Vibration { config, .. } => {
+                match (config.feature_set, config.channels, config.currents) {
+                    (VibrationFeatureSet::Paper, ..) => "imu.csv accel_z".into(),
+                    (_, c, cur) => format!(
+                        "imu.csv ({}), wheels.csv tread speeds{}",
+                        match c {
+                            ChannelSet::All => "all six channels",
+                            ChannelSet::AccelZ => "accel_z",
+                        },
+                        if cur { " and motor currents" } else { "" }
+                    ),
+                }
+            }
+        }
     }
 
     /// Length of the span of data behind one output, s: the IMU window, 0
@@ -542,121 +515,6 @@ impl TerrainModel {
         }
         Ok(tl)
     }
-
-    /// Writes the model as JSON, atomically.
-    pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
-        let path = path.as_ref();
-        let json = serde_json::to_vec_pretty(self).map_err(|e| TerrainError::ModelFile {
-            path: path.to_path_buf(),
-            reason: e.to_string(),
-        })?;
-        terraslip_io::write_atomic(path, &json).map_err(|e| TerrainError::ModelFile {
-            path: path.to_path_buf(),
-            reason: e.to_string(),
-        })
-    }
-
-    /// Reads a model, refusing other format versions and inconsistent files.
-    pub fn load(path: impl AsRef<Path>) -> Result<Self> {
-        let path = path.as_ref();
-        let err = |reason: String| TerrainError::ModelFile {
-            path: path.to_path_buf(),
-            reason,
-        };
-        let text = std::fs::read_to_string(path).map_err(|e| err(e.to_string()))?;
-        // Check the version before the full parse, so that a file of another
-        // version says so instead of failing on some renamed field.
-        let value: serde_json::Value = serde_json::from_str(&text)
-            .map_err(|e| err(format!("not a terrain model (JSON error: {e})")))?;
-        let found = value
-            .get("format_version")
-            .and_then(|v| v.as_u64())
-            .ok_or_else(|| err("not a terrain model: no `format_version`".into()))?;
-        if found != MODEL_FORMAT_VERSION as u64 {
-            return Err(TerrainError::ModelVersion {
-                path: path.to_path_buf(),
-                found: found.min(u32::MAX as u64) as u32,
-                expected: MODEL_FORMAT_VERSION,
-            });
-        }
-        let model: Self =
-            serde_json::from_value(value).map_err(|e| err(format!("bad terrain model: {e}")))?;
-        model
-            .validate()
-            .map_err(|e| err(format!("{e}; retrain it with `terraslip terrain train`")))?;
-        Ok(model)
-    }
-
-    /// Reads a model that must classify exactly `classes` (in any order).
-    pub fn load_for_classes(path: impl AsRef<Path>, classes: &[String]) -> Result<Self> {
-        let m = Self::load(path)?;
-        m.check_classes(classes)?;
-        Ok(m)
-    }
-
-    /// Fails unless the model's classes are `classes` (in any order).
-    pub fn check_classes(&self, classes: &[String]) -> Result<()> {
-        let mut a = self.classes.clone();
-        let mut b = classes.to_vec();
-        a.sort();
-        b.sort();
-        if a != b {
-            return Err(TerrainError::ClassMismatch {
-                model: self.classes.clone(),
-                expected: classes.to_vec(),
-            });
-        }
-        Ok(())
-    }
-
-    fn validate(&self) -> std::result::Result<(), String> {
-        let k = self.classes.len();
-        if !(2..=MAX_TERRAINS).contains(&k) {
-            return Err(format!("{k} classes; a model needs 2..={MAX_TERRAINS}"));
-        }
-        check_class_names(&self.classes)?;
-        let d = self.feature_names.len();
-        if self.normalisation.mean.len() != d || self.normalisation.std.len() != d {
-            return Err("normalisation does not match the feature list".into());
-        }
-        let expected = match &self.features {
-            Features::Vibration { config, .. } => config.feature_names(),
-            Features::Vision { config, .. } => config.feature_names(),
-        };
-        if expected != self.feature_names {
-            return Err("feature list does not match the feature settings".into());
-        }
-        let wants_slopes =
-            matches!(&self.features, Features::Vibration { config, .. } if config.speed_norm);
-        match &self.speed_normalisation {
-            Some(sn) if wants_slopes => sn.check(&self.feature_names)?,
-            None if !wants_slopes => {}
-            Some(_) => return Err("speed slopes in a model trained without speed_norm".into()),
-            None => return Err("speed_norm is set but the model holds no speed slopes".into()),
-        }
-        let source_ok = matches!(
-            (&self.features, self.source),
-            (Features::Vibration { .. }, Source::Imu) | (Features::Vision { .. }, Source::Camera)
-        );
-        if !source_ok {
-            return Err(format!(
-                "source `{}` does not match the features",
-                self.source.name()
-            ));
-        }
-        if self
-            .normalisation
-            .std
-            .iter()
-            .any(|s| !(s.is_finite() && *s > 0.0))
-        {
-            return Err("normalisation has a non-positive scale".into());
-        }
-        if self.normalisation.mean.iter().any(|m| !m.is_finite()) {
-            return Err("normalisation has a non-finite mean".into());
-        }
-        check_classifier(&self.classifier, k, d)
-    }
 }
 
 /// Threshold on `φ_t` between same-terrain and changing consecutive frames:
@@ -674,86 +532,5 @@ fn change_threshold_from(same: &[f64], change: &[f64]) -> f64 {
         (p99 * lo_change).sqrt()
     } else {
         2.0 * p99
-    }
-}
-
-/// Class names must be distinct and non-empty.
-fn check_class_names(classes: &[String]) -> std::result::Result<(), String> {
-    for (i, c) in classes.iter().enumerate() {
-        if c.trim().is_empty() {
-            return Err(format!("classes[{i}] is empty; every class needs a name"));
-        }
-        if let Some(j) = classes[..i].iter().position(|o| o == c) {
-            return Err(format!(
-                "classes[{j}] and classes[{i}] are both `{c}`; each class must appear once"
-            ));
-        }
-    }
-    Ok(())
-}
-
-/// The classifier must fit `k` classes and `d` features: no empty tree,
-/// forest or neighbour set, child links that point forward inside the
-/// tree, split features that exist, and probabilities in [0, 1] summing to 1.
-fn check_classifier(c: &Classifier, k: usize, d: usize) -> std::result::Result<(), String> {
-    let tree = |name: &str, t: &crate::classify::DecisionTree| {
-        if t.nodes.is_empty() {
-            return Err(format!("classifier: {name} has no nodes"));
-        }
-        for (i, n) in t.nodes.iter().enumerate() {
-            let at = format!("classifier: {name} node {i}");
-            if n.probs.len() != k {
-                return Err(format!(
-                    "{at}: {} probabilities for {k} classes",
-                    n.probs.len()
-                ));
-            }
-            if n.probs.iter().any(|p| !(0.0..=1.0).contains(p)) {
-                return Err(format!("{at}: a probability is outside [0, 1]"));
-            }
-            if (n.probs.iter().sum::<f64>() - 1.0).abs() > 1e-3 {
-                return Err(format!("{at}: probabilities do not sum to 1"));
-            }
-            if n.left != 0 {
-                let len = t.nodes.len();
-                let forward = |c: u32| (c as usize) > i && (c as usize) < len;
-                if !(forward(n.left) && forward(n.right)) {
-                    return Err(format!(
-                        "{at}: child links {}/{} are not later nodes",
-                        n.left, n.right
-                    ));
-                }
-                if n.feature as usize >= d {
-                    return Err(format!("{at}: feature {} of only {d}", n.feature));
-                }
-            }
-        }
-        Ok(())
-    };
-    match c {
-        Classifier::Tree(t) => tree("tree", t),
-        Classifier::Forest(f) => {
-            if f.trees.is_empty() {
-                return Err("classifier: the forest has no trees".into());
-            }
-            f.trees
-                .iter()
-                .enumerate()
-                .try_for_each(|(i, t)| tree(&format!("tree {i}"), t))
-        }
-        Classifier::Knn(knn) => {
-            if knn.x.is_empty() || knn.x.len() != knn.y.len() || knn.k == 0 {
-                return Err("classifier: k-NN needs k >= 1 and one class per stored sample".into());
-            }
-            if !knn.y.iter().all(|&c| c < k)
-                || !knn
-                    .x
-                    .iter()
-                    .all(|r| r.len() == d && r.iter().all(|v| v.is_finite()))
-            {
-                return Err("classifier: k-NN samples do not match the classes or features".into());
-            }
-            Ok(())
-        }
     }
 }

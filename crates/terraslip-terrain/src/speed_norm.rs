@@ -2,14 +2,14 @@
 //!
 //! Within one terrain the vibration energy grows with the tread speed
 //! (about v¹ for the Husky's temporal band powers, see
-//! docs/research-log.md). A forest sees the speed as a feature but can
+//! docs/research-log.md). A tree ensemble sees the speed as a feature but can
 //! only split on speeds it was trained at: a run faster than every training
 //! run of its terrain looks like a rougher terrain. Here each amplitude-like
 //! feature (log variance, log band powers, log σ per speed) gets one slope
 //! on ln v, fitted on the training windows *within* terrains (a regression
 //! with one intercept per class and one slope shared by all classes), and
 //! the classifier is fed `x − slope · ln(v / v_ref)`: the feature as it
-//! would read at `v_ref`, a linear extrapolation in ln v that a forest
+//! would read at `v_ref`, a linear extrapolation in ln v that trees
 //! cannot do by itself.
 
 use serde::{Deserialize, Serialize};
@@ -20,16 +20,19 @@ use crate::error::{Result, TerrainError};
 pub const SPEED_FEATURE: &str = "tread_speed";
 
 /// Whether the feature named `name` is a log amplitude that grows with speed:
-/// per-channel log variance, log temporal or spatial band powers (not their
-/// shares), and log(σ_az / v).
+/// per-channel log variance, log band powers (not their shares),
+/// log(σ_az / v) and the log motor-current features.
 pub fn is_amplitude_like(name: &str) -> bool {
-    if name == "log_az_std_per_speed" || name.ends_with("_log_var") {
+    if name == "log_az_std_per_speed"
+        || name.ends_with("_log_var")
+        || name.starts_with("current_log_")
+    {
         return true;
     }
     if name.ends_with("_share") {
         return false;
     }
-    // `accel_z_band3`, `gyro_x_sband0`: the part after the last `band` is a number.
+    // `accel_z_band3`: the part after the last `band` is a number.
     name.rfind("band").is_some_and(|i| {
         let rest = &name[i + 4..];
         !rest.is_empty() && rest.bytes().all(|b| b.is_ascii_digit())
@@ -179,7 +182,7 @@ mod tests {
             "accel_z_zcr",
             "accel_z_band0",
             "accel_z_band0_share",
-            "accel_z_sband11",
+            "current_log_mean",
             "tread_speed",
             "log_az_std_per_speed",
         ]
@@ -193,6 +196,7 @@ mod tests {
         assert_eq!(mask, [true, false, true, false, true, false, true]);
         assert!(!is_amplitude_like("tread_speed_diff"));
         assert!(!is_amplitude_like("accel_z_band"));
+        assert!(!is_amplitude_like("current_hf_share"));
     }
 
     /// Two terrains whose log power grows as 1.5 ln v, at disjoint speeds

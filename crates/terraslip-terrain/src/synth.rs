@@ -5,7 +5,9 @@
 use std::path::Path;
 
 use image::{Rgb, RgbImage};
-use terraslip_io::{DriveLog, ImageRef, ImuSample, LogError, TerrainLabel, WheelSample};
+use terraslip_io::{
+    DriveLog, ImageRef, ImuSample, LogError, MotorCurrent, TerrainLabel, WheelSample,
+};
 
 use crate::classify::SplitMix64;
 use crate::vibration::STANDARD_GRAVITY;
@@ -24,8 +26,9 @@ fn signature(k: usize) -> (f64, f64, f64) {
 }
 
 /// A log driving over `segments` (terrain index into `names`, seconds) at
-/// a constant 0.5 m/s: 100 Hz IMU with all six channels, 10 Hz wheels and
-/// `terrain.csv` labels. Time starts at `t0`.
+/// a constant 0.5 m/s: 100 Hz IMU with all six channels, 10 Hz wheels with
+/// motor currents (3 + 1.5 k A, noisy) and `terrain.csv` labels. Time
+/// starts at `t0`.
 pub fn vibration_log(names: &[&str], segments: &[(usize, f64)], seed: u64, t0: f64) -> DriveLog {
     let mut rng = SplitMix64(seed);
     let mut gauss = move || {
@@ -61,6 +64,12 @@ pub fn vibration_log(names: &[&str], segments: &[(usize, f64)], seed: u64, t0: f
                     t,
                     v_left: 0.5,
                     v_right: 0.5,
+                });
+                let c = 3.0 + 1.5 * (k % 5) as f64;
+                log.currents.push(MotorCurrent {
+                    t,
+                    left: c + 0.3 * gauss(),
+                    right: c + 0.3 * gauss(),
                 });
             }
         }

@@ -17,7 +17,7 @@ fn imu_runs(seed: u64) -> Vec<DriveLog> {
 fn fast_opts() -> TrainOptions {
     let mut o = TrainOptions::default();
     o.vibration.window_s = 1.0;
-    o.classifier.forest.n_trees = 15;
+    o.classifier.boost.rounds = 40;
     o
 }
 
@@ -61,7 +61,7 @@ fn every_classifier_kind_trains_and_round_trips_through_json() {
     for kind in [
         ClassifierKind::Tree,
         ClassifierKind::Knn,
-        ClassifierKind::Forest,
+        ClassifierKind::Boost,
     ] {
         let mut o = fast_opts();
         o.classifier.kind = kind;
@@ -261,7 +261,7 @@ fn crossval_leaves_whole_runs_out() {
     for (i, r) in runs.iter_mut().enumerate() {
         r.dir = format!("run{i}").into();
     }
-    let folds = eval::run_folds(&runs, 2);
+    let folds = crossval::run_folds(&runs, 2);
     assert_eq!(folds.len(), 2);
     // Every terrain in every fold, no run in two folds.
     for f in &folds {
@@ -313,43 +313,84 @@ fn crossval_leaves_whole_runs_out() {
 }
 
 #[test]
-fn spatial_band_model_trains_round_trips_and_survives_standing_still() {
+fn current_model_records_its_channels_and_refuses_logs_without_currents() {
     let dir = tempfile::tempdir().unwrap();
-    let mut o = fast_opts();
-    // Spatial bands replacing the temporal ones.
-    o.vibration.bands = 0;
-    o.vibration.spatial_bands = 4;
-    let m = TerrainModel::train(&imu_runs(11), &o).unwrap();
-    assert!(m.feature_names.iter().any(|n| n == "accel_z_sband3_share"));
-    assert!(!m.feature_names.iter().any(|n| n.contains("_band")));
-    let path = dir.path().join("spatial.json");
+    // Every training log has currents: the default model reads them.
+    let m = TerrainModel::train(&imu_runs(11), &fast_opts()).unwrap();
+    let Features::Vibration { config, .. } = &m.features else {
+        panic!("imu model");
+    };
+    assert!(config.currents && config.channels == ChannelSet::All);
+    assert!(m.feature_names.iter().any(|n| n == "current_log_mean"));
+    assert!(vibration::SPEED_FLOOR_CANDIDATES.contains(&config.speed_norm_min));
+    let path = dir.path().join("currents.json");
     m.save(&path).unwrap();
     let back = TerrainModel::load(&path).unwrap();
     assert_eq!(back, m);
     let test = vibration_log(&NAMES, &[(2, 10.0), (0, 10.0), (1, 10.0)], 78, 0.0);
-    let s = score_log(&back, &test).unwrap();
-    assert!(s.raw.accuracy() > 0.85, "spatial: {}", s.raw.accuracy());
+    assert!(score_log(&back, &test).unwrap().raw.accuracy() > 0.85);
 
-    // A robot standing still: every window is still classified (finite
-    // features, spatial bands marked missing), none is dropped.
-    let mut still = test.clone();
-    still.wheels.iter_mut().for_each(|w| {
-        w.v_left = 0.0;
-        w.v_right = 0.0;
-    });
-    let moving = back.classify_log(&test).unwrap().frames.len();
-    let tl = back.classify_log(&still).unwrap();
-    assert_eq!(tl.frames.len(), moving);
-    assert!(tl.frames.iter().flat_map(|f| &f.1).all(|p| p.is_finite()));
+    // A log without currents, for a model that reads them.
+    let mut no_current = test.clone();
+    no_current.currents.clear();
+    let e = back.classify_log(&no_current).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            TerrainError::MissingSource {
+                sensor: "currents",
+                ..
+            }
+        ),
+        "{e}"
+    );
+    assert!(e.to_string().contains("current_left"), "{e}");
+    // The IMU-only model, when asked for, reads it.
+    let mut o = fast_opts();
+    o.currents = Some(false);
+    let imu_only = TerrainModel::train(&imu_runs(11), &o).unwrap();
+    assert!(!imu_only
+        .feature_names
+        .iter()
+        .any(|n| n.starts_with("current")));
+    assert!(imu_only.classify_log(&no_current).is_ok());
 
-    // Settings that no longer match the feature list are refused.
-    let text = std::fs::read_to_string(&path).unwrap();
-    let edited = text.replacen("\"spatial_bands\": 4", "\"spatial_bands\": 5", 1);
-    assert_ne!(edited, text);
-    let p1 = dir.path().join("edited.json");
-    std::fs::write(&p1, edited).unwrap();
-    let e = TerrainModel::load(&p1).unwrap_err();
-    assert!(e.to_string().contains("feature"), "{e}");
+    // Training logs that differ: an error naming one with and one without.
+    let mut mixed = imu_runs(11);
+    mixed[1].currents.clear();
+    mixed[1].dir = "soil_run".into();
+    let e = TerrainModel::train(&mixed, &fast_opts()).unwrap_err();
+    assert!(
+        e.to_string().contains("soil_run") && e.to_string().contains("--no-currents"),
+        "{e}"
+    );
+    // No log has currents: an IMU-only model, no error.
+    let mut none = imu_runs(11);
+    none.iter_mut().for_each(|l| l.currents.clear());
+    let m = TerrainModel::train(&none, &fast_opts()).unwrap();
+    assert!(!m.feature_names.iter().any(|n| n.starts_with("current")));
+
+    // IMU channels: accel_z alone when the logs have only that; mixed
+    // logs name the channel option.
+    let mut z_only = imu_runs(11);
+    z_only
+        .iter_mut()
+        .flat_map(|l| &mut l.imu)
+        .for_each(|s| s.gyro_y = None);
+    let m = TerrainModel::train(&z_only, &fast_opts()).unwrap();
+    assert!(m.feature_names.iter().all(|n| !n.starts_with("gyro_y")));
+    assert!(m.feature_names.iter().any(|n| n == "accel_z_log_var"));
+    let mut mixed = imu_runs(11);
+    mixed[2].imu.iter_mut().for_each(|s| s.gyro_y = None);
+    let e = TerrainModel::train(&mixed, &fast_opts()).unwrap_err();
+    assert!(e.to_string().contains("--channels accel-z"), "{e}");
+    // A floor given by hand is kept.
+    let mut o = fast_opts();
+    o.speed_floor = Some(0.3);
+    let m = TerrainModel::train(&imu_runs(11), &o).unwrap();
+    assert!(
+        matches!(&m.features, Features::Vibration { config, .. } if config.speed_norm_min == 0.3)
+    );
 }
 
 /// `log` driven at `v` m/s instead of 0.5, its vibration scaled with the

@@ -43,7 +43,7 @@ fn main() -> anyhow::Result<()> {
     model_cfg.belief.stay_prob_on_jump = model.belief.stay_prob_on_jump;
     model_cfg.belief.vote_lambda = model.belief.vote_lambda;
 
-    println!("## {scenario}: imu forest model, {window} s windows, trained on seeds 101-102\n");
+    println!("## {scenario}: imu model, {window} s windows, trained on seeds 101-102\n");
     println!("| seed | change | labels: re-conv. (s) | model: re-conv. (s) | model - labels (s) |");
     println!("|---|---|---|---|---|");
     let mut worst: f64 = 0.0;

@@ -27,7 +27,7 @@ fn terraslip() -> Command {
 }
 
 /// Trains a small model on `runs` (1 s windows) into `model`.
-fn train_model(runs: &[String], model: &Path, trees: &str) {
+fn train_model(runs: &[String], model: &Path, rounds: &str) {
     terraslip()
         .args(["terrain", "train"])
         .args(runs)
@@ -36,8 +36,8 @@ fn train_model(runs: &[String], model: &Path, trees: &str) {
             model.to_str().unwrap(),
             "--window",
             "1",
-            "--trees",
-            trees,
+            "--rounds",
+            rounds,
         ])
         .assert()
         .success();
@@ -49,7 +49,7 @@ fn train_then_eval_json_has_the_contract_fields_and_draws_plots() {
     let dir = tempfile::tempdir().unwrap();
     let runs = write_runs(dir.path());
     let model = dir.path().join("model.json");
-    train_model(&runs[..3], &model, "10");
+    train_model(&runs[..3], &model, "40");
     // A spliced test log: asphalt -> soil -> grass.
     let test = dir.path().join("test");
     vibration_log(&NAMES, &[(0, 20.0), (2, 20.0), (1, 20.0)], 99, 0.0)
@@ -127,7 +127,7 @@ fn crossval_reports_leave_runs_out_accuracy() {
     let out = terraslip()
         .args(["terrain", "crossval"])
         .args(&runs)
-        .args(["--folds", "2", "--window", "1", "--trees", "10", "--json"])
+        .args(["--folds", "2", "--window", "1", "--rounds", "40", "--json"])
         .output()
         .unwrap();
     assert!(
@@ -137,6 +137,9 @@ fn crossval_reports_leave_runs_out_accuracy() {
     );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["folds"], 2);
+    let per_fold = v["fold_accuracy"].as_array().unwrap();
+    assert_eq!(per_fold.len(), 2);
+    assert!(per_fold.iter().all(|a| a.as_f64().unwrap() > 0.8), "{v}");
     assert!(v["accuracy"].as_f64().unwrap() > 0.85, "{v}");
     assert!(
         v["spliced_accuracy_filtered"].as_f64().unwrap() > 0.85,
@@ -182,7 +185,7 @@ fn bad_input_is_one_line_and_non_zero() {
     let dir = tempfile::tempdir().unwrap();
     let runs = write_runs(dir.path());
     let model = dir.path().join("model.json");
-    train_model(&runs[..3], &model, "5");
+    train_model(&runs[..3], &model, "40");
     let plots = dir.path().join("plots");
 
     // Model of another format version.
@@ -279,4 +282,171 @@ fn bad_input_is_one_line_and_non_zero() {
     // Nothing was written for the failed trainings.
     assert!(!dir.path().join("t.json").exists());
     assert!(!dir.path().join("c.json").exists());
+}
+
+#[test]
+fn eval_that_scores_no_window_fails_and_says_why() {
+    let dir = tempfile::tempdir().unwrap();
+    let runs = write_runs(dir.path());
+    let model = dir.path().join("model.json");
+    train_model(&runs[..3], &model, "40");
+    // Half a second of data for a model of 1 s windows.
+    let short = dir.path().join("short");
+    vibration_log(&NAMES, &[(0, 0.5)], 3, 0.0)
+        .write(&short)
+        .unwrap();
+    eval_fails(
+        &short,
+        &model,
+        &dir.path().join("plots"),
+        "scored 0 windows: short: imu.csv covers 0.5 s, shorter than the model's 1 s window",
+    );
+}
+
+#[test]
+fn crossval_refuses_a_run_given_twice_and_fewer_than_two_folds() {
+    let dir = tempfile::tempdir().unwrap();
+    let runs = write_runs(dir.path());
+    let again = format!("{}/", runs[0]);
+    fails_with(
+        terraslip()
+            .args(["terrain", "crossval", &runs[0], &runs[1], &runs[2], &again])
+            .args(["--window", "1", "--rounds", "40"]),
+        "given twice",
+    );
+    for folds in ["0", "1"] {
+        let out = terraslip()
+            .args(["terrain", "crossval"])
+            .args(&runs)
+            .args(["--folds", folds, "--window", "1"])
+            .output()
+            .unwrap();
+        assert!(!out.status.success(), "--folds {folds} accepted");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains("--folds") && err.contains("at least 2"),
+            "{err}"
+        );
+    }
+}
+
+#[test]
+fn crossval_prints_progress_lines_when_stderr_is_not_a_terminal() {
+    let dir = tempfile::tempdir().unwrap();
+    let runs = write_runs(dir.path());
+    let out = terraslip()
+        .env("TERRASLIP_PROGRESS_SECS", "0")
+        .args(["terrain", "crossval"])
+        .args(&runs)
+        .args(["--folds", "2", "--window", "1", "--rounds", "40"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("cross-validating (folds done): 2/2"), "{err}");
+    assert!(err.contains("reading logs: 6/6"), "{err}");
+    // The per-run table and the time to follow a terrain change.
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("a change to a correct filtered label: median"),
+        "{text}"
+    );
+    assert!(text.contains("run_1_2"), "{text}");
+}
+
+/// Trains a small model on `runs` into `model`, which must succeed; its stderr.
+fn train_stderr(runs: &[String], model: &Path) -> String {
+    let out = terraslip()
+        .args(["terrain", "train"])
+        .args(runs)
+        .arg("--out")
+        .arg(model)
+        .args(["--window", "1", "--rounds", "40"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "{err}");
+    err
+}
+
+#[test]
+fn train_reads_the_channels_every_log_has_and_names_what_is_missing() {
+    let dir = tempfile::tempdir().unwrap();
+    // Logs with accel_z only and no motor currents (all the format requires).
+    let mut bare = Vec::new();
+    for k in 0..3 {
+        let mut log = vibration_log(&NAMES, &[(k, 20.0)], 40 + k as u64, 0.0);
+        log.currents.clear();
+        for s in &mut log.imu {
+            (s.accel_x, s.accel_y, s.gyro_x, s.gyro_y, s.gyro_z) = (None, None, None, None, None);
+        }
+        let p = dir.path().join(format!("bare_{k}"));
+        log.write(&p).unwrap();
+        bare.push(p.to_string_lossy().into_owned());
+    }
+    let err = train_stderr(&bare, &dir.path().join("bare.json"));
+    assert!(
+        err.contains("on 3 logs:") && err.contains("reads imu.csv (accel_z)"),
+        "{err}"
+    );
+    assert!(!err.contains("motor currents"), "{err}");
+    // One log alone: singular.
+    let full = write_runs(dir.path());
+    let p = dir.path().join("three_terrains");
+    vibration_log(&NAMES, &[(0, 15.0), (1, 15.0), (2, 15.0)], 9, 0.0)
+        .write(&p)
+        .unwrap();
+    let err = train_stderr(
+        &[p.to_string_lossy().into_owned()],
+        &dir.path().join("one.json"),
+    );
+    assert!(
+        err.contains("on 1 log:") && err.contains("motor currents"),
+        "{err}"
+    );
+    // Logs that differ: the error names the option that makes them alike.
+    fails_with(
+        terraslip()
+            .args(["terrain", "train", &full[0], &bare[1]])
+            .args([
+                "--out",
+                dir.path().join("x.json").to_str().unwrap(),
+                "--window",
+                "1",
+            ]),
+        "--channels accel-z",
+    );
+    fails_with(
+        terraslip()
+            .args([
+                "terrain",
+                "train",
+                &full[0],
+                &bare[1],
+                "--channels",
+                "accel-z",
+            ])
+            .args([
+                "--out",
+                dir.path().join("x.json").to_str().unwrap(),
+                "--window",
+                "1",
+            ]),
+        "--no-currents",
+    );
+    // With both, they train together.
+    terraslip()
+        .args(["terrain", "train", &full[0], &full[1], &full[2], &bare[0]])
+        .args([
+            "--channels",
+            "accel-z",
+            "--no-currents",
+            "--window",
+            "1",
+            "--rounds",
+            "5",
+        ])
+        .args(["--out", dir.path().join("x.json").to_str().unwrap()])
+        .assert()
+        .success();
 }

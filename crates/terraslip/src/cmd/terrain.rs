@@ -1,7 +1,9 @@
 //! `terraslip terrain train|eval|crossval`: terrain classifiers from
 //! vibration (IMU) or ground-camera frames.
 
+use std::io::IsTerminal;
 use std::path::PathBuf;
+use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context};
 use clap::{Subcommand, ValueEnum};
@@ -53,8 +55,8 @@ enum ClassifierArg {
     Tree,
     /// chen2023: k-nearest neighbours on standardised features.
     Knn,
-    /// Random forest (default; the most accurate here).
-    Forest,
+    /// Gradient-boosted trees (default; softmax loss, depth-4 trees).
+    Boost,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -86,7 +88,7 @@ struct TrainSettings {
     #[arg(long, value_enum, default_value = "imu")]
     source: SourceArg,
     /// Classifier to train.
-    #[arg(long, value_enum, default_value = "forest")]
+    #[arg(long, value_enum, default_value = "boost")]
     classifier: ClassifierArg,
     /// Feature set [default: full for imu, both for camera].
     #[arg(long, value_enum)]
@@ -99,16 +101,26 @@ struct TrainSettings {
     /// Time between consecutive IMU windows, s.
     #[arg(long, default_value_t = 0.5)]
     hop: f64,
-    /// IMU channels of the full feature set.
-    #[arg(long, value_enum, default_value = "all")]
-    channels: ChannelsArg,
+    /// IMU channels of the full feature set [default: all six when every
+    /// training log has them, else accel-z].
+    #[arg(long, value_enum)]
+    channels: Option<ChannelsArg>,
+    /// imu, full features: leave out the drive-motor current features
+    /// (read by default when every training log has current_left,current_right).
+    #[arg(long)]
+    no_currents: bool,
+    /// imu, full features: speed floor of the speed normalisation, m/s
+    /// [default: chosen among 0.05, 0.1, 0.2 by cross-validation over the
+    /// training runs].
+    #[arg(long)]
+    speed_floor: Option<f64>,
     /// Neighbours of the KNN classifier.
     #[arg(long, default_value_t = 5)]
     k: usize,
-    /// Trees of the random forest.
-    #[arg(long, default_value_t = 300)]
-    trees: usize,
-    /// Seed of the random forest (bootstrap samples and feature subsets).
+    /// Boosting rounds of the boosted trees (one tree per class each).
+    #[arg(long, default_value_t = 150)]
+    rounds: usize,
+    /// Seed of the boosted trees (row samples and feature subsets).
     /// Leave-run-out figures on BorealTC move by about ±1 point with it.
     #[arg(long, default_value_t = 7)]
     seed: u64,
@@ -163,9 +175,10 @@ struct CrossvalArgs {
     /// Log directories with terrain.csv labels, one run each.
     #[arg(required = true)]
     logs: Vec<PathBuf>,
-    /// Number of folds; runs of each terrain are dealt round-robin. Use the
-    /// number of logs for leave-one-run-out.
-    #[arg(long, default_value_t = 5)]
+    /// Number of folds (at least 2); runs of each terrain are dealt
+    /// round-robin. Use the number of logs for leave-one-run-out. Folds run
+    /// in parallel (TERRASLIP_THREADS caps the threads).
+    #[arg(long, default_value_t = 5, value_parser = parse_folds)]
     folds: usize,
     #[command(flatten)]
     settings: TrainSettings,
@@ -183,28 +196,86 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn read_logs(paths: &[PathBuf], quiet: bool) -> anyhow::Result<Vec<DriveLog>> {
-    let bar = progress(paths.len() as u64, "reading logs", quiet);
+    let mut bar = Progress::new(paths.len() as u64, "reading logs", quiet);
     let mut logs = Vec::with_capacity(paths.len());
     for p in paths {
         let log = super::bag::read_full(p)?;
         logs.push(log);
-        bar.inc(1);
+        bar.inc();
     }
-    bar.finish_and_clear();
+    bar.finish();
     Ok(logs)
 }
 
-fn progress(n: u64, what: &'static str, quiet: bool) -> ProgressBar {
-    if quiet {
-        return ProgressBar::hidden();
+/// Progress on stderr: a bar on a terminal; elsewhere (logs, CI) one line
+/// `what: done/total (elapsed)` at most every TERRASLIP_PROGRESS_SECS
+/// seconds (10 by default) and at the end of a step that took that long;
+/// nothing when `quiet`.
+struct Progress {
+    bar: Option<ProgressBar>,
+    what: &'static str,
+    n: u64,
+    done: u64,
+    plain: bool,
+    every: Duration,
+    start: Instant,
+    last: Instant,
+}
+
+impl Progress {
+    fn new(n: u64, what: &'static str, quiet: bool) -> Self {
+        let plain = !quiet && !std::io::stderr().is_terminal();
+        let bar = (!quiet && !plain).then(|| {
+            let bar = ProgressBar::new(n);
+            bar.set_style(
+                ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} {elapsed}")
+                    .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            );
+            bar.set_message(what);
+            bar
+        });
+        let every = std::env::var("TERRASLIP_PROGRESS_SECS")
+            .ok()
+            .and_then(|v| v.parse::<f64>().ok())
+            .filter(|v| v.is_finite() && *v >= 0.0)
+            .map_or(Duration::from_secs(10), Duration::from_secs_f64);
+        let now = Instant::now();
+        Self {
+            bar,
+            what,
+            n,
+            done: 0,
+            plain,
+            every,
+            start: now,
+            last: now,
+        }
     }
-    let bar = ProgressBar::new(n);
-    bar.set_style(
-        ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} {elapsed}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    bar.set_message(what);
-    bar
+
+    fn set(&mut self, done: u64) {
+        self.done = done;
+        if let Some(bar) = &self.bar {
+            bar.set_position(done);
+        } else if self.plain && self.last.elapsed() >= self.every {
+            self.last = Instant::now();
+            eprintln!(
+                "{}: {done}/{} ({:.0} s)",
+                self.what,
+                self.n,
+                self.start.elapsed().as_secs_f64()
+            );
+        }
+    }
+
+    fn inc(&mut self) {
+        self.set(self.done + 1);
+    }
+
+    fn finish(self) {
+        if let Some(bar) = &self.bar {
+            bar.finish_and_clear();
+        }
+    }
 }
 
 fn options(s: &TrainSettings) -> anyhow::Result<TrainOptions> {
@@ -218,11 +289,11 @@ fn options(s: &TrainSettings) -> anyhow::Result<TrainOptions> {
     o.classifier.kind = match s.classifier {
         ClassifierArg::Tree => ClassifierKind::Tree,
         ClassifierArg::Knn => ClassifierKind::Knn,
-        ClassifierArg::Forest => ClassifierKind::Forest,
+        ClassifierArg::Boost => ClassifierKind::Boost,
     };
     o.classifier.knn_k = s.k;
-    o.classifier.forest.n_trees = s.trees;
-    o.classifier.forest.seed = s.seed;
+    o.classifier.boost.rounds = s.rounds;
+    o.classifier.boost.seed = s.seed;
     o.classifier.tree.prune_alpha = s.prune_alpha;
     match (s.source, s.features) {
         (SourceArg::Imu, Some(FeaturesArg::Paper)) => o.vibration = VibrationConfig::paper(),
@@ -256,10 +327,19 @@ fn options(s: &TrainSettings) -> anyhow::Result<TrainOptions> {
         o.vibration.speed_norm = false;
     }
     if o.vibration.feature_set == VibrationFeatureSet::Full {
-        o.vibration.channels = match s.channels {
+        o.imu_channels = s.channels.map(|c| match c {
             ChannelsArg::All => ChannelSet::All,
             ChannelsArg::AccelZ => ChannelSet::AccelZ,
-        };
+        });
+    }
+    if s.no_currents {
+        o.currents = Some(false);
+    }
+    if let Some(v) = s.speed_floor {
+        if !(v.is_finite() && v > 0.0) {
+            bail!("--speed-floor must be a positive speed in m/s, got {v}");
+        }
+        o.speed_floor = Some(v);
     }
     if let Some(p) = &s.roi {
         let text =
@@ -285,11 +365,17 @@ fn options(s: &TrainSettings) -> anyhow::Result<TrainOptions> {
 fn train(a: TrainArgs) -> anyhow::Result<()> {
     let opts = options(&a.settings)?;
     let logs = read_logs(&a.logs, false)?;
-    let spinner = ProgressBar::new_spinner();
-    spinner.set_message("extracting features and training");
-    spinner.enable_steady_tick(std::time::Duration::from_millis(200));
+    let spinner = std::io::stderr().is_terminal().then(|| {
+        let spinner = ProgressBar::new_spinner();
+        spinner.set_message("extracting features and training");
+        spinner.enable_steady_tick(Duration::from_millis(200));
+        spinner
+    });
+    let t0 = Instant::now();
     let model = TerrainModel::train(&logs, &opts);
-    spinner.finish_and_clear();
+    if let Some(s) = spinner {
+        s.finish_and_clear();
+    }
     let model = model.context("training the terrain model")?;
     model
         .save(&a.out)
@@ -309,7 +395,12 @@ fn train(a: TrainArgs) -> anyhow::Result<()> {
             .collect::<Vec<_>>()
             .join(" ")
     );
-    eprintln!("wrote {}", a.out.display());
+    eprintln!(
+        "reads {}; wrote {} ({:.0} s)",
+        model.channels_description(),
+        a.out.display(),
+        t0.elapsed().as_secs_f64()
+    );
     Ok(())
 }
 
@@ -329,7 +420,7 @@ fn eval(a: EvalArgs) -> anyhow::Result<()> {
             );
         }
     }
-    let bar = progress(logs.len() as u64, "classifying", a.json);
+    let mut bar = Progress::new(logs.len() as u64, "classifying", a.json);
     let mut raw = Confusion::new(&model.classes);
     let mut filtered = Confusion::new(&model.classes);
     let mut scores = Vec::new();
@@ -341,9 +432,29 @@ fn eval(a: EvalArgs) -> anyhow::Result<()> {
         filtered.merge(&s.filtered);
         change.merge(&s.change);
         scores.push(s);
-        bar.inc(1);
+        bar.inc();
     }
-    bar.finish_and_clear();
+    bar.finish();
+    if raw.total() == 0 {
+        let window = model.window_s();
+        let why: Vec<String> = logs
+            .iter()
+            .map(|log| format!("{}: {}", log.name(), no_window_reason(log, window)))
+            .collect();
+        bail!(
+            "scored 0 windows: {}; give logs with labelled data longer than the model's window",
+            why.join("; ")
+        );
+    }
+    for (log, s) in logs.iter().zip(&scores) {
+        if s.raw.total() == 0 {
+            eprintln!(
+                "note: {}: no window scored ({})",
+                log.name(),
+                no_window_reason(log, model.window_s())
+            );
+        }
+    }
     std::fs::create_dir_all(&a.plots)
         .with_context(|| format!("creating plot directory {}", a.plots.display()))?;
     let mut plots = vec![
@@ -420,6 +531,27 @@ fn eval(a: EvalArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Why a log gave no scored window: too short for the window, or no label
+/// in force at any window's end.
+fn no_window_reason(log: &DriveLog, window_s: f64) -> String {
+    let span = |t: &mut dyn Iterator<Item = f64>| {
+        let v: Vec<f64> = t.collect();
+        match (v.first(), v.last()) {
+            (Some(a), Some(b)) => b - a,
+            _ => 0.0,
+        }
+    };
+    let imu = span(&mut log.imu.iter().map(|s| s.t));
+    if !log.images.is_empty() {
+        return "no frame has a terrain label in force".into();
+    }
+    if imu < window_s {
+        format!("imu.csv covers {imu:.1} s, shorter than the model's {window_s} s window")
+    } else {
+        "no window ends where a terrain label is in force".into()
+    }
+}
+
 fn sanitize(s: &str) -> String {
     s.chars()
         .map(|c| {
@@ -477,17 +609,38 @@ fn timeline_plot(s: &LogScore, classes: &[String]) -> LinePlot {
 
 fn run_crossval(a: CrossvalArgs) -> anyhow::Result<()> {
     let opts = options(&a.settings)?;
+    let mut seen: Vec<(PathBuf, &PathBuf)> = Vec::with_capacity(a.logs.len());
+    for p in &a.logs {
+        let real = std::fs::canonicalize(p).unwrap_or_else(|_| p.clone());
+        if let Some((_, first)) = seen.iter().find(|(r, _)| *r == real) {
+            bail!(
+                "run {} is given twice ({} and {}): it would be trained and tested on; give each run once",
+                real.display(),
+                first.display(),
+                p.display()
+            );
+        }
+        seen.push((real, p));
+    }
     let logs = read_logs(&a.logs, a.json)?;
-    let bar = progress(a.folds.min(logs.len()) as u64, "cross-validating", a.json);
-    let rep = crossval(&logs, &opts, a.folds, |i, _| bar.set_position(i as u64))
-        .context("cross-validation")?;
-    bar.finish_and_clear();
+    let folds = a.folds;
+    let mut bar = Progress::new(
+        folds.min(logs.len()) as u64,
+        "cross-validating (folds done)",
+        a.json,
+    );
+    let rep =
+        crossval(&logs, &opts, folds, |i, _| bar.set(i as u64)).context("cross-validation")?;
+    bar.finish();
+    let latency = rep.latency_summary();
     let text = format!(
-        "{} logs, {} folds (whole runs left out)\nsingle windows: accuracy {:.1} % (balanced {:.1} %)\n{}\nruns filtered one by one: accuracy {:.1} %\nspliced runs (terrain changes): raw {:.1} %, filtered {:.1} % (misclassification {:.2} %)\n{}",
+        "{} logs, {} folds (whole runs left out)\nsingle windows: accuracy {:.1} % (balanced {:.1} %; per fold median {:.1} %, worst {:.1} %)\n{}\nruns filtered one by one: accuracy {:.1} %\nspliced runs (terrain changes): raw {:.1} %, filtered {:.1} % (misclassification {:.2} %)\n{}",
         logs.len(),
         rep.folds,
         100.0 * rep.raw.accuracy(),
         100.0 * rep.raw.balanced_accuracy(),
+        100.0 * rep.fold_summary().0,
+        100.0 * rep.fold_summary().1,
         rep.raw.to_table(),
         100.0 * rep.filtered.accuracy(),
         100.0 * rep.spliced_raw.accuracy(),
@@ -496,10 +649,15 @@ fn run_crossval(a: CrossvalArgs) -> anyhow::Result<()> {
         rep.spliced_filtered.to_table()
     );
     let text = format!(
-        "{text}spliced logs: {} terrain changes; filtered without the windows straddling a change: {:.1} %\n\
+        "{text}spliced logs: {} terrain changes; filtered without the windows straddling a change: {:.1} %; \
+         a change to a correct filtered label: median {}, worst {}, never {} of {}\n\
          held-out outputs of all folds chained ({} terrain changes), filtered: {:.1} % (misclassification {:.2} %)\n{}",
         rep.spliced_changes,
         100.0 * rep.spliced_filtered_settled.accuracy(),
+        seconds(latency.0),
+        seconds(latency.1),
+        latency.2,
+        rep.change_latency_s.len(),
         rep.chained_changes,
         100.0 * rep.chained_filtered.accuracy(),
         100.0 * (1.0 - rep.chained_filtered.accuracy()),
@@ -529,6 +687,8 @@ fn run_crossval(a: CrossvalArgs) -> anyhow::Result<()> {
             "spliced_accuracy_filtered_settled": rep.spliced_filtered_settled.accuracy(),
             "chained_changes": rep.chained_changes,
             "chained_accuracy_filtered": rep.chained_filtered.accuracy(),
+            "change_latency_s": rep.change_latency_s,
+            "fold_accuracy": rep.fold_accuracy,
             "runs": rep.runs,
             "change_detection": rep.change,
         });
@@ -537,4 +697,20 @@ fn run_crossval(a: CrossvalArgs) -> anyhow::Result<()> {
         println!("{text}");
     }
     Ok(())
+}
+
+/// `--folds`: a number of folds, at least 2.
+fn parse_folds(s: &str) -> Result<usize, String> {
+    match s.parse::<usize>() {
+        Ok(k) if k >= 2 => Ok(k),
+        _ => Err(format!(
+            "need at least 2 folds (whole runs left out per fold), got `{s}`; \
+             the number of logs gives leave-one-run-out"
+        )),
+    }
+}
+
+/// `1.5 s`, or `-` when there is no value.
+fn seconds(v: Option<f64>) -> String {
+    v.map_or_else(|| "-".into(), |v| format!("{v:.1} s"))
 }

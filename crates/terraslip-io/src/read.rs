@@ -320,20 +320,20 @@ pub fn read_wheels(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<WheelS
 /// Reads the optional `current_left,current_right` columns of `wheels.csv`:
 /// empty without them; rows where either cell is empty are skipped.
 pub fn read_currents(path: &Path) -> Result<Vec<MotorCurrent>, LogError> {
-    let tab = read_csv_table(path)?;
+    let mut tab = read_csv_table(path)?;
     let (Some(l), Some(r)) = (tab.optional("current_left"), tab.optional("current_right")) else {
         return Ok(Vec::new());
     };
-    let mut out = Vec::with_capacity(tab.rows.len());
-    for (line, t, rec) in tab.timed_rows()? {
-        let (Some(left), Some(right)) = (
+    let mut out = Vec::new();
+    tab.each_timed_row(|tab, line, t, rec| {
+        if let (Some(left), Some(right)) = (
             tab.opt_f64(line, rec, Some(l))?,
             tab.opt_f64(line, rec, Some(r))?,
-        ) else {
-            continue;
-        };
-        out.push((line, MotorCurrent { t, left, right }));
-    }
+        ) {
+            out.push((line, MotorCurrent { t, left, right }));
+        }
+        Ok(())
+    })?;
     // read_wheels has already warned about the repeated timestamps.
     let _ = dedup_time(&mut out, |c| c.t, path);
     Ok(strip(out))

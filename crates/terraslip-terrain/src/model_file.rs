@@ -160,7 +160,10 @@ fn check_classifier(c: &Classifier, k: usize, d: usize) -> std::result::Result<(
             for (i, n) in t.nodes.iter().enumerate() {
                 let at = format!("classifier: tree node {i}");
                 if n.probs.len() != k {
-                    return Err(format!("{at}: {} probabilities for {k} classes", n.probs.len()));
+                    return Err(format!(
+                        "{at}: {} probabilities for {k} classes",
+                        n.probs.len()
+                    ));
                 }
                 if n.probs.iter().any(|p| !(0.0..=1.0).contains(p)) {
                     return Err(format!("{at}: a probability is outside [0, 1]"));
@@ -168,8 +171,12 @@ fn check_classifier(c: &Classifier, k: usize, d: usize) -> std::result::Result<(
                 if (n.probs.iter().sum::<f64>() - 1.0).abs() > 1e-3 {
                     return Err(format!("{at}: probabilities do not sum to 1"));
                 }
-                if n.left != 0 && !(forward(i, t.nodes.len(), n.left, n.right) && (n.feature as usize) < d) {
-                    return Err(format!("{at}: child links or split feature out of the tree"));
+                if n.left != 0
+                    && !(forward(i, t.nodes.len(), n.left, n.right) && (n.feature as usize) < d)
+                {
+                    return Err(format!(
+                        "{at}: child links or split feature out of the tree"
+                    ));
                 }
             }
             Ok(())
@@ -198,7 +205,9 @@ fn check_classifier(c: &Classifier, k: usize, d: usize) -> std::result::Result<(
                     .all(|(i, n)| n.left == 0 || forward(i, t.len(), n.left, n.right))
             });
             if !(links && b.is_consistent(k, d) && b.base.iter().all(|v| v.is_finite())) {
-                return Err("classifier: boosted trees do not match the classes or features".into());
+                return Err(
+                    "classifier: boosted trees do not match the classes or features".into(),
+                );
             }
             Ok(())
         }

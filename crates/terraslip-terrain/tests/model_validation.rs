@@ -2,8 +2,8 @@
 //! load, naming the file and what is wrong with it.
 
 use serde_json::{json, Value};
-use terraslip_terrain::synth::vibration_log;
 use terraslip_terrain::classify::ClassifierKind;
+use terraslip_terrain::synth::vibration_log;
 use terraslip_terrain::{TerrainModel, TrainOptions};
 
 fn model(kind: ClassifierKind) -> Value {

@@ -295,8 +295,7 @@ fn model_json() -> &'static (serde_json::Value, DriveLog) {
             .collect();
         let mut o = terraslip_terrain::TrainOptions::default();
         o.vibration.window_s = 1.0;
-        o.classifier.forest.n_trees = 2;
-        o.classifier.forest.tree.max_depth = 3;
+        o.classifier.boost.rounds = 2;
         let m = terraslip_terrain::TerrainModel::train(&runs, &o).unwrap();
         let test = vibration_log(&names, &[(0, 4.0), (1, 4.0)], 9, 0.0);
         (serde_json::to_value(&m).unwrap(), test)

@@ -158,11 +158,16 @@ fn item<'py>(
     table: &str,
     key: &str,
 ) -> PyResult<Option<Bound<'py, PyAny>>> {
-    let m = map
-        .cast::<PyMapping>()
-        .map_err(|_| PyTypeError::new_err(format!("{table}: expected a mapping of arrays")))?;
-    if m.contains(key)? {
-        Ok(Some(m.get_item(key)?))
+    // Any table with `in` and `[]`: a dict, a pandas DataFrame...
+    if !(map.hasattr("__contains__")? && map.hasattr("__getitem__")?)
+        || map.is_instance_of::<PyString>()
+    {
+        return Err(PyTypeError::new_err(format!(
+            "{table}: expected a mapping of arrays (a dict, a pandas DataFrame)"
+        )));
+    }
+    if map.contains(key)? {
+        Ok(Some(map.get_item(key)?))
     } else {
         Ok(None)
     }

@@ -115,11 +115,17 @@ DIGITS = dict(
 )
 
 
-def test_streaming_equals_batch():
-    batch = terraslip.estimate(DRIVE, terrain_labels=True)
+@pytest.mark.parametrize("calibrated", [False, True])
+def test_streaming_equals_batch(calibrated):
+    # Calibrated per terrain: the set of `gravel`, recalled on entering it.
+    init = terraslip.calibrate(DRIVE) if calibrated else None
+    if calibrated:
+        assert list(init["terrains"]) == ["gravel"]
+    batch = terraslip.estimate(DRIVE, terrain_labels=True, init=init)
     wheels = read_csv(DRIVE / "wheels.csv")
     pose = read_csv(DRIVE / "pose.csv")
-    est = terraslip.Estimator(track_width=1.10)
+    est = terraslip.Estimator(track_width=1.10, init=init)
+    assert est.init_source == batch["summary"]["init"]
     states, pi = [], 0
     for w in wheels:
         t = float(w["t"])
@@ -150,3 +156,16 @@ def test_runs_in_threads_give_the_same_numbers():
     for r in runs[1:]:
         for name in terraslip.COLUMNS:
             assert np.array_equal(r[name], runs[0][name]), name
+
+
+def test_pandas_tables():
+    pd = pytest.importorskip("pandas")
+    log = {
+        "wheels": pd.read_csv(DRIVE / "wheels.csv"),
+        "pose": pd.read_csv(DRIVE / "pose.csv"),
+        "meta": {"track_width": 1.10},
+    }
+    got = pd.DataFrame({k: v for k, v in terraslip.estimate(log).items() if k != "summary"})
+    batch = terraslip.estimate(DRIVE)
+    for name in terraslip.COLUMNS:
+        assert np.array_equal(got[name].to_numpy(), batch[name]), name

@@ -40,7 +40,8 @@ def estimate(
          "terrain": {"t": s, "terrain": [str, ...]},              # optional
          "meta": {"track_width": m, "wheel_radius": m, ...}}      # optional
 
-    Times must increase strictly. float64 arrays are read without a copy
+    Each table is a dict of arrays or a pandas DataFrame. Times must
+    increase strictly. float64 arrays are read without a copy
     into numpy; other numbers are converted.
 
     ``config``: a TOML file (``terraslip estimate --print-config`` lists

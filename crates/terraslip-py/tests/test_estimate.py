@@ -45,7 +45,7 @@ def test_estimate_equals_the_cli_on_a_real_drive(cli, tmp_path, monkeypatch, lab
 
 def test_config_and_init_reach_the_filter_as_in_the_cli(cli, tmp_path):
     config = tmp_path / "estimator.toml"
-    config.write_text("[filter]\nvariant = \"ekf\"\n[measurement]\nstd_xy = 0.05\n")
+    config.write_text("[measurement]\nstd_xy = 0.05\n")
     params = tmp_path / "params.json"
     cli("calibrate", DRIVE, "--method", "lm", "--out", params)
     out = tmp_path / "est"
@@ -56,7 +56,7 @@ def test_config_and_init_reach_the_filter_as_in_the_cli(cli, tmp_path):
     # The same as mappings: a dict of TOML tables, the parameters' content.
     again = terraslip.estimate(
         DRIVE,
-        config={"filter": {"variant": "ekf"}, "measurement": {"std_xy": 0.05}},
+        config={"measurement": {"std_xy": 0.05}},
         init=json.loads(params.read_text()),
     )
     for name in terraslip.COLUMNS:

@@ -4,8 +4,9 @@
 
 Prints the best wall time of `terraslip estimate LOG --out DIR` (a process,
 writing estimate.csv and summary.json), of `terraslip.estimate(LOG)` in this
-process and of a whole `python -c` process doing it; then the rate of
-`Estimator.on_wheels` calls from a Python loop.
+process and of a whole `python -c` process doing it; four runs one after
+the other and on threads; then the rate of `Estimator.on_wheels` calls
+from a Python loop.
 """
 
 import argparse
@@ -32,6 +33,7 @@ def main():
     p.add_argument("--cli", default="target/release/terraslip")
     p.add_argument("--repeat", type=int, default=5)
     p.add_argument("--calls", type=int, default=2_000_000)
+    p.add_argument("--threads", type=int, default=2)
     a = p.parse_args()
 
     out = tempfile.mkdtemp()
@@ -47,6 +49,14 @@ def main():
     print(f"  CLI estimate (process)        {cli:7.3f} s")
     print(f"  terraslip.estimate (call)     {call:7.3f} s  {100 * (call / cli - 1):+6.1f} %")
     print(f"  python -c estimate (process)  {proc:7.3f} s  {100 * (proc / cli - 1):+6.1f} %")
+
+    # The GIL is released while a log runs: threads run logs in parallel.
+    from concurrent.futures import ThreadPoolExecutor
+
+    seq = best(lambda: [terraslip.estimate(a.log) for _ in range(4)], 1)
+    with ThreadPoolExecutor(a.threads) as pool:
+        par = best(lambda: list(pool.map(terraslip.estimate, [a.log] * 4)), 1)
+    print(f"  4 x estimate: one after the other {seq:.3f} s, {a.threads} threads {par:.3f} s ({seq / par:.2f}x)")
 
     est = terraslip.Estimator(track_width=0.5)
     on_wheels = est.on_wheels

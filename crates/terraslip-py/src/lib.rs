@@ -180,19 +180,17 @@ fn required<'py>(map: &Bound<'py, PyAny>, table: &str, key: &str) -> PyResult<Bo
 
 /// Fails unless `t` is finite and strictly increasing.
 fn check_time(t: &[f64], table: &str) -> PyResult<()> {
-    for (i, w) in t.windows(2).enumerate() {
-        if !(w[1] > w[0]) {
-            return Err(PyValueError::new_err(format!(
-                "{table}: t must increase strictly (row {}: {} after {})",
-                i + 1,
-                w[1],
-                w[0]
-            )));
-        }
-    }
-    match t.iter().position(|v| !v.is_finite()) {
-        Some(i) => Err(PyValueError::new_err(format!(
+    if let Some(i) = t.iter().position(|v| !v.is_finite()) {
+        return Err(PyValueError::new_err(format!(
             "{table}: t[{i}] is not finite"
+        )));
+    }
+    match t.windows(2).position(|w| w[1] <= w[0]) {
+        Some(i) => Err(PyValueError::new_err(format!(
+            "{table}: t must increase strictly (row {}: {} after {})",
+            i + 1,
+            t[i + 1],
+            t[i]
         ))),
         None => Ok(()),
     }
@@ -297,7 +295,7 @@ fn check_pose(p: &PoseObs) -> Result<(), String> {
         return Err("east and north must both be given or both be empty".into());
     }
     for (name, s) in [("std_xy", p.std_xy), ("std_yaw", p.std_yaw)] {
-        if matches!(s, Some(v) if !(v > 0.0)) {
+        if matches!(s, Some(v) if v.is_nan() || v <= 0.0) {
             return Err(format!("`{name}` must be > 0"));
         }
     }

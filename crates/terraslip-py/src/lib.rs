@@ -588,7 +588,7 @@ fn read_logs(paths: &[PathBuf]) -> anyhow::Result<Vec<DriveLog>> {
 /// Returns the parameters file's content (y_l, y_r, x_c in m, alpha_l,
 /// alpha_r, their 1-sigma std, per terrain when the logs are labelled).
 #[pyfunction]
-#[pyo3(signature = (logs, method=Some("lm")))]
+#[pyo3(signature = (logs, method=Some("lm")), text_signature = "(logs, method='lm')")]
 fn calibrate<'py>(
     py: Python<'py>,
     logs: &Bound<'py, PyAny>,

@@ -5,13 +5,19 @@ world ENU (east, north), yaw counter-clockwise from east, in (-pi, pi].
 """
 
 import os
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Union
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Union, final
 
-import numpy as np
-import numpy.typing as npt
+_PathLike = Union[str, "os.PathLike[str]"]
 
-PathLike = Union[str, "os.PathLike[str]"]
-ArrayLike = npt.ArrayLike
+__all__ = [
+    "COLUMNS",
+    "Estimator",
+    "TerrainModel",
+    "TerraslipError",
+    "calibrate",
+    "estimate",
+    "validate",
+]
 
 COLUMNS: List[str]
 """The columns of ``estimate.csv`` in order, as ``estimate`` returns them."""
@@ -20,12 +26,12 @@ class TerraslipError(ValueError):
     """Bad input or a failed run; the message is the command line's."""
 
 def estimate(
-    log: Union[PathLike, Mapping[str, Any]],
+    log: Union[_PathLike, Mapping[str, Any]],
     *,
-    config: Union[None, PathLike, Mapping[str, Any]] = None,
-    init: Union[None, PathLike, Mapping[str, Any]] = None,
+    config: Union[None, _PathLike, Mapping[str, Any]] = None,
+    init: Union[None, _PathLike, Mapping[str, Any]] = None,
     terrain_labels: bool = False,
-    terrain_model: Optional[PathLike] = None,
+    terrain_model: Optional[_PathLike] = None,
     preset: Optional[str] = None,
 ) -> Dict[str, Any]:
     """Runs the online ICR estimator over a drive log, as ``terraslip estimate``.
@@ -71,6 +77,7 @@ def estimate(
     arrays and TypeError for arguments of the wrong type.
     """
 
+@final
 class Estimator:
     """The online estimator, one event at a time: the filter
     ``terraslip estimate`` runs, with the same configuration.
@@ -80,14 +87,14 @@ class Estimator:
     order in which streaming equals batch).
     """
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         track_width: float,
-        config: Union[None, PathLike, Mapping[str, Any]] = None,
-        init: Union[None, PathLike, Mapping[str, Any]] = None,
+        config: Union[None, _PathLike, Mapping[str, Any]] = None,
+        init: Union[None, _PathLike, Mapping[str, Any]] = None,
         *,
         preset: Optional[str] = None,
-    ) -> None:
+    ) -> "Estimator":
         """``track_width``: distance between the tread centre lines, m.
         ``config``, ``init`` and ``preset`` as for ``estimate``. With
         ``init``, the filter starts from its pooled set (or its only set);
@@ -132,7 +139,7 @@ class Estimator:
         """Terrain labels seen by ``on_terrain``, in order of appearance."""
 
 def calibrate(
-    logs: Union[PathLike, Sequence[PathLike]], method: Optional[str] = "lm"
+    logs: Union[_PathLike, Sequence[_PathLike]], method: Optional[str] = "lm"
 ) -> Dict[str, Any]:
     """Identifies the ICR parameters offline, as ``terraslip calibrate``
     with its defaults: ``method`` ``"lm"``, ``"ga"``, ``"symmetric"`` or
@@ -143,8 +150,8 @@ def calibrate(
     and ``validate`` take as ``init`` / ``params``. The GIL is released."""
 
 def validate(
-    logs: Union[PathLike, Sequence[PathLike]],
-    params: Union[PathLike, Mapping[str, Any]],
+    logs: Union[_PathLike, Sequence[_PathLike]],
+    params: Union[_PathLike, Mapping[str, Any]],
 ) -> Dict[str, Any]:
     """Scores parameters on drives, as ``terraslip calibrate validate
     --json``: mean squared segment errors ``dx``, ``dy`` (m^2) and ``dyaw``
@@ -152,16 +159,17 @@ def validate(
     constant and the no-slip models, per terrain, and the 2 s prediction
     error. The GIL is released."""
 
+@final
 class TerrainModel:
     """A terrain classifier trained by ``terraslip terrain train``."""
 
     @staticmethod
-    def load(path: PathLike) -> "TerrainModel":
+    def load(path: _PathLike) -> "TerrainModel":
         """Reads a model file (JSON), refusing other format versions."""
     @property
     def classes(self) -> List[str]:
         """Terrain names; column k of ``probabilities`` is ``classes[k]``."""
-    def classify(self, log: Union[PathLike, Mapping[str, Any]]) -> Dict[str, Any]:
+    def classify(self, log: Union[_PathLike, Mapping[str, Any]]) -> Dict[str, Any]:
         """Classifies every window (imu model) or frame (camera model) of a
         log directory, causally. Returns ``t`` (s, end of each window),
         ``probabilities`` (windows x classes), ``label`` (the most probable

@@ -207,7 +207,11 @@ fn same_length(n: usize, cols: &[(&str, usize)], table: &str) -> PyResult<()> {
 
 /// A log from a mapping of arrays (the columns of docs/log-format.md).
 fn log_from_mapping(log: &Bound<'_, PyAny>) -> PyResult<DriveLog> {
-    let mut out = DriveLog::default();
+    // Messages and the summary name the log.
+    let mut out = DriveLog {
+        dir: PathBuf::from(MAPPING),
+        ..Default::default()
+    };
     let wheels = required(log, "log", "wheels")?;
     let (t, l, r) = (
         column(&required(&wheels, "wheels", "t")?, "wheels.t")?,

@@ -99,6 +99,7 @@ def test_a_mapping_of_arrays_is_the_same_log():
     for name in terraslip.COLUMNS:
         assert np.array_equal(got[name], want[name]), name
     assert got["summary"]["icr"] == want["summary"]["icr"]
+    assert got["summary"]["log"] == "<mapping>"
 
 
 def as_written(x, digits):

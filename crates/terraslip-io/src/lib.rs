@@ -19,7 +19,7 @@ pub use estimate::{read_estimate, EstimateRecord};
 pub use params::{ParamEntry, ParamsFile, RateModelEntry};
 pub use read::{
     read_csv_table, read_currents, read_images, read_imu, read_meta, read_pose, read_terrain,
-    read_truth, read_wheels, CsvTable,
+    read_truth, read_wheels, wrap_angle, CsvTable,
 };
 pub use types::*;
 pub use write::write_csv;

@@ -140,7 +140,13 @@ impl ParamsFile {
     /// Reads and validates a parameters file.
     pub fn read(path: &Path) -> Result<Self, LogError> {
         let text = std::fs::read_to_string(path).map_err(|e| LogError::io(path, e))?;
-        let pf: ParamsFile = serde_json::from_str(&text).map_err(|e| LogError::Parse {
+        Self::parse(&text, path)
+    }
+
+    /// Parses and validates the JSON text of a parameters file; `path`
+    /// names it in errors.
+    pub fn parse(text: &str, path: &Path) -> Result<Self, LogError> {
+        let pf: ParamsFile = serde_json::from_str(text).map_err(|e| LogError::Parse {
             path: path.to_path_buf(),
             line: e.line() as u64,
             reason: format!(

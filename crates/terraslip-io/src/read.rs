@@ -577,8 +577,8 @@ pub fn read_meta(path: &Path) -> Result<Meta, LogError> {
     Ok(meta)
 }
 
-/// Wraps to (-pi, pi].
-pub(crate) fn wrap_angle(a: f64) -> f64 {
+/// Wraps to (-pi, pi], as the readers wrap `yaw` columns.
+pub fn wrap_angle(a: f64) -> f64 {
     use std::f64::consts::PI;
     let mut w = a.rem_euclid(2.0 * PI);
     if w > PI {

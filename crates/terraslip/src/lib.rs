@@ -4,16 +4,21 @@
 //! * [`config`]: the estimator's TOML configuration and named presets;
 //! * [`glossary`]: the presets' and the papers' names, for `--help` and outputs;
 //! * [`pipeline`]: runs the online estimator over a [`terraslip_io::DriveLog`];
+//! * [`estimate`]: what `terraslip estimate` does, as values: configuration,
+//!   terrain evidence, the run, `summary.json` and the `estimate.csv` columns;
 //! * [`metrics`]: scores a run against ground truth;
 //! * [`prediction_score`]: the 2 s motion-prediction error of a run against
 //!   the log's pose reference;
-//! * [`report`]: plots and an HTML page of an estimate against its log.
+//! * [`report`]: plots and an HTML page of an estimate against its log;
+//! * [`validation`]: what `calibrate validate --json` reports, as values.
 
 pub mod config;
+pub mod estimate;
 pub mod glossary;
 pub mod metrics;
 pub mod pipeline;
 pub mod report;
+pub mod validation;
 
 pub use config::EstimatorConfig;
 pub use pipeline::{run, EstimateRow, EstimateRun, RunOptions, TerrainEvidence};

@@ -3,7 +3,7 @@
 //! [`terraslip_core::Estimator`] event by event, exactly as a robot would;
 //! one [`EstimateRow`] is taken after each wheels row.
 
-mod row;
+pub mod row;
 mod setup;
 mod terrain_feed;
 
@@ -11,10 +11,11 @@ use terraslip_core::estimator::{Estimator, FixCounts};
 use terraslip_core::filter::{IcrBand, PoseFix};
 use terraslip_core::schedule::ChangeAction;
 use terraslip_core::IcrParams;
-use terraslip_io::{DriveLog, ParamsFile, TerrainLabel};
+use terraslip_io::{DriveLog, ParamsFile, PoseObs, TerrainLabel};
 
 use crate::config::EstimatorConfig;
-use row::{band_warnings, row};
+use row::band_warnings;
+pub use row::row;
 use terrain_feed::TerrainFeed;
 
 /// Where the estimator learns which terrain the robot is on.
@@ -338,15 +339,8 @@ fn replay(
                 dropped += 1;
                 continue;
             }
-            let fix = PoseFix {
-                position: p.east.zip(p.north),
-                yaw: p.yaw,
-                std_xy: p.std_xy.unwrap_or(cfg.measurement.std_xy),
-                std_yaw: p.std_yaw.unwrap_or(cfg.measurement.std_yaw),
-                stated: p.std_xy.is_some() || p.std_yaw.is_some(),
-            };
             estimator
-                .on_pose(p.t, fix)
+                .on_pose(p.t, pose_fix(cfg, p))
                 .map_err(|e| filter_err(p.t, e))?;
             used += 1;
         }
@@ -458,5 +452,48 @@ fn finish(
             dropped_fixes: dropped,
         },
         warnings,
+    }
+}
+
+/// The fix a pose row gives: the configured noise where the row states
+/// none.
+pub fn pose_fix(cfg: &EstimatorConfig, p: &PoseObs) -> PoseFix {
+    PoseFix {
+        position: p.east.zip(p.north),
+        yaw: p.yaw,
+        std_xy: p.std_xy.unwrap_or(cfg.measurement.std_xy),
+        std_yaw: p.std_yaw.unwrap_or(cfg.measurement.std_yaw),
+        stated: p.std_xy.is_some() || p.std_yaw.is_some(),
+    }
+}
+
+/// A streaming estimator as [`run`] builds it for a robot of track width
+/// `track_width` (m) without terrain evidence, and the source of its
+/// starting slip parameters (`prior`, `init:<set>`). Per-terrain sets of
+/// `init` are for [`seed_terrain`] once their terrain is declared.
+pub fn estimator(
+    cfg: &EstimatorConfig,
+    track_width: f64,
+    init: Option<&ParamsFile>,
+) -> Result<(Estimator, String, Vec<String>), PipelineError> {
+    cfg.validate().map_err(|e| PipelineError::Config(e.0))?;
+    let mut log = DriveLog::default();
+    log.meta.track_width = Some(track_width);
+    let s = setup::setup(&log, cfg, &TerrainEvidence::None, init)?;
+    Ok((s.estimator, s.init_source, s.warnings))
+}
+
+/// Seeds terrain `k`'s memory with `init`'s set named `name`, as [`run`]
+/// does for each terrain of its evidence.
+pub fn seed_terrain(
+    est: &mut Estimator,
+    cfg: &EstimatorConfig,
+    init: &ParamsFile,
+    k: usize,
+    name: &str,
+) {
+    if let Some(entry) = init.terrains.get(name) {
+        est.schedule_mut()
+            .seed(k, &entry.params, cfg.init.calibrated_std);
     }
 }

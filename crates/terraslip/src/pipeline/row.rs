@@ -7,7 +7,7 @@ use terraslip_core::filter::IcrBand;
 use super::EstimateRow;
 
 /// The estimate after a wheels row at `t`.
-pub(super) fn row(est: &Estimator, t: f64, terrain: Option<usize>, s: &FixSummary) -> EstimateRow {
+pub fn row(est: &Estimator, t: f64, terrain: Option<usize>, s: &FixSummary) -> EstimateRow {
     let f = est.filter();
     let (east, north, yaw) = f.pose();
     // The ICRs in effect at this row's tread speeds.

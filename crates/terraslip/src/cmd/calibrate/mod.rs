@@ -373,7 +373,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     #[cfg(feature = "ros2")]
     if let Some(p) = &args.ros2_params {
         super::ros2out::write_params(p, &pf, &logs, |l, f| {
-            validate::validation_prediction(l, f).map(|s| s.stats.rmse_m)
+            terraslip::validation::prediction(l, f).map(|s| s.stats.rmse_m)
         })?;
     }
     if args.json {

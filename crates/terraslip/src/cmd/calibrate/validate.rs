@@ -108,7 +108,7 @@ pub(super) fn run(a: ValidateArgs) -> anyhow::Result<()> {
     }
     // The 2 s prediction error, as `estimate` reports it: the parameters of
     // the terrain in effect (or the pooled set) held over each 2 s.
-    let prediction = validation_prediction(&logs, &params);
+    let prediction = terraslip::validation::prediction(&logs, &params);
     if let Some(p) = &prediction {
         eprintln!(
             "  2 s prediction: {} segments, mean {:.3} m (no-slip {:.3} m), p90 {:.3} m",
@@ -125,61 +125,12 @@ pub(super) fn run(a: ValidateArgs) -> anyhow::Result<()> {
         eprintln!("wrote {}", path.display());
     }
     if a.json {
-        let mse =
-            |m: &terraslip_calib::Mse| serde_json::json!({"dx": m.dx, "dy": m.dy, "dyaw": m.dyaw});
-        let per: serde_json::Map<String, serde_json::Value> = v
-            .per_terrain
-            .iter()
-            .map(|(k, (n, m, nm))| {
-                (
-                    k.clone(),
-                    serde_json::json!({"segments": n, "mse": mse(m), "nominal_mse": mse(nm)}),
-                )
-            })
-            .collect();
-        let j = serde_json::json!({
-            "segments": v.segments.len(),
-            "mse": mse(&v.mse),
-            "nominal_mse": mse(&v.nominal_mse),
-            "position_mse_ratio": ratio(v.nominal_mse.position(), v.mse.position()),
-            "constant_mse": mse(&v.constant_mse),
-            "constant_position_mse_ratio": ratio(v.nominal_mse.position(), v.constant_mse.position()),
-            "rate_model_segments": v.rate_segments,
-            "time_offsets_s": v.offsets,
-            "stationary_skipped": v.stats.stationary,
-            "implausible_dropped": v.stats.implausible,
-            "mistimed_poses_dropped": v.stats.mistimed_poses,
-            "held_poses_dropped": v.stats.stale_poses,
-            "terrains": per,
-            "prediction": prediction.as_ref().map(|p| p.to_json()),
-        });
-        println!("{j}");
+        println!(
+            "{}",
+            terraslip::validation::to_json(&v, prediction.as_ref())
+        );
     }
     Ok(())
-}
-
-/// The 2 s prediction score of `params` over all `logs` together.
-pub(super) fn validation_prediction(
-    logs: &[terraslip_io::DriveLog],
-    params: &ParamsFile,
-) -> Option<terraslip_calib::prediction::PredictionScore> {
-    use terraslip_calib::prediction::{score, PredictionScore};
-    let mut all: Option<PredictionScore> = None;
-    for log in logs {
-        let w = log.meta.track_width.filter(|w| w.is_finite() && *w > 0.0)?;
-        let set_at = |t: f64| {
-            let k = log.terrain.partition_point(|l| l.t <= t);
-            let name = k.checked_sub(1).map(|k| log.terrain[k].terrain.as_str());
-            params.for_terrain(name)
-        };
-        if let Some(s) = score(&log.wheels, &log.pose, w, &set_at, Default::default()) {
-            match all.as_mut() {
-                Some(a) => a.segments.extend(s.segments),
-                None => all = Some(s),
-            }
-        }
-    }
-    all.map(|a| terraslip_calib::prediction::PredictionScore::from_segments(a.spec, a.segments))
 }
 
 /// Three panels: segment end points in the start frame (reference,

@@ -1,0 +1,434 @@
+//! `terraslip estimate` as values, for the command and for other front ends
+//! (the Python package): the configuration from a preset and TOML, the log
+//! as the estimator reads it, the terrain evidence, the run, the content of
+//! `summary.json` and the columns of `estimate.csv`.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use anyhow::{bail, Context, Result};
+use terraslip_io::{DriveLog, LogError, ParamsFile};
+
+use crate::config::EstimatorConfig;
+use crate::pipeline::{self, EstimateRow, EstimateRun, RunOptions, TerrainEvidence};
+
+/// Reads only what the estimator uses: wheels, pose, meta and terrain.
+/// The imu stream alone can be four times the size of everything else;
+/// truth is for scoring, not estimating.
+pub fn read_log(dir: &Path) -> Result<DriveLog, LogError> {
+    if !dir.is_dir() {
+        return Err(LogError::Invalid {
+            path: dir.to_path_buf(),
+            reason: "not a log directory; give the directory that holds wheels.csv".into(),
+        });
+    }
+    let mut log = DriveLog {
+        dir: dir.to_path_buf(),
+        ..Default::default()
+    };
+    log.wheels = terraslip_io::read_wheels(&dir.join("wheels.csv"), &mut log.warnings)?;
+    let pose = dir.join("pose.csv");
+    if pose.exists() {
+        log.pose = terraslip_io::read_pose(&pose, &mut log.warnings)?;
+    }
+    let terrain = dir.join("terrain.csv");
+    if terrain.exists() {
+        log.terrain = terraslip_io::read_terrain(&terrain)?;
+    }
+    let meta = dir.join("meta.toml");
+    if meta.exists() {
+        log.meta = terraslip_io::read_meta(&meta)?;
+    }
+    Ok(log)
+}
+
+/// The configuration in effect: the preset `preset` (else the default),
+/// the keys of the TOML file `path` on top, validated.
+pub fn load_config(preset: Option<&str>, path: Option<&Path>) -> Result<EstimatorConfig> {
+    let text = match path {
+        Some(p) => Some((
+            std::fs::read_to_string(p).with_context(|| format!("{}: cannot read", p.display()))?,
+            p.display().to_string(),
+        )),
+        None => None,
+    };
+    config_from(preset, text.as_ref().map(|(t, n)| (t.as_str(), n.as_str())))
+}
+
+/// [`load_config`] with the TOML given as `(text, name)`; `name` prefixes
+/// the errors.
+pub fn config_from(
+    preset: Option<&str>,
+    toml_text: Option<(&str, &str)>,
+) -> Result<EstimatorConfig> {
+    let mut cfg = match preset {
+        Some(name) => EstimatorConfig::preset(name).with_context(|| {
+            let names: Vec<&str> = EstimatorConfig::presets().iter().map(|p| p.0).collect();
+            format!("unknown preset `{name}` (known: {})", names.join(", "))
+        })?,
+        None => EstimatorConfig::default(),
+    };
+    if let Some((text, name)) = toml_text {
+        // Checked alone first, so errors point at the user's own lines.
+        toml::from_str::<EstimatorConfig>(text)
+            .map_err(|e| crate::config::toml_error(text, &e))
+            .with_context(|| name.to_string())?;
+        // A preset is the base; the file's keys override it.
+        let base = toml::Value::try_from(&cfg).context("serialising the base configuration")?;
+        let over: toml::Value = toml::from_str(text)
+            .map_err(|e| crate::config::toml_error(text, &e))
+            .with_context(|| name.to_string())?;
+        let merged = merge(base, over);
+        cfg = EstimatorConfig::from_toml(&toml::to_string(&merged).unwrap_or_default())
+            .with_context(|| name.to_string())?;
+    }
+    cfg.validate()?;
+    Ok(cfg)
+}
+
+fn merge(base: toml::Value, over: toml::Value) -> toml::Value {
+    match (base, over) {
+        (toml::Value::Table(mut b), toml::Value::Table(o)) => {
+            for (k, v) in o {
+                let nv = match b.remove(&k) {
+                    Some(bv) => merge(bv, v),
+                    None => v,
+                };
+                b.insert(k, nv);
+            }
+            toml::Value::Table(b)
+        }
+        (_, o) => o,
+    }
+}
+
+/// What a run uses besides the log and the configuration.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Inputs<'a> {
+    /// Starting ICRs (`--init`).
+    pub init: Option<&'a ParamsFile>,
+    /// The log's own terrain.csv as terrain evidence (`--terrain-labels`).
+    pub terrain_labels: bool,
+    /// A terrain model classifying the log's imu or camera stream
+    /// (`--terrain-model`); the log must hold that stream.
+    pub terrain_model: Option<&'a Path>,
+    /// Drop every pose fix in `[t0, t1)` s (`--outage`).
+    pub outage: Option<(f64, f64)>,
+}
+
+/// A finished run: the rows of `estimate.csv` and `summary.json`.
+#[derive(Debug, Clone)]
+pub struct Estimate {
+    pub run: EstimateRun,
+    pub summary: serde_json::Value,
+    /// What the command prints about its inputs (the terrain model used).
+    pub notes: Vec<String>,
+}
+
+/// Runs the estimator over `log` as `terraslip estimate` does;
+/// `progress(done, total)` is called every few thousand wheels rows.
+pub fn estimate(
+    log: &DriveLog,
+    mut cfg: EstimatorConfig,
+    inputs: &Inputs,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<Estimate> {
+    let mut notes = Vec::new();
+    let (evidence, evidence_name) = if inputs.terrain_labels {
+        if log.terrain.is_empty() {
+            bail!("--terrain-labels: {} has no terrain.csv", log.dir.display());
+        }
+        (
+            TerrainEvidence::Labels(log.terrain.clone()),
+            "labels (terrain.csv)".to_string(),
+        )
+    } else if let Some(path) = inputs.terrain_model {
+        let ctx = || format!("--terrain-model {}", path.display());
+        let model = terraslip_terrain::TerrainModel::load(path).with_context(ctx)?;
+        let timeline = model.estimator_evidence(log).with_context(ctx)?;
+        // The model carries the smoothing it was validated with (λ chosen
+        // from its own accuracy, wang2018 eq. 14): use it, not the defaults.
+        cfg.belief.stay_prob = model.belief.stay_prob;
+        cfg.belief.stay_prob_on_jump = model.belief.stay_prob_on_jump;
+        cfg.belief.vote_lambda = model.belief.vote_lambda;
+        notes.push(format!(
+            "terrain: {} {:?} classifier, {} windows{} over classes {}",
+            path.display(),
+            model.source,
+            timeline.frames.len(),
+            if timeline.changes.is_empty() {
+                String::new()
+            } else {
+                format!(", {} camera change detections", timeline.changes.len())
+            },
+            timeline.classes.join(", ")
+        ));
+        (
+            TerrainEvidence::from(timeline),
+            format!("model {} ({:?})", path.display(), model.source),
+        )
+    } else {
+        (TerrainEvidence::None, "none".to_string())
+    };
+    let opts = RunOptions {
+        outage: inputs.outage,
+    };
+    let run = pipeline::run_with(log, &cfg, &evidence, inputs.init, opts, progress)?;
+    let mut summary = summary_json(log, &run, &cfg);
+    summary["terrain_evidence"] = serde_json::Value::String(evidence_name);
+    Ok(Estimate {
+        run,
+        summary,
+        notes,
+    })
+}
+
+/// The content of `summary.json` (without `terrain_evidence`).
+pub fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) -> serde_json::Value {
+    let icr = est.final_icr;
+    let last = est.rows.last();
+    serde_json::json!({
+        "log": log.dir.display().to_string(),
+        "rows": est.rows.len(),
+        "duration_s": est.duration(),
+        "icr": {
+            "y_l": icr.y_l, "y_r": icr.y_r, "x_c": icr.x_c,
+            "alpha_l": icr.alpha_l, "alpha_r": icr.alpha_r,
+        },
+        "icr_std": last.map(|r| serde_json::json!({
+            "y_l": r.std[3], "y_r": r.std[4], "x_c": r.std[5], "spread": r.std_spread,
+        })),
+        "track_width": est.track_width,
+        "variant": cfg.filter.variant,
+        "init": est.init_source,
+        "clock_offset_s": {"value": est.clock_offset.0, "std": est.clock_offset.1},
+        // The spread in effect is (1 + slope |v_r - v_l|) times "icr"'s.
+        "turn_law_s_per_m": {"slope": est.turn_law.0, "std": est.turn_law.1},
+        // The pose noise the filter ended with, and whether pose.csv stated it.
+        "pose_noise": {
+            "std_xy_m": est.noise.std_xy,
+            "std_yaw_rad": est.noise.std_yaw,
+            "correlated_std_m": est.noise.correlated_std,
+            "model_speed_rel_per_sqrt_s": est.noise.model.0.sqrt(),
+            "model_yaw_rate_rel_per_sqrt_s": est.noise.model.1.sqrt(),
+            "stated_in_log": est.noise.stated,
+            "learned": est.noise.learned,
+        },
+        "terrain_changes": est.changes.iter().map(|c| serde_json::json!({
+            "t": c.t,
+            "terrain": est.terrains.get(c.terrain),
+            "action": format!("{:?}", c.action).to_lowercase(),
+        })).collect::<Vec<_>>(),
+        "stats": {
+            "predictions": est.stats.fixes.predictions,
+            "fixes": est.stats.fixes_used,
+            "position_fused": est.stats.fixes.position_fused,
+            "position_gated": est.stats.fixes.position_gated,
+            "yaw_fused": est.stats.fixes.yaw_fused,
+            "yaw_gated": est.stats.fixes.yaw_gated,
+            "anchored": est.stats.fixes.anchored,
+            "changes_detected": est.stats.fixes.changes_detected,
+            "refused_updates": est.stats.fixes.refused,
+            "dropped_fixes": est.stats.dropped_fixes,
+        },
+        "warnings": log.warnings.iter().chain(&est.warnings).collect::<Vec<_>>(),
+        // How well the parameters the filter reported at each time predict
+        // the next 2 s of motion against the pose reference (absent without one).
+        "prediction": crate::prediction_score(log, est).map(|p| p.to_json()),
+    })
+}
+
+/// How a column of `estimate.csv` is written.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Column {
+    /// Seconds, shortest text that reads back as the same number.
+    Time,
+    /// Rounded to this many decimals.
+    Fixed(u32),
+    /// 0 or 1.
+    Flag,
+    /// The terrain's name (empty when unknown).
+    Terrain,
+}
+
+/// The columns of `estimate.csv` (log-format.md's, then extras) and how
+/// each is written; [`values`] gives a row's numbers in this order.
+pub const COLUMNS: [(&str, Column); 25] = [
+    ("t", Column::Time),
+    ("east", Column::Fixed(4)),
+    ("north", Column::Fixed(4)),
+    ("yaw", Column::Fixed(6)),
+    ("y_l", Column::Fixed(6)),
+    ("y_r", Column::Fixed(6)),
+    ("x_c", Column::Fixed(6)),
+    ("std_east", Column::Fixed(4)),
+    ("std_north", Column::Fixed(4)),
+    ("std_yaw", Column::Fixed(6)),
+    ("std_y_l", Column::Fixed(6)),
+    ("std_y_r", Column::Fixed(6)),
+    ("std_x_c", Column::Fixed(6)),
+    ("terrain", Column::Terrain),
+    ("alpha_l", Column::Fixed(5)),
+    ("alpha_r", Column::Fixed(5)),
+    ("std_alpha_l", Column::Fixed(5)),
+    ("std_alpha_r", Column::Fixed(5)),
+    ("std_spread", Column::Fixed(6)),
+    ("fused", Column::Flag),
+    ("gated", Column::Flag),
+    ("nis", Column::Fixed(3)),
+    ("q_scale", Column::Fixed(3)),
+    ("change", Column::Flag),
+    ("clock_offset", Column::Fixed(4)),
+];
+
+/// The header line of `estimate.csv` (without the newline).
+pub fn header() -> String {
+    COLUMNS.map(|c| c.0).join(",")
+}
+
+/// A row's numbers in the order of [`COLUMNS`], unrounded; flags are 0 or
+/// 1, the terrain column is the index into [`EstimateRun::terrains`] (NaN
+/// when unknown).
+pub fn values(r: &EstimateRow) -> [f64; 25] {
+    let flag = |b: bool| if b { 1.0 } else { 0.0 };
+    [
+        r.t,
+        r.east,
+        r.north,
+        r.yaw,
+        r.y_l,
+        r.y_r,
+        r.x_c,
+        r.std[0],
+        r.std[1],
+        r.std[2],
+        r.std[3],
+        r.std[4],
+        r.std[5],
+        r.terrain.map_or(f64::NAN, |k| k as f64),
+        r.alpha_l,
+        r.alpha_r,
+        r.std[6],
+        r.std[7],
+        r.std_spread,
+        flag(r.fused),
+        flag(r.gated),
+        r.nis,
+        r.q_scale,
+        flag(r.change),
+        r.clock_offset,
+    ]
+}
+
+/// Appends one line of `estimate.csv` for `r`.
+pub fn write_row(buf: &mut String, run: &EstimateRun, r: &EstimateRow) {
+    for (k, (v, (_, col))) in values(r).into_iter().zip(COLUMNS).enumerate() {
+        if k > 0 {
+            buf.push(',');
+        }
+        match col {
+            Column::Time => {
+                let _ = write!(buf, "{v}");
+            }
+            Column::Fixed(digits) => push_fixed(buf, v, digits),
+            Column::Flag => buf.push(if v != 0.0 { '1' } else { '0' }),
+            Column::Terrain => buf.push_str(run.terrain_name(r).unwrap_or("")),
+        }
+    }
+    buf.push('\n');
+}
+
+/// `v` as `estimate.csv` holds it: the number its text reads back as
+/// ([`Column::Fixed`] columns rounded to their decimals).
+pub fn as_written(v: f64, col: Column) -> f64 {
+    match col {
+        Column::Fixed(digits) => match fixed(v, digits) {
+            // Both exact in f64 and the division correctly rounded: the
+            // nearest double to the decimal text, as parsing gives.
+            Some((n, scale, negative)) => {
+                let x = n as f64 / scale as f64;
+                if negative {
+                    -x
+                } else {
+                    x
+                }
+            }
+            None => v,
+        },
+        _ => v,
+    }
+}
+
+/// `|v|` in units of the last of `digits` decimals, rounded, the scale and
+/// whether the text has a minus sign; `None` where it is too large for
+/// integer arithmetic or not finite.
+fn fixed(v: f64, digits: u32) -> Option<(u64, u64, bool)> {
+    let scale = 10u64.pow(digits);
+    let scaled = (v.abs() * scale as f64).round();
+    if !v.is_finite() || scaled >= 9.0e15 {
+        return None;
+    }
+    let n = scaled as u64;
+    Some((n, scale, v < 0.0 && n != 0))
+}
+
+/// Appends `v` with `digits` decimals. Integer arithmetic: `format!` with a
+/// precision costs ~1 s per hour of 50 Hz rows, this a tenth of it.
+fn push_fixed(buf: &mut String, v: f64, digits: u32) {
+    let Some((n, scale, negative)) = fixed(v, digits) else {
+        let _ = write!(buf, "{v:.*}", digits as usize);
+        return;
+    };
+    if negative {
+        buf.push('-');
+    }
+    let _ = write!(
+        buf,
+        "{}.{:0width$}",
+        n / scale,
+        n % scale,
+        width = digits as usize
+    );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{as_written, push_fixed, Column};
+
+    #[test]
+    fn fixed_formatting_matches_format_and_reads_back_as_written() {
+        for v in [
+            0.0,
+            -0.0,
+            1.5,
+            -2.25,
+            0.123456789,
+            -0.00004,
+            123456.7,
+            1e300,
+            f64::NAN,
+            -1e-9,
+            -2.765432,
+            0.00015,
+        ] {
+            for d in [3, 4, 5, 6] {
+                let mut s = String::new();
+                push_fixed(&mut s, v, d);
+                let want = format!("{v:.*}", d as usize);
+                let want =
+                    if want.starts_with('-') && want[1..].chars().all(|c| c == '0' || c == '.') {
+                        want[1..].to_string()
+                    } else {
+                        want
+                    };
+                assert_eq!(s, want, "{v} {d}");
+                let read: f64 = s.parse().unwrap();
+                let got = as_written(v, Column::Fixed(d));
+                assert!(
+                    read == got || (read.is_nan() && got.is_nan()),
+                    "{v} {d}: {read} != {got}"
+                );
+            }
+        }
+    }
+}

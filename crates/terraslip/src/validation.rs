@@ -1,0 +1,62 @@
+//! `terraslip calibrate validate` as values: the 2 s prediction score of a
+//! parameters file and the JSON object `--json` prints.
+
+use terraslip_calib::prediction::{score, PredictionScore};
+use terraslip_calib::{Mse, Validation};
+use terraslip_io::{DriveLog, ParamsFile};
+
+/// The 2 s prediction score of `params` over all `logs` together: the
+/// parameters of the terrain in effect (or the pooled set) held over each
+/// 2 s; `None` when a log lacks a track width or a pose reference.
+pub fn prediction(logs: &[DriveLog], params: &ParamsFile) -> Option<PredictionScore> {
+    let mut all: Option<PredictionScore> = None;
+    for log in logs {
+        let w = log.meta.track_width.filter(|w| w.is_finite() && *w > 0.0)?;
+        let set_at = |t: f64| {
+            let k = log.terrain.partition_point(|l| l.t <= t);
+            let name = k.checked_sub(1).map(|k| log.terrain[k].terrain.as_str());
+            params.for_terrain(name)
+        };
+        if let Some(s) = score(&log.wheels, &log.pose, w, &set_at, Default::default()) {
+            match all.as_mut() {
+                Some(a) => a.segments.extend(s.segments),
+                None => all = Some(s),
+            }
+        }
+    }
+    all.map(|a| PredictionScore::from_segments(a.spec, a.segments))
+}
+
+/// What `calibrate validate --json` prints: mean squared errors (dx, dy in
+/// m^2, dyaw in rad^2) of the calibrated, constant and no-slip models, per
+/// terrain, the time offsets used and the 2 s prediction score.
+pub fn to_json(v: &Validation, prediction: Option<&PredictionScore>) -> serde_json::Value {
+    let ratio = |n: f64, c: f64| if c > 0.0 { n / c } else { f64::INFINITY };
+    let mse = |m: &Mse| serde_json::json!({"dx": m.dx, "dy": m.dy, "dyaw": m.dyaw});
+    let per: serde_json::Map<String, serde_json::Value> = v
+        .per_terrain
+        .iter()
+        .map(|(k, (n, m, nm))| {
+            (
+                k.clone(),
+                serde_json::json!({"segments": n, "mse": mse(m), "nominal_mse": mse(nm)}),
+            )
+        })
+        .collect();
+    serde_json::json!({
+        "segments": v.segments.len(),
+        "mse": mse(&v.mse),
+        "nominal_mse": mse(&v.nominal_mse),
+        "position_mse_ratio": ratio(v.nominal_mse.position(), v.mse.position()),
+        "constant_mse": mse(&v.constant_mse),
+        "constant_position_mse_ratio": ratio(v.nominal_mse.position(), v.constant_mse.position()),
+        "rate_model_segments": v.rate_segments,
+        "time_offsets_s": v.offsets,
+        "stationary_skipped": v.stats.stationary,
+        "implausible_dropped": v.stats.implausible,
+        "mistimed_poses_dropped": v.stats.mistimed_poses,
+        "held_poses_dropped": v.stats.stale_poses,
+        "terrains": per,
+        "prediction": prediction.map(|p| p.to_json()),
+    })
+}

@@ -265,8 +265,8 @@ impl DriveLog {
             dir: dir.to_path_buf(),
             ..Default::default()
         };
-        log.wheels = read_wheels(&dir.join("wheels.csv"), &mut log.warnings)?;
-        log.currents = read_currents(&dir.join("wheels.csv"))?;
+        (log.wheels, log.currents) =
+            read_wheel_rows(&dir.join("wheels.csv"), &mut log.warnings, true)?;
         let opt = |name: &str| {
             let p = dir.join(name);
             p.exists().then_some(p)
@@ -295,9 +295,29 @@ impl DriveLog {
 
 /// Reads `wheels.csv`.
 pub fn read_wheels(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<WheelSample>, LogError> {
+    read_wheel_rows(path, warnings, false).map(|(w, _)| w)
+}
+
+/// Reads the optional `current_left,current_right` columns of `wheels.csv`:
+/// empty without them; rows where either cell is empty are skipped.
+pub fn read_currents(path: &Path) -> Result<Vec<MotorCurrent>, LogError> {
+    read_wheel_rows(path, &mut Vec::new(), true).map(|(_, c)| c)
+}
+
+/// One pass over `wheels.csv`: the tread speeds and, with `currents`, the
+/// motor currents where the file has them.
+fn read_wheel_rows(
+    path: &Path,
+    warnings: &mut Vec<String>,
+    currents: bool,
+) -> Result<(Vec<WheelSample>, Vec<MotorCurrent>), LogError> {
     let mut tab = read_csv_table(path)?;
     let (l, r) = (tab.require("v_left")?, tab.require("v_right")?);
-    let mut out = Vec::new();
+    let amps = match (tab.optional("current_left"), tab.optional("current_right")) {
+        (Some(cl), Some(cr)) if currents => Some((cl, cr)),
+        _ => None,
+    };
+    let (mut out, mut amp) = (Vec::new(), Vec::new());
     tab.each_timed_row(|tab, line, t, rec| {
         let w = WheelSample {
             t,
@@ -305,6 +325,14 @@ pub fn read_wheels(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<WheelS
             v_right: tab.req_f64(line, rec, r)?,
         };
         out.push((line, w));
+        if let Some((cl, cr)) = amps {
+            if let (Some(left), Some(right)) = (
+                tab.opt_f64(line, rec, Some(cl))?,
+                tab.opt_f64(line, rec, Some(cr))?,
+            ) {
+                amp.push((line, MotorCurrent { t, left, right }));
+            }
+        }
         Ok(())
     })?;
     if out.is_empty() {
@@ -314,29 +342,9 @@ pub fn read_wheels(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<WheelS
         });
     }
     warnings.extend(dedup_time(&mut out, |w| w.t, path));
-    Ok(strip(out))
-}
-
-/// Reads the optional `current_left,current_right` columns of `wheels.csv`:
-/// empty without them; rows where either cell is empty are skipped.
-pub fn read_currents(path: &Path) -> Result<Vec<MotorCurrent>, LogError> {
-    let mut tab = read_csv_table(path)?;
-    let (Some(l), Some(r)) = (tab.optional("current_left"), tab.optional("current_right")) else {
-        return Ok(Vec::new());
-    };
-    let mut out = Vec::new();
-    tab.each_timed_row(|tab, line, t, rec| {
-        if let (Some(left), Some(right)) = (
-            tab.opt_f64(line, rec, Some(l))?,
-            tab.opt_f64(line, rec, Some(r))?,
-        ) {
-            out.push((line, MotorCurrent { t, left, right }));
-        }
-        Ok(())
-    })?;
-    // read_wheels has already warned about the repeated timestamps.
-    let _ = dedup_time(&mut out, |c| c.t, path);
-    Ok(strip(out))
+    // The repeated timestamps were warned about with the tread speeds.
+    let _ = dedup_time(&mut amp, |c| c.t, path);
+    Ok((strip(out), strip(amp)))
 }
 
 /// Reads `pose.csv`. Rows with no field at all are dropped with a warning.

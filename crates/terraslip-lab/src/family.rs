@@ -70,6 +70,10 @@ struct Figures {
     prediction_m: f64,
     /// east, north, yaw, d, alpha, x_c.
     nees: [f64; 6],
+    /// Whether the world's log states its GNSS std.
+    stated_std: bool,
+    /// Std of the slow GNSS error the run ended with, m.
+    correlated_std_m: f64,
 }
 
 /// The world's log as the family runs it: the pose stream on its own
@@ -119,7 +123,8 @@ fn prediction(run: &EstimateRun, sim: &SimRun) -> f64 {
     sum / n.max(1) as f64
 }
 
-fn figures(run: &EstimateRun, sim: &SimRun, outage: (f64, f64)) -> Figures {
+fn figures(run: &EstimateRun, sim: &SimRun, w: &World) -> Figures {
+    let outage = w.outage;
     let log = &sim.log;
     let rms = metrics::steady_state_rms(run, &log.truth, &log.terrain, 20.0);
     let spec = ReconvergenceSpec {
@@ -171,6 +176,8 @@ fn figures(run: &EstimateRun, sim: &SimRun, outage: (f64, f64)) -> Figures {
         drift_pct: drift.map_or(f64::NAN, |d| d.percent),
         prediction_m: prediction(run, sim),
         nees: nees.map(|v| v / n),
+        stated_std: w.stated_std,
+        correlated_std_m: run.noise.correlated_std,
     }
 }
 
@@ -261,7 +268,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                             opts,
                             &mut |_, _| {},
                         )?;
-                        let f = figures(&run, &sim, w.outage);
+                        let f = figures(&run, &sim, &w);
                         if a.verbose {
                             eprintln!(
                                 "world {seed:3} gnss {:5.2} m tau {:3.0} s compass {:5} std {:5} clock {:+.2} | {name:14} d {:6.2} y {:6.2} a {:5.2}% rec {:>6} drift {:6.2}% pred {:.3}",

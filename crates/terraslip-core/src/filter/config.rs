@@ -389,14 +389,12 @@ pub struct MeasurementConfig {
     /// Heading std assumed where `pose.csv` has no `std_yaw`, rad.
     pub std_yaw: f64,
     /// Std of the slowly wandering part of the position error, as a
-    /// multiple of the position std, where that std is GNSS-grade (above
-    /// `correlated_above`): GNSS errors are correlated over tens of seconds
-    /// and must not be read as motion.
+    /// multiple of the position std. Every position source has one: GNSS
+    /// errors wander over tens of seconds, RTK fixes with multipath, a lidar
+    /// localiser with the local error of its map; read as motion, a
+    /// wandering error would drag the speed factor and make the position
+    /// std over-confident.
     pub correlated_fraction: f64,
-    /// Position std (m) above which fixes are taken to be GNSS-grade, with a
-    /// correlated error part; below it (RTK, lidar, motion capture) the error
-    /// is taken to be white.
-    pub correlated_above: f64,
     /// Correlation time of the wandering part, s.
     pub correlation_time: f64,
     /// Encoder resolution on the tread, m per tick; 0 = from meta.toml
@@ -417,7 +415,6 @@ impl Default for MeasurementConfig {
             std_xy: 1.0,
             std_yaw: 2f64.to_radians(),
             correlated_fraction: 0.9,
-            correlated_above: 0.3,
             correlation_time: 30.0,
             encoder_tick: 0.0,
             clock_offset: 0.0,
@@ -430,7 +427,7 @@ impl MeasurementConfig {
     /// Checks every setting; the error names the key.
     pub fn validate(&self) -> Result<(), FilterError> {
         let pos = |v: f64| v.is_finite() && v > 0.0;
-        let checks: [(&'static str, bool); 8] = [
+        let checks: [(&'static str, bool); 7] = [
             (
                 "measurement.std_xy must be finite and > 0",
                 pos(self.std_xy),
@@ -442,10 +439,6 @@ impl MeasurementConfig {
             (
                 "measurement.correlated_fraction must be in 0..=10",
                 (0.0..=10.0).contains(&self.correlated_fraction),
-            ),
-            (
-                "measurement.correlated_above must be finite and >= 0",
-                self.correlated_above.is_finite() && self.correlated_above >= 0.0,
             ),
             (
                 "measurement.correlation_time must be finite and > 0",
@@ -472,14 +465,9 @@ impl MeasurementConfig {
         Ok(())
     }
 
-    /// Std (m) of the correlated part of position fixes whose stated std is
-    /// `std_xy` (0 for white, RTK-grade fixes).
+    /// Std (m) of the correlated part of position fixes of std `std_xy`.
     pub fn correlated_std(&self, std_xy: f64) -> f64 {
-        if std_xy > self.correlated_above {
-            self.correlated_fraction * std_xy
-        } else {
-            0.0
-        }
+        self.correlated_fraction * std_xy
     }
 }
 

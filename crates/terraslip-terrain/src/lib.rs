@@ -7,8 +7,8 @@
 //! - [`vision`]: ground-camera features: RGB histograms + uniform LBP and the
 //!   frame-to-frame change detector (lv2019), SFTA and the region of
 //!   interest predicted from the kinematic model (chen2023).
-//! - [`classify`]: pruned decision tree, k-nearest neighbours;
-//!   [`boost`]: gradient-boosted trees.
+//! - [`classify`]: the classifiers and k-nearest neighbours; [`tree`]: the
+//!   pruned decision tree; [`boost`]: gradient-boosted trees.
 //! - [`select`]: channels and the speed floor chosen from the training logs.
 //! - [`model`]: the serialisable [`TerrainModel`] and
 //!   [`TerrainModel::classify_log`], the call the estimator pipeline makes.
@@ -34,6 +34,7 @@ mod samples;
 pub mod select;
 pub mod speed_norm;
 pub mod synth;
+pub mod tree;
 pub mod vibration;
 pub mod vision;
 pub mod windows;

@@ -1,0 +1,135 @@
+//! `terraslip terrain crossval`: leave-runs-out cross-validation, with the
+//! held-out runs also spliced into logs with terrain changes.
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context};
+use terraslip_terrain::{crossval, Source};
+
+use super::settings::{options, TrainSettings};
+use super::{read_logs, Progress};
+
+#[derive(clap::Args)]
+pub(super) struct CrossvalArgs {
+    /// Log directories with terrain.csv labels, one run each.
+    #[arg(required = true)]
+    logs: Vec<PathBuf>,
+    /// Number of folds (at least 2); runs of each terrain are dealt
+    /// round-robin. Use the number of logs for leave-one-run-out. Folds run
+    /// in parallel (TERRASLIP_THREADS caps the threads).
+    #[arg(long, default_value_t = 5, value_parser = parse_folds)]
+    folds: usize,
+    #[command(flatten)]
+    settings: TrainSettings,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+pub(super) fn run(a: CrossvalArgs) -> anyhow::Result<()> {
+    let opts = options(&a.settings)?;
+    let mut seen: Vec<(PathBuf, &PathBuf)> = Vec::with_capacity(a.logs.len());
+    for p in &a.logs {
+        let real = std::fs::canonicalize(p).unwrap_or_else(|_| p.clone());
+        if let Some((_, first)) = seen.iter().find(|(r, _)| *r == real) {
+            bail!(
+                "run {} is given twice ({} and {}): it would be trained and tested on; give each run once",
+                real.display(),
+                first.display(),
+                p.display()
+            );
+        }
+        seen.push((real, p));
+    }
+    let logs = read_logs(&a.logs, a.json)?;
+    let folds = a.folds;
+    let mut bar = Progress::new(
+        folds.min(logs.len()) as u64,
+        "cross-validating (folds done)",
+        a.json,
+    );
+    let rep =
+        crossval(&logs, &opts, folds, |i, _| bar.set(i as u64)).context("cross-validation")?;
+    bar.finish();
+    let latency = rep.latency_summary();
+    let text = format!(
+        "{} logs, {} folds (whole runs left out)\nsingle windows: accuracy {:.1} % (balanced {:.1} %; per fold median {:.1} %, worst {:.1} %)\n{}\nruns filtered one by one: accuracy {:.1} %\nspliced runs (terrain changes): raw {:.1} %, filtered {:.1} % (misclassification {:.2} %)\n{}",
+        logs.len(),
+        rep.folds,
+        100.0 * rep.raw.accuracy(),
+        100.0 * rep.raw.balanced_accuracy(),
+        100.0 * rep.fold_summary().0,
+        100.0 * rep.fold_summary().1,
+        rep.raw.to_table(),
+        100.0 * rep.filtered.accuracy(),
+        100.0 * rep.spliced_raw.accuracy(),
+        100.0 * rep.spliced_filtered.accuracy(),
+        100.0 * (1.0 - rep.spliced_filtered.accuracy()),
+        rep.spliced_filtered.to_table()
+    );
+    let text = format!(
+        "{text}spliced logs: {} terrain changes; filtered without the windows straddling a change: {:.1} %; \
+         a change to a correct filtered label: median {}, worst {}, never {} of {}\n\
+         held-out outputs of all folds chained ({} terrain changes), filtered: {:.1} % (misclassification {:.2} %)\n{}",
+        rep.spliced_changes,
+        100.0 * rep.spliced_filtered_settled.accuracy(),
+        seconds(latency.0),
+        seconds(latency.1),
+        latency.2,
+        rep.change_latency_s.len(),
+        rep.chained_changes,
+        100.0 * rep.chained_filtered.accuracy(),
+        100.0 * (1.0 - rep.chained_filtered.accuracy()),
+        rep.runs_table()
+    );
+    let text = if opts.source == Source::Camera {
+        format!(
+            "{text}change detector: {} of {} changes within one frame, {} false alarms\n",
+            rep.change.detected, rep.change.changes, rep.change.false_alarms
+        )
+    } else {
+        text
+    };
+    if a.json {
+        eprintln!("{text}");
+        let out = serde_json::json!({
+            "folds": rep.folds,
+            "windows": rep.raw.total(),
+            "accuracy": rep.raw.accuracy(),
+            "accuracy_filtered": rep.filtered.accuracy(),
+            "spliced_accuracy": rep.spliced_raw.accuracy(),
+            "spliced_accuracy_filtered": rep.spliced_filtered.accuracy(),
+            "classes": rep.raw.classes,
+            "confusion": rep.raw.counts,
+            "confusion_spliced_filtered": rep.spliced_filtered.counts,
+            "spliced_changes": rep.spliced_changes,
+            "spliced_accuracy_filtered_settled": rep.spliced_filtered_settled.accuracy(),
+            "chained_changes": rep.chained_changes,
+            "chained_accuracy_filtered": rep.chained_filtered.accuracy(),
+            "change_latency_s": rep.change_latency_s,
+            "fold_accuracy": rep.fold_accuracy,
+            "runs": rep.runs,
+            "change_detection": rep.change,
+        });
+        println!("{out}");
+    } else {
+        println!("{text}");
+    }
+    Ok(())
+}
+
+/// `--folds`: a number of folds, at least 2.
+fn parse_folds(s: &str) -> Result<usize, String> {
+    match s.parse::<usize>() {
+        Ok(k) if k >= 2 => Ok(k),
+        _ => Err(format!(
+            "need at least 2 folds (whole runs left out per fold), got `{s}`; \
+             the number of logs gives leave-one-run-out"
+        )),
+    }
+}
+
+/// `1.5 s`, or `-` when there is no value.
+fn seconds(v: Option<f64>) -> String {
+    v.map_or_else(|| "-".into(), |v| format!("{v:.1} s"))
+}

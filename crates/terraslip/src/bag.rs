@@ -149,3 +149,50 @@ fn import(
         bag.display()
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn topics_are_for_bags() {
+        let d = tempfile::tempdir().unwrap();
+        let file = d.path().join("wheels.csv");
+        let topics = Topics::File(d.path().join("t.toml"));
+        let e = read(&file, &topics, |p| DriveLog::read(p)).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            format!("{}: --topics is for ROS 2 bags", file.display())
+        );
+        // Without topics the log reader says what is wrong.
+        let e = read(&file, &Topics::ByType, |p| DriveLog::read(p)).unwrap_err();
+        assert!(crate::one_line(&e).starts_with("reading log "), "{e:#}");
+    }
+
+    #[cfg(feature = "ros2")]
+    #[test]
+    fn topics_errors_name_the_file_and_line() {
+        let d = tempfile::tempdir().unwrap();
+        let missing = d.path().join("missing.toml");
+        let e = Topics::File(missing.clone()).config().unwrap_err();
+        assert!(e
+            .chain()
+            .any(|c| c.downcast_ref::<std::io::Error>().is_some()));
+        assert!(crate::one_line(&e).starts_with(&missing.display().to_string()));
+        let text = "[wheels]\nseparation = 1.0\nseperation = 1.0\n";
+        let bad = Topics::Toml {
+            text: text.into(),
+            name: "topics".into(),
+        };
+        let msg = crate::one_line(&bad.config().unwrap_err());
+        assert!(
+            msg.starts_with("topics: line 3: unknown field `seperation`"),
+            "{msg}"
+        );
+        let good = Topics::Toml {
+            text: text.replace("seperation = 1.0\n", ""),
+            name: "topics".into(),
+        };
+        assert_eq!(good.config().unwrap().wheels.separation, Some(1.0));
+    }
+}

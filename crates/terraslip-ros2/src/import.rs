@@ -136,14 +136,6 @@ pub struct TimeConfig {
     pub stamp: Option<String>,
 }
 
-impl TopicsConfig {
-    /// Reads a topics file; unknown keys are errors.
-    pub fn read(path: &Path) -> Result<Self, String> {
-        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        toml::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))
-    }
-}
-
 /// What one log stream was made from.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct StreamReport {

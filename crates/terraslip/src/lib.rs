@@ -1,6 +1,7 @@
 //! terraslip as a library: what the `terraslip` binary's commands are built
 //! from, for the demo, tests and other programs.
 //!
+//! * [`bag`]: a LOG argument read, a log directory or a ROS 2 bag;
 //! * [`config`]: the estimator's TOML configuration and named presets;
 //! * [`glossary`]: the presets' and the papers' names, for `--help` and outputs;
 //! * [`pipeline`]: runs the online estimator over a [`terraslip_io::DriveLog`];
@@ -12,6 +13,7 @@
 //! * [`report`]: plots and an HTML page of an estimate against its log;
 //! * [`validation`]: what `calibrate validate --json` reports, as values.
 
+pub mod bag;
 pub mod config;
 pub mod estimate;
 pub mod glossary;
@@ -57,4 +59,22 @@ pub fn prediction_of(
         &params_at,
         PredictionSpec::default(),
     )
+}
+
+/// An error as one line, as the command prints it after `error: `: the
+/// chain of causes joined by ": ". A cause that its parent's message
+/// already quotes (an I/O error inside a file error, say) is not repeated.
+pub fn one_line(e: &anyhow::Error) -> String {
+    let mut msg = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string().trim().replace('\n', " ");
+        if msg.contains(&text) {
+            continue;
+        }
+        if !msg.is_empty() {
+            msg.push_str(": ");
+        }
+        msg.push_str(&text);
+    }
+    msg
 }

@@ -71,26 +71,8 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {}", one_line(&e));
+            eprintln!("error: {}", terraslip::one_line(&e));
             ExitCode::FAILURE
         }
     }
-}
-
-/// One line: the chain of causes joined, as the CLI contract asks. A cause
-/// that its parent's message already quotes (an I/O error inside a
-/// file error, say) is not repeated.
-fn one_line(e: &anyhow::Error) -> String {
-    let mut msg = String::new();
-    for cause in e.chain() {
-        let text = cause.to_string().trim().replace('\n', " ");
-        if msg.contains(&text) {
-            continue;
-        }
-        if !msg.is_empty() {
-            msg.push_str(": ");
-        }
-        msg.push_str(&text);
-    }
-    msg
 }

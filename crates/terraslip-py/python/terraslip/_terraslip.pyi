@@ -33,12 +33,15 @@ def estimate(
     terrain_labels: bool = False,
     terrain_model: Optional[_PathLike] = None,
     preset: Optional[str] = None,
+    topics: Union[None, _PathLike, Mapping[str, Any]] = None,
 ) -> Dict[str, Any]:
     """Runs the online ICR estimator over a drive log, as ``terraslip estimate``.
 
     ``log`` is a log directory (docs/log-format.md: wheels.csv, pose.csv,
-    terrain.csv, meta.toml; imu.csv or images.csv for ``terrain_model``)
-    or a mapping of arrays::
+    terrain.csv, meta.toml; imu.csv or images.csv for ``terrain_model``),
+    a ROS 2 bag (a directory with metadata.yaml, or a single .mcap or .db3
+    file; read as the command reads it, through the log ``terraslip
+    import`` makes of it) or a mapping of arrays::
 
         {"wheels": {"t": s, "v_left": m/s, "v_right": m/s},      # required
          "pose": {"t": s, "east": m, "north": m, "yaw": rad,      # optional;
@@ -57,6 +60,10 @@ def estimate(
     or the dict ``calibrate`` returns. ``terrain_labels``: the log's
     terrain.csv is the terrain evidence. ``terrain_model``: a model from
     ``terraslip terrain train`` classifies the log's imu or camera stream.
+    ``topics``: for a bag, which topic feeds which stream and the numbers a
+    bag cannot tell (``--topics FILE.toml``): the TOML file's path or a
+    mapping of its tables, e.g. ``{"wheels": {"separation": 1.04}}``;
+    None chooses topics by message type.
 
     Returns one numpy array per column of ``estimate.csv`` (``COLUMNS``),
     one value per wheels row, equal to what the command writes (rounded to
@@ -139,12 +146,16 @@ class Estimator:
         """Terrain labels seen by ``on_terrain``, in order of appearance."""
 
 def calibrate(
-    logs: Union[_PathLike, Sequence[_PathLike]], method: Optional[str] = "lm"
+    logs: Union[_PathLike, Sequence[_PathLike]],
+    method: Optional[str] = "lm",
+    *,
+    topics: Union[None, _PathLike, Mapping[str, Any]] = None,
 ) -> Dict[str, Any]:
     """Identifies the ICR parameters offline, as ``terraslip calibrate``
     with its defaults: ``method`` ``"lm"``, ``"ga"``, ``"symmetric"`` or
-    None (all three, the best kept). Logs need wheels.csv and pose.csv;
-    with terrain.csv one set per terrain. Returns the parameters file's
+    None (all three, the best kept). ``logs``: log directories or ROS 2
+    bags (``topics`` as for ``estimate``). Logs need wheels and a pose
+    reference; with terrain.csv one set per terrain. Returns the parameters file's
     content (``params`` and/or ``terrains``; y_l, y_r, x_c in m, alpha_l,
     alpha_r, 1-sigma ``std``, ``time_offset_s``...), which ``estimate``
     and ``validate`` take as ``init`` / ``params``. The GIL is released."""
@@ -152,12 +163,16 @@ def calibrate(
 def validate(
     logs: Union[_PathLike, Sequence[_PathLike]],
     params: Union[_PathLike, Mapping[str, Any]],
+    *,
+    topics: Union[None, _PathLike, Mapping[str, Any]] = None,
 ) -> Dict[str, Any]:
     """Scores parameters on drives, as ``terraslip calibrate validate
     --json``: mean squared segment errors ``dx``, ``dy`` (m^2) and ``dyaw``
     (rad^2) in the frame of each segment start, for the calibrated, the
     constant and the no-slip models, per terrain, and the 2 s prediction
-    error. The GIL is released."""
+    error. ``logs``: log directories or ROS 2 bags (``topics`` as for
+    ``estimate``); ``params``: a parameters file or the dict ``calibrate``
+    returns. The GIL is released."""
 
 @final
 class TerrainModel:
@@ -169,9 +184,15 @@ class TerrainModel:
     @property
     def classes(self) -> List[str]:
         """Terrain names; column k of ``probabilities`` is ``classes[k]``."""
-    def classify(self, log: Union[_PathLike, Mapping[str, Any]]) -> Dict[str, Any]:
+    def classify(
+        self,
+        log: Union[_PathLike, Mapping[str, Any]],
+        *,
+        topics: Union[None, _PathLike, Mapping[str, Any]] = None,
+    ) -> Dict[str, Any]:
         """Classifies every window (imu model) or frame (camera model) of a
-        log directory, causally. Returns ``t`` (s, end of each window),
+        log directory, a ROS 2 bag (``topics`` as for ``estimate``) or a
+        mapping of arrays, causally. Returns ``t`` (s, end of each window),
         ``probabilities`` (windows x classes), ``label`` (the most probable
         class of each window), ``terrain`` (the terrain the Bayesian filter
         and the lambda-vote declare, what the estimator's schedule would

@@ -71,10 +71,7 @@ pub fn run(args: Args) -> Result<()> {
     if out.join("metadata.yaml").exists() {
         bail!("--out {} holds a bag; not writing there", out.display());
     }
-    let cfg = match super::bag::topics_file() {
-        Some(p) => terraslip_ros2::TopicsConfig::read(p).map_err(anyhow::Error::msg)?,
-        None => Default::default(),
-    };
+    let cfg = super::bag::topics().config()?;
     let (log, report) = terraslip_ros2::import(bag, &cfg, Some(out))?;
     log.write(out)
         .with_context(|| format!("writing log {}", out.display()))?;

@@ -170,13 +170,18 @@ impl Default for ScheduleSection {
 
 /// One line: "line N: message" from a TOML error.
 pub fn toml_error(text: &str, e: &toml::de::Error) -> ConfigError {
+    ConfigError(toml_message(text, e))
+}
+
+/// A TOML error in `text` as one line, "line N: message".
+pub fn toml_message(text: &str, e: &toml::de::Error) -> String {
     let msg = e.message().trim().replace('\n', " ");
     match e.span() {
         Some(span) => {
             let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
-            ConfigError(format!("line {line}: {msg}"))
+            format!("line {line}: {msg}")
         }
-        None => ConfigError(msg),
+        None => msg,
     }
 }
 

@@ -1,0 +1,144 @@
+"""ROS 2 bags in place of log directories, against the command line on the
+same bag (the Husky recording in ../shared beside the checkout)."""
+
+import json
+
+import numpy as np
+import pytest
+
+import terraslip
+from conftest import BOREAL, DRIVE, REPO, cli_error
+from test_estimate import assert_matches_csv
+
+ROS2 = REPO.parent / "shared" / "data" / "ros2"
+HUSKY = ROS2 / "husky_test1_mcap"
+# The Husky's odometry twist needs the controller's separation; its IMU
+# heading is not used (as in .ci/run).
+TOPICS = {"wheels": {"separation": 1.040625}, "heading": {"topic": ""}}
+TOPICS_TOML = '[wheels]\nseparation = 1.040625\n[heading]\ntopic = ""\n'
+
+needs_husky = pytest.mark.skipif(not HUSKY.is_dir(), reason=f"{HUSKY}: not here")
+
+
+@pytest.fixture
+def topics(tmp_path):
+    path = tmp_path / "husky.toml"
+    path.write_text(TOPICS_TOML)
+    return path
+
+
+@needs_husky
+@pytest.mark.parametrize(
+    "bag",
+    [HUSKY, HUSKY / "test1_mcap.mcap", ROS2 / "husky_test1_db3"],
+    ids=["mcap-directory", "mcap-file", "db3-directory"],
+)
+def test_estimate_on_a_bag_equals_the_cli(cli, tmp_path, topics, bag):
+    out = tmp_path / "est"
+    cli("estimate", bag, "--topics", topics, "--out", out)
+    got = terraslip.estimate(bag, topics=topics)
+    assert_matches_csv(got, out / "estimate.csv")
+    assert got["summary"] == json.loads((out / "summary.json").read_text())
+    assert got["summary"]["rows"] == 3952
+    assert got["summary"]["log"] == str(bag)
+    # The topics as a mapping of the file's tables: the same run.
+    again = terraslip.estimate(bag, topics=TOPICS)
+    for name in terraslip.COLUMNS:
+        assert np.array_equal(again[name], got[name]), name
+
+
+@needs_husky
+def test_a_bag_equals_its_imported_log(cli, tmp_path, topics):
+    log = tmp_path / "log"
+    cli("import", HUSKY, "--topics", topics, "--out", log)
+    from_bag = terraslip.estimate(HUSKY, topics=topics)
+    from_log = terraslip.estimate(log)
+    for name in terraslip.COLUMNS:
+        assert np.array_equal(from_bag[name], from_log[name]), name
+    # Classified from the bag's IMU as from the imported imu.csv, by a
+    # model of the bag's own 30 Hz IMU (two made-up grounds; no currents).
+    labelled = tmp_path / "labelled"
+    cli("import", HUSKY, "--topics", topics, "--out", labelled)
+    (labelled / "terrain.csv").write_text("t,terrain\n0,grass\n200,gravel\n")
+    model = tmp_path / "model.json"
+    cli("terrain", "train", labelled, "--no-currents", "--out", model)
+    m = terraslip.TerrainModel.load(model)
+    a, b = m.classify(HUSKY, topics=TOPICS), m.classify(log)
+    assert len(a["t"]) > 100
+    for key in ("t", "probabilities", "changes"):
+        assert np.array_equal(a[key], b[key]), key
+    for key in ("label", "terrain"):
+        assert list(a[key]) == list(b[key]), key
+    assert set(a["label"]) == {"grass", "gravel"}
+
+
+@needs_husky
+def test_calibrate_and_validate_read_a_bag_as_the_cli(cli, tmp_path):
+    # The Husky's GNSS gives no heading, so no segment is usable: the
+    # messages say so (the bag was read), as the command's do.
+    topics = tmp_path / "husky.toml"
+    topics.write_text(TOPICS_TOML + "[meta]\ntrack_width = 0.555\n")
+    with pytest.raises(terraslip.TerraslipError) as e:
+        terraslip.calibrate(HUSKY, method="lm", topics=topics)
+    out = tmp_path / "params.json"
+    message = cli_error(
+        cli("calibrate", HUSKY, "--topics", topics, "--method", "lm", "--out", out, check=False)
+    )
+    assert str(e.value) == message
+    assert "usable moving segments" in message
+    cli("calibrate", DRIVE, "--method", "lm", "--out", out)
+    with pytest.raises(terraslip.TerraslipError) as e:
+        terraslip.validate([HUSKY], out, topics=topics)
+    message = cli_error(
+        cli("calibrate", "validate", HUSKY, "--topics", topics, "--params", out, check=False)
+    )
+    assert str(e.value) == message
+    assert "usable moving segments" in message
+
+
+@needs_husky
+def test_a_bag_without_its_topics_gives_the_cli_message(cli, tmp_path):
+    with pytest.raises(terraslip.TerraslipError) as e:
+        terraslip.estimate(HUSKY)
+    message = cli_error(cli("estimate", HUSKY, "--out", tmp_path / "o", check=False))
+    assert str(e.value) == message
+    assert "separation" in message and "husky_velocity_controller" in message
+
+
+def test_a_broken_bag_gives_the_cli_message(cli, tmp_path):
+    bag = tmp_path / "broken.mcap"
+    bag.write_bytes(b"\x89MCAP0\r\n this is not a recording")
+    with pytest.raises(terraslip.TerraslipError) as e:
+        terraslip.estimate(bag)
+    message = cli_error(cli("estimate", bag, "--out", tmp_path / "o", check=False))
+    assert str(e.value) == message
+    assert str(bag) in message
+    with pytest.raises(terraslip.TerraslipError) as e:
+        terraslip.calibrate([bag])
+    assert str(e.value) == message
+
+
+def test_bad_topics(cli, tmp_path):
+    bag = tmp_path / "drive.mcap"
+    bag.write_bytes(b"")
+    missing = tmp_path / "missing.toml"
+    with pytest.raises(FileNotFoundError) as e:
+        terraslip.estimate(bag, topics=missing)
+    message = cli_error(cli("estimate", bag, "--topics", missing, "--out", tmp_path / "o", check=False))
+    assert str(e.value) == message
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[wheels]\nseperation = 1.0\n")
+    with pytest.raises(terraslip.TerraslipError) as e:
+        terraslip.estimate(bag, topics=bad)
+    message = cli_error(cli("estimate", bag, "--topics", bad, "--out", tmp_path / "o", check=False))
+    assert str(e.value) == message
+    assert message.startswith(f"{bad}: line 2: unknown field `seperation`")
+    with pytest.raises(terraslip.TerraslipError, match="^topics: line 2: unknown field `seperation`"):
+        terraslip.estimate(bag, topics={"wheels": {"seperation": 1.0}})
+    # Topics are for bags.
+    with pytest.raises(terraslip.TerraslipError, match="--topics is for ROS 2 bags"):
+        terraslip.estimate(tmp_path / "wheels.csv", topics=bad)
+    with pytest.raises(ValueError, match="topics: for ROS 2 bags"):
+        terraslip.estimate({"wheels": {"t": [0.0], "v_left": [0.0], "v_right": [0.0]}}, topics=bad)
+    with pytest.raises(TypeError):
+        terraslip.estimate(BOREAL, topics=3)

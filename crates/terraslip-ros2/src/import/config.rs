@@ -16,11 +16,13 @@ pub struct TopicsConfig {
     #[serde(default)]
     pub heading: HeadingConfig,
     #[serde(default)]
-    pub imu: TopicOnly,
+    pub imu: ImuConfig,
     #[serde(default)]
     pub images: TopicOnly,
     #[serde(default)]
     pub time: TimeConfig,
+    #[serde(default)]
+    pub tf: TfConfig,
     /// Written to the log's `meta.toml`.
     #[serde(default)]
     pub meta: terraslip_io::Meta,
@@ -91,6 +93,10 @@ pub struct HeadingConfig {
     /// 1σ of the heading when the message's covariance states none, degrees.
     #[serde(default = "heading_std")]
     pub std_deg: f64,
+    /// The heading IMU's mounting in the base frame (see [`ImuConfig`]);
+    /// when absent, `[imu]`'s if it is the same topic, else the bag's static
+    /// transforms.
+    pub mount_rpy_deg: Option<[f64; 3]>,
 }
 
 fn heading_std() -> f64 {
@@ -104,6 +110,46 @@ impl Default for HeadingConfig {
             yaw_offset_deg: 0.0,
             declination_deg: 0.0,
             std_deg: heading_std(),
+            mount_rpy_deg: None,
+        }
+    }
+}
+
+/// `[imu]`: accelerations and rates for the vibration channels.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImuConfig {
+    /// sensor_msgs/Imu; `""` for none.
+    pub topic: Option<String>,
+    /// The IMU's mounting: roll, pitch, yaw in degrees of its frame in the
+    /// base frame (about fixed x, y, z in that order: URDF `<origin rpy>`,
+    /// `static_transform_publisher`'s yaw pitch roll reversed). Overrides the
+    /// bag's static transforms. Accelerations, rates and the orientation are
+    /// rotated into the base frame with it.
+    pub mount_rpy_deg: Option<[f64; 3]>,
+}
+
+/// `[tf]`: where sensor mountings come from when the topics file gives none.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TfConfig {
+    /// tf2_msgs/TFMessage topic of static transforms (default `/tf_static`
+    /// when the bag has it); `""` for none.
+    pub topic: Option<String>,
+    /// The body frame (REP-103: x forward, y left, z up) sensors are rotated into.
+    #[serde(default = "base_frame")]
+    pub base_frame: String,
+}
+
+fn base_frame() -> String {
+    "base_link".into()
+}
+
+impl Default for TfConfig {
+    fn default() -> Self {
+        Self {
+            topic: None,
+            base_frame: base_frame(),
         }
     }
 }
@@ -144,5 +190,10 @@ mod tests {
                 .unwrap();
         assert_eq!(c.wheels.separation, Some(1.04));
         assert_eq!(c.wheels.left, vec!["left"]);
+        assert_eq!(c.tf.base_frame, "base_link");
+        let c: TopicsConfig =
+            toml::from_str("[imu]\nmount_rpy_deg = [90, 0, -90]\n[tf]\ntopic = \"\"\n").unwrap();
+        assert_eq!(c.imu.mount_rpy_deg, Some([90.0, 0.0, -90.0]));
+        assert!(toml::from_str::<TopicsConfig>("[imu]\nmount_rpy_deg = [90, 0]\n").is_err());
     }
 }

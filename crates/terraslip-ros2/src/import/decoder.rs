@@ -53,6 +53,12 @@ impl Decoder {
     pub(super) fn decode(&self, data: &[u8]) -> Result<Value, String> {
         self.reg.decode_selected(self.root, data, &self.sel)
     }
+    /// Resolves `path` inside message type `ty` of this topic's definitions
+    /// (for the elements of a sequence field).
+    pub(super) fn resolve_in(&self, ty: &str, path: &str) -> Option<Vec<usize>> {
+        let m = self.reg.msgs.iter().position(|m| m.name == ty)?;
+        self.reg.resolve(m, path)
+    }
     pub(super) fn f(&self, v: &Value, name: &str) -> Option<f64> {
         v.f64_at(self.paths.get(name)?)
     }
@@ -105,6 +111,7 @@ pub(super) fn fields_for(ty: &str, role: Role) -> Vec<&'static str> {
             "position_covariance_type",
         ]),
         ("sensor_msgs/Imu", _) => f.extend([
+            "?header.frame_id",
             "orientation.x",
             "orientation.y",
             "orientation.z",
@@ -117,6 +124,7 @@ pub(super) fn fields_for(ty: &str, role: Role) -> Vec<&'static str> {
             "linear_acceleration.y",
             "linear_acceleration.z",
         ]),
+        ("tf2_msgs/TFMessage", _) => f.push("transforms"),
         ("sensor_msgs/CompressedImage", _) => f.extend(["format", "data"]),
         ("sensor_msgs/Image", _) => f.extend(["height", "width", "encoding", "step", "data"]),
         _ => {}

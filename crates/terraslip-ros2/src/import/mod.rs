@@ -13,6 +13,8 @@
 mod config;
 mod decoder;
 mod image;
+pub mod mount;
+mod prior;
 mod report;
 mod rows;
 mod topics;
@@ -22,7 +24,11 @@ use std::path::Path;
 
 use terraslip_io::DriveLog;
 
-pub use config::{HeadingConfig, PoseConfig, TimeConfig, TopicOnly, TopicsConfig, WheelsConfig};
+pub use config::{
+    HeadingConfig, ImuConfig, PoseConfig, TfConfig, TimeConfig, TopicOnly, TopicsConfig,
+    WheelsConfig,
+};
+pub use prior::{controller_model, CONTROLLER_FILE};
 pub use report::{ImportReport, StreamReport};
 pub use rows::yaw_of;
 
@@ -66,6 +72,14 @@ pub fn import(
         None
     };
     let imu = choose(&bag, Role::Imu, &cfg.imu.topic, &[])?;
+    // Static transforms, for the IMUs' mountings.
+    let tf = match &cfg.tf.topic {
+        _ if imu.is_none() && heading.is_none() => None,
+        Some(_) => choose(&bag, Role::Tf, &cfg.tf.topic, &[])?,
+        None => bag
+            .topic("/tf_static")
+            .filter(|&i| short_type(&bag.topics[i].ty) == "tf2_msgs/TFMessage"),
+    };
     let images = match choose(&bag, Role::Images, &cfg.images.topic, &[])? {
         Some(i) if out_dir.is_none() => {
             return Err(Ros2Error::Bag {
@@ -115,6 +129,7 @@ pub fn import(
         (heading, Role::Heading),
         (imu, Role::Imu),
         (images, Role::Images),
+        (tf, Role::Tf),
     ] {
         let Some(t) = t else { continue };
         if let Some(s) = sels.iter_mut().find(|s| s.topic == t) {
@@ -157,6 +172,9 @@ pub fn import(
         wheels: &cfg.wheels,
         heading: &cfg.heading,
         images_dir: out_dir.map(|d| d.join("images")),
+        frames: HashMap::new(),
+        tf: Default::default(),
+        heading_rows: Vec::new(),
     };
     let mut report = ImportReport {
         bag: bag.path.clone(),
@@ -175,11 +193,15 @@ pub fn import(
             })?;
         }
     }
-    // Time origin: the first message's receive time, whole seconds (any topic).
+    // Time origin: the first message's receive time, whole seconds (any
+    // topic that makes rows; static transforms have no time in the log).
     bag.for_each(&want_fn, &mut |bag, m| {
-        let org = *origin.get_or_insert(m.recv_ns / 1_000_000_000 * 1_000_000_000);
         let Some(sel) = sels.iter_mut().find(|s| s.topic == m.topic) else {
             return Ok(());
+        };
+        let org = match sel.roles[..] {
+            [Role::Tf] => origin.unwrap_or(m.recv_ns),
+            _ => *origin.get_or_insert(m.recv_ns / 1_000_000_000 * 1_000_000_000),
         };
         let v = sel
             .dec
@@ -228,6 +250,7 @@ pub fn import(
                 Role::Heading => "pose.csv (yaw)",
                 Role::Imu => "imu.csv",
                 Role::Images => "images.csv",
+                Role::Tf => "sensor mountings",
             };
             report
                 .streams
@@ -240,6 +263,20 @@ pub fn import(
         .map(|t| (t.name.clone(), t.ty.clone(), t.count))
         .collect();
     let mut log = rows.log;
+    mount::apply(
+        &mount::Sensors {
+            bag: &bag,
+            cfg,
+            imu,
+            heading,
+            tf,
+            frames: &rows.frames,
+            tf_tree: &rows.tf,
+            heading_rows: &rows.heading_rows,
+        },
+        &mut log,
+        &mut report,
+    );
     if log.wheels.is_empty() {
         return Err(Ros2Error::Bag {
             bag: bag.path.clone(),

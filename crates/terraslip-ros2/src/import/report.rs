@@ -31,13 +31,16 @@ pub struct ImportReport {
     /// ENU origin: latitude, longitude (degrees), altitude (m), when GNSS was used.
     pub enu_origin: Option<[f64; 3]>,
     pub streams: Vec<StreamReport>,
+    /// How IMU topics were rotated into the base frame, one line each.
+    pub mounts: Vec<String>,
     /// Every topic of the bag: name, type, messages.
     pub topics: Vec<(String, String, u64)>,
     pub warnings: Vec<String>,
 }
 
 impl ImportReport {
-    /// One line per stream: topic → file, counts, rate, gaps.
+    /// One line per stream: topic → file, counts, rate, gaps; then the
+    /// IMU mountings.
     pub fn to_text(&self) -> String {
         let mut s = String::new();
         for r in &self.streams {
@@ -57,6 +60,9 @@ impl ImportReport {
                     String::new()
                 }
             );
+        }
+        for m in &self.mounts {
+            let _ = writeln!(s, "{m}");
         }
         s
     }

@@ -1,11 +1,13 @@
 //! One decoded message to rows of the drive log, stream by stream.
 
+use std::collections::HashMap;
 use std::path::PathBuf;
 
 use terraslip_io::{DriveLog, ImageRef, ImuSample, PoseObs, WheelSample};
 
 use super::config::{HeadingConfig, WheelsConfig};
 use super::decoder::Decoder;
+use super::mount::{Quat, StaticTf};
 use super::topics::Role;
 use crate::msg::Value;
 use crate::{Bag, Ros2Error};
@@ -35,11 +37,12 @@ impl Msg<'_> {
         self.d.get(self.v, name)
     }
     /// A quaternion `prefix.{x,y,z,w}`.
-    fn quaternion(&self, prefix: &str) -> Result<Vec<f64>, Ros2Error> {
-        ["x", "y", "z", "w"]
-            .iter()
-            .map(|c| self.need(&format!("{prefix}.{c}")))
-            .collect()
+    fn quaternion(&self, prefix: &str) -> Result<Quat, Ros2Error> {
+        let mut q = [0.0; 4];
+        for (v, c) in q.iter_mut().zip(["x", "y", "z", "w"]) {
+            *v = self.need(&format!("{prefix}.{c}"))?;
+        }
+        Ok(q)
     }
 }
 
@@ -54,6 +57,13 @@ pub(super) struct Rows<'c> {
     pub heading: &'c HeadingConfig,
     /// Where camera frames go (`LOG/images`).
     pub images_dir: Option<PathBuf>,
+    /// Each IMU topic's frame (its first message's `header.frame_id`).
+    pub frames: HashMap<usize, String>,
+    /// The bag's static transforms.
+    pub tf: StaticTf,
+    /// Heading rows: index in `log.pose` and the sensor's orientation, for
+    /// a mounting known only at the end.
+    pub heading_rows: Vec<(usize, Quat)>,
 }
 
 impl Rows<'_> {
@@ -68,7 +78,49 @@ impl Rows<'_> {
             (Role::Heading, _) => self.heading(m),
             (Role::Imu, _) => self.imu(m),
             (Role::Images, ty) => self.image(m, ty),
+            (Role::Tf, _) => self.static_tf(m),
         }
+    }
+
+    /// Keeps the first `header.frame_id` of the topic.
+    fn note_frame(&mut self, m: &Msg) {
+        if !self.frames.contains_key(&m.topic) {
+            if let Some(Value::Str(f)) = m.get("header.frame_id") {
+                self.frames.insert(m.topic, f.clone());
+            }
+        }
+    }
+
+    /// tf2_msgs/TFMessage: each transform's rotation parent ← child.
+    fn static_tf(&mut self, m: &Msg) -> Result<bool, Ros2Error> {
+        let Some(Value::List(items)) = m.get("transforms") else {
+            return Err(m.err("no field `transforms`"));
+        };
+        let ts = "geometry_msgs/TransformStamped";
+        let path = |p: &str| {
+            m.d.resolve_in(ts, p)
+                .ok_or_else(|| m.err(format!("{ts} has no field `{p}`")))
+        };
+        let (parent, child) = (path("header.frame_id")?, path("child_frame_id")?);
+        let q: Vec<Vec<usize>> = ["x", "y", "z", "w"]
+            .iter()
+            .map(|c| path(&format!("transform.rotation.{c}")))
+            .collect::<Result<_, _>>()?;
+        for (k, item) in items.iter().enumerate() {
+            let (Some(Value::Str(parent)), Some(Value::Str(child))) =
+                (item.at(&parent), item.at(&child))
+            else {
+                return Err(m.err(format!("transform {k}: no frame names")));
+            };
+            let r = [0, 1, 2, 3].map(|i| item.f64_at(&q[i]).unwrap_or(f64::NAN));
+            let Some(r) = super::mount::normalized(r) else {
+                return Err(m.err(format!(
+                    "transform {k} ({parent} -> {child}): rotation {r:?} is not a quaternion"
+                )));
+            };
+            self.tf.add(parent, child, r);
+        }
+        Ok(true)
     }
 
     /// Wheel joint velocities (rad/s) times the wheel radius, left and right
@@ -222,8 +274,6 @@ impl Rows<'_> {
             return Ok(false);
         }
         let h = self.heading;
-        let yaw =
-            yaw_of(q[0], q[1], q[2], q[3]) + (h.yaw_offset_deg - h.declination_deg).to_radians();
         let std = cov
             .map(|c| c.1)
             .filter(|s| *s > 0.0 && s.is_finite())
@@ -231,16 +281,19 @@ impl Rows<'_> {
             .unwrap_or(h.std_deg.to_radians());
         self.log.pose.push(PoseObs {
             t: m.t,
-            yaw: Some(wrap(yaw)),
+            yaw: Some(heading_yaw(h, q)),
             std_yaw: Some(std),
             ..Default::default()
         });
+        self.heading_rows.push((self.log.pose.len() - 1, q));
+        self.note_frame(m);
         Ok(true)
     }
 
     /// Accelerations and angular rates, in the IMU's frame.
     fn imu(&mut self, m: &Msg) -> Result<bool, Ros2Error> {
         let az = m.need("linear_acceleration.z")?;
+        self.note_frame(m);
         let f = |name: &str| m.d.f(m.v, name);
         self.log.imu.push(ImuSample {
             t: m.t,
@@ -288,6 +341,12 @@ impl Rows<'_> {
 /// Yaw (rad, counter-clockwise about z) of a quaternion.
 pub fn yaw_of(x: f64, y: f64, z: f64, w: f64) -> f64 {
     (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z))
+}
+
+/// The logged heading of an orientation: its yaw with the configured offset
+/// and declination, wrapped.
+pub(super) fn heading_yaw(h: &HeadingConfig, q: Quat) -> f64 {
+    wrap(yaw_of(q[0], q[1], q[2], q[3]) + (h.yaw_offset_deg - h.declination_deg).to_radians())
 }
 
 /// An angle wrapped into (-π, π].

@@ -13,6 +13,8 @@ pub(super) enum Role {
     Heading,
     Imu,
     Images,
+    /// Static transforms: sensor mountings.
+    Tf,
 }
 
 impl Role {
@@ -23,6 +25,7 @@ impl Role {
             Role::Heading => "heading",
             Role::Imu => "imu",
             Role::Images => "images",
+            Role::Tf => "tf",
         }
     }
     /// Accepted types, in order of preference when choosing by type.
@@ -42,6 +45,7 @@ impl Role {
             ],
             Role::Heading | Role::Imu => &[&["sensor_msgs/Imu"]],
             Role::Images => &[&["sensor_msgs/CompressedImage"], &["sensor_msgs/Image"]],
+            Role::Tf => &[&["tf2_msgs/TFMessage"]],
         }
     }
 }

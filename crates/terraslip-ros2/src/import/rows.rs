@@ -84,10 +84,10 @@ impl Rows<'_> {
 
     /// Keeps the first `header.frame_id` of the topic.
     fn note_frame(&mut self, m: &Msg) {
-        if !self.frames.contains_key(&m.topic) {
-            if let Some(Value::Str(f)) = m.get("header.frame_id") {
-                self.frames.insert(m.topic, f.clone());
-            }
+        if let (std::collections::hash_map::Entry::Vacant(e), Some(Value::Str(f))) =
+            (self.frames.entry(m.topic), m.get("header.frame_id"))
+        {
+            e.insert(f.clone());
         }
     }
 

@@ -9,7 +9,8 @@ separation the log was imported with). Both are scored by the horizontal
 distance to each held-out fix. Pure Python; prints one line per window and the
 mean over windows.
 
-usage: ros2-gap-check.py TERRASLIP LOG S [LENGTH_S] [T0 ...]
+usage: ros2-gap-check.py TERRASLIP LOG S [LENGTH_S] [T0 ...] [-- ESTIMATE_ARGS ...]
+(ESTIMATE_ARGS, e.g. `--init params.json`, are passed to every `estimate`.)
 """
 import csv
 import math
@@ -41,9 +42,13 @@ def interp(ts, vs, t):
 
 
 def main():
-    exe, log, sep = sys.argv[1], sys.argv[2], float(sys.argv[3])
-    length = float(sys.argv[4]) if len(sys.argv) > 4 else 30.0
-    starts = [float(x) for x in sys.argv[5:]] or [60, 120, 180, 240, 300]
+    argv, extra = sys.argv, []
+    if "--" in argv:
+        k = argv.index("--")
+        argv, extra = argv[:k], argv[k + 1:]
+    exe, log, sep = argv[1], argv[2], float(argv[3])
+    length = float(argv[4]) if len(argv) > 4 else 30.0
+    starts = [float(x) for x in argv[5:]] or [60, 120, 180, 240, 300]
     wheels = rows(os.path.join(log, "wheels.csv"))
     fixes = [r for r in rows(os.path.join(log, "pose.csv")) if r["east"]]
     tw = [float(r["t"]) for r in wheels]
@@ -51,7 +56,7 @@ def main():
     for t0 in starts:
         t1 = t0 + length
         with tempfile.TemporaryDirectory() as d:
-            subprocess.run([exe, "estimate", log, "--out", d, "--outage", f"{t0},{t1}"],
+            subprocess.run([exe, "estimate", log, "--out", d, "--outage", f"{t0},{t1}"] + extra,
                            check=True, stderr=subprocess.DEVNULL)
             est = rows(os.path.join(d, "estimate.csv"))
         te = [float(r["t"]) for r in est]

@@ -111,6 +111,14 @@ fn a_bag_and_its_imported_log_give_the_same_estimate() {
         wheels.lines().nth(1).unwrap().starts_with("0,0.94,1.06"),
         "{wheels}"
     );
+    // The controller's model beside it, as an --init file: spread S.
+    let model = log.join("controller.json");
+    let p = terraslip_io::ParamsFile::read(&model)
+        .unwrap()
+        .params
+        .unwrap();
+    assert_eq!((p.y_l, p.y_r, p.alpha_l), (0.3, -0.3, 1.0));
+    assert!(text.contains("controller.json"), "{text}");
 
     let out = run(&[
         "estimate",

@@ -12,8 +12,12 @@ use anyhow::{bail, Context, Result};
 /// PoseWithCovarianceStamped / PoseStamped, else Odometry pose), the heading
 /// (Imu orientation, with a GNSS pose), imu.csv (Imu) and camera frames
 /// (CompressedImage, else Image) by message type when the choice is unique;
+/// rotates the IMU into base_link by /tf_static or the topics file;
 /// --topics FILE.toml names them otherwise. Prints topic -> file, counts,
-/// rates and gaps; writes LOG/import.json with the same and the time origin.
+/// rates and gaps; writes LOG/import.json with the same and the time origin,
+/// and, when the wheels came from an odometry twist, LOG/controller.json: the
+/// controller's model (spread = separation, x_c 0, speed factors 1) as an
+/// --init file.
 #[derive(clap::Args, Debug)]
 #[command(after_help = AFTER_HELP)]
 pub struct Args {
@@ -43,8 +47,14 @@ The topics file (--topics, a global option; every key optional):
   yaw_offset_deg = 0.0       # yaw = imu_yaw + yaw_offset - declination
   declination_deg = 0.0      # magnetic declination, east positive
   std_deg = 5.0              # when the orientation covariance states none
+  mount_rpy_deg = [90, 0, -90]  # the heading IMU's mounting (default: [imu]'s for the same topic)
   [imu]
   topic = \"/imu/data\"
+  mount_rpy_deg = [90, 0, -90]  # roll, pitch, yaw (deg) of the IMU frame in base_link,
+                             # URDF rpy; overrides /tf_static
+  [tf]
+  topic = \"/tf_static\"       # static transforms for the IMU's mounting; \"\" for none
+  base_frame = \"base_link\"
   [images]
   topic = \"\"
   [time]
@@ -78,6 +88,15 @@ pub fn run(args: Args) -> Result<()> {
     let json = serde_json::to_string_pretty(&report)?;
     terraslip_io::write_atomic(out.join("import.json"), json.as_bytes())?;
     eprint!("{}", report.to_text());
+    if let Some(model) = terraslip_ros2::import::controller_model(&cfg, &report) {
+        let path = out.join(terraslip_ros2::import::CONTROLLER_FILE);
+        model.write(&path)?;
+        eprintln!(
+            "{}: the controller's own model (spread = separation, x_c 0, speed factors 1); start from it with --init {}",
+            path.display(),
+            path.display()
+        );
+    }
     for w in &report.warnings {
         eprintln!("warning: {w}");
     }

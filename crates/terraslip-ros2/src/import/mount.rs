@@ -1,0 +1,321 @@
+//! Sensor mountings: the rotation from a sensor's frame into the base frame
+//! (REP-103: x forward, y left, z up), from the bag's static transforms or
+//! the topics file, applied to an IMU's accelerations, rates and orientation.
+//!
+//! Quaternions are `[x, y, z, w]` (the ROS order) and rotate vectors from
+//! the child frame into the parent: `v_parent = q v_child q*`.
+
+use std::collections::HashMap;
+
+use terraslip_io::{DriveLog, ImuSample, PoseObs};
+
+use super::config::TopicsConfig;
+use super::report::ImportReport;
+use super::rows::heading_yaw;
+use crate::Bag;
+
+/// A unit quaternion `[x, y, z, w]`.
+pub type Quat = [f64; 4];
+
+pub const IDENTITY: Quat = [0.0, 0.0, 0.0, 1.0];
+
+/// The rotation of roll, pitch, yaw (rad) about fixed x, y, z in that order,
+/// `Rz(yaw) Ry(pitch) Rx(roll)`: the convention of URDF `<origin rpy>` and
+/// `static_transform_publisher`.
+pub fn from_rpy(roll: f64, pitch: f64, yaw: f64) -> Quat {
+    let (sr, cr) = (roll / 2.0).sin_cos();
+    let (sp, cp) = (pitch / 2.0).sin_cos();
+    let (sy, cy) = (yaw / 2.0).sin_cos();
+    [
+        sr * cp * cy - cr * sp * sy,
+        cr * sp * cy + sr * cp * sy,
+        cr * cp * sy - sr * sp * cy,
+        cr * cp * cy + sr * sp * sy,
+    ]
+}
+
+/// Roll, pitch, yaw (rad) of a rotation, the inverse of [`from_rpy`].
+pub fn rpy_of(q: Quat) -> [f64; 3] {
+    let [x, y, z, w] = q;
+    let roll = (2.0 * (w * x + y * z)).atan2(1.0 - 2.0 * (x * x + y * y));
+    let pitch = (2.0 * (w * y - z * x)).clamp(-1.0, 1.0).asin();
+    let yaw = (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z));
+    [roll, pitch, yaw]
+}
+
+/// `a ⊗ b`: first `b`, then `a`.
+pub fn mul(a: Quat, b: Quat) -> Quat {
+    let [ax, ay, az, aw] = a;
+    let [bx, by, bz, bw] = b;
+    [
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+        aw * bw - ax * bx - ay * by - az * bz,
+    ]
+}
+
+pub fn conj(q: Quat) -> Quat {
+    [-q[0], -q[1], -q[2], q[3]]
+}
+
+/// `q`, scaled to unit length (`None` when it has none).
+pub fn normalized(q: Quat) -> Option<Quat> {
+    let n = q.iter().map(|a| a * a).sum::<f64>().sqrt();
+    (n.is_finite() && n > 1e-9).then(|| q.map(|a| a / n))
+}
+
+/// `v` rotated by unit quaternion `q`.
+pub fn rotate(q: Quat, v: [f64; 3]) -> [f64; 3] {
+    let u = [q[0], q[1], q[2]];
+    let cross = |a: [f64; 3], b: [f64; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let t = cross(u, v).map(|c| 2.0 * c);
+    let ut = cross(u, t);
+    [
+        v[0] + q[3] * t[0] + ut[0],
+        v[1] + q[3] * t[1] + ut[1],
+        v[2] + q[3] * t[2] + ut[2],
+    ]
+}
+
+/// A frame name as tf2 compares them (no leading `/`).
+fn frame(name: &str) -> &str {
+    name.trim_start_matches('/')
+}
+
+/// The static transforms of a bag: each child frame's parent and the
+/// rotation parent ← child (translations do not matter for rotating
+/// accelerations, rates and orientations).
+#[derive(Debug, Clone, Default)]
+pub struct StaticTf {
+    parents: HashMap<String, (String, Quat)>,
+}
+
+impl StaticTf {
+    /// Adds `parent` ← `child`; a later transform of the same child wins, as in tf2.
+    pub fn add(&mut self, parent: &str, child: &str, q: Quat) {
+        self.parents
+            .insert(frame(child).to_string(), (frame(parent).to_string(), q));
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.parents.is_empty()
+    }
+
+    /// The rotation `base` ← `sensor`, following parents up from `sensor`;
+    /// `None` when the chain does not reach `base`.
+    pub fn rotation(&self, base: &str, sensor: &str) -> Option<Quat> {
+        let (base, mut cur) = (frame(base), frame(sensor));
+        let mut q = IDENTITY;
+        for _ in 0..64 {
+            if cur == base {
+                return Some(q);
+            }
+            let (parent, r) = self.parents.get(cur)?;
+            q = mul(*r, q);
+            cur = parent;
+        }
+        None
+    }
+}
+
+/// Rotates IMU samples into the base frame: accelerations when all three
+/// axes are present, rates likewise.
+pub fn rotate_imu(q: Quat, imu: &mut [ImuSample]) {
+    for s in imu {
+        if let (Some(x), Some(y)) = (s.accel_x, s.accel_y) {
+            let [x, y, z] = rotate(q, [x, y, s.accel_z]);
+            (s.accel_x, s.accel_y, s.accel_z) = (Some(x), Some(y), z);
+        }
+        if let (Some(x), Some(y), Some(z)) = (s.gyro_x, s.gyro_y, s.gyro_z) {
+            let [x, y, z] = rotate(q, [x, y, z]);
+            (s.gyro_x, s.gyro_y, s.gyro_z) = (Some(x), Some(y), Some(z));
+        }
+    }
+}
+
+/// The base frame's orientation from a sensor's (`world ← sensor`), given
+/// the mounting `base ← sensor`: `world ← base = (world ← sensor)(sensor ← base)`.
+pub fn base_orientation(sensor: Quat, mount: Quat) -> Quat {
+    mul(sensor, conj(mount))
+}
+
+/// When the mean acceleration of `imu` is gravity-sized but not along +z
+/// (more than 30° off), the mean: the IMU is then not mounted z-up in the
+/// base frame (or its mounting is wrong).
+pub fn gravity_off_vertical(imu: &[ImuSample]) -> Option<[f64; 3]> {
+    let mut sum = [0.0; 3];
+    let mut n = 0usize;
+    for s in imu {
+        if let (Some(x), Some(y)) = (s.accel_x, s.accel_y) {
+            if x.is_finite() && y.is_finite() && s.accel_z.is_finite() {
+                sum = [sum[0] + x, sum[1] + y, sum[2] + s.accel_z];
+                n += 1;
+            }
+        }
+    }
+    if n == 0 {
+        return None;
+    }
+    let m = sum.map(|a| a / n as f64);
+    let g = (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt();
+    (g > 5.0 && m[2] / g < 30f64.to_radians().cos()).then_some(m)
+}
+
+/// Rewrites the yaw of heading rows `(index in pose, sensor orientation)`
+/// for a sensor mounted `mount` in the base frame; `yaw` maps the base
+/// frame's orientation to the logged yaw (offsets, declination).
+pub fn remount_heading(
+    pose: &mut [PoseObs],
+    rows: &[(usize, Quat)],
+    mount: Quat,
+    yaw: impl Fn(Quat) -> f64,
+) {
+    for &(i, q) in rows {
+        if let Some(p) = pose.get_mut(i) {
+            p.yaw = Some(yaw(base_orientation(q, mount)));
+        }
+    }
+}
+
+/// What the mountings are worked out from, after the bag is read.
+pub(super) struct Sensors<'a> {
+    pub bag: &'a Bag,
+    pub cfg: &'a TopicsConfig,
+    /// The IMU, heading and static-transform topics.
+    pub imu: Option<usize>,
+    pub heading: Option<usize>,
+    pub tf: Option<usize>,
+    /// Each IMU topic's frame.
+    pub frames: &'a HashMap<usize, String>,
+    pub tf_tree: &'a StaticTf,
+    pub heading_rows: &'a [(usize, Quat)],
+}
+
+impl Sensors<'_> {
+    /// The mounting of `topic` (`base ← sensor`): `given` (degrees, from the
+    /// topics file), else the static transforms' chain from its frame. `None`
+    /// when neither tells (its axes are then taken as the base frame's).
+    fn mounting(
+        &self,
+        topic: usize,
+        given: Option<[f64; 3]>,
+        report: &mut ImportReport,
+    ) -> Option<Quat> {
+        let name = &self.bag.topics[topic].name;
+        let frame = self.frames.get(&topic).map_or("", String::as_str);
+        let base = self.cfg.tf.base_frame.as_str();
+        let (q, source) = match (given, self.tf) {
+            (Some([r, p, y]), _) => (
+                from_rpy(r.to_radians(), p.to_radians(), y.to_radians()),
+                "the topics file".to_string(),
+            ),
+            (None, Some(tf)) => {
+                let tf_name = &self.bag.topics[tf].name;
+                match self.tf_tree.rotation(base, frame) {
+                    Some(q) => (q, tf_name.clone()),
+                    None => {
+                        report.warnings.push(format!(
+                            "{name}: its frame `{frame}` has no static transform to {base} in {tf_name}; its axes are taken as {base}'s (give `mount_rpy_deg` in the topics file)"
+                        ));
+                        return None;
+                    }
+                }
+            }
+            (None, None) => return None,
+        };
+        // Tenths of a degree, without a `-0.0`.
+        let [r, p, y] = rpy_of(q).map(|a| (a.to_degrees() * 10.0).round() / 10.0 + 0.0);
+        let line = format!(
+            "{name} (frame `{frame}`): mounted roll {r:.1}°, pitch {p:.1}°, yaw {y:.1}° in {base}, from {source}"
+        );
+        if !report.mounts.contains(&line) {
+            report.mounts.push(line);
+        }
+        (q != IDENTITY).then_some(q)
+    }
+}
+
+/// Rotates the IMU's accelerations and rates, and the heading's
+/// orientation, into the base frame; warns when gravity is then not along
+/// +z (an IMU not mounted z-up, with no mounting given).
+pub(super) fn apply(s: &Sensors, log: &mut DriveLog, report: &mut ImportReport) {
+    let cfg = s.cfg;
+    if let Some(t) = s.imu {
+        if let Some(q) = s.mounting(t, cfg.imu.mount_rpy_deg, report) {
+            rotate_imu(q, &mut log.imu);
+        }
+        if let Some(g) = gravity_off_vertical(&log.imu) {
+            report.warnings.push(format!(
+                "{}: the mean acceleration ({:.1}, {:.1}, {:.1}) m/s² is not along +z of {}: the IMU is not mounted z-up there, so accel_z is not the vertical and its yaw not the heading; give its mounting as `[imu] mount_rpy_deg = [roll, pitch, yaw]` (or record /tf_static)",
+                s.bag.topics[t].name, g[0], g[1], g[2], cfg.tf.base_frame
+            ));
+        }
+    }
+    if let Some(t) = s.heading {
+        let given = cfg
+            .heading
+            .mount_rpy_deg
+            .or(cfg.imu.mount_rpy_deg.filter(|_| s.imu == Some(t)));
+        if let Some(q) = s.mounting(t, given, report) {
+            remount_heading(&mut log.pose, s.heading_rows, q, |b| {
+                heading_yaw(&cfg.heading, b)
+            });
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::FRAC_PI_2;
+
+    fn close(a: [f64; 3], b: [f64; 3]) -> bool {
+        a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-12)
+    }
+
+    #[test]
+    fn rpy_follows_urdf_fixed_axes() {
+        // Roll 90° then yaw -90° (about the fixed axes): the sensor's y axis
+        // ends up along base z, its z along base -x, its x along base -y.
+        let q = from_rpy(FRAC_PI_2, 0.0, -FRAC_PI_2);
+        assert!(close(rotate(q, [0.0, 1.0, 0.0]), [0.0, 0.0, 1.0]));
+        assert!(close(rotate(q, [0.0, 0.0, 1.0]), [-1.0, 0.0, 0.0]));
+        assert!(close(rotate(q, [1.0, 0.0, 0.0]), [0.0, -1.0, 0.0]));
+        let [r, p, y] = rpy_of(q);
+        assert!(
+            close([r, p, y], [FRAC_PI_2, 0.0, -FRAC_PI_2]),
+            "{r} {p} {y}"
+        );
+    }
+
+    #[test]
+    fn a_chain_of_static_transforms_composes() {
+        let mut tf = StaticTf::default();
+        tf.add("base_link", "plate", from_rpy(0.0, 0.0, FRAC_PI_2));
+        tf.add("/plate", "imu_link", from_rpy(FRAC_PI_2, 0.0, 0.0));
+        let q = tf.rotation("base_link", "imu_link").unwrap();
+        // imu y -> plate z -> base z; imu z -> plate -y -> base x.
+        assert!(close(rotate(q, [0.0, 1.0, 0.0]), [0.0, 0.0, 1.0]));
+        assert!(close(rotate(q, [0.0, 0.0, 1.0]), [1.0, 0.0, 0.0]));
+        assert_eq!(tf.rotation("base_link", "base_link"), Some(IDENTITY));
+        assert_eq!(tf.rotation("base_link", "camera"), None);
+        assert_eq!(tf.rotation("odom", "imu_link"), None);
+    }
+
+    #[test]
+    fn base_heading_from_a_rotated_sensor() {
+        // The base faces 30° left of east; the sensor is mounted yawed 90°.
+        let mount = from_rpy(0.3, 0.0, FRAC_PI_2);
+        let base = from_rpy(0.0, 0.0, 30f64.to_radians());
+        let sensor = mul(base, mount);
+        let [_, _, yaw] = rpy_of(base_orientation(sensor, mount));
+        assert!((yaw - 30f64.to_radians()).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,375 @@
+//! One decoded message to rows of the drive log, stream by stream.
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+
+use terraslip_io::{DriveLog, ImageRef, ImuSample, PoseObs, WheelSample};
+
+use super::config::{HeadingConfig, WheelsConfig};
+use super::decoder::Decoder;
+use super::mount::{Quat, StaticTf};
+use super::topics::Role;
+use crate::msg::Value;
+use crate::{Bag, Ros2Error};
+
+/// One decoded message and where it came from.
+pub(super) struct Msg<'a> {
+    pub bag: &'a Bag,
+    pub topic: usize,
+    pub index: u64,
+    /// Log time, s.
+    pub t: f64,
+    pub d: &'a Decoder,
+    pub v: &'a Value,
+}
+
+impl Msg<'_> {
+    fn err(&self, reason: impl std::fmt::Display) -> Ros2Error {
+        self.bag.msg_err(self.topic, self.index, reason)
+    }
+    /// A numeric field the stream cannot do without.
+    fn need(&self, name: &str) -> Result<f64, Ros2Error> {
+        self.d
+            .f(self.v, name)
+            .ok_or_else(|| self.err(format!("no field `{name}`")))
+    }
+    fn get(&self, name: &str) -> Option<&Value> {
+        self.d.get(self.v, name)
+    }
+    /// A quaternion `prefix.{x,y,z,w}`.
+    fn quaternion(&self, prefix: &str) -> Result<Quat, Ros2Error> {
+        let mut q = [0.0; 4];
+        for (v, c) in q.iter_mut().zip(["x", "y", "z", "w"]) {
+            *v = self.need(&format!("{prefix}.{c}"))?;
+        }
+        Ok(q)
+    }
+}
+
+/// The log being made, and what the streams need besides their messages.
+pub(super) struct Rows<'c> {
+    pub log: DriveLog,
+    /// ENU origin: the first good fix (latitude, longitude in degrees, altitude).
+    pub enu: Option<(f64, f64, f64)>,
+    /// Fixes dropped for a status < 0 or no position.
+    pub dropped_fixes: u64,
+    pub wheels: &'c WheelsConfig,
+    pub heading: &'c HeadingConfig,
+    /// Where camera frames go (`LOG/images`).
+    pub images_dir: Option<PathBuf>,
+    /// Each IMU topic's frame (its first message's `header.frame_id`).
+    pub frames: HashMap<usize, String>,
+    /// The bag's static transforms.
+    pub tf: StaticTf,
+    /// Heading rows: index in `log.pose` and the sensor's orientation, for
+    /// a mounting known only at the end.
+    pub heading_rows: Vec<(usize, Quat)>,
+}
+
+impl Rows<'_> {
+    /// Adds the rows stream `role` makes of message `m` of type `ty`; false
+    /// when it makes none (a dropped fix, a missing value).
+    pub fn add(&mut self, role: Role, ty: &str, m: &Msg) -> Result<bool, Ros2Error> {
+        match (role, ty) {
+            (Role::Wheels, "sensor_msgs/JointState") => self.joint_state(m),
+            (Role::Wheels, ty) => self.twist(m, ty),
+            (Role::Pose, "sensor_msgs/NavSatFix") => self.fix(m),
+            (Role::Pose, ty) => self.pose(m, ty),
+            (Role::Heading, _) => self.heading(m),
+            (Role::Imu, _) => self.imu(m),
+            (Role::Images, ty) => self.image(m, ty),
+            (Role::Tf, _) => self.static_tf(m),
+        }
+    }
+
+    /// Keeps the first `header.frame_id` of the topic.
+    fn note_frame(&mut self, m: &Msg) {
+        if let (std::collections::hash_map::Entry::Vacant(e), Some(Value::Str(f))) =
+            (self.frames.entry(m.topic), m.get("header.frame_id"))
+        {
+            e.insert(f.clone());
+        }
+    }
+
+    /// tf2_msgs/TFMessage: each transform's rotation parent ← child.
+    fn static_tf(&mut self, m: &Msg) -> Result<bool, Ros2Error> {
+        let Some(Value::List(items)) = m.get("transforms") else {
+            return Err(m.err("no field `transforms`"));
+        };
+        let ts = "geometry_msgs/TransformStamped";
+        let path = |p: &str| {
+            m.d.resolve_in(ts, p)
+                .ok_or_else(|| m.err(format!("{ts} has no field `{p}`")))
+        };
+        let (parent, child) = (path("header.frame_id")?, path("child_frame_id")?);
+        let q: Vec<Vec<usize>> = ["x", "y", "z", "w"]
+            .iter()
+            .map(|c| path(&format!("transform.rotation.{c}")))
+            .collect::<Result<_, _>>()?;
+        for (k, item) in items.iter().enumerate() {
+            let (Some(Value::Str(parent)), Some(Value::Str(child))) =
+                (item.at(&parent), item.at(&child))
+            else {
+                return Err(m.err(format!("transform {k}: no frame names")));
+            };
+            let r = [0, 1, 2, 3].map(|i| item.f64_at(&q[i]).unwrap_or(f64::NAN));
+            let Some(r) = super::mount::normalized(r) else {
+                return Err(m.err(format!(
+                    "transform {k} ({parent} -> {child}): rotation {r:?} is not a quaternion"
+                )));
+            };
+            self.tf.add(parent, child, r);
+        }
+        Ok(true)
+    }
+
+    /// Wheel joint velocities (rad/s) times the wheel radius, left and right
+    /// picked by name patterns (the mean of each side's joints).
+    fn joint_state(&mut self, m: &Msg) -> Result<bool, Ros2Error> {
+        let (Some(Value::Strs(names)), Some(Value::Nums(vel))) = (m.get("name"), m.get("velocity"))
+        else {
+            return Err(m.err("name or velocity missing"));
+        };
+        let pick = |pats: &[String]| {
+            let mut sum = 0.0;
+            let mut n = 0;
+            for (name, w) in names.iter().zip(vel) {
+                let lname = name.to_lowercase();
+                if pats.iter().any(|p| lname.contains(&p.to_lowercase())) && w.is_finite() {
+                    sum += w;
+                    n += 1;
+                }
+            }
+            (n > 0).then(|| sum / n as f64)
+        };
+        let wcfg = self.wheels;
+        let r = wcfg.wheel_radius.unwrap_or(f64::NAN);
+        match (pick(&wcfg.left), pick(&wcfg.right)) {
+            (Some(l), Some(rr)) => self.log.wheels.push(WheelSample {
+                t: m.t,
+                v_left: l * r,
+                v_right: rr * r,
+            }),
+            _ if vel.is_empty() => return Ok(false),
+            _ => {
+                return Err(m.err(format!(
+                    "no joint matches the left {:?} and right {:?} patterns (joints: {}); set [wheels] left/right",
+                    wcfg.left,
+                    wcfg.right,
+                    names.join(", ")
+                )))
+            }
+        }
+        Ok(true)
+    }
+
+    /// Odometry or TwistStamped: tread speeds v ∓ ω·S/2 with the
+    /// controller's effective separation S.
+    fn twist(&mut self, m: &Msg, ty: &str) -> Result<bool, Ros2Error> {
+        let (vx, wz) = if ty == "nav_msgs/Odometry" {
+            (
+                m.need("twist.twist.linear.x")?,
+                m.need("twist.twist.angular.z")?,
+            )
+        } else {
+            (m.need("twist.linear.x")?, m.need("twist.angular.z")?)
+        };
+        let s = self.wheels.separation.unwrap_or(f64::NAN);
+        if !(vx.is_finite() && wz.is_finite()) {
+            return Ok(false);
+        }
+        self.log.wheels.push(WheelSample {
+            t: m.t,
+            v_left: vx - wz * s / 2.0,
+            v_right: vx + wz * s / 2.0,
+        });
+        Ok(true)
+    }
+
+    /// NavSatFix to ENU about the first good fix (WGS-84), σ from a known
+    /// position covariance.
+    fn fix(&mut self, m: &Msg) -> Result<bool, Ros2Error> {
+        let status = m.need("status.status")?;
+        let (lat, lon) = (m.need("latitude")?, m.need("longitude")?);
+        let alt =
+            m.d.f(m.v, "altitude")
+                .filter(|a| a.is_finite())
+                .unwrap_or(0.0);
+        if status < 0.0 || !lat.is_finite() || !lon.is_finite() || lat.abs() > 90.0 {
+            self.dropped_fixes += 1;
+            return Ok(false);
+        }
+        let (lat0, lon0, alt0) = *self.enu.get_or_insert((lat, lon, alt));
+        let (e, n, _u) = map_3d::geodetic2enu(
+            lat.to_radians(),
+            lon.to_radians(),
+            alt,
+            lat0.to_radians(),
+            lon0.to_radians(),
+            alt0,
+            map_3d::Ellipsoid::WGS84,
+        );
+        let ctype = m.need("position_covariance_type")?;
+        let std_xy = match m.get("position_covariance") {
+            Some(Value::Nums(c)) if ctype >= 1.0 && c.len() == 9 && c[0] > 0.0 && c[4] > 0.0 => {
+                Some(((c[0] + c[4]) / 2.0).sqrt())
+            }
+            _ => None,
+        };
+        self.log.pose.push(PoseObs {
+            t: m.t,
+            east: Some(e),
+            north: Some(n),
+            yaw: None,
+            std_xy,
+            std_yaw: None,
+        });
+        Ok(true)
+    }
+
+    /// Odometry, PoseStamped or PoseWithCovarianceStamped: position and yaw,
+    /// σ from the covariance when it states one.
+    fn pose(&mut self, m: &Msg, ty: &str) -> Result<bool, Ros2Error> {
+        let pre = if ty == "geometry_msgs/PoseStamped" {
+            "pose"
+        } else {
+            "pose.pose"
+        };
+        let x = m.need(&format!("{pre}.position.x"))?;
+        let y = m.need(&format!("{pre}.position.y"))?;
+        let q = m.quaternion(&format!("{pre}.orientation"))?;
+        let qn = q.iter().map(|a| a * a).sum::<f64>();
+        let yaw = (qn > 0.5 && qn < 1.5).then(|| yaw_of(q[0], q[1], q[2], q[3]));
+        let (std_xy, std_yaw) = match m.get("pose.covariance") {
+            Some(Value::Nums(c)) if c.len() == 36 => (
+                (c[0] > 0.0 && c[7] > 0.0).then(|| ((c[0] + c[7]) / 2.0).sqrt()),
+                (c[35] > 0.0 && c[35] < 1e3).then(|| c[35].sqrt()),
+            ),
+            _ => (None, None),
+        };
+        if !(x.is_finite() && y.is_finite()) {
+            return Ok(false);
+        }
+        self.log.pose.push(PoseObs {
+            t: m.t,
+            east: Some(x),
+            north: Some(y),
+            yaw,
+            std_xy,
+            std_yaw: yaw.and(std_yaw),
+        });
+        Ok(true)
+    }
+
+    /// An IMU's orientation yaw as the heading, with the configured offset
+    /// and declination; none when the orientation is marked unknown.
+    fn heading(&mut self, m: &Msg) -> Result<bool, Ros2Error> {
+        let q = m.quaternion("orientation")?;
+        let cov = match m.get("orientation_covariance") {
+            Some(Value::Nums(c)) if c.len() == 9 => Some((c[0], c[8])),
+            _ => None,
+        };
+        let qn = q.iter().map(|a| a * a).sum::<f64>();
+        if cov.is_some_and(|c| c.0 == -1.0) || !(0.5..1.5).contains(&qn) {
+            return Ok(false);
+        }
+        let h = self.heading;
+        let std = cov
+            .map(|c| c.1)
+            .filter(|s| *s > 0.0 && s.is_finite())
+            .map(f64::sqrt)
+            .unwrap_or(h.std_deg.to_radians());
+        self.log.pose.push(PoseObs {
+            t: m.t,
+            yaw: Some(heading_yaw(h, q)),
+            std_yaw: Some(std),
+            ..Default::default()
+        });
+        self.heading_rows.push((self.log.pose.len() - 1, q));
+        self.note_frame(m);
+        Ok(true)
+    }
+
+    /// Accelerations and angular rates, in the IMU's frame.
+    fn imu(&mut self, m: &Msg) -> Result<bool, Ros2Error> {
+        let az = m.need("linear_acceleration.z")?;
+        self.note_frame(m);
+        let f = |name: &str| m.d.f(m.v, name);
+        self.log.imu.push(ImuSample {
+            t: m.t,
+            accel_z: az,
+            accel_x: f("linear_acceleration.x"),
+            accel_y: f("linear_acceleration.y"),
+            gyro_x: f("angular_velocity.x"),
+            gyro_y: f("angular_velocity.y"),
+            gyro_z: f("angular_velocity.z"),
+        });
+        Ok(true)
+    }
+
+    /// A camera frame written under `images/` (JPEG or PNG as recorded, raw
+    /// images as PNG).
+    fn image(&mut self, m: &Msg, ty: &str) -> Result<bool, Ros2Error> {
+        let Some(dir) = &self.images_dir else {
+            return Ok(false);
+        };
+        let Some(Value::Bytes(data)) = m.get("data") else {
+            return Err(m.err("no image data"));
+        };
+        let (name, bytes) = if ty == "sensor_msgs/CompressedImage" {
+            let ext = if data.starts_with(&[0x89, b'P', b'N', b'G']) {
+                "png"
+            } else if data.starts_with(&[0xff, 0xd8]) {
+                "jpg"
+            } else {
+                return Err(m.err("compressed image is neither JPEG nor PNG"));
+            };
+            (format!("{:08}.{ext}", m.index), data.clone())
+        } else {
+            let png = super::image::raw_to_png(m.d, m.v, data).map_err(|e| m.err(e))?;
+            (format!("{:08}.png", m.index), png)
+        };
+        terraslip_io::write_atomic(dir.join(&name), &bytes)?;
+        self.log.images.push(ImageRef {
+            t: m.t,
+            path: PathBuf::from("images").join(name),
+        });
+        Ok(true)
+    }
+}
+
+/// Yaw (rad, counter-clockwise about z) of a quaternion.
+pub fn yaw_of(x: f64, y: f64, z: f64, w: f64) -> f64 {
+    (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z))
+}
+
+/// The logged heading of an orientation: its yaw with the configured offset
+/// and declination, wrapped.
+pub(super) fn heading_yaw(h: &HeadingConfig, q: Quat) -> f64 {
+    wrap(yaw_of(q[0], q[1], q[2], q[3]) + (h.yaw_offset_deg - h.declination_deg).to_radians())
+}
+
+/// An angle wrapped into (-π, π].
+pub(super) fn wrap(a: f64) -> f64 {
+    let mut a = a % std::f64::consts::TAU;
+    if a > std::f64::consts::PI {
+        a -= std::f64::consts::TAU;
+    } else if a <= -std::f64::consts::PI {
+        a += std::f64::consts::TAU;
+    }
+    a
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quaternion_yaw_and_wrap() {
+        let a: f64 = 2.5;
+        let (s, c) = (a / 2.0).sin_cos();
+        assert!((yaw_of(0.0, 0.0, s, c) - a).abs() < 1e-12);
+        assert!((wrap(3.0 * std::f64::consts::PI) - std::f64::consts::PI).abs() < 1e-12);
+        assert!((wrap(-0.5) + 0.5).abs() < 1e-15);
+    }
+}

@@ -216,10 +216,17 @@ impl Bag {
         Ok(())
     }
 
+    /// An error in one of the bag's files; the file is named only when it
+    /// is not the bag itself (a single `.mcap` / `.db3`).
     fn file_err(&self, file: &Path, reason: impl std::fmt::Display) -> Ros2Error {
+        let reason = if file == self.path {
+            reason.to_string()
+        } else {
+            format!("{}: {reason}", file.display())
+        };
         Ros2Error::Bag {
             bag: self.path.clone(),
-            reason: format!("{}: {reason}", file.display()),
+            reason,
         }
     }
 

@@ -56,6 +56,9 @@ fn the_sample_bag_imports() {
     std::fs::write(&p, &bytes[..bytes.len() / 2]).unwrap();
     let e = import(&p, &cfg, None).unwrap_err().to_string();
     assert!(e.contains("f.mcap"), "{e}");
+    // A single-file bag is its own file: named once.
+    let named = e.matches(&*p.display().to_string()).count();
+    assert_eq!(named, 1, "{e}");
 }
 
 proptest! {

@@ -1,6 +1,5 @@
 //! The topics file (`--topics FILE.toml`).
 
-
 use serde::Deserialize;
 
 /// `--topics FILE.toml`: which topic feeds which stream, and the numbers a

@@ -162,7 +162,8 @@ impl Iterator for WheelStream {
         if self.done {
             return None;
         }
-        ended_by_error(&mut self.done, self.next_sample())
+        let read = self.next_sample();
+        ended_by_error(&mut self.done, read)
     }
 }
 
@@ -269,7 +270,8 @@ impl Iterator for PoseStream {
         if self.done {
             return None;
         }
-        ended_by_error(&mut self.done, self.next_obs())
+        let read = self.next_obs();
+        ended_by_error(&mut self.done, read)
     }
 }
 

@@ -127,9 +127,9 @@ pub fn run(args: Args) -> Result<()> {
             .with_context(|| format!("reading log {}", log_dir.display()))?;
         Source::Open(Box::new(open))
     } else if args.terrain_model.is_some() {
-        Source::Read(super::bag::read_full(log_dir)?)
+        Source::Read(Box::new(super::bag::read_full(log_dir)?))
     } else {
-        Source::Read(super::bag::read_with(log_dir, super::read_log)?)
+        Source::Read(Box::new(super::bag::read_with(log_dir, super::read_log)?))
     };
     let inputs: Vec<&Path> = [&args.init, &args.config, &args.terrain_model]
         .into_iter()
@@ -177,7 +177,7 @@ pub fn run(args: Args) -> Result<()> {
             for r in &est.run.rows {
                 csv.row(&est.run.terrains, r)?;
             }
-            (log, est)
+            (*log, est)
         }
     };
     let Estimate {
@@ -222,7 +222,7 @@ enum Source {
     /// Streamed from the log directory.
     Open(Box<terraslip::estimate::OpenLog>),
     /// Read whole.
-    Read(terraslip_io::DriveLog),
+    Read(Box<terraslip_io::DriveLog>),
 }
 
 fn progress(total: u64, unit: &str) -> Progress {

@@ -120,7 +120,7 @@ pub fn run(args: Args) -> Result<()> {
     let mcap = false;
     let streamed = !(super::bag::is_bag(log_dir) || args.terrain_model.is_some() || mcap);
     let source = if streamed {
-        if super::bag::topics_file().is_some() {
+        if super::bag::topics_file().is_some() && !log_dir.is_dir() {
             bail!("{}: --topics is for ROS 2 bags", log_dir.display());
         }
         let open = terraslip::estimate::OpenLog::open(log_dir)

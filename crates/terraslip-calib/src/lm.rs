@@ -71,6 +71,9 @@ pub struct LmFit {
     pub sigma: f64,
     /// Total LM iterations.
     pub iterations: usize,
+    /// A reweighting round ran out of iterations
+    /// ([`LmConfig::max_iterations`]) before it converged.
+    pub capped: bool,
 }
 
 /// A least-squares problem over the segments in `N` parameters: the
@@ -204,8 +207,9 @@ impl<const N: usize> Problem<'_, N> {
     }
 
     /// Weighted least squares by Levenberg-Marquardt from `v`, weights
-    /// fixed. Returns the iterations used.
-    fn solve(&self, v: &mut [f64; N], w: &[f64], max_iterations: usize) -> usize {
+    /// fixed. Returns the iterations used, and whether they ran out before
+    /// the fit converged (the last one still improved the cost).
+    fn solve(&self, v: &mut [f64; N], w: &[f64], max_iterations: usize) -> (usize, bool) {
         let mut lambda = 1e-3;
         let mut cost = self.weighted_sse(v, w);
         let mut it = 0;
@@ -238,7 +242,7 @@ impl<const N: usize> Problem<'_, N> {
                         lambda = (lambda * 0.3).max(1e-12);
                         improved = true;
                         if rel < 1e-10 || step < 1e-10 {
-                            return it;
+                            return (it, false);
                         }
                         break;
                     }
@@ -246,10 +250,10 @@ impl<const N: usize> Problem<'_, N> {
                 lambda *= 10.0;
             }
             if !improved {
-                break;
+                return (it, false);
             }
         }
-        it
+        (it, true)
     }
 
     /// 1-sigma of every parameter, the sandwich `A⁻¹ Var(g) A⁻¹` of
@@ -349,10 +353,13 @@ pub fn fit(
     let mut v = to_vec(start);
     let mut w: Vec<f64> = active.iter().map(|&a| if a { 1.0 } else { 0.0 }).collect();
     let mut iterations = 0;
+    let mut capped = false;
     let mut sigma = f64::NAN;
     for round in 0..cfg.irls_rounds.max(1) {
         let before = v;
-        iterations += problem.solve(&mut v, &w, cfg.max_iterations);
+        let (used, out_of_iterations) = problem.solve(&mut v, &w, cfg.max_iterations);
+        iterations += used;
+        capped |= out_of_iterations;
         let norms: Vec<f64> = res(&v)
             .iter()
             .zip(active)
@@ -399,6 +406,7 @@ pub fn fit(
         weights: w,
         sigma,
         iterations,
+        capped,
     })
 }
 

@@ -11,6 +11,8 @@
 //! `max_gap` inside the horizon are skipped. The same segments are scored
 //! with the no-slip model of the track width, for comparison.
 
+use std::collections::VecDeque;
+
 use terraslip_core::IcrParams;
 use terraslip_io::{PoseObs, WheelSample};
 
@@ -111,21 +113,6 @@ impl PredictionScore {
     }
 }
 
-/// Reference poses with all of east, north and yaw, the yaw unwrapped.
-fn reference(pose: &[PoseObs]) -> Vec<(f64, f64, f64, f64)> {
-    let mut out: Vec<(f64, f64, f64, f64)> = Vec::with_capacity(pose.len());
-    for p in pose {
-        if let (Some(e), Some(n), Some(y)) = (p.east, p.north, p.yaw) {
-            let y = match out.last() {
-                Some(&(_, _, _, prev)) => prev + terraslip_core::angle::wrap(y - prev),
-                None => y,
-            };
-            out.push((p.t, e, n, y));
-        }
-    }
-    out
-}
-
 fn interpolate(r: &[(f64, f64, f64, f64)], t: f64) -> Option<(f64, f64, f64)> {
     let i = r.partition_point(|p| p.0 < t);
     if let Some(p) = r.get(i).filter(|p| p.0 == t) {
@@ -175,6 +162,158 @@ pub fn predict(
     (e, n)
 }
 
+/// A reference pose: time, east, north and the yaw unwrapped.
+type Reference = (f64, f64, f64, f64);
+
+/// [`score`] computed as the drive streams by: give the pose rows and the
+/// wheels rows in time order, each pose row before the wheels rows stamped
+/// after it (as the estimator merges them). Only the wheels and reference
+/// poses of the starts still open (about `horizon + max_gap` s) are kept,
+/// so memory does not grow with the drive beyond one segment per `stride`.
+#[derive(Debug, Clone)]
+pub struct PredictionStream {
+    spec: PredictionSpec,
+    no_slip: IcrParams,
+    /// Reference poses from the last one before the oldest open start.
+    refs: VecDeque<Reference>,
+    /// Time of the first and of the latest reference pose.
+    r_first: Option<f64>,
+    r_max: f64,
+    /// Wheels rows after the oldest open start, and the latest row's time.
+    wheels: VecDeque<WheelSample>,
+    w_max: f64,
+    /// The next start to open (from the first wheels row on).
+    next_start: Option<f64>,
+    /// Open starts and the parameters in effect at each.
+    open: VecDeque<(f64, Option<IcrParams>)>,
+    segments: Vec<PredictionSegment>,
+}
+
+impl PredictionStream {
+    /// Scores against the no-slip model of `track_width` (m).
+    pub fn new(track_width: f64, spec: PredictionSpec) -> Self {
+        Self {
+            spec,
+            no_slip: IcrParams::no_slip(track_width),
+            refs: VecDeque::new(),
+            r_first: None,
+            r_max: f64::NEG_INFINITY,
+            wheels: VecDeque::new(),
+            w_max: f64::NEG_INFINITY,
+            next_start: None,
+            open: VecDeque::new(),
+            segments: Vec::new(),
+        }
+    }
+
+    fn valid(&self) -> bool {
+        self.spec.horizon > 0.0 && self.spec.stride > 0.0
+    }
+
+    /// The next pose row; only rows with all of east, north and yaw are
+    /// reference poses.
+    pub fn pose(&mut self, p: &PoseObs) {
+        if let (Some(e), Some(n), Some(y)) = (p.east, p.north, p.yaw) {
+            let y = match self.refs.back() {
+                Some(&(_, _, _, prev)) => prev + terraslip_core::angle::wrap(y - prev),
+                None => y,
+            };
+            self.refs.push_back((p.t, e, n, y));
+            self.r_first.get_or_insert(p.t);
+            self.r_max = p.t;
+        }
+    }
+
+    /// The next wheels row; `params_at(t)` gives the parameters in effect
+    /// at a start `t` earlier than this row (called once per start).
+    pub fn wheels(&mut self, w: WheelSample, params_at: &mut dyn FnMut(f64) -> Option<IcrParams>) {
+        if !self.valid() {
+            return;
+        }
+        let mut next = self.next_start.unwrap_or(w.t + self.spec.warmup);
+        while next < w.t {
+            self.open.push_back((next, params_at(next)));
+            next += self.spec.stride;
+        }
+        self.next_start = Some(next);
+        self.wheels.push_back(w);
+        self.w_max = w.t;
+        self.close(false);
+    }
+
+    /// The score of the whole drive; `None` as for [`score`].
+    pub fn finish(mut self) -> Option<PredictionScore> {
+        self.close(true);
+        if self.segments.is_empty() {
+            return None;
+        }
+        Some(PredictionScore::from_segments(self.spec, self.segments))
+    }
+
+    /// Scores or drops the open starts that can be decided (all of them at
+    /// the `end`), oldest first, and forgets what no open start needs.
+    fn close(&mut self, end: bool) {
+        let (h, gap) = (self.spec.horizon, self.spec.max_gap);
+        while let Some(&(t, params)) = self.open.front() {
+            let t1 = t + h;
+            let covered = self.r_max >= t1 && self.w_max >= t1;
+            if end || covered && t <= self.r_max - h && t <= self.w_max - h {
+                self.open.pop_front();
+                if t <= self.r_max - h && t <= self.w_max - h {
+                    self.score_start(t, params);
+                }
+                continue;
+            }
+            // Every later pose is stamped after the latest wheels row: a
+            // start with no reference at or before it cannot be
+            // interpolated, and one still waiting for its end across a gap
+            // longer than `max_gap` cannot be gap-free.
+            let unanchored = self.r_first.is_none_or(|r| r > t) && self.w_max >= t;
+            let broken = self.r_max < t1 && self.w_max - self.r_max > gap;
+            if !(unanchored || broken) {
+                break;
+            }
+            self.open.pop_front();
+        }
+        let oldest = match (self.open.front(), self.next_start) {
+            (Some(&(t, _)), _) | (None, Some(t)) => t,
+            (None, None) => return,
+        };
+        while self.refs.len() >= 2 && self.refs[1].0 < oldest {
+            self.refs.pop_front();
+        }
+        while self.wheels.front().is_some_and(|w| w.t <= oldest) {
+            self.wheels.pop_front();
+        }
+    }
+
+    /// One start, as [`score`] defines it, on the kept poses and wheels
+    /// (which hold everything it reads).
+    fn score_start(&mut self, t: f64, params: Option<IcrParams>) {
+        let t1 = t + self.spec.horizon;
+        let r = self.refs.make_contiguous();
+        let i = r.partition_point(|p| p.0 <= t).saturating_sub(1);
+        let j = r.partition_point(|p| p.0 < t1);
+        let gap_free = j < r.len()
+            && r[i..=j]
+                .windows(2)
+                .all(|w| w[1].0 - w[0].0 <= self.spec.max_gap);
+        if !gap_free {
+            return;
+        }
+        if let (Some(a), Some(b), Some(p)) = (interpolate(r, t), interpolate(r, t1), params) {
+            let wheels = self.wheels.make_contiguous();
+            let (e, n) = predict(wheels, &p, t, t1, a);
+            let (en, nn) = predict(wheels, &self.no_slip, t, t1, a);
+            self.segments.push(PredictionSegment {
+                t,
+                error: (e - b.0).hypot(n - b.1),
+                no_slip: (en - b.0).hypot(nn - b.1),
+            });
+        }
+    }
+}
+
 /// Scores the parameters `params_at(t)` (those in effect at `t`) on the
 /// drive; `None` without a pose reference with headings or wheels, or when
 /// no segment qualifies.
@@ -185,39 +324,19 @@ pub fn score(
     params_at: &dyn Fn(f64) -> Option<IcrParams>,
     spec: PredictionSpec,
 ) -> Option<PredictionScore> {
-    let r = reference(pose);
-    let (first, last) = (wheels.first()?.t, wheels.last()?.t);
-    if r.len() < 2 || !(spec.horizon > 0.0 && spec.stride > 0.0) {
-        return None;
-    }
-    let no_slip = IcrParams::no_slip(track_width);
-    let mut segments = Vec::new();
-    let mut t = first + spec.warmup;
-    let end = r[r.len() - 1].0.min(last) - spec.horizon;
-    while t <= end {
-        let t1 = t + spec.horizon;
-        let i = r.partition_point(|p| p.0 <= t).saturating_sub(1);
-        let j = r.partition_point(|p| p.0 < t1);
-        let gap_free = j < r.len() && r[i..=j].windows(2).all(|w| w[1].0 - w[0].0 <= spec.max_gap);
-        if gap_free {
-            if let (Some(a), Some(b), Some(p)) =
-                (interpolate(&r, t), interpolate(&r, t1), params_at(t))
-            {
-                let (e, n) = predict(wheels, &p, t, t1, a);
-                let (en, nn) = predict(wheels, &no_slip, t, t1, a);
-                segments.push(PredictionSegment {
-                    t,
-                    error: (e - b.0).hypot(n - b.1),
-                    no_slip: (en - b.0).hypot(nn - b.1),
-                });
-            }
+    let mut stream = PredictionStream::new(track_width, spec);
+    let mut k = 0;
+    for w in wheels {
+        while let Some(p) = pose.get(k).filter(|p| p.t <= w.t) {
+            stream.pose(p);
+            k += 1;
         }
-        t += spec.stride;
+        stream.wheels(*w, &mut |t| params_at(t));
     }
-    if segments.is_empty() {
-        return None;
+    for p in &pose[k..] {
+        stream.pose(p);
     }
-    Some(PredictionScore::from_segments(spec, segments))
+    stream.finish()
 }
 
 #[cfg(test)]
@@ -295,5 +414,43 @@ mod tests {
         assert!(s.segments.iter().all(|g| g.t < 90.0));
         assert_eq!(s.segments.len(), 28);
         assert!(score(&w, &[], 0.5, &|_| Some(truth), PredictionSpec::default()).is_none());
+    }
+
+    #[test]
+    fn the_stream_keeps_only_the_open_starts_and_scores_like_the_whole_drive() {
+        let truth = IcrParams::new(0.4, -0.38, 0.02);
+        // Poses stop at 60 s and start again at 70 s; poses without a
+        // heading from 80 s to 85 s.
+        let (wheels, mut pose) = drive(&truth, true, Some((60.0, 70.0)));
+        for p in pose.iter_mut().filter(|p| p.t > 80.0 && p.t < 85.0) {
+            p.yaw = None;
+        }
+        let spec = PredictionSpec {
+            warmup: 5.0,
+            ..Default::default()
+        };
+        let params_at = |t: f64| (t < 90.0).then_some(truth);
+        let mut stream = PredictionStream::new(0.5, spec);
+        let mut k = 0;
+        let mut held = 0;
+        for w in &wheels {
+            while let Some(p) = pose.get(k).filter(|p| p.t <= w.t) {
+                stream.pose(p);
+                k += 1;
+            }
+            stream.wheels(*w, &mut |t| params_at(t));
+            held = held.max(stream.wheels.len() + stream.refs.len() + stream.open.len());
+        }
+        // 2.5 s of 50 Hz wheels and 10 Hz poses at most, gaps included.
+        assert!(held < 200, "{held}");
+        let got = stream.finish().unwrap();
+        // Starts 5..=98 s (94); left out: 59..=69 (their 2 s reach across
+        // the pose gap; 58 ends at the pose at 60), 79..=84 (across the
+        // poses without heading) and 90..=98 (no parameters).
+        assert!(got.segments.iter().all(|g| !(58.5..70.0).contains(&g.t)));
+        assert!(got.segments.iter().all(|g| !(78.5..85.0).contains(&g.t)));
+        assert!(got.segments.iter().all(|g| g.t < 90.0));
+        assert_eq!(got.segments.len(), 94 - 11 - 6 - 9);
+        assert_eq!(score(&wheels, &pose, 0.5, &params_at, spec), Some(got));
     }
 }

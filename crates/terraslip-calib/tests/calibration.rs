@@ -768,3 +768,59 @@ fn symmetric_without_spins_is_an_error() {
         "{e}"
     );
 }
+
+#[test]
+fn a_fit_that_hits_a_limit_is_a_warning_in_the_output_and_the_file() {
+    let truth = mandow_table1();
+    let log = drive(&[("a", truth)], &SynthConfig::p3at(60.0, 3));
+    let logs = std::slice::from_ref(&log);
+    let limit_warnings = |cal: &Calibration| -> Vec<String> {
+        cal.warnings
+            .iter()
+            .filter(|w| w.contains("iterations") || w.contains("bound"))
+            .cloned()
+            .collect()
+    };
+    // A fit within its limits says nothing.
+    let cal = calibrate(logs, &lm_only(), &|_| {}).expect("calibration");
+    assert!(limit_warnings(&cal).is_empty(), "{:?}", cal.warnings);
+
+    // Levenberg-Marquardt out of iterations.
+    let mut cfg = lm_only();
+    cfg.lm.max_iterations = 1;
+    let cal = calibrate(logs, &cfg, &|_| {}).expect("calibration");
+    let w = limit_warnings(&cal);
+    assert!(
+        w.iter()
+            .any(|w| w.contains("Levenberg-Marquardt") && w.contains("all 1 iterations")),
+        "{:?}",
+        cal.warnings
+    );
+    let file = serde_json::to_value(cal.params_file()).unwrap();
+    assert_eq!(file["warnings"], serde_json::json!(cal.warnings));
+
+    // The GA's y_l pinned at the top of a range below the truth (y_r held
+    // near its own, so the spread cannot be made up for).
+    let mut cfg = CalibConfig {
+        method: Some(Method::Ga),
+        ..Default::default()
+    };
+    cfg.ga.population = 16;
+    cfg.ga.generations = 10;
+    let w = truth.y_l - truth.y_r;
+    cfg.ga.bounds = Some([
+        (0.1 * truth.y_l, 0.5 * truth.y_l),
+        (truth.y_r - 0.01 * w, truth.y_r + 0.01 * w),
+        (-w, w),
+        (0.5, 1.5),
+        (0.5, 1.5),
+    ]);
+    let cal = calibrate(logs, &cfg, &|_| {}).expect("calibration");
+    assert!(
+        limit_warnings(&cal)
+            .iter()
+            .any(|w| w.contains("genetic algorithm's y_l") && w.contains("upper bound")),
+        "{:?}",
+        cal.warnings
+    );
+}

@@ -108,8 +108,7 @@ impl DirLock {
                     return Ok(Self { lock });
                 }
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
-                    let owner = std::fs::read_to_string(&lock).unwrap_or_default();
-                    let owner = owner.trim().parse::<u32>().ok();
+                    let owner = lock_owner(&lock);
                     match owner {
                         Some(pid) if process_alive(pid) => {
                             return Err(LogError::Invalid {
@@ -138,9 +137,8 @@ impl DirLock {
         })
     }
 
-    /// Removes the temporaries [`AtomicFile`] leaves for `names` when its
-    /// process is killed. Only the lock holder may call it: no other run
-    /// can be writing them.
+    /// Removes the temporaries [`AtomicFile`] left for `names` by processes
+    /// that are gone (killed mid-run); a live process's are its own.
     pub fn remove_stale_temps(&self, names: &[&str]) {
         let Some(dir) = self.lock.parent() else {
             return;
@@ -154,7 +152,9 @@ impl DirLock {
             let stale = names.iter().any(|n| {
                 file.strip_prefix(&format!(".{n}."))
                     .and_then(|rest| rest.strip_suffix(".tmp"))
-                    .is_some_and(|pid| pid.parse::<u32>().is_ok())
+                    .and_then(|pid| pid.parse::<u32>().ok())
+                    // A live run's file is its own, whatever the lock says.
+                    .is_some_and(|pid| !process_alive(pid))
             });
             if stale {
                 let _ = std::fs::remove_file(entry.path());
@@ -171,6 +171,20 @@ impl Drop for DirLock {
 
 /// Whether process `pid` runs. Where that cannot be told (no `/proc`),
 /// every process is taken to run, so a lock is never stolen.
+/// The process id in the lock file `lock`. A run writes it just after
+/// creating the file, so an empty file is read again for up to a second
+/// before it counts as left behind.
+fn lock_owner(lock: &Path) -> Option<u32> {
+    for _ in 0..50 {
+        let text = std::fs::read_to_string(lock).unwrap_or_default();
+        if !text.trim().is_empty() {
+            return text.trim().parse().ok();
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    None
+}
+
 fn process_alive(pid: u32) -> bool {
     if pid == std::process::id() {
         return true;
@@ -218,9 +232,18 @@ mod lock_tests {
         std::fs::write(dir.path().join(DirLock::FILE), "4294967295").unwrap();
         std::fs::write(dir.path().join(".estimate.csv.4294967295.tmp"), "half").unwrap();
         std::fs::write(dir.path().join(".other.csv.12.tmp"), "not ours").unwrap();
+        let live = dir
+            .path()
+            .join(format!(".estimate.csv.{}.tmp", std::process::id()));
+        std::fs::write(&live, "being written").unwrap();
         let lock = DirLock::acquire(dir.path()).expect("stale lock taken over");
         lock.remove_stale_temps(&["estimate.csv"]);
         assert!(!dir.path().join(".estimate.csv.4294967295.tmp").exists());
         assert!(dir.path().join(".other.csv.12.tmp").exists());
+        assert!(live.exists(), "a live process's temporary file is kept");
+        drop(lock);
+        // A lock file still empty after a second was left behind.
+        std::fs::write(dir.path().join(DirLock::FILE), "").unwrap();
+        DirLock::acquire(dir.path()).expect("empty lock taken over");
     }
 }

@@ -11,6 +11,7 @@ pub mod atomic;
 mod estimate;
 pub mod params;
 mod read;
+mod stream;
 mod types;
 mod write;
 
@@ -18,8 +19,9 @@ pub use atomic::{write_atomic, AtomicFile, DirLock};
 pub use estimate::{read_estimate, EstimateRecord};
 pub use params::{ParamEntry, ParamsFile, RateModelEntry};
 pub use read::{
-    read_csv_table, read_currents, read_images, read_imu, read_meta, read_pose, read_terrain,
-    read_truth, read_wheels, wrap_angle, CsvTable,
+    read_csv_table, read_images, read_imu, read_meta, read_terrain, read_truth, wrap_angle,
+    CsvTable, Streams,
 };
+pub use stream::{read_currents, read_pose, read_wheels, PoseStream, WheelStream};
 pub use types::*;
 pub use write::write_csv;

@@ -1,6 +1,7 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
+use crate::stream::{read_pose, read_wheel_rows, Repeats};
 use crate::types::*;
 
 /// A CSV file open for reading, with its header indexed by column name.
@@ -12,6 +13,9 @@ pub struct CsvTable {
     pub header: Vec<String>,
     index: HashMap<String, usize>,
     reader: Option<csv::Reader<std::fs::File>>,
+    /// The row [`CsvTable::advance`] read last, and its line and time.
+    rec: csv::StringRecord,
+    last: Option<(u64, f64)>,
 }
 
 /// Opens a CSV file and reads its header. Fails with file and line on
@@ -64,6 +68,8 @@ pub fn read_csv_table(path: &Path) -> Result<CsvTable, LogError> {
         header,
         index,
         reader: Some(rdr),
+        rec: csv::StringRecord::new(),
+        last: None,
     })
 }
 
@@ -109,7 +115,7 @@ impl CsvTable {
         self.index.get(name).copied()
     }
 
-    fn err(&self, line: u64, reason: impl Into<String>) -> LogError {
+    pub(crate) fn err(&self, line: u64, reason: impl Into<String>) -> LogError {
         LogError::Parse {
             path: self.path.clone(),
             line,
@@ -163,6 +169,44 @@ impl CsvTable {
         })
     }
 
+    /// Reads the next row: its line and its `t` (checked never to
+    /// decrease); the row itself is then [`CsvTable::record`]. `None` at the
+    /// end of the file.
+    pub fn advance(&mut self) -> Result<Option<(u64, f64)>, LogError> {
+        let ti = self.require("t")?;
+        let Some(rdr) = self.reader.as_mut() else {
+            return Ok(None);
+        };
+        if !rdr
+            .read_record(&mut self.rec)
+            .map_err(|e| csv_err(&self.path, e))?
+        {
+            return Ok(None);
+        }
+        let line = self.rec.position().map(|p| p.line()).unwrap_or(0);
+        let t = self.req_f64(line, &self.rec, ti)?;
+        if let Some((pl, pt)) = self.last {
+            if t < pt {
+                return Err(self.err(
+                    line,
+                    format!("time goes backwards: t = {t} after t = {pt} at line {pl}; sort the file by t"),
+                ));
+            }
+        }
+        self.last = Some((line, t));
+        Ok(Some((line, t)))
+    }
+
+    /// The row [`CsvTable::advance`] read last.
+    pub fn record(&self) -> &csv::StringRecord {
+        &self.rec
+    }
+
+    /// Bytes of the file read so far.
+    pub fn bytes_read(&self) -> u64 {
+        self.reader.as_ref().map_or(0, |r| r.position().byte())
+    }
+
     /// Calls `f(table, line, t, record)` for every row in turn, with `t`
     /// read from the `t` column and checked never to decrease. The rows
     /// can be streamed once.
@@ -170,28 +214,8 @@ impl CsvTable {
         &mut self,
         mut f: impl FnMut(&Self, u64, f64, &csv::StringRecord) -> Result<(), LogError>,
     ) -> Result<(), LogError> {
-        let ti = self.require("t")?;
-        let Some(mut rdr) = self.reader.take() else {
-            return Ok(());
-        };
-        let mut rec = csv::StringRecord::new();
-        let mut last: Option<(u64, f64)> = None;
-        while rdr
-            .read_record(&mut rec)
-            .map_err(|e| csv_err(&self.path, e))?
-        {
-            let line = rec.position().map(|p| p.line()).unwrap_or(0);
-            let t = self.req_f64(line, &rec, ti)?;
-            if let Some((pl, pt)) = last {
-                if t < pt {
-                    return Err(self.err(
-                        line,
-                        format!("time goes backwards: t = {t} after t = {pt} at line {pl}; sort the file by t"),
-                    ));
-                }
-            }
-            last = Some((line, t));
-            f(self, line, t, &rec)?;
+        while let Some((line, t)) = self.advance()? {
+            f(self, line, t, &self.rec)?;
         }
         Ok(())
     }
@@ -218,42 +242,56 @@ fn physical_limit(column: &str) -> Option<(f64, &'static str)> {
     })
 }
 
-/// Collapses rows that repeat the previous timestamp (keeping the first) and
-/// returns a warning describing what was dropped.
-fn dedup_time<T>(
-    items: &mut Vec<(u64, T)>,
-    time: impl Fn(&T) -> f64,
-    path: &Path,
-) -> Option<String> {
-    let n0 = items.len();
-    let mut first_line = None;
-    let mut last_t = f64::NEG_INFINITY;
-    items.retain(|(line, it)| {
-        let t = time(it);
-        let keep = t != last_t;
-        if !keep && first_line.is_none() {
-            first_line = Some(*line);
-        }
-        last_t = t;
-        keep
-    });
-    let dropped = n0 - items.len();
-    first_line.map(|l| {
-        format!(
-            "{}:{l}: {dropped} row(s) repeat the previous timestamp; kept the first of each",
-            path.display()
-        )
-    })
+/// Which of a log's streams [`DriveLog::read_streams`] reads. `meta.toml`
+/// and `terrain.csv` are always read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Streams {
+    /// `wheels.csv` (the tread speeds) and `pose.csv`; without them the
+    /// caller streams the two files itself ([`crate::WheelStream`],
+    /// [`crate::PoseStream`]).
+    pub wheels_and_pose: bool,
+    /// The motor currents of `wheels.csv`.
+    pub currents: bool,
+    pub imu: bool,
+    pub images: bool,
+    pub truth: bool,
 }
 
-fn strip<T>(v: Vec<(u64, T)>) -> Vec<T> {
-    v.into_iter().map(|(_, x)| x).collect()
+impl Streams {
+    /// Everything.
+    pub const ALL: Self = Self {
+        wheels_and_pose: true,
+        currents: true,
+        imu: true,
+        images: true,
+        truth: true,
+    };
+    /// What the online estimator uses: wheels and pose (the imu stream
+    /// alone can be four times the size of everything else; truth is for
+    /// scoring, not estimating).
+    pub const ESTIMATOR: Self = Self {
+        wheels_and_pose: true,
+        currents: false,
+        imu: false,
+        images: false,
+        truth: false,
+    };
+    /// Only `meta.toml` and `terrain.csv`.
+    pub const HEADER: Self = Self {
+        wheels_and_pose: false,
+        ..Self::ESTIMATOR
+    };
 }
 
 impl DriveLog {
     /// Reads a log directory. `wheels.csv` is required; every other file is
     /// optional. Fails on the first malformed cell, with file and line.
     pub fn read(dir: impl AsRef<Path>) -> Result<Self, LogError> {
+        Self::read_streams(dir, Streams::ALL)
+    }
+
+    /// [`DriveLog::read`] of the chosen streams only; the others stay empty.
+    pub fn read_streams(dir: impl AsRef<Path>, streams: Streams) -> Result<Self, LogError> {
         let dir = dir.as_ref();
         if !dir.is_dir() {
             return Err(LogError::Invalid {
@@ -265,25 +303,31 @@ impl DriveLog {
             dir: dir.to_path_buf(),
             ..Default::default()
         };
-        (log.wheels, log.currents) =
-            read_wheel_rows(&dir.join("wheels.csv"), &mut log.warnings, true)?;
         let opt = |name: &str| {
             let p = dir.join(name);
             p.exists().then_some(p)
         };
-        if let Some(p) = opt("pose.csv") {
-            log.pose = read_pose(&p, &mut log.warnings)?;
+        if streams.wheels_and_pose {
+            (log.wheels, log.currents) =
+                read_wheel_rows(&dir.join("wheels.csv"), &mut log.warnings, streams.currents)?;
+            if let Some(p) = opt("pose.csv") {
+                log.pose = read_pose(&p, &mut log.warnings)?;
+            }
+        } else if !dir.join("wheels.csv").exists() {
+            return Err(LogError::MissingFile {
+                path: dir.join("wheels.csv"),
+            });
         }
-        if let Some(p) = opt("imu.csv") {
+        if let Some(p) = opt("imu.csv").filter(|_| streams.imu) {
             log.imu = read_imu(&p, &mut log.warnings)?;
         }
-        if let Some(p) = opt("images.csv") {
+        if let Some(p) = opt("images.csv").filter(|_| streams.images) {
             log.images = read_images(&p)?;
         }
         if let Some(p) = opt("terrain.csv") {
             log.terrain = read_terrain(&p)?;
         }
-        if let Some(p) = opt("truth.csv") {
+        if let Some(p) = opt("truth.csv").filter(|_| streams.truth) {
             log.truth = read_truth(&p)?;
         }
         if let Some(p) = opt("meta.toml") {
@@ -293,145 +337,31 @@ impl DriveLog {
     }
 }
 
-/// Reads `wheels.csv`.
-pub fn read_wheels(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<WheelSample>, LogError> {
-    read_wheel_rows(path, warnings, false).map(|(w, _)| w)
-}
-
-/// Reads the optional `current_left,current_right` columns of `wheels.csv`:
-/// empty without them; rows where either cell is empty are skipped.
-pub fn read_currents(path: &Path) -> Result<Vec<MotorCurrent>, LogError> {
-    read_wheel_rows(path, &mut Vec::new(), true).map(|(_, c)| c)
-}
-
-/// One pass over `wheels.csv`: the tread speeds and, with `currents`, the
-/// motor currents where the file has them.
-fn read_wheel_rows(
-    path: &Path,
-    warnings: &mut Vec<String>,
-    currents: bool,
-) -> Result<(Vec<WheelSample>, Vec<MotorCurrent>), LogError> {
-    let mut tab = read_csv_table(path)?;
-    let (l, r) = (tab.require("v_left")?, tab.require("v_right")?);
-    let amps = match (tab.optional("current_left"), tab.optional("current_right")) {
-        (Some(cl), Some(cr)) if currents => Some((cl, cr)),
-        _ => None,
-    };
-    let (mut out, mut amp) = (Vec::new(), Vec::new());
-    tab.each_timed_row(|tab, line, t, rec| {
-        let w = WheelSample {
-            t,
-            v_left: tab.req_f64(line, rec, l)?,
-            v_right: tab.req_f64(line, rec, r)?,
-        };
-        out.push((line, w));
-        if let Some((cl, cr)) = amps {
-            if let (Some(left), Some(right)) = (
-                tab.opt_f64(line, rec, Some(cl))?,
-                tab.opt_f64(line, rec, Some(cr))?,
-            ) {
-                amp.push((line, MotorCurrent { t, left, right }));
-            }
-        }
-        Ok(())
-    })?;
-    if out.is_empty() {
-        return Err(LogError::Invalid {
-            path: path.to_path_buf(),
-            reason: "no data rows; a drive needs at least one wheels row".into(),
-        });
-    }
-    warnings.extend(dedup_time(&mut out, |w| w.t, path));
-    // The repeated timestamps were warned about with the tread speeds.
-    let _ = dedup_time(&mut amp, |c| c.t, path);
-    Ok((strip(out), strip(amp)))
-}
-
-/// Reads `pose.csv`. Rows with no field at all are dropped with a warning.
-pub fn read_pose(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<PoseObs>, LogError> {
-    let mut tab = read_csv_table(path)?;
-    let (e, n, y) = (
-        tab.require("east")?,
-        tab.require("north")?,
-        tab.require("yaw")?,
-    );
-    let (sxy, syaw) = (tab.optional("std_xy"), tab.optional("std_yaw"));
-    let mut out = Vec::new();
-    let mut empty = Vec::new();
-    let mut half = Vec::new();
-    tab.each_timed_row(|tab, line, t, rec| {
-        let mut p = PoseObs {
-            t,
-            east: tab.opt_f64(line, rec, Some(e))?,
-            north: tab.opt_f64(line, rec, Some(n))?,
-            yaw: tab.opt_f64(line, rec, Some(y))?.map(wrap_angle),
-            std_xy: tab.opt_f64(line, rec, sxy)?,
-            std_yaw: tab.opt_f64(line, rec, syaw)?,
-        };
-        for (name, s) in [("std_xy", &mut p.std_xy), ("std_yaw", &mut p.std_yaw)] {
-            if matches!(*s, Some(v) if v <= 0.0) {
-                return Err(tab.err(
-                    line,
-                    format!(
-                        "column `{name}` must be > 0; give the 1-sigma error, or leave it empty"
-                    ),
-                ));
-            }
-        }
-        if p.east.is_some() != p.north.is_some() {
-            // Half a position is no position; the yaw (if any) is still used.
-            half.push(line);
-            (p.east, p.north) = (None, None);
-        }
-        if p.east.is_none() && p.yaw.is_none() {
-            empty.push(line);
-            return Ok(());
-        }
-        out.push((line, p));
-        Ok(())
-    })?;
-    if let Some(first) = half.first() {
-        warnings.push(format!(
-            "{}:{first}: {} row(s) with only one of east/north; their position was not used",
-            path.display(),
-            half.len()
-        ));
-    }
-    if let Some(first) = empty.first() {
-        warnings.push(format!(
-            "{}:{first}: {} row(s) with no east/north/yaw were skipped",
-            path.display(),
-            empty.len()
-        ));
-    }
-    warnings.extend(dedup_time(&mut out, |p| p.t, path));
-    Ok(strip(out))
-}
-
 /// Reads `imu.csv`.
 pub fn read_imu(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<ImuSample>, LogError> {
     let mut tab = read_csv_table(path)?;
     let az = tab.require("accel_z")?;
     let cols = ["accel_x", "accel_y", "gyro_x", "gyro_y", "gyro_z"].map(|c| tab.optional(c));
     let mut out = Vec::new();
+    let mut repeats = Repeats::default();
     tab.each_timed_row(|tab, line, t, rec| {
         let o = |i: usize| tab.opt_f64(line, rec, cols[i]);
-        out.push((
-            line,
-            ImuSample {
-                t,
-                accel_z: tab.req_f64(line, rec, az)?,
-                accel_x: o(0)?,
-                accel_y: o(1)?,
-                gyro_x: o(2)?,
-                gyro_y: o(3)?,
-                gyro_z: o(4)?,
-            },
-        ));
+        let s = ImuSample {
+            t,
+            accel_z: tab.req_f64(line, rec, az)?,
+            accel_x: o(0)?,
+            accel_y: o(1)?,
+            gyro_x: o(2)?,
+            gyro_y: o(3)?,
+            gyro_z: o(4)?,
+        };
+        if repeats.keep(line, t) {
+            out.push(s);
+        }
         Ok(())
     })?;
-    warnings.extend(dedup_time(&mut out, |s| s.t, path));
-    Ok(strip(out))
+    warnings.extend(repeats.warning(path));
+    Ok(out)
 }
 
 /// Reads `images.csv` (paths are not opened here).

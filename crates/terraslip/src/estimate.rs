@@ -7,39 +7,16 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::{bail, Context, Result};
-use terraslip_io::{DriveLog, LogError, ParamsFile};
+use terraslip_io::{DriveLog, LogError, ParamsFile, PoseStream, Streams, WheelStream};
 
 use crate::config::EstimatorConfig;
-use crate::pipeline::{self, EstimateRow, EstimateRun, RunOptions, TerrainEvidence};
+use crate::pipeline::{self, EstimateRow, EstimateRun, RowSink, RunOptions, TerrainEvidence};
 
 /// Reads only what the estimator uses: wheels, pose, meta and terrain.
 /// The imu stream alone can be four times the size of everything else;
 /// truth is for scoring, not estimating.
 pub fn read_log(dir: &Path) -> Result<DriveLog, LogError> {
-    if !dir.is_dir() {
-        return Err(LogError::Invalid {
-            path: dir.to_path_buf(),
-            reason: "not a log directory; give the directory that holds wheels.csv".into(),
-        });
-    }
-    let mut log = DriveLog {
-        dir: dir.to_path_buf(),
-        ..Default::default()
-    };
-    log.wheels = terraslip_io::read_wheels(&dir.join("wheels.csv"), &mut log.warnings)?;
-    let pose = dir.join("pose.csv");
-    if pose.exists() {
-        log.pose = terraslip_io::read_pose(&pose, &mut log.warnings)?;
-    }
-    let terrain = dir.join("terrain.csv");
-    if terrain.exists() {
-        log.terrain = terraslip_io::read_terrain(&terrain)?;
-    }
-    let meta = dir.join("meta.toml");
-    if meta.exists() {
-        log.meta = terraslip_io::read_meta(&meta)?;
-    }
-    Ok(log)
+    DriveLog::read_streams(dir, Streams::ESTIMATOR)
 }
 
 /// The configuration in effect: the preset `preset` (else the default),
@@ -133,63 +110,199 @@ pub fn estimate(
     inputs: &Inputs,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<Estimate> {
-    let mut notes = Vec::new();
-    let (evidence, evidence_name) = if inputs.terrain_labels {
-        if log.terrain.is_empty() {
-            bail!("--terrain-labels: {} has no terrain.csv", log.dir.display());
-        }
-        (
-            TerrainEvidence::Labels(log.terrain.clone()),
-            "labels (terrain.csv)".to_string(),
-        )
-    } else if let Some(path) = inputs.terrain_model {
-        let ctx = || format!("--terrain-model {}", path.display());
-        let model = terraslip_terrain::TerrainModel::load(path).with_context(ctx)?;
-        let timeline = model.estimator_evidence(log).with_context(ctx)?;
-        // The model carries the smoothing it was validated with (λ chosen
-        // from its own accuracy, wang2018 eq. 14): use it, not the defaults.
-        cfg.belief.stay_prob = model.belief.stay_prob;
-        cfg.belief.stay_prob_on_jump = model.belief.stay_prob_on_jump;
-        cfg.belief.vote_lambda = model.belief.vote_lambda;
-        notes.push(format!(
-            "terrain: {} {:?} classifier, {} windows{} over classes {}",
-            path.display(),
-            model.source,
-            timeline.frames.len(),
-            if timeline.changes.is_empty() {
-                String::new()
-            } else {
-                format!(", {} camera change detections", timeline.changes.len())
-            },
-            timeline.classes.join(", ")
-        ));
-        (
-            TerrainEvidence::from(timeline),
-            format!("model {} ({:?})", path.display(), model.source),
-        )
-    } else {
-        (TerrainEvidence::None, "none".to_string())
-    };
+    let (evidence, evidence_name, notes) = terrain_evidence(log, &mut cfg, inputs)?;
     let opts = RunOptions {
         outage: inputs.outage,
     };
     let run = pipeline::run_with(log, &cfg, &evidence, inputs.init, opts, progress)?;
-    let mut summary = summary_json(log, &run, &cfg);
+    Ok(finish(log, run, &cfg, evidence_name, notes))
+}
+
+/// A log directory open for [`estimate_streamed`]: `meta.toml` and
+/// `terrain.csv` read, `wheels.csv` and `pose.csv` open with their headers
+/// checked.
+pub struct OpenLog {
+    /// The log without its wheels and pose rows.
+    pub log: DriveLog,
+    wheels: WheelStream,
+    pose: Option<PoseStream>,
+    /// Size of wheels.csv, bytes.
+    size: u64,
+}
+
+impl OpenLog {
+    pub fn open(dir: &Path) -> Result<Self, LogError> {
+        let log = DriveLog::read_streams(dir, Streams::HEADER)?;
+        let wheels_path = dir.join("wheels.csv");
+        let wheels = WheelStream::open(&wheels_path)?;
+        let pose = match dir.join("pose.csv") {
+            p if p.exists() => Some(PoseStream::open(&p)?),
+            _ => None,
+        };
+        Ok(Self {
+            log,
+            wheels,
+            pose,
+            size: std::fs::metadata(&wheels_path).map_or(0, |m| m.len()),
+        })
+    }
+
+    /// Size of wheels.csv, bytes.
+    pub fn wheels_bytes(&self) -> u64 {
+        self.size
+    }
+}
+
+/// [`estimate`] reading the log's wheels.csv and pose.csv row by row, each
+/// row of `estimate.csv` handed to `sink` as it is made, so memory does not
+/// grow with the log (the result's `rows` stay empty).
+/// `progress(bytes, total)` follows the reading of wheels.csv. A terrain
+/// model needs the whole log: use [`estimate`] for it. Returns the log
+/// (without its wheels and pose) with the reading's warnings.
+pub fn estimate_streamed(
+    open: OpenLog,
+    mut cfg: EstimatorConfig,
+    inputs: &Inputs,
+    sink: &mut dyn RowSink,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<(DriveLog, Estimate)> {
+    if inputs.terrain_model.is_some() {
+        bail!("--terrain-model reads the whole log; run it without streaming");
+    }
+    let OpenLog {
+        mut log,
+        mut wheels,
+        mut pose,
+        size,
+    } = open;
+    let (evidence, evidence_name, notes) = terrain_evidence(&log, &mut cfg, inputs)?;
+    let opts = RunOptions {
+        outage: inputs.outage,
+    };
+    let mut no_pose = std::iter::empty();
+    let run = {
+        let mut counted = Counted {
+            inner: &mut wheels,
+            rows: 0,
+            size,
+            progress,
+        };
+        let streams = pipeline::Streams {
+            wheels: &mut counted,
+            pose: match pose.as_mut() {
+                Some(p) => p,
+                None => &mut no_pose,
+            },
+        };
+        pipeline::run_streams(
+            &log,
+            streams,
+            &cfg,
+            &evidence,
+            inputs.init,
+            opts,
+            sink,
+            &mut |_| {},
+        )?
+    };
+    log.warnings.extend(wheels.warnings());
+    log.warnings.extend(pose.iter().flat_map(|p| p.warnings()));
+    let est = finish(&log, run, &cfg, evidence_name, notes);
+    Ok((log, est))
+}
+
+/// Wheels rows with the reading's progress in bytes.
+struct Counted<'a> {
+    inner: &'a mut WheelStream,
+    rows: usize,
+    size: u64,
+    progress: &'a mut dyn FnMut(u64, u64),
+}
+
+impl Iterator for Counted<'_> {
+    type Item = Result<terraslip_io::WheelSample, LogError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        let item = self.inner.next();
+        self.rows += 1;
+        if self.rows.is_multiple_of(4096) || item.is_none() {
+            (self.progress)(self.inner.bytes_read(), self.size);
+        }
+        item
+    }
+}
+
+/// The terrain evidence `inputs` ask for (the model's smoothing put into
+/// `cfg`), its name in summary.json, and what the command prints about it.
+fn terrain_evidence(
+    log: &DriveLog,
+    cfg: &mut EstimatorConfig,
+    inputs: &Inputs,
+) -> Result<(TerrainEvidence, String, Vec<String>)> {
+    let mut notes = Vec::new();
+    if inputs.terrain_labels {
+        if log.terrain.is_empty() {
+            bail!("--terrain-labels: {} has no terrain.csv", log.dir.display());
+        }
+        return Ok((
+            TerrainEvidence::Labels(log.terrain.clone()),
+            "labels (terrain.csv)".to_string(),
+            notes,
+        ));
+    }
+    let Some(path) = inputs.terrain_model else {
+        return Ok((TerrainEvidence::None, "none".to_string(), notes));
+    };
+    let ctx = || format!("--terrain-model {}", path.display());
+    let model = terraslip_terrain::TerrainModel::load(path).with_context(ctx)?;
+    let timeline = model.estimator_evidence(log).with_context(ctx)?;
+    // The model carries the smoothing it was validated with (λ chosen
+    // from its own accuracy, wang2018 eq. 14): use it, not the defaults.
+    cfg.belief.stay_prob = model.belief.stay_prob;
+    cfg.belief.stay_prob_on_jump = model.belief.stay_prob_on_jump;
+    cfg.belief.vote_lambda = model.belief.vote_lambda;
+    notes.push(format!(
+        "terrain: {} {:?} classifier, {} windows{} over classes {}",
+        path.display(),
+        model.source,
+        timeline.frames.len(),
+        if timeline.changes.is_empty() {
+            String::new()
+        } else {
+            format!(", {} camera change detections", timeline.changes.len())
+        },
+        timeline.classes.join(", ")
+    ));
+    Ok((
+        TerrainEvidence::from(timeline),
+        format!("model {} ({:?})", path.display(), model.source),
+        notes,
+    ))
+}
+
+fn finish(
+    log: &DriveLog,
+    run: EstimateRun,
+    cfg: &EstimatorConfig,
+    evidence_name: String,
+    notes: Vec<String>,
+) -> Estimate {
+    let mut summary = summary_json(log, &run, cfg);
     summary["terrain_evidence"] = serde_json::Value::String(evidence_name);
-    Ok(Estimate {
+    Estimate {
         run,
         summary,
         notes,
-    })
+    }
 }
 
 /// The content of `summary.json` (without `terrain_evidence`).
 pub fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) -> serde_json::Value {
     let icr = est.final_icr;
-    let last = est.rows.last();
+    let last = est.last_row;
     serde_json::json!({
         "log": log.dir.display().to_string(),
-        "rows": est.rows.len(),
+        "rows": est.row_count,
         "duration_s": est.duration(),
         "icr": {
             "y_l": icr.y_l, "y_r": icr.y_r, "x_c": icr.x_c,
@@ -234,7 +347,7 @@ pub fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) ->
         "warnings": log.warnings.iter().chain(&est.warnings).collect::<Vec<_>>(),
         // How well the parameters the filter reported at each time predict
         // the next 2 s of motion against the pose reference (absent without one).
-        "prediction": crate::prediction_score(log, est).map(|p| p.to_json()),
+        "prediction": est.prediction.as_ref().map(|p| p.to_json()),
     })
 }
 
@@ -320,8 +433,9 @@ pub fn values(r: &EstimateRow) -> [f64; 25] {
     ]
 }
 
-/// Appends one line of `estimate.csv` for `r`.
-pub fn write_row(buf: &mut String, run: &EstimateRun, r: &EstimateRow) {
+/// Appends one line of `estimate.csv` for `r`; `terrains` names its
+/// terrain index ([`EstimateRun::terrains`]).
+pub fn write_row(buf: &mut String, terrains: &[String], r: &EstimateRow) {
     for (k, (v, (_, col))) in values(r).into_iter().zip(COLUMNS).enumerate() {
         if k > 0 {
             buf.push(',');
@@ -332,7 +446,9 @@ pub fn write_row(buf: &mut String, run: &EstimateRun, r: &EstimateRow) {
             }
             Column::Fixed(digits) => push_fixed(buf, v, digits),
             Column::Flag => buf.push(if v != 0.0 { '1' } else { '0' }),
-            Column::Terrain => buf.push_str(run.terrain_name(r).unwrap_or("")),
+            Column::Terrain => {
+                buf.push_str(r.terrain.and_then(|k| terrains.get(k)).map_or("", |s| s))
+            }
         }
     }
     buf.push('\n');
@@ -372,8 +488,9 @@ fn fixed(v: f64, digits: u32) -> Option<(u64, u64, bool)> {
     Some((n, scale, v < 0.0 && n != 0))
 }
 
-/// Appends `v` with `digits` decimals. Integer arithmetic: `format!` with a
-/// precision costs ~1 s per hour of 50 Hz rows, this a tenth of it.
+/// Appends `v` with `digits` decimals. Integer arithmetic and digits
+/// written by hand: `format!` with a precision costs ~1 s per hour of 50 Hz
+/// rows, and even integer `format!` was a third of `estimate`'s time.
 fn push_fixed(buf: &mut String, v: f64, digits: u32) {
     let Some((n, scale, negative)) = fixed(v, digits) else {
         let _ = write!(buf, "{v:.*}", digits as usize);
@@ -382,13 +499,25 @@ fn push_fixed(buf: &mut String, v: f64, digits: u32) {
     if negative {
         buf.push('-');
     }
-    let _ = write!(
-        buf,
-        "{}.{:0width$}",
-        n / scale,
-        n % scale,
-        width = digits as usize
-    );
+    // At most 16 digits before the point (n < 9e15) and 20 after.
+    let mut text = [b'0'; 40];
+    let (mut int, mut frac) = (n / scale, n % scale);
+    let point = 39 - digits as usize;
+    for d in text[point + 1..].iter_mut().rev() {
+        *d = b'0' + (frac % 10) as u8;
+        frac /= 10;
+    }
+    text[point] = b'.';
+    let mut start = point;
+    loop {
+        start -= 1;
+        text[start] = b'0' + (int % 10) as u8;
+        int /= 10;
+        if int == 0 {
+            break;
+        }
+    }
+    buf.push_str(std::str::from_utf8(&text[start..]).unwrap_or_default());
 }
 
 #[cfg(test)]

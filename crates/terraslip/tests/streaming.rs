@@ -49,3 +49,55 @@ fn streaming_equals_the_run_with_terrain_labels() {
     assert_eq!(changes, run.changes.len());
     assert!(run.rows.iter().any(|r| r.fused));
 }
+
+/// `estimate_streamed` (rows handed over as they are made, the log read
+/// row by row) gives the rows and the summary of `estimate` on a real
+/// drive, with a terrain label and an outage, warnings included.
+#[test]
+fn the_streamed_estimate_equals_the_estimate_from_memory() {
+    use terraslip::estimate::{estimate, estimate_streamed, read_log, Inputs, OpenLog};
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/warthog_gravel");
+    let tmp = tempfile::tempdir().unwrap();
+    // Repeated timestamps, a pose row with half a position and pose rows
+    // after the last wheels row: each stream's warnings and the reference.
+    let wheels = std::fs::read_to_string(dir.join("wheels.csv")).unwrap();
+    let mut lines: Vec<&str> = wheels.lines().take(9000).collect();
+    let repeat = lines[300];
+    lines.insert(300, repeat);
+    std::fs::write(tmp.path().join("wheels.csv"), lines.join("\n") + "\n").unwrap();
+    let pose = std::fs::read_to_string(dir.join("pose.csv")).unwrap();
+    let pose = pose.replacen("\n0.3,-0.0110682,", "\n0.3,,", 1);
+    std::fs::write(tmp.path().join("pose.csv"), pose).unwrap();
+    std::fs::copy(dir.join("meta.toml"), tmp.path().join("meta.toml")).unwrap();
+    std::fs::copy(dir.join("terrain.csv"), tmp.path().join("terrain.csv")).unwrap();
+
+    let inputs = Inputs {
+        terrain_labels: true,
+        outage: Some((200.0, 230.0)),
+        ..Default::default()
+    };
+    let cfg = EstimatorConfig::default();
+    let log = read_log(tmp.path()).unwrap();
+    let whole = estimate(&log, cfg.clone(), &inputs, &mut |_, _| {}).unwrap();
+    let mut rows = Vec::new();
+    let (read, streamed) = estimate_streamed(
+        OpenLog::open(tmp.path()).unwrap(),
+        cfg,
+        &inputs,
+        &mut rows,
+        &mut |_, _| {},
+    )
+    .unwrap();
+    assert!(streamed.run.rows.is_empty());
+    assert_eq!(rows, whole.run.rows);
+    assert_eq!(streamed.summary, whole.summary);
+    assert_eq!(read.warnings, log.warnings);
+    assert_eq!(log.warnings.len(), 2, "{:?}", log.warnings);
+    let segments = whole.summary["prediction"]["segments"].as_u64().unwrap();
+    assert!(segments > 100, "{segments}");
+    // What the summary reports equals the prediction computed from the rows.
+    assert_eq!(
+        streamed.run.prediction,
+        terraslip::prediction_score(&log, &whole.run)
+    );
+}

@@ -122,7 +122,8 @@ pub fn calibrate(
         segs.retain(|s| s.terrain == name);
         let label = name.clone().unwrap_or_else(|| "all".into());
         progress(Progress::Stage(&label));
-        let mut set = match calibrate_set(&segs, &label, track_width, cfg, progress) {
+        let mut set = match calibrate_set(&segs, &label, track_width, cfg, progress, &mut warnings)
+        {
             Ok(s) => s,
             // One terrain patch too short to calibrate must not sink the others.
             Err(e) if n_sets > 1 => {
@@ -175,12 +176,41 @@ fn unidentified_by_std(std: &[f64; 5], spread: f64, free: &[bool; 5]) -> Vec<&'s
         .collect()
 }
 
+/// A warning for each gene of the GA's answer `p` that sits on a bound of
+/// its search range (genes fixed at one value excepted): the best value
+/// may lie beyond it.
+fn ga_at_bounds(label: &str, p: &IcrParams, bounds: &[(f64, f64); 5]) -> Vec<String> {
+    let v = model::to_vec(p);
+    (0..5)
+        .filter_map(|k| {
+            let (lo, hi) = bounds[k];
+            let tol = 1e-3 * (hi - lo);
+            let edge = if hi <= lo {
+                return None;
+            } else if v[k] <= lo + tol {
+                ("lower", lo)
+            } else if v[k] >= hi - tol {
+                ("upper", hi)
+            } else {
+                return None;
+            };
+            Some(format!(
+                "set `{label}`: the genetic algorithm's {} = {:.4} is at the {} bound {} of \
+                 its search range, so the best value may lie beyond it; check track_width \
+                 in meta.toml, or widen the bounds",
+                PARAM_NAMES[k], v[k], edge.0, edge.1
+            ))
+        })
+        .collect()
+}
+
 fn calibrate_set(
     segs: &Segments,
     label: &str,
     track_width: Option<f64>,
     cfg: &CalibConfig,
     progress: &dyn Fn(Progress),
+    warnings: &mut Vec<String>,
 ) -> Result<SetCalibration, CalibError> {
     let n = segs.len();
     // Overlapping segments share their poses: count and weigh the evidence
@@ -243,6 +273,14 @@ fn calibrate_set(
             needed: cfg.min_segments,
         }
     })?;
+    if lm_fit.capped {
+        warnings.push(format!(
+            "set `{label}`: the Levenberg-Marquardt fit used all {} iterations of a round \
+             without converging, so its parameters may not be the best fit; look for \
+             segments no model explains (the dropped segments, the residual noise)",
+            lm_cfg.max_iterations
+        ));
+    }
     let inlier: Vec<bool> = lm_fit.weights.iter().map(|&w| w > 0.0).collect();
     let used = inlier.iter().filter(|&&b| b).count();
     if chained(used) < cfg.min_segments {
@@ -305,6 +343,7 @@ fn calibrate_set(
         let r = ga::minimise(&fitness, &gcfg, Some(&start), &|g| {
             progress(Progress::Generation { done: g + 1, total })
         });
+        warnings.extend(ga_at_bounds(label, &r.params, &gcfg.bounds));
         fits.push(score(Method::Ga, r.params));
     }
     if wants(Method::Symmetric) {

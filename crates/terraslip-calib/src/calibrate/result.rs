@@ -210,6 +210,10 @@ impl Calibration {
                 }
             }
         }
+        if !self.warnings.is_empty() {
+            pf.extra
+                .insert("warnings".into(), serde_json::json!(self.warnings));
+        }
         pf
     }
 }

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use terraslip::estimate::{Estimate, Inputs};
-use terraslip::pipeline::EstimateRun;
+use terraslip::pipeline::{EstimateRow, PipelineError, RowSink};
 use terraslip_io::{AtomicFile, ParamsFile};
 
 use crate::progress::Progress;
@@ -111,12 +111,26 @@ pub fn run(args: Args) -> Result<()> {
     let (Some(log_dir), Some(out)) = (args.log.as_ref(), args.out.as_ref()) else {
         bail!("LOG and --out are required");
     };
-    // A terrain model needs the sensor streams it classifies (imu or images).
-    let log = if args.terrain_model.is_some() {
-        super::bag::read_full(log_dir)
+    // A plain log directory is streamed row by row; a terrain model needs
+    // the sensor streams it classifies (imu or images), a bag is imported
+    // first, and an MCAP output needs every row: those read the whole log.
+    #[cfg(feature = "ros2")]
+    let mcap = args.mcap.is_some();
+    #[cfg(not(feature = "ros2"))]
+    let mcap = false;
+    let streamed = !(super::bag::is_bag(log_dir) || args.terrain_model.is_some() || mcap);
+    let source = if streamed {
+        if super::bag::topics_file().is_some() && !log_dir.is_dir() {
+            bail!("{}: --topics is for ROS 2 bags", log_dir.display());
+        }
+        let open = terraslip::estimate::OpenLog::open(log_dir)
+            .with_context(|| format!("reading log {}", log_dir.display()))?;
+        Source::Open(Box::new(open))
+    } else if args.terrain_model.is_some() {
+        Source::Read(Box::new(super::bag::read_full(log_dir)?))
     } else {
-        super::bag::read_with(log_dir, super::read_log)
-    }?;
+        Source::Read(Box::new(super::bag::read_with(log_dir, super::read_log)?))
+    };
     let inputs: Vec<&Path> = [&args.init, &args.config, &args.terrain_model]
         .into_iter()
         .flatten()
@@ -133,26 +147,48 @@ pub fn run(args: Args) -> Result<()> {
     // same directory is told so instead of mixing its files with ours.
     let lock = terraslip_io::DirLock::acquire(out)?;
     lock.remove_stale_temps(&OUTPUTS);
-    let bar = progress(log.wheels.len());
     let inputs = Inputs {
         init: init.as_ref(),
         terrain_labels: args.terrain_labels,
         terrain_model: args.terrain_model.as_deref(),
         outage: args.outage,
     };
-    let result = terraslip::estimate::estimate(&log, cfg, &inputs, &mut |done, _| {
-        bar.set_position(done as u64)
-    });
-    bar.finish();
+    let mut csv = CsvSink::create(&out.join(OUTPUTS[0]))?;
+    let (log, result) = match source {
+        Source::Open(open) => {
+            let bar = progress(open.wheels_bytes(), "bytes of wheels.csv");
+            let result = terraslip::estimate::estimate_streamed(
+                *open,
+                cfg,
+                &inputs,
+                &mut csv,
+                &mut |done, _| bar.set_position(done),
+            );
+            bar.finish();
+            result?
+        }
+        Source::Read(log) => {
+            let bar = progress(log.wheels.len() as u64, "wheels rows");
+            let result = terraslip::estimate::estimate(&log, cfg, &inputs, &mut |done, _| {
+                bar.set_position(done as u64)
+            });
+            bar.finish();
+            let est = result?;
+            for r in &est.run.rows {
+                csv.row(&est.run.terrains, r)?;
+            }
+            (*log, est)
+        }
+    };
     let Estimate {
         run: est,
         summary,
         notes,
-    } = result?;
+    } = result;
     for n in &notes {
         eprintln!("{n}");
     }
-    write_outputs(out, &est, &summary)?;
+    write_outputs(out, csv, &summary)?;
     drop(lock);
     #[cfg(feature = "ros2")]
     if let Some(p) = &args.mcap {
@@ -165,7 +201,7 @@ pub fn run(args: Args) -> Result<()> {
     let icr = est.final_icr;
     eprintln!(
         "estimate: {} rows over {:.1} s, {} fixes ({} position / {} heading gated), final ICRs y_l = {:.4} m, y_r = {:.4} m, x_c = {:.4} m -> {}",
-        est.rows.len(),
+        est.row_count,
         est.duration(),
         est.stats.fixes_used,
         est.stats.fixes.position_gated,
@@ -181,12 +217,26 @@ pub fn run(args: Args) -> Result<()> {
     Ok(())
 }
 
-fn progress(total: usize) -> Progress {
-    // Short logs finish before progress is worth showing.
-    if total < 200_000 {
+/// Where the log's rows come from.
+enum Source {
+    /// Streamed from the log directory.
+    Open(Box<terraslip::estimate::OpenLog>),
+    /// Read whole.
+    Read(Box<terraslip_io::DriveLog>),
+}
+
+fn progress(total: u64, unit: &str) -> Progress {
+    // Short logs finish before progress is worth showing (200 000 rows,
+    // about 10 MB).
+    let short = if unit == "wheels rows" {
+        200_000
+    } else {
+        10_000_000
+    };
+    if total < short {
         return Progress::hidden();
     }
-    let p = Progress::new(total as u64, "wheels rows");
+    let p = Progress::new(total, unit);
     p.set_message("estimate");
     p
 }
@@ -194,27 +244,52 @@ fn progress(total: usize) -> Progress {
 /// The files `estimate` writes into its output directory.
 const OUTPUTS: [&str; 2] = ["estimate.csv", "summary.json"];
 
-/// Writes both files as a pair (the caller holds the directory's lock):
+/// `estimate.csv` being written, row by row, under a temporary name.
+struct CsvSink {
+    file: AtomicFile,
+    buf: String,
+}
+
+impl CsvSink {
+    fn create(path: &Path) -> Result<Self> {
+        let mut buf = String::with_capacity(1 << 16);
+        buf.push_str(&terraslip::estimate::header());
+        buf.push('\n');
+        Ok(Self {
+            file: AtomicFile::create(path)?,
+            buf,
+        })
+    }
+
+    fn flush_buf(&mut self) -> Result<(), PipelineError> {
+        self.file
+            .write_all(self.buf.as_bytes())
+            .map_err(|source| PipelineError::Write {
+                path: self.file.path().display().to_string(),
+                source,
+            })?;
+        self.buf.clear();
+        Ok(())
+    }
+}
+
+impl RowSink for CsvSink {
+    fn row(&mut self, terrains: &[String], r: &EstimateRow) -> Result<(), PipelineError> {
+        terraslip::estimate::write_row(&mut self.buf, terrains, r);
+        if self.buf.len() > 60_000 {
+            self.flush_buf()?;
+        }
+        Ok(())
+    }
+}
+
+/// Finishes both files as a pair (the caller holds the directory's lock):
 /// neither appears unless both are complete, and summary.json is removed
 /// first and renamed into place last, so a summary.json always describes
 /// the estimate.csv beside it.
-fn write_outputs(out: &Path, est: &EstimateRun, summary: &serde_json::Value) -> Result<()> {
-    let csv_path = out.join(OUTPUTS[0]);
+fn write_outputs(out: &Path, mut csv: CsvSink, summary: &serde_json::Value) -> Result<()> {
     let json_path = out.join(OUTPUTS[1]);
-    let mut csv = AtomicFile::create(&csv_path)?;
-    let mut buf = String::with_capacity(1 << 16);
-    buf.push_str(&terraslip::estimate::header());
-    buf.push('\n');
-    for r in &est.rows {
-        terraslip::estimate::write_row(&mut buf, est, r);
-        if buf.len() > 60_000 {
-            csv.write_all(buf.as_bytes())
-                .with_context(|| format!("{}: write failed", csv_path.display()))?;
-            buf.clear();
-        }
-    }
-    csv.write_all(buf.as_bytes())
-        .with_context(|| format!("{}: write failed", csv_path.display()))?;
+    csv.flush_buf()?;
     let mut js = AtomicFile::create(&json_path)?;
     js.write_all(serde_json::to_string_pretty(summary)?.as_bytes())
         .with_context(|| format!("{}: write failed", json_path.display()))?;
@@ -224,7 +299,7 @@ fn write_outputs(out: &Path, est: &EstimateRun, summary: &serde_json::Value) -> 
         }
         _ => {}
     }
-    csv.commit()?;
+    csv.file.commit()?;
     js.commit()?;
     Ok(())
 }

@@ -3,20 +3,22 @@
 //! [`terraslip_core::Estimator`] event by event, exactly as a robot would;
 //! one [`EstimateRow`] is taken after each wheels row.
 
+mod replay;
 pub mod row;
 mod setup;
 mod terrain_feed;
 
+use terraslip_calib::prediction::PredictionScore;
 use terraslip_core::estimator::{Estimator, FixCounts};
 use terraslip_core::filter::{IcrBand, PoseFix};
 use terraslip_core::schedule::ChangeAction;
 use terraslip_core::IcrParams;
-use terraslip_io::{DriveLog, ParamsFile, PoseObs, TerrainLabel};
+use terraslip_io::{DriveLog, LogError, ParamsFile, PoseObs, TerrainLabel};
 
 use crate::config::EstimatorConfig;
-use row::band_warnings;
+use replay::{Context, Replay};
+pub use replay::{RowSink, Streams};
 pub use row::row;
-use terrain_feed::TerrainFeed;
 
 /// Where the estimator learns which terrain the robot is on.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -150,8 +152,18 @@ pub struct NoiseUsed {
 /// Result of [`run`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct EstimateRun {
-    /// One row per wheels row.
+    /// One row per wheels row (empty when [`run_streams`] handed them to
+    /// a sink instead).
     pub rows: Vec<EstimateRow>,
+    /// How many rows the run made, and the first and the last of them.
+    pub row_count: usize,
+    pub first_row: Option<EstimateRow>,
+    pub last_row: Option<EstimateRow>,
+    /// The 2 s motion-prediction error of the parameters the rows
+    /// reported against the pose reference (what
+    /// [`crate::prediction_score`] computes from the rows); `None` without
+    /// a pose reference.
+    pub prediction: Option<PredictionScore>,
     /// Terrain names the rows' indices refer to.
     pub terrains: Vec<String>,
     /// Terrain changes the schedule acted on.
@@ -180,7 +192,7 @@ pub struct EstimateRun {
 impl EstimateRun {
     /// Duration covered by the rows, s.
     pub fn duration(&self) -> f64 {
-        match (self.rows.first(), self.rows.last()) {
+        match (self.first_row, self.last_row) {
             (Some(a), Some(b)) => b.t - a.t,
             _ => 0.0,
         }
@@ -203,6 +215,14 @@ pub enum PipelineError {
     Config(String),
     #[error("initial parameters: {0}")]
     Init(String),
+    #[error(transparent)]
+    Read(#[from] LogError),
+    #[error("{path}: write failed: {source}; check the free space and permissions there")]
+    Write {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
     #[error("{dir}: the estimator failed at t = {t} s: {source}; check that row of wheels.csv and pose.csv, meta.toml's sizes and any --init or --config")]
     Filter {
         dir: String,
@@ -239,9 +259,51 @@ pub fn run_with(
     opts: RunOptions,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<EstimateRun, PipelineError> {
+    let total = log.wheels.len();
+    let mut rows = Vec::with_capacity(total);
+    let streams = Streams {
+        wheels: &mut log.wheels.iter().copied().map(Ok),
+        pose: &mut log.pose.iter().cloned().map(Ok),
+    };
+    let mut run = run_streams(
+        log,
+        streams,
+        cfg,
+        evidence,
+        init,
+        opts,
+        &mut rows,
+        &mut |done| progress(done, total),
+    )?;
+    progress(total, total);
+    run.rows = rows;
+    Ok(run)
+}
+
+/// [`run_with`] over `streams` instead of `log`'s wheels and pose (of
+/// `log`, only its directory, `meta.toml` and `terrain.csv` are read),
+/// each row handed to `sink` as it is made; the result's `rows` stay
+/// empty. `progress(done)` is called every few thousand wheels rows.
+#[allow(clippy::too_many_arguments)]
+pub fn run_streams(
+    log: &DriveLog,
+    streams: Streams,
+    cfg: &EstimatorConfig,
+    evidence: &TerrainEvidence,
+    init: Option<&ParamsFile>,
+    opts: RunOptions,
+    sink: &mut dyn RowSink,
+    progress: &mut dyn FnMut(usize),
+) -> Result<EstimateRun, PipelineError> {
     cfg.validate().map_err(|e| PipelineError::Config(e.0))?;
     let dir = log.dir.display().to_string();
-    if log.wheels.is_empty() {
+    let mut wheels = streams.wheels.peekable();
+    if let Some(Err(_)) = wheels.peek() {
+        if let Some(Err(e)) = wheels.next() {
+            return Err(e.into());
+        }
+    }
+    if wheels.peek().is_none() {
         return Err(PipelineError::NoWheels { dir });
     }
     let setup::Setup {
@@ -251,20 +313,25 @@ pub fn run_with(
         init_source,
         mut warnings,
     } = setup::setup(log, cfg, evidence, init)?;
-    if log.pose.is_empty() {
+    let mut pose = streams.pose.peekable();
+    if pose.peek().is_none() {
         warnings.push(format!(
             "{dir}: no pose observations: dead reckoning from the origin with the initial ICRs"
         ));
     }
-    let replay = replay(
-        log,
+    let cx = Context {
+        dir: &dir,
         cfg,
         evidence,
         opts,
-        &mut estimator,
-        &mut warnings,
+        terrains: &terrains,
+        track_width,
+        estimator: &mut estimator,
+        warnings: &mut warnings,
+        sink,
         progress,
-    )?;
+    };
+    let replay = replay::replay(cx, &mut wheels, &mut pose)?;
     Ok(finish(
         log,
         cfg,
@@ -277,91 +344,6 @@ pub fn run_with(
             warnings,
         },
     ))
-}
-
-/// What replaying a log produced.
-struct Replay {
-    rows: Vec<EstimateRow>,
-    changes: Vec<TerrainChange>,
-    /// Pose fixes handed to the estimator, and those dropped by the outage.
-    used: usize,
-    dropped: usize,
-}
-
-/// Merges the log's streams by time into `estimator`: terrain evidence,
-/// then the pose fixes up to each wheels row, then the row itself.
-fn replay(
-    log: &DriveLog,
-    cfg: &EstimatorConfig,
-    evidence: &TerrainEvidence,
-    opts: RunOptions,
-    estimator: &mut Estimator,
-    warnings: &mut Vec<String>,
-    progress: &mut dyn FnMut(usize, usize),
-) -> Result<Replay, PipelineError> {
-    let dir = log.dir.display().to_string();
-    let filter_err = |t: f64, source| PipelineError::Filter {
-        dir: dir.clone(),
-        t,
-        source,
-    };
-    let mut terrain = TerrainFeed::new(evidence, cfg);
-    let mut rows = Vec::with_capacity(log.wheels.len());
-    let mut changes = Vec::new();
-    let mut dropped = 0usize;
-    let mut used = 0usize;
-    let mut pi = 0usize;
-    let total = log.wheels.len();
-    let mut t_prev: Option<f64> = None;
-    for (i, w) in log.wheels.iter().enumerate() {
-        if let Some(tp) = t_prev {
-            if w.t - tp > cfg.filter.max_wheel_gap
-                && !warnings.iter().any(|w| w.contains("without tread speeds"))
-            {
-                warnings.push(format!(
-                    "{dir}/wheels.csv: {:.1} s without tread speeds before t = {}; pose uncertainty widened instead of integrating",
-                    w.t - tp,
-                    w.t
-                ));
-            }
-        }
-        t_prev = Some(w.t);
-        if let Some(c) = terrain
-            .advance(estimator, w.t)
-            .map_err(|e| filter_err(w.t, e))?
-        {
-            changes.push(c);
-        }
-        while pi < log.pose.len() && log.pose[pi].t <= w.t {
-            let p = &log.pose[pi];
-            pi += 1;
-            if opts.outage.is_some_and(|(t0, t1)| p.t >= t0 && p.t < t1) {
-                dropped += 1;
-                continue;
-            }
-            estimator
-                .on_pose(p.t, pose_fix(cfg, p))
-                .map_err(|e| filter_err(p.t, e))?;
-            used += 1;
-        }
-        estimator
-            .on_wheels(w.t, w.v_left, w.v_right)
-            .map_err(|e| filter_err(w.t, e))?;
-        let summary = estimator.take_fix_summary();
-        terrain.jump |= summary.change;
-        rows.push(row(estimator, w.t, terrain.current, &summary));
-        if i % 4096 == 0 {
-            progress(i, total);
-        }
-    }
-    progress(total, total);
-
-    Ok(Replay {
-        rows,
-        changes,
-        used,
-        dropped,
-    })
 }
 
 /// What the set-up decided, carried into the result.
@@ -382,10 +364,10 @@ fn finish(
     setup: RunInfo,
 ) -> EstimateRun {
     let Replay {
-        rows,
         changes,
         used,
         dropped,
+        totals,
     } = replay;
     let RunInfo {
         terrains,
@@ -395,27 +377,13 @@ fn finish(
     } = setup;
     let dir = log.dir.display().to_string();
     let f = estimator.filter();
-    let stated = log
-        .pose
-        .iter()
-        .any(|p| p.std_xy.is_some() || p.std_yaw.is_some());
     let (std_xy, std_yaw, correlated_std) = f.noise(
-        log.pose
-            .iter()
-            .find_map(|p| p.std_xy)
-            .unwrap_or(cfg.measurement.std_xy),
-        log.pose
-            .iter()
-            .find_map(|p| p.std_yaw)
-            .unwrap_or(cfg.measurement.std_yaw),
+        totals.std_xy.unwrap_or(cfg.measurement.std_xy),
+        totals.std_yaw.unwrap_or(cfg.measurement.std_yaw),
     );
     let band = cfg.band(track_width);
-    warnings.extend(band_warnings(&rows, &band));
-    let moved = log
-        .wheels
-        .iter()
-        .any(|w| w.v_left.abs().max(w.v_right.abs()) >= cfg.filter.still_speed);
-    if !moved {
+    warnings.extend(totals.band.warnings(totals.rows));
+    if !totals.moved {
         warnings.push(format!(
             "{dir}: the robot never moves (all tread speeds below {} m/s): the ICRs are unobservable and stay at their initial values",
             cfg.filter.still_speed
@@ -429,7 +397,11 @@ fn finish(
         ));
     }
     EstimateRun {
-        rows,
+        rows: Vec::new(),
+        row_count: totals.rows,
+        first_row: totals.first,
+        last_row: totals.last,
+        prediction: totals.prediction.finish(),
         terrains,
         changes,
         track_width,
@@ -443,7 +415,7 @@ fn finish(
             std_yaw,
             correlated_std,
             model: f.model_noise(),
-            stated,
+            stated: totals.stated,
             learned: cfg.filter.noise_memory > 0.0,
         },
         stats: RunStats {

@@ -51,46 +51,62 @@ pub fn row(est: &Estimator, t: f64, terrain: Option<usize>, s: &FixSummary) -> E
     }
 }
 
-/// Warnings for slip parameters that sat on an edge of the physical band
-/// for more than 5 % of the run (a learned parameter at a clamp is a model
-/// or data problem the user must hear about).
-pub(super) fn band_warnings(rows: &[EstimateRow], band: &IcrBand) -> Vec<String> {
-    if rows.is_empty() {
-        return Vec::new();
+/// How many rows had a slip parameter on an edge of the physical band,
+/// per edge, for [`BandCounts::warnings`].
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct BandCounts {
+    at: [usize; 6],
+}
+
+/// The edges [`BandCounts`] counts, as the warnings name them.
+const EDGES: [&str; 6] = [
+    "the spread y_l - y_r at its lower limit",
+    "the spread y_l - y_r at its upper limit",
+    "a tread speed factor at its lower limit",
+    "a tread speed factor at its upper limit",
+    "x_c at its limit",
+    "the ICR centre at its limit",
+];
+
+impl BandCounts {
+    /// Counts the edges `r` sits on.
+    pub fn add(&mut self, r: &EstimateRow, band: &IcrBand) {
+        let near = |v: f64, edge: f64| (v - edge).abs() <= 1e-6 * (1.0 + edge.abs());
+        let (lo, hi) = band.alpha_range;
+        let on = [
+            near(r.y_l - r.y_r, band.min_spread),
+            near(r.y_l - r.y_r, band.max_spread),
+            near(r.alpha_l, lo) || near(r.alpha_r, lo),
+            near(r.alpha_l, hi) || near(r.alpha_r, hi),
+            near(r.x_c.abs(), band.max_x_c),
+            near((0.5 * (r.y_l + r.y_r)).abs(), band.max_centre),
+        ];
+        for (n, on) in self.at.iter_mut().zip(on) {
+            *n += usize::from(on);
+        }
     }
-    let n = rows.len() as f64;
-    let near = |v: f64, edge: f64| (v - edge).abs() <= 1e-6 * (1.0 + edge.abs());
-    let (lo, hi) = band.alpha_range;
-    type Check<'a> = (&'a str, &'a dyn Fn(&EstimateRow) -> bool);
-    let checks: [Check; 6] = [
-        ("the spread y_l - y_r at its lower limit", &|r| {
-            near(r.y_l - r.y_r, band.min_spread)
-        }),
-        ("the spread y_l - y_r at its upper limit", &|r| {
-            near(r.y_l - r.y_r, band.max_spread)
-        }),
-        ("a tread speed factor at its lower limit", &|r| {
-            near(r.alpha_l, lo) || near(r.alpha_r, lo)
-        }),
-        ("a tread speed factor at its upper limit", &|r| {
-            near(r.alpha_l, hi) || near(r.alpha_r, hi)
-        }),
-        ("x_c at its limit", &|r| near(r.x_c.abs(), band.max_x_c)),
-        ("the ICR centre at its limit", &|r| {
-            near((0.5 * (r.y_l + r.y_r)).abs(), band.max_centre)
-        }),
-    ];
-    checks
-        .iter()
-        .filter_map(|(what, test)| {
-            let frac = rows.iter().filter(|r| test(r)).count() as f64 / n;
-            (frac > 0.05).then(|| {
-                format!(
-                    "{what} for {:.0} % of the run: the data pull the model beyond what is physical \
-                     (clock offset, wrong track width in meta.toml, or a model that does not fit)",
-                    100.0 * frac
-                )
+
+    /// Warnings for slip parameters that sat on an edge of the physical
+    /// band for more than 5 % of the `rows` rows (a learned parameter at a
+    /// clamp is a model or data problem the user must hear about).
+    pub fn warnings(&self, rows: usize) -> Vec<String> {
+        if rows == 0 {
+            return Vec::new();
+        }
+        let n = rows as f64;
+        EDGES
+            .iter()
+            .zip(self.at)
+            .filter_map(|(what, count)| {
+                let frac = count as f64 / n;
+                (frac > 0.05).then(|| {
+                    format!(
+                        "{what} for {:.0} % of the run: the data pull the model beyond what is physical \
+                         (clock offset, wrong track width in meta.toml, or a model that does not fit)",
+                        100.0 * frac
+                    )
+                })
             })
-        })
-        .collect()
+            .collect()
+    }
 }

@@ -118,9 +118,9 @@ pub fn run(args: Args) -> Result<()> {
     let mcap = args.mcap.is_some();
     #[cfg(not(feature = "ros2"))]
     let mcap = false;
-    let streamed = !(super::bag::is_bag(log_dir) || args.terrain_model.is_some() || mcap);
+    let streamed = !(terraslip::bag::is_bag(log_dir) || args.terrain_model.is_some() || mcap);
     let source = if streamed {
-        if super::bag::topics_file().is_some() && !log_dir.is_dir() {
+        if super::bag::topics().is_given() && !log_dir.is_dir() {
             bail!("{}: --topics is for ROS 2 bags", log_dir.display());
         }
         let open = terraslip::estimate::OpenLog::open(log_dir)

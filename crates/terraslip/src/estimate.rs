@@ -203,7 +203,15 @@ pub fn estimate_streamed(
             opts,
             sink,
             &mut |_| {},
-        )?
+        )
+        .map_err(|e| match e {
+            // A row that cannot be read is reported as the whole-log read
+            // reports it.
+            pipeline::PipelineError::Read(e) => {
+                anyhow::Error::new(e).context(format!("reading log {}", log.dir.display()))
+            }
+            e => e.into(),
+        })?
     };
     log.warnings.extend(wheels.warnings());
     log.warnings.extend(pose.iter().flat_map(|p| p.warnings()));

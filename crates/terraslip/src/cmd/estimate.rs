@@ -165,19 +165,7 @@ pub fn run(args: Args) -> Result<()> {
                 &mut |done, _| bar.set_position(done),
             );
             bar.finish();
-            // A row that cannot be read is reported as the whole-log read
-            // reports it.
-            result.map_err(|e| {
-                let read = matches!(
-                    e.downcast_ref::<terraslip::pipeline::PipelineError>(),
-                    Some(terraslip::pipeline::PipelineError::Read(_))
-                ) || e.downcast_ref::<terraslip_io::LogError>().is_some();
-                if read {
-                    e.context(format!("reading log {}", log_dir.display()))
-                } else {
-                    e
-                }
-            })?
+            result?
         }
         Source::Read(log) => {
             let bar = progress(log.wheels.len() as u64, "wheels rows");

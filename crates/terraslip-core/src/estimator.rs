@@ -12,6 +12,11 @@
 //!   `t - clock_offset`; fixes for a time the wheels have not reached yet
 //!   wait (up to [`MAX_PENDING`] of them) and are fused when the next
 //!   tread speeds arrive, the prediction split at their time.
+//! * [`Estimator::on_gyro`]`(t, rate)`: a sample of the yaw-rate gyro
+//!   (rad/s, body z, on the wheels' clock), integrated between samples (the
+//!   mean of neighbours) and compared with the model's heading change over
+//!   short windows (`filter/gyro.rs`). A gap of more than [`GYRO_HOLD`]
+//!   between samples abandons the window in progress.
 //! * [`Estimator::on_terrain`]`(k)`: the terrain evidence declares terrain
 //!   `k` (labels, or a classifier's belief): the schedule resets or recalls
 //!   the slip parameters.
@@ -24,6 +29,51 @@ use crate::schedule::{ChangeAction, NoiseSchedule};
 
 /// Pose fixes that can wait for the wheels.
 pub const MAX_PENDING: usize = 32;
+
+/// Longest the last gyro sample is held, s.
+pub const GYRO_HOLD: f64 = 0.2;
+
+/// The gyro's rate integrated over the current wheels interval.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct GyroIntegral {
+    /// The last sample `(t, rate)`.
+    last: Option<(f64, f64)>,
+    /// Start of the current wheels interval, s.
+    from: f64,
+    /// Integral of the rate from `from` to the last sample, rad.
+    angle: f64,
+    /// Samples in the interval.
+    samples: u32,
+}
+
+impl GyroIntegral {
+    fn push(&mut self, t: f64, rate: f64) {
+        if let Some((tp, rp)) = self.last {
+            if t > tp && t > self.from {
+                self.angle += 0.5 * (rp + rate) * (t - tp.max(self.from));
+            }
+        }
+        self.last = Some((t, rate));
+        self.samples = self.samples.saturating_add(1);
+    }
+
+    /// The integral over `[from, t]` (the last sample held to `t`) and the
+    /// samples in it, or `None` if the gyro has been silent too long; starts
+    /// the next interval at `t`.
+    fn take(&mut self, t: f64) -> Option<(f64, u32)> {
+        let out = match self.last {
+            Some((tl, rl)) if t - tl <= GYRO_HOLD => Some((
+                self.angle + rl * (t - tl.max(self.from)).max(0.0),
+                self.samples,
+            )),
+            _ => None,
+        };
+        self.from = t;
+        self.angle = 0.0;
+        self.samples = 0;
+        out
+    }
+}
 
 /// Counters of what happened to the fixes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -84,6 +134,7 @@ pub struct Estimator {
     max_speed: f64,
     counts: FixCounts,
     summary: FixSummary,
+    gyro: GyroIntegral,
 }
 
 impl Estimator {
@@ -104,6 +155,7 @@ impl Estimator {
             max_speed: 0.0,
             counts: FixCounts::default(),
             summary: FixSummary::default(),
+            gyro: GyroIntegral::default(),
         }
     }
 
@@ -141,6 +193,7 @@ impl Estimator {
         self.max_speed = self.max_speed.max(v_left.abs()).max(v_right.abs());
         let Some(t0) = self.t else {
             self.t = Some(t);
+            self.gyro.take(t);
             self.filter.predict(v_left, v_right, 0.0)?;
             return self.fuse_due(t);
         };
@@ -149,10 +202,18 @@ impl Estimator {
         }
         let gap = t - t0 > self.max_wheel_gap;
         let (vl, vr) = if gap { (0.0, 0.0) } else { (v_left, v_right) };
+        // The gyro's heading change over the interval, shared among the
+        // interval's steps by their length.
+        let gyro = self
+            .gyro
+            .take(t)
+            .filter(|_| !gap && t > t0)
+            .map(|(angle, n)| (angle / (t - t0), n as f64 / (t - t0)));
         let mut now = t0;
         while let Some(due) = self.next_due().filter(|d| *d <= t) {
             if due > now {
                 self.advance(vl, vr, due - now, gap)?;
+                self.fuse_gyro(gyro, due - now)?;
                 now = due;
             }
             self.t = Some(now);
@@ -160,9 +221,37 @@ impl Estimator {
         }
         if t > now {
             self.advance(vl, vr, t - now, gap)?;
+            self.fuse_gyro(gyro, t - now)?;
         }
         self.t = Some(t);
         Ok(())
+    }
+
+    /// A yaw-rate gyro sample `rate` (rad/s, counter-clockwise about body z)
+    /// at `t` (s, the wheels' clock).
+    pub fn on_gyro(&mut self, t: f64, rate: f64) -> Result<(), FilterError> {
+        if !(t.is_finite() && rate.is_finite()) {
+            return Err(FilterError::BadInput("gyro sample not finite"));
+        }
+        self.gyro.push(t, rate);
+        Ok(())
+    }
+
+    /// Adds the gyro's heading change over a step of `dt` s (its mean rate
+    /// and samples per second over the interval) to the filter's window.
+    fn fuse_gyro(&mut self, gyro: Option<(f64, f64)>, dt: f64) -> Result<(), FilterError> {
+        let Some((rate, per_s)) = gyro else {
+            self.filter.break_gyro();
+            return Ok(());
+        };
+        match self.filter.add_gyro(rate * dt, per_s * dt) {
+            Ok(_) => Ok(()),
+            Err(FilterError::BadInput(what)) => Err(FilterError::BadInput(what)),
+            Err(_) => {
+                self.counts.refused += 1;
+                Ok(())
+            }
+        }
     }
 
     /// A pose fix stamped `t` (s, the pose stream's clock).

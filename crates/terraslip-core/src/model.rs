@@ -1,6 +1,6 @@
 //! The filter's state and its process model.
 //!
-//! State `x = [east, north, yaw, s0..s4, law, clock, bias_e, bias_n]`:
+//! State `x = [east, north, yaw, s0..s4, law, clock, bias_e, bias_n, gyro_bias]`:
 //!
 //! * world ENU position (m) and yaw (rad, counter-clockwise from east) of
 //!   the body frame, on the wheels' clock;
@@ -13,7 +13,9 @@
 //!   (a pose stamped `t` describes the robot at wheel time `t - clock`);
 //! * `bias_e`, `bias_n` (m): the slowly wandering part of the position
 //!   fixes' error (first-order Gauss-Markov), so that GNSS errors
-//!   correlated over tens of seconds are not read as motion.
+//!   correlated over tens of seconds are not read as motion;
+//! * `gyro_bias` (rad/s): the yaw-rate gyro's bias (a random walk), where
+//!   the log has a gyro.
 //!
 //! One Euler step of length `dt` with the body twist `(v_x, v_y, omega)` of
 //! [`Chart::twist_with_law`]:
@@ -24,9 +26,10 @@
 //! yaw'   = yaw   + dt omega
 //! ```
 //!
-//! The slip parameters, the law and the clock offset are random walks, the bias
-//! decays ([`crate::filter`] adds the noise). [`step`] returns the new state
-//! and the rows of the Jacobian that differ from the identity's.
+//! The slip parameters, the law, the clock offset and the gyro bias are
+//! random walks, the position bias decays ([`crate::filter`] adds the
+//! noise). [`step`] returns the new state and the rows of the Jacobian that
+//! differ from the identity's.
 
 use nalgebra::{SMatrix, SVector};
 
@@ -35,7 +38,7 @@ use crate::kinematics::Twist;
 use crate::slip::{Chart, Slip, TreadInput};
 
 /// Dimension of the state.
-pub const N: usize = 12;
+pub const N: usize = 13;
 /// Index of east, m.
 pub const EAST: usize = 0;
 /// Index of north, m.
@@ -52,6 +55,8 @@ pub const CLOCK: usize = 9;
 pub const BIAS_E: usize = 10;
 /// Index of the north bias of the position fixes, m.
 pub const BIAS_N: usize = 11;
+/// Index of the yaw-rate gyro's bias, rad/s.
+pub const GYRO_BIAS: usize = 12;
 
 /// The state vector.
 pub type State = SVector<f64, N>;

@@ -22,6 +22,6 @@ pub use read::{
     read_csv_table, read_images, read_imu, read_meta, read_terrain, read_truth, wrap_angle,
     CsvTable, Streams,
 };
-pub use stream::{read_currents, read_pose, read_wheels, PoseStream, WheelStream};
+pub use stream::{read_currents, read_pose, read_wheels, GyroStream, PoseStream, WheelStream};
 pub use types::*;
 pub use write::write_csv;

@@ -266,19 +266,20 @@ impl Streams {
         images: true,
         truth: true,
     };
-    /// What the online estimator uses: wheels and pose (the imu stream
-    /// alone can be four times the size of everything else; truth is for
-    /// scoring, not estimating).
+    /// What the online estimator uses: wheels, pose and the imu's yaw
+    /// rate (truth is for scoring, not estimating; the images are the
+    /// terrain classifier's).
     pub const ESTIMATOR: Self = Self {
         wheels_and_pose: true,
         currents: false,
-        imu: false,
+        imu: true,
         images: false,
         truth: false,
     };
     /// Only `meta.toml` and `terrain.csv`.
     pub const HEADER: Self = Self {
         wheels_and_pose: false,
+        imu: false,
         ..Self::ESTIMATOR
     };
 }

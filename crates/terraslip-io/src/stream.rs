@@ -275,6 +275,65 @@ impl Iterator for PoseStream {
     }
 }
 
+/// `imu.csv`'s yaw rate row by row: `(t, gyro_z)` (s, rad/s) of the rows
+/// that give `gyro_z`, rows repeating the previous timestamp dropped. A
+/// file without the column yields nothing. An error (file and line) ends
+/// the stream.
+pub struct GyroStream {
+    tab: CsvTable,
+    col: Option<usize>,
+    repeats: Repeats,
+    done: bool,
+}
+
+impl GyroStream {
+    /// Opens `imu.csv` and checks its header.
+    pub fn open(path: &Path) -> Result<Self, LogError> {
+        let tab = read_csv_table(path)?;
+        let col = tab.optional("gyro_z");
+        Ok(Self {
+            tab,
+            col,
+            repeats: Repeats::default(),
+            done: col.is_none(),
+        })
+    }
+
+    /// Whether the file has a `gyro_z` column.
+    pub fn has_gyro(&self) -> bool {
+        self.col.is_some()
+    }
+
+    /// What the rows read so far call for (repeated timestamps).
+    pub fn warnings(&self) -> Vec<String> {
+        self.repeats.warning(&self.tab.path).into_iter().collect()
+    }
+
+    fn next_rate(&mut self) -> Result<Option<(f64, f64)>, LogError> {
+        while let Some((line, t)) = self.tab.advance()? {
+            let (tab, rec) = (&self.tab, self.tab.record());
+            if let Some(rate) = tab.opt_f64(line, rec, self.col)? {
+                if self.repeats.keep(line, t) {
+                    return Ok(Some((t, rate)));
+                }
+            }
+        }
+        Ok(None)
+    }
+}
+
+impl Iterator for GyroStream {
+    type Item = Result<(f64, f64), LogError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.done {
+            return None;
+        }
+        let read = self.next_rate();
+        ended_by_error(&mut self.done, read)
+    }
+}
+
 /// Reads `wheels.csv`.
 pub fn read_wheels(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<WheelSample>, LogError> {
     read_wheel_rows(path, warnings, false).map(|(w, _)| w)

@@ -52,6 +52,9 @@ pub struct Args {
     /// Write the per-world figures as JSON.
     #[arg(long, value_name = "FILE")]
     json: Option<std::path::PathBuf>,
+    /// Put a yaw-rate gyro on every world's robot (`World::with_gyro`).
+    #[arg(long)]
+    gyro: bool,
     /// Write world --first-seed as a log directory (as the family runs it)
     /// and exit.
     #[arg(long, value_name = "DIR")]
@@ -88,6 +91,16 @@ fn simulate_world(w: &World, seed: u64) -> anyhow::Result<SimRun> {
         }
     }
     Ok(sim)
+}
+
+/// World `seed` of `subset`, with a gyro if asked.
+fn draw(seed: u64, subset: Subset, gyro: bool) -> World {
+    let w = world(seed, subset);
+    if gyro {
+        w.with_gyro(seed)
+    } else {
+        w
+    }
 }
 
 fn truth_at(sim: &SimRun, t: f64) -> &terraslip_sim::TruthState {
@@ -202,7 +215,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         other => anyhow::bail!("--subset {other}: expected `all`, `gnss2m` or `papers`"),
     };
     if let Some(dir) = &a.write {
-        let w = world(a.first_seed, subset);
+        let w = draw(a.first_seed, subset, a.gyro);
         let sim = simulate_world(&w, a.first_seed)?;
         sim.write(dir)?;
         eprintln!(
@@ -247,7 +260,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                     let Some(&seed) = seeds.get(k) else {
                         return Ok(());
                     };
-                    let w = world(seed, subset);
+                    let w = draw(seed, subset, a.gyro);
                     let sim = simulate_world(&w, seed)?;
                     // The outage on the pose stream's clock.
                     let outage = (w.outage.0 + w.clock_offset, w.outage.1 + w.clock_offset);

@@ -170,3 +170,24 @@ def test_pandas_tables():
     batch = terraslip.estimate(DRIVE)
     for name in terraslip.COLUMNS:
         assert np.array_equal(got[name].to_numpy(), batch[name]), name
+
+
+def test_streaming_takes_a_gyro():
+    # Driving straight by the wheels while the gyro says the robot turns:
+    # with the gyro fused, the heading turns with it.
+    yaws = []
+    for gyro in (False, True):
+        est = terraslip.Estimator(track_width=0.5)
+        est.on_pose(0.0, east=0.0, north=0.0, yaw=0.0, std_xy=0.1, std_yaw=0.01)
+        for i in range(1, 201):
+            t = i * 0.05
+            if gyro:
+                est.on_gyro(t - 0.025, 0.2)
+                est.on_gyro(t, 0.2)
+            est.on_wheels(t, 1.0, 1.0)
+        yaws.append(est.state()["yaw"])
+    assert abs(yaws[0]) < 1e-6
+    assert yaws[1] > 0.05, yaws
+    est = terraslip.Estimator(track_width=0.5)
+    with pytest.raises(ValueError, match="gyro sample at t = 1"):
+        est.on_gyro(1.0, float("nan"))

@@ -37,6 +37,23 @@ pub struct World {
     pub outage: (f64, f64),
 }
 
+impl World {
+    /// The world with a yaw-rate gyro on the robot (`imu.csv`): 50-200 Hz,
+    /// white noise 0.002-0.01 rad/s per sample, a bias within +-0.02 rad/s,
+    /// drawn from `seed` apart from the world's other draws (which stay as
+    /// they are).
+    pub fn with_gyro(mut self, seed: u64) -> Self {
+        let mut r = Draw(seed ^ 0x6779_726F);
+        self.scenario.imu = Imu {
+            rate: r.uniform(50.0, 200.0),
+            gyro_noise: r.uniform(0.002, 0.01),
+            gyro_bias: r.uniform(-0.02, 0.02),
+            ..Default::default()
+        };
+        self
+    }
+}
+
 /// Which worlds to draw.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Subset {

@@ -7,14 +7,13 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::{bail, Context, Result};
-use terraslip_io::{DriveLog, LogError, ParamsFile, PoseStream, Streams, WheelStream};
+use terraslip_io::{DriveLog, GyroStream, LogError, ParamsFile, PoseStream, Streams, WheelStream};
 
 use crate::config::EstimatorConfig;
 use crate::pipeline::{self, EstimateRow, EstimateRun, RowSink, RunOptions, TerrainEvidence};
 
-/// Reads only what the estimator uses: wheels, pose, meta and terrain.
-/// The imu stream alone can be four times the size of everything else;
-/// truth is for scoring, not estimating.
+/// Reads only what the estimator uses: wheels, pose, imu, meta and
+/// terrain (truth is for scoring, not estimating).
 pub fn read_log(dir: &Path) -> Result<DriveLog, LogError> {
     DriveLog::read_streams(dir, Streams::ESTIMATOR)
 }
@@ -119,13 +118,14 @@ pub fn estimate(
 }
 
 /// A log directory open for [`estimate_streamed`]: `meta.toml` and
-/// `terrain.csv` read, `wheels.csv` and `pose.csv` open with their headers
-/// checked.
+/// `terrain.csv` read, `wheels.csv`, `pose.csv` and `imu.csv` open with
+/// their headers checked.
 pub struct OpenLog {
-    /// The log without its wheels and pose rows.
+    /// The log without its wheels, pose and imu rows.
     pub log: DriveLog,
     wheels: WheelStream,
     pose: Option<PoseStream>,
+    gyro: Option<GyroStream>,
     /// Size of wheels.csv, bytes.
     size: u64,
 }
@@ -139,10 +139,15 @@ impl OpenLog {
             p if p.exists() => Some(PoseStream::open(&p)?),
             _ => None,
         };
+        let gyro = match dir.join("imu.csv") {
+            p if p.exists() => Some(GyroStream::open(&p)?),
+            _ => None,
+        };
         Ok(Self {
             log,
             wheels,
             pose,
+            gyro,
             size: std::fs::metadata(&wheels_path).map_or(0, |m| m.len()),
         })
     }
@@ -173,6 +178,7 @@ pub fn estimate_streamed(
         mut log,
         mut wheels,
         mut pose,
+        mut gyro,
         size,
     } = open;
     let (evidence, evidence_name, notes) = terrain_evidence(&log, &mut cfg, inputs)?;
@@ -180,6 +186,13 @@ pub fn estimate_streamed(
         outage: inputs.outage,
     };
     let mut no_pose = std::iter::empty();
+    let mut no_gyro = std::iter::empty();
+    // The gyro's clock against the wheels', from the first minutes.
+    use pipeline::GyroClock;
+    let fuse = gyro.as_ref().is_some_and(|g| g.has_gyro()) && cfg.measurement.std_gyro > 0.0;
+    let clock = fuse.then(|| pipeline::gyro_delay_in(&log.dir));
+    let clock = clock.unwrap_or(GyroClock::Unknown);
+    gyro = gyro.filter(|_| !matches!(clock, GyroClock::NotYaw(_)));
     let run = {
         let mut counted = Counted {
             inner: &mut wheels,
@@ -193,6 +206,11 @@ pub fn estimate_streamed(
                 Some(p) => p,
                 None => &mut no_pose,
             },
+            gyro: match gyro.as_mut() {
+                Some(g) => g,
+                None => &mut no_gyro,
+            },
+            gyro_delay: pipeline::gyro_delay_of(clock),
         };
         pipeline::run_streams(
             &log,
@@ -215,6 +233,8 @@ pub fn estimate_streamed(
     };
     log.warnings.extend(wheels.warnings());
     log.warnings.extend(pose.iter().flat_map(|p| p.warnings()));
+    log.warnings.extend(gyro.iter().flat_map(|g| g.warnings()));
+    log.warnings.extend(pipeline::gyro_warning(&log.dir, clock));
     let est = finish(&log, run, &cfg, evidence_name, notes);
     Ok((log, est))
 }
@@ -335,6 +355,15 @@ pub fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) ->
             "stated_in_log": est.noise.stated,
             "learned": est.noise.learned,
         },
+        // The yaw-rate gyro (imu.csv's gyro_z), null without one.
+        "gyro": (est.gyro.fused + est.gyro.gated > 0).then(|| serde_json::json!({
+            "std_rad_s": est.gyro.std,
+            "bias_rad_s": est.gyro.bias,
+            "bias_std_rad_s": est.gyro.bias_std,
+            "windows_fused": est.gyro.fused,
+            "windows_gated": est.gyro.gated,
+            "wheels_late_by_s": est.gyro_delay,
+        })),
         "terrain_changes": est.changes.iter().map(|c| serde_json::json!({
             "t": c.t,
             "terrain": est.terrains.get(c.terrain),

@@ -407,6 +407,15 @@ pub struct MeasurementConfig {
     pub clock_offset: f64,
     /// Prior std of the clock offset, s.
     pub clock_offset_std: f64,
+    /// White noise of one sample of the yaw-rate gyro (`imu.csv`'s
+    /// `gyro_z`), rad/s: the start of its noise learning. 0 = the gyro is
+    /// not used.
+    pub std_gyro: f64,
+    /// Prior std of the gyro's bias, rad/s (a MEMS gyro's turn-on bias is
+    /// up to about 1 deg/s).
+    pub gyro_bias_std: f64,
+    /// Random walk of the gyro's bias, rad/s per square-root second.
+    pub gyro_bias_walk: f64,
 }
 
 impl Default for MeasurementConfig {
@@ -419,6 +428,9 @@ impl Default for MeasurementConfig {
             encoder_tick: 0.0,
             clock_offset: 0.0,
             clock_offset_std: 0.1,
+            std_gyro: 0.01,
+            gyro_bias_std: 0.02,
+            gyro_bias_walk: 1e-4,
         }
     }
 }
@@ -427,7 +439,7 @@ impl MeasurementConfig {
     /// Checks every setting; the error names the key.
     pub fn validate(&self) -> Result<(), FilterError> {
         let pos = |v: f64| v.is_finite() && v > 0.0;
-        let checks: [(&'static str, bool); 7] = [
+        let checks: [(&'static str, bool); 10] = [
             (
                 "measurement.std_xy must be finite and > 0",
                 pos(self.std_xy),
@@ -455,6 +467,18 @@ impl MeasurementConfig {
             (
                 "measurement.clock_offset_std must be in 0..=2 s",
                 (0.0..=2.0).contains(&self.clock_offset_std),
+            ),
+            (
+                "measurement.std_gyro must be in 0..=1 rad/s",
+                (0.0..=1.0).contains(&self.std_gyro),
+            ),
+            (
+                "measurement.gyro_bias_std must be in 0..=1 rad/s",
+                (0.0..=1.0).contains(&self.gyro_bias_std),
+            ),
+            (
+                "measurement.gyro_bias_walk must be in 0..=0.01 rad/s/sqrt(s)",
+                (0.0..=0.01).contains(&self.gyro_bias_walk),
             ),
         ];
         for (what, ok) in checks {

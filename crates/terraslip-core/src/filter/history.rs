@@ -36,6 +36,8 @@ pub(super) struct Motion {
     pub v_north: f64,
     pub omega: f64,
     pub d_slip: SMatrix<f64, 3, 5>,
+    /// `d(heading change) / d(turn law slope)`.
+    pub d_yaw_law: f64,
 }
 
 #[derive(Debug, Clone)]
@@ -116,7 +118,7 @@ impl History {
             last = step;
             let dt = step.dt.min(left);
             left -= dt;
-            let (t, j, _) = chart.twist_with_law(s, law, step.dv, step.u);
+            let (t, j, dk) = chart.twist_with_law(s, law, step.dv, step.u);
             // Integrated backwards: the heading at the start of this step.
             heading -= dt * t.omega;
             let (sn, cs) = (libm::sin(heading), libm::cos(heading));
@@ -124,6 +126,7 @@ impl History {
             m.d_east += dt * ve;
             m.d_north += dt * vn;
             m.d_yaw += dt * t.omega;
+            m.d_yaw_law += dt * dk[2];
             for k in 0..5 {
                 m.d_slip[(0, k)] += dt * (j[(0, k)] * cs - j[(1, k)] * sn);
                 m.d_slip[(1, k)] += dt * (j[(0, k)] * sn + j[(1, k)] * cs);

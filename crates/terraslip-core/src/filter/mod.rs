@@ -8,6 +8,8 @@
 //!   or both) compared with where the robot was when the fix was taken,
 //!   chi-square gates per part, the Kalman gain (or the papers'
 //!   innovation-adaptive one) and the Joseph-form update.
+//! * [`add_gyro`](Filter::add_gyro) (`gyro.rs`): the gyro's heading change
+//!   over a short window against the model's, its bias and noise learned.
 //! * `detector.rs`: a slip-change detector on the normalised innovations
 //!   that resets the slip uncertainty when the ground changes.
 //! * `noise.rs`: the measurement noise scale learned from the residuals.
@@ -19,6 +21,7 @@
 mod adaptive;
 mod config;
 pub(crate) mod detector;
+mod gyro;
 mod history;
 mod noise;
 mod predict;
@@ -26,11 +29,14 @@ mod reset;
 mod update;
 
 pub use config::{FilterConfig, IcrBand, MeasurementConfig, SlipStd, Variant, MAX_WINDOW};
+pub use gyro::{GyroNoise, GYRO_WINDOW};
 
 use nalgebra::SMatrix;
 
 use crate::kinematics::{IcrParams, Twist};
-use crate::model::{self, MatN, State, BIAS_E, BIAS_N, CLOCK, EAST, LAW, N, NORTH, SLIP, YAW};
+use crate::model::{
+    self, MatN, State, BIAS_E, BIAS_N, CLOCK, EAST, GYRO_BIAS, LAW, N, NORTH, SLIP, YAW,
+};
 use crate::slip::{Slip, SlipMat, TreadInput};
 
 use detector::Detector;
@@ -184,6 +190,17 @@ pub struct Filter {
     last_fix_t: Option<f64>,
     /// Innovation window of [`Variant::InnovationAdaptive`].
     window: adaptive::InnovationWindow,
+    /// The gyro's noise (a scale of `std_gyro^2`).
+    gyro_noise: NoiseFit,
+    /// Whether a gyro window has been fused.
+    gyro_seen: bool,
+    gyro_win: gyro::GyroWindow,
+    /// Length (s) of the last prediction step, the variance of the model's
+    /// heading error over it and the part the yaw took (rad^2): what a
+    /// gyro's heading change over that step shares with the state.
+    last_step: (f64, f64, f64),
+    /// Gyro rates fused and gated.
+    gyro_counts: [u64; 2],
 }
 
 type Mat3xN = SMatrix<f64, 3, N>;
@@ -251,6 +268,7 @@ impl Filter {
             P[(CLOCK, CLOCK)] = meas.clock_offset_std * meas.clock_offset_std;
         }
         P[(LAW, LAW)] = prior.turn_law_std * prior.turn_law_std;
+        P[(GYRO_BIAS, GYRO_BIAS)] = meas.gyro_bias_std * meas.gyro_bias_std;
         let q_slip = cfg
             .slip_walk
             .chart_cov(chart, &icr0)
@@ -287,6 +305,11 @@ impl Filter {
             rejected: [0; 2],
             last_fix_t: None,
             window: adaptive::InnovationWindow::new(),
+            gyro_noise: fit(cfg.q_yaw_per_rate2),
+            gyro_seen: false,
+            gyro_win: gyro::GyroWindow::new(),
+            last_step: (0.0, 0.0, 0.0),
+            gyro_counts: [0; 2],
         })
     }
 

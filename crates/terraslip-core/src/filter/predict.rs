@@ -3,7 +3,7 @@
 use nalgebra::SMatrix;
 
 use super::{finite_mat, Filter, FilterError};
-use crate::model::{self, BIAS_E, BIAS_N, CLOCK, EAST, LAW, N, NORTH, SLIP, YAW};
+use crate::model::{self, BIAS_E, BIAS_N, CLOCK, EAST, GYRO_BIAS, LAW, N, NORTH, SLIP, YAW};
 use crate::slip::TreadInput;
 
 impl Filter {
@@ -19,6 +19,7 @@ impl Filter {
         let cfg = self.cfg;
         self.still = v_left.abs() < cfg.still_speed && v_right.abs() < cfg.still_speed;
         if dt == 0.0 {
+            self.last_step = (0.0, 0.0, 0.0);
             return Ok(());
         }
         let u = TreadInput { v_left, v_right };
@@ -64,8 +65,22 @@ impl Filter {
         let q_xy = dt * (cfg.q_pos + q_speed * v * v);
         P[(EAST, EAST)] += q_xy;
         P[(NORTH, NORTH)] += q_xy;
-        if self.anchored[1] {
-            P[(YAW, YAW)] += dt * (cfg.q_yaw + q_turn * w * w);
+        // The model's heading error over the step; the yaw takes it once
+        // it is known.
+        let q_model = dt * (cfg.q_yaw + q_turn * w * w);
+        let q_yaw = if self.anchored[1] { q_model } else { 0.0 };
+        P[(YAW, YAW)] += q_yaw;
+        if self.gyro_win.is_open() {
+            // cov(x, E) through the step: F C, plus the yaw's share of E.
+            let c = self.gyro_win.cross_mut();
+            let pose = rows * *c;
+            c.fixed_rows_mut::<3>(0).copy_from(&pose);
+            c[BIAS_E] *= phi;
+            c[BIAS_N] *= phi;
+            self.gyro_win.add_model_noise(q_model, q_yaw);
+        }
+        if self.gyro_seen {
+            P[(GYRO_BIAS, GYRO_BIAS)] += dt * self.meas.gyro_bias_walk * self.meas.gyro_bias_walk;
         }
         if self.meas.encoder_tick > 0.0 {
             // Each step's tread increments are off by up to a tick.
@@ -106,6 +121,7 @@ impl Filter {
         self.P = P;
         self.twist = twist;
         self.tread = u;
+        self.last_step = (dt, q_model, q_yaw);
         self.history.push(dt, u, self.law_input);
         self.basis[0] += v * v * dt;
         self.basis[1] += w * w * dt;

@@ -75,6 +75,7 @@ impl Filter {
             }
         }
         self.P.fixed_view_mut::<5, 5>(SLIP, SLIP).copy_from(&c);
+        self.gyro_win.close();
         if let Some(q) = self.cfg.slip_walk.chart_cov(chart, &icr) {
             self.q_slip = q;
         }

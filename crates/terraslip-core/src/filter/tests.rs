@@ -449,3 +449,50 @@ fn covariance_stays_symmetric_positive_definite_through_anything() {
         assert!(!moved, "{q:?}");
     }
 }
+
+/// A gyro's bias is learned at standstill, and driving, its heading change
+/// teaches the turning gain: a filter started 30 % off the spread, with no
+/// pose fix at all, ends with the gain the gyro shows.
+#[test]
+fn a_gyro_teaches_its_bias_standing_and_the_turning_gain_driving() {
+    let w = 0.5;
+    let truth = IcrParams {
+        y_l: 0.45,
+        y_r: -0.45,
+        x_c: 0.0,
+        alpha_l: 0.9,
+        alpha_r: 0.9,
+    };
+    let mut p = prior(w);
+    p.icr = IcrParams::no_slip(0.63);
+    let mut f = Filter::new(
+        &p,
+        FilterConfig::default(),
+        MeasurementConfig::default(),
+        band(w),
+    )
+    .unwrap();
+    let (bias, dt) = (0.015, 0.02);
+    let mut rng = SplitMix64::new(11);
+    for k in 0..3000 {
+        let t = k as f64 * dt;
+        let (vl, vr) = if t < 20.0 { (0.0, 0.0) } else { treads(t) };
+        f.predict(vl, vr, dt).unwrap();
+        let omega = truth.twist(vl, vr).omega;
+        let rate = omega + bias + 0.005 * rng.normal();
+        f.add_gyro(rate * dt, 2.0).unwrap();
+        if k == 999 {
+            let g = f.gyro_noise();
+            assert!((g.bias - bias).abs() < 3.0 * g.bias_std.max(1e-4), "{g:?}");
+            assert!(g.fused > 30, "{g:?}");
+        }
+    }
+    let icr = f.icr();
+    let gain = |p: &IcrParams| 0.5 * (p.alpha_l + p.alpha_r) / p.spread();
+    assert!(
+        (gain(&icr) / gain(&truth) - 1.0).abs() < 0.03,
+        "gain {} against {}",
+        gain(&icr),
+        gain(&truth)
+    );
+}

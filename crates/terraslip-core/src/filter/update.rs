@@ -260,12 +260,13 @@ impl Filter {
         if reanchor[0] {
             self.anchor_position(&z, lag, r[0]);
             self.rejected[0] = 0;
-            if !self.heading_seen {
+            if !self.heading_seen && !self.gyro_seen {
                 // Without heading fixes, a run of rejected positions means
                 // the heading found from them is lost: find it again, and
                 // let the slip parameters learn again too.
                 self.anchored[1] = false;
                 isolate(&mut self.P, YAW, 0.0);
+                self.gyro_win.close();
                 self.chord = Some(Chord {
                     start: (z[0], z[1]),
                     odo: (0.0, 0.0),
@@ -318,9 +319,10 @@ impl Filter {
                 break;
             }
         }
-        let Some((K, _, HP, S)) = last else {
+        let Some((K, Hl, HP, S)) = last else {
             return Ok(report);
         };
+        self.gyro_win.after_update(&K, &Hl);
         let x = xi;
         let P = match self.cfg.variant {
             // lv2019 eq. 15, as written.
@@ -417,6 +419,7 @@ impl Filter {
     /// of other states: its covariance follows from theirs, so the fix's
     /// dependence on the clock offset (and bias, heading) stays known.
     fn anchor(&mut self, i: usize, value: f64, dep: &[(usize, f64)], r: f64) {
+        self.gyro_win.close();
         let mut row = [0.0; N];
         for (k, v) in row.iter_mut().enumerate() {
             *v = dep.iter().map(|&(m, c)| c * self.P[(m, k)]).sum();
@@ -471,6 +474,18 @@ impl Filter {
 
     /// Zeroes the gain rows of what must not learn from this fix.
     fn zero_gains(&self, K: &mut MatNx3, yaw_known: bool) {
+        for (i, f) in self.frozen(yaw_known).iter().enumerate() {
+            if *f {
+                K.row_mut(i).fill(0.0);
+            }
+        }
+    }
+
+    /// The states that must not learn from a measurement now: the slip
+    /// parameters at standstill or when not learned, the speed factors when
+    /// not learned, the clock likewise, and everything but the position
+    /// and its bias from a position fix while the heading is unknown.
+    pub(super) fn frozen(&self, yaw_known: bool) -> [bool; N] {
         let cfg = &self.cfg;
         let mut frozen = [false; N];
         if !yaw_known {
@@ -488,11 +503,7 @@ impl Filter {
             }
         }
         frozen[CLOCK] |= self.still || !cfg.learn_clock;
-        for (i, f) in frozen.iter().enumerate() {
-            if *f {
-                K.row_mut(i).fill(0.0);
-            }
-        }
+        frozen
     }
 
     /// Without heading fixes: once the robot is far enough from the first
@@ -511,6 +522,7 @@ impl Filter {
         self.x[YAW] = angle::wrap(self.x[YAW] + turn);
         let sd = 2.0 * std_xy / lg;
         isolate(&mut self.P, YAW, sd * sd);
+        self.gyro_win.close();
         self.anchored[1] = true;
         self.chord = None;
         self.history.clear();

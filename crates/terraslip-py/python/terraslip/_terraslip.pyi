@@ -123,6 +123,11 @@ class Estimator:
         ENU; both or neither), heading ``yaw`` (rad, counter-clockwise from
         east), their 1-sigma errors ``std_xy`` (m) and ``std_yaw`` (rad);
         without stds the configuration's (learned from the residuals)."""
+    def on_gyro(self, t: float, rate: float) -> None:
+        """A yaw-rate gyro sample ``rate`` (rad/s, counter-clockwise about
+        body z, bias included: it is learned) at ``t`` (s, the wheels'
+        clock). The samples between two wheels rows are averaged and fused
+        with the next one."""
     def on_terrain(self, label: str) -> Optional[str]:
         """The terrain evidence declares terrain ``label``. Returns what the
         noise schedule did (``"recalled"``, ``"learning"``, ``"none"``), or

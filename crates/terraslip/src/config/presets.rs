@@ -23,7 +23,8 @@ const Q_MAX: f64 = 1e-2;
 
 /// The papers' six-state EKF with an ICR random walk of `q` m^2/s on each
 /// of `y_l, y_r, x_c`: fixed speed factors, white GNSS noise of the stated
-/// (or the papers' 2 m / 1 deg) size, no clock, no detector, no memory.
+/// (or the papers' 2 m / 1 deg) size, no clock, no gyro, no detector, no
+/// memory.
 fn papers(q: f64) -> EstimatorConfig {
     let mut c = EstimatorConfig::default();
     let f = &mut c.filter;
@@ -47,6 +48,7 @@ fn papers(q: f64) -> EstimatorConfig {
     m.std_yaw = 1f64.to_radians();
     m.correlated_fraction = 0.0;
     m.clock_offset_std = 0.0;
+    m.std_gyro = 0.0;
     let i = &mut c.init;
     i.spread_std_factor = 0.3;
     i.std_centre = 0.1;

@@ -3,6 +3,7 @@
 //! [`terraslip_core::Estimator`] event by event, exactly as a robot would;
 //! one [`EstimateRow`] is taken after each wheels row.
 
+mod gyro_delay;
 mod replay;
 pub mod row;
 mod setup;
@@ -16,6 +17,7 @@ use terraslip_core::IcrParams;
 use terraslip_io::{DriveLog, LogError, ParamsFile, PoseObs, TerrainLabel};
 
 use crate::config::EstimatorConfig;
+pub use gyro_delay::{gyro_delay, gyro_delay_in, GyroClock};
 use replay::{Context, Replay};
 pub use replay::{RowSink, Streams};
 pub use row::row;
@@ -180,6 +182,10 @@ pub struct EstimateRun {
     pub init_source: String,
     /// Final clock offset of the pose stream and its std, s.
     pub clock_offset: (f64, f64),
+    /// The yaw-rate gyro as learned (all zero without one).
+    pub gyro: terraslip_core::filter::GyroNoise,
+    /// How late the wheels are stamped against the gyro, s.
+    pub gyro_delay: f64,
     /// The measurement noise in the end.
     pub noise: NoiseUsed,
     /// Counters.
@@ -261,9 +267,26 @@ pub fn run_with(
 ) -> Result<EstimateRun, PipelineError> {
     let total = log.wheels.len();
     let mut rows = Vec::with_capacity(total);
+    let gyro = || {
+        log.imu
+            .iter()
+            .filter_map(|s| s.gyro_z.map(|g| Ok((s.t, g))))
+    };
+    let clock = if cfg.measurement.std_gyro > 0.0 {
+        gyro_delay(&mut log.wheels.iter().copied().map(Ok), &mut gyro())
+    } else {
+        GyroClock::Unknown
+    };
+    let mut no_gyro = std::iter::empty();
+    let mut some_gyro = gyro();
     let streams = Streams {
         wheels: &mut log.wheels.iter().copied().map(Ok),
         pose: &mut log.pose.iter().cloned().map(Ok),
+        gyro: match clock {
+            GyroClock::NotYaw(_) => &mut no_gyro,
+            _ => &mut some_gyro,
+        },
+        gyro_delay: gyro_delay_of(clock),
     };
     let mut run = run_streams(
         log,
@@ -277,6 +300,7 @@ pub fn run_with(
     )?;
     progress(total, total);
     run.rows = rows;
+    run.warnings.extend(gyro_warning(&log.dir, clock));
     Ok(run)
 }
 
@@ -314,6 +338,8 @@ pub fn run_streams(
         mut warnings,
     } = setup::setup(log, cfg, evidence, init)?;
     let mut pose = streams.pose.peekable();
+    let mut gyro = streams.gyro.peekable();
+    let delay = streams.gyro_delay;
     if pose.peek().is_none() {
         warnings.push(format!(
             "{dir}: no pose observations: dead reckoning from the origin with the initial ICRs"
@@ -331,7 +357,7 @@ pub fn run_streams(
         sink,
         progress,
     };
-    let replay = replay::replay(cx, &mut wheels, &mut pose)?;
+    let replay = replay::replay(cx, &mut wheels, &mut pose, &mut gyro, delay)?;
     Ok(finish(
         log,
         cfg,
@@ -342,8 +368,28 @@ pub fn run_streams(
             track_width,
             init_source,
             warnings,
+            gyro_delay: delay,
         },
     ))
+}
+
+/// The delay the gyro's samples are moved by (0 when it cannot be told).
+pub fn gyro_delay_of(clock: GyroClock) -> f64 {
+    match clock {
+        GyroClock::Delay(d) => d,
+        _ => 0.0,
+    }
+}
+
+/// The warning for a gyro that is not the body's yaw rate.
+pub fn gyro_warning(dir: &std::path::Path, clock: GyroClock) -> Option<String> {
+    match clock {
+        GyroClock::NotYaw(c) => Some(format!(
+            "{}: the gyro (imu gyro_z) does not follow the tread speed difference at any delay within 1 s (best correlation {c:.2}), so it is not fused; it is not the body's yaw rate: check the IMU's mounting (for a bag, `[imu] mount_rpy_deg` in the topics file)",
+            dir.display()
+        )),
+        _ => None,
+    }
 }
 
 /// What the set-up decided, carried into the result.
@@ -352,6 +398,7 @@ struct RunInfo {
     track_width: f64,
     init_source: String,
     warnings: Vec<String>,
+    gyro_delay: f64,
 }
 
 /// The run's result: the learned noise, the warnings the whole run
@@ -374,6 +421,7 @@ fn finish(
         track_width,
         init_source,
         mut warnings,
+        gyro_delay,
     } = setup;
     let dir = log.dir.display().to_string();
     let f = estimator.filter();
@@ -410,6 +458,8 @@ fn finish(
         turn_law: f.turn_law(),
         init_source,
         clock_offset: f.clock_offset(),
+        gyro: f.gyro_noise(),
+        gyro_delay,
         noise: NoiseUsed {
             std_xy,
             std_yaw,

@@ -29,14 +29,20 @@ impl RowSink for Vec<EstimateRow> {
     }
 }
 
-/// A log's wheels rows and pose rows, each in time order, as a run reads
-/// them (from memory, or from the files row by row).
+/// A log's wheels rows, pose rows and gyro rates (`(t, gyro_z)`, s and
+/// rad/s), each in time order, as a run reads them (from memory, or from
+/// the files row by row), and how late the wheels are stamped against the
+/// gyro (s, [`super::gyro_delay`]): the gyro's samples are moved by it onto
+/// the wheels' clock.
 pub struct Streams<'a> {
     pub wheels: &'a mut dyn Iterator<Item = Result<WheelSample, LogError>>,
     pub pose: &'a mut dyn Iterator<Item = Result<PoseObs, LogError>>,
+    pub gyro: &'a mut dyn Iterator<Item = Result<(f64, f64), LogError>>,
+    pub gyro_delay: f64,
 }
 
 type Pose<'a> = Peekable<&'a mut dyn Iterator<Item = Result<PoseObs, LogError>>>;
+type Gyro<'a> = Peekable<&'a mut dyn Iterator<Item = Result<(f64, f64), LogError>>>;
 
 /// What replaying a log produced, besides the rows.
 pub(super) struct Replay {
@@ -105,6 +111,8 @@ pub(super) fn replay(
     cx: Context,
     wheels: &mut dyn Iterator<Item = Result<WheelSample, LogError>>,
     pose: &mut Pose,
+    gyro: &mut Gyro,
+    gyro_delay: f64,
 ) -> Result<Replay, PipelineError> {
     let Context {
         dir,
@@ -163,6 +171,13 @@ pub(super) fn replay(
                 .on_pose(p.t, pose_fix(cfg, &p))
                 .map_err(|e| filter_err(p.t, e))?;
             used += 1;
+        }
+        while let Some(g) = gyro.next_if(|g| g.as_ref().map_or(true, |g| g.0 + gyro_delay <= w.t)) {
+            let (t, rate) = g?;
+            let t = t + gyro_delay;
+            if cfg.measurement.std_gyro > 0.0 {
+                estimator.on_gyro(t, rate).map_err(|e| filter_err(t, e))?;
+            }
         }
         // Starts of the prediction before this row take the previous
         // row's parameters (those in effect then).

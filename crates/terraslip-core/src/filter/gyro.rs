@@ -1,0 +1,246 @@
+//! The yaw-rate gyro: the heading change it integrates over a short window
+//! against the model's.
+//!
+//! ```text
+//! z = integral of gyro_z over the window = Psi(x) + b_g T + E + n
+//! ```
+//!
+//! `Psi` is the heading change the ICR model makes of the window's tread
+//! speeds (`history.rs`, with its slip Jacobian), `b_g` the gyro's bias (a
+//! state), `T` the window's length, `n` the gyro's white noise integrated,
+//! and `E` the model's own heading error over the window: the very error
+//! the predictions added to the yaw's variance. The measurement noise and
+//! the state therefore share `E`; the filter carries that cross-covariance
+//! `C = cov(x, E)` through the window's predictions and fixes, and the
+//! update uses it (`K = (P H' + C) / S`), so the yaw follows the gyro
+//! through a turn the model gets wrong while the slip parameters learn only
+//! what persists.
+//!
+//! A window rather than each wheels step: over one step, encoder
+//! quantisation makes the tread speed difference jump by a tick per step,
+//! which a per-step comparison would read as a wrong turning gain; over a
+//! window the ticks add up to the motion.
+//!
+//! The gyro's noise is learned from the windows' residuals (`noise.rs`,
+//! its sensor part; the model's yaw-rate noise is the heading fixes' fit,
+//! which learning it from the gyro's residuals too made worse:
+//! docs/benchmarks.md).
+
+use nalgebra::SVector;
+
+use super::history::CAPACITY;
+use super::{finite_mat, Filter, FilterError};
+use crate::model::{slip_of, State, GYRO_BIAS, N, SLIP, YAW};
+
+/// Length of a gyro window, s.
+pub const GYRO_WINDOW: f64 = 0.5;
+/// Smallest gyro noise trusted, rad/s per sample.
+const MIN_STD_GYRO: f64 = 1e-4;
+/// Windows behind the noise belief before the gate applies.
+const GATE_WARMUP: f64 = 20.0;
+
+/// What the filter has learned about its gyro.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct GyroNoise {
+    /// White noise of one sample, as learned, rad/s.
+    pub std: f64,
+    /// The bias, rad/s.
+    pub bias: f64,
+    /// Its std, rad/s.
+    pub bias_std: f64,
+    /// Windows fused.
+    pub fused: u64,
+    /// Windows rejected by the gate.
+    pub gated: u64,
+}
+
+/// The gyro window being integrated.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct GyroWindow {
+    open: bool,
+    /// Integral of the gyro's rate, rad.
+    angle: f64,
+    /// Gyro samples in it.
+    samples: f64,
+    /// Length, s, and prediction steps.
+    span: f64,
+    steps: usize,
+    /// Yaw variance the model's noise added over the window, rad^2.
+    model_var: f64,
+    /// Covariance of the state with the model's heading error `E`.
+    cross: State,
+}
+
+impl GyroWindow {
+    pub(super) fn new() -> Self {
+        Self {
+            open: false,
+            angle: 0.0,
+            samples: 0.0,
+            span: 0.0,
+            steps: 0,
+            model_var: 0.0,
+            cross: State::zeros(),
+        }
+    }
+
+    pub(super) fn is_open(&self) -> bool {
+        self.open
+    }
+
+    /// `cov(x, E)`, for a prediction step to propagate.
+    pub(super) fn cross_mut(&mut self) -> &mut State {
+        &mut self.cross
+    }
+
+    /// A prediction step's model heading error of variance `q_model`
+    /// (rad^2), of which the yaw took `q_yaw`.
+    pub(super) fn add_model_noise(&mut self, q_model: f64, q_yaw: f64) {
+        self.cross[YAW] += q_yaw;
+        self.model_var += q_model;
+    }
+
+    /// A fix's update `x += K nu` changes the cross-covariance to
+    /// `C - K (H C)`.
+    pub(super) fn after_update<const M: usize>(
+        &mut self,
+        K: &nalgebra::SMatrix<f64, N, M>,
+        H: &nalgebra::SMatrix<f64, M, N>,
+    ) {
+        if self.open {
+            let hc = H * self.cross;
+            self.cross -= K * hc;
+        }
+    }
+
+    /// The window is abandoned (a gap in the gyro, a re-anchored pose).
+    pub(super) fn close(&mut self) {
+        self.open = false;
+    }
+}
+
+impl Filter {
+    /// Adds the gyro's heading change `angle` (rad, counter-clockwise about
+    /// body z; the integral of its rate) over the last prediction step, from
+    /// `samples` samples (fractional when a step holds part of them); fuses
+    /// the window once it spans [`GYRO_WINDOW`]. Returns whether a window
+    /// was fused.
+    pub fn add_gyro(&mut self, angle: f64, samples: f64) -> Result<bool, FilterError> {
+        if !angle.is_finite() {
+            return Err(FilterError::BadInput("gyro rate not finite"));
+        }
+        let (dt, q_model, q_yaw) = self.last_step;
+        if !(dt > 0.0 && samples >= 0.0 && samples.is_finite()) || self.meas.std_gyro == 0.0 {
+            self.gyro_win.close();
+            return Ok(false);
+        }
+        let w = &mut self.gyro_win;
+        if !w.open {
+            // Opened on this step: its model noise is the window's first.
+            *w = GyroWindow::new();
+            w.open = true;
+            w.add_model_noise(q_model, q_yaw);
+        }
+        w.angle += angle;
+        w.samples += samples;
+        w.span += dt;
+        w.steps += 1;
+        if w.span + 1e-9 < GYRO_WINDOW {
+            return Ok(false);
+        }
+        let w = *w;
+        self.gyro_win.close();
+        if w.steps >= CAPACITY {
+            return Ok(false);
+        }
+        self.fuse_gyro_window(&w)
+    }
+
+    fn fuse_gyro_window(&mut self, w: &GyroWindow) -> Result<bool, FilterError> {
+        if self.cfg.noise_memory > 0.0 {
+            self.gyro_noise
+                .forget(libm::exp(-w.span / self.cfg.noise_memory));
+        }
+        let m = self.history.over(
+            w.span,
+            self.cfg.chart,
+            &slip_of(&self.x),
+            self.x[crate::model::LAW],
+            self.x[YAW],
+        );
+        let mut H = SVector::<f64, N>::zeros();
+        for k in 0..5 {
+            H[SLIP + k] = m.d_slip[(2, k)];
+        }
+        H[crate::model::LAW] = m.d_yaw_law;
+        H[GYRO_BIAS] = w.span;
+        let nu = w.angle - (m.d_yaw + self.x[GYRO_BIAS] * w.span);
+
+        // The gyro's white noise integrated, the model's heading error
+        // (shared with the state: `C`), the encoder's quantisation.
+        let std0 = self.meas.std_gyro.max(MIN_STD_GYRO);
+        let r_nom = std0 * std0 * w.span * w.span / w.samples.max(1.0);
+        let tick = self.meas.encoder_tick;
+        let d = self.icr().guarded_spread();
+        let r_tick = tick * tick / (3.0 * d * d);
+        let r = r_nom * self.gyro_noise.sensor() + w.model_var + r_tick;
+        let C = w.cross;
+        let ph = self.P * H;
+        let s = H.dot(&ph) + r + 2.0 * H.dot(&C);
+        if !(s > 0.0 && s.is_finite()) {
+            return Err(FilterError::SingularInnovation);
+        }
+        let gated = nu * nu / s > self.cfg.gate_yaw && self.gyro_noise.count() >= GATE_WARMUP;
+        self.gyro_noise
+            .add((nu * nu).min(self.cfg.gate_yaw * s), s, r_nom, 0.0);
+        if gated {
+            self.gyro_counts[1] += 1;
+            return Ok(false);
+        }
+
+        // K = (P H' + C) / S with the rows of what must not learn zeroed;
+        // P - K (H P + C') - (P H' + C) K' + K S K' holds for any such gain.
+        let a = ph + C;
+        let mut k = a / s;
+        let frozen = self.frozen(true);
+        for (i, f) in frozen.iter().enumerate() {
+            if *f || (i == YAW && !self.anchored[1]) {
+                k[i] = 0.0;
+            }
+        }
+        let mut x = self.x + k * nu;
+        x[YAW] = crate::angle::wrap(x[YAW]);
+        let ka = k * a.transpose();
+        let P = self.P - ka - ka.transpose() + k * k.transpose() * s;
+        let P = 0.5 * (P + P.transpose());
+        if !finite_mat(&x) || (0..N).any(|i| !(P[(i, i)] >= 0.0 && P[(i, i)].is_finite())) {
+            return Err(FilterError::NonFinite);
+        }
+        self.project(&mut x);
+        self.x = x;
+        self.P = P;
+        self.gyro_seen = true;
+        self.gyro_counts[0] += 1;
+        Ok(true)
+    }
+
+    /// The gyro as learned (all zero before the first gyro window).
+    pub fn gyro_noise(&self) -> GyroNoise {
+        if !self.gyro_seen {
+            return GyroNoise::default();
+        }
+        let std0 = self.meas.std_gyro.max(MIN_STD_GYRO);
+        GyroNoise {
+            std: std0 * libm::sqrt(self.gyro_noise.sensor()),
+            bias: self.x[GYRO_BIAS],
+            bias_std: libm::sqrt(self.P[(GYRO_BIAS, GYRO_BIAS)].max(0.0)),
+            fused: self.gyro_counts[0],
+            gated: self.gyro_counts[1],
+        }
+    }
+
+    /// Abandons the gyro window being integrated (a gap in the gyro).
+    pub fn break_gyro(&mut self) {
+        self.gyro_win.close();
+    }
+}

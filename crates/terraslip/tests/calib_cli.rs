@@ -124,6 +124,46 @@ fn calibrate_json_and_validate_json_follow_the_contract() {
 }
 
 #[test]
+fn validate_repeats_the_warnings_of_the_calibration() {
+    let d = tempfile::tempdir().expect("tempdir");
+    let log = write_log(d.path(), "drive", false, &SynthConfig::p3at(150.0, 21));
+    let params = d.path().join("params.json");
+    terraslip(
+        &[
+            s("calibrate"),
+            log.as_os_str(),
+            s("--out"),
+            params.as_os_str(),
+            s("--method"),
+            s("lm"),
+        ],
+        true,
+    );
+    // A fit at a limit, as calibrate records it in the file.
+    let mut file: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&params).expect("read")).expect("json");
+    let edge = "drive: the time offset +0.500 s is at the edge of its search range (±0.5 s)";
+    file["warnings"] = serde_json::json!([edge]);
+    std::fs::write(&params, file.to_string()).expect("write");
+    let out = terraslip(
+        &[
+            s("calibrate"),
+            s("validate"),
+            log.as_os_str(),
+            s("--params"),
+            params.as_os_str(),
+        ],
+        true,
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.lines()
+            .any(|l| l.starts_with("warning: ") && l.contains(edge) && l.contains("params.json")),
+        "{err}"
+    );
+}
+
+#[test]
 fn labelled_logs_give_one_set_per_terrain() {
     let d = tempfile::tempdir().expect("tempdir");
     let log = write_log(d.path(), "drive", true, &SynthConfig::p3at(100.0, 22));

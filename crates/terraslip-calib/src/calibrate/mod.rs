@@ -32,15 +32,14 @@ pub use result::{Calibration, DroppedSegment, MethodFit, SetCalibration};
 /// Most chained segments the genetic algorithm scores each individual on;
 /// a longer drive gives it this many, evenly spread over the drive
 /// ([`Segments::evenly_spread`]). A 600 s drive has about 600. On a
-/// simulated 24 h drive (86 000) the GA's answer on 1000 of them costs
-/// 0.17 % more (eq. 13 over all segments) than the LM's, and 0.03 % on 2000,
-/// at twice the time (docs/benchmarks.md, "Scale"); the LM, fitted on all
-/// segments, is the one written there.
+/// simulated 24 h drive the GA's answer then costs 0.1 % more (eq. 13)
+/// than the LM's, the one written there (docs/benchmarks.md, "Scale").
 pub const GA_SEGMENTS: usize = 1000;
 
-/// Most fit segments a calibration uses; the segments of longer drives
-/// are thinned to this many, evenly spread ([`Segments::evenly_spread`]),
-/// and every method fits on those. A 600 s drive has about 2000.
+/// Most fit segments one parameter set is calibrated on; a set with more
+/// (a long drive) is thinned to this many, evenly spread
+/// ([`Segments::evenly_spread`]), and every method fits on those. A 600 s
+/// drive has about 2500.
 pub const FIT_SEGMENTS: usize = 20_000;
 
 /// Progress events for a CLI progress bar.
@@ -111,12 +110,7 @@ pub fn calibrate(
         offsets.push(o);
     }
     let refs: Vec<&DriveLog> = logs.iter().collect();
-    let mut all = Segments::build(&refs, &offsets, &scfg);
-    let found = all.len();
-    let thinned = found > FIT_SEGMENTS;
-    if thinned {
-        all = all.subset(&Segments::evenly_spread(&vec![true; found], FIT_SEGMENTS));
-    }
+    let all = Segments::build(&refs, &offsets, &scfg);
     // Group by terrain; logs without labels go to the pooled set.
     let mut names: Vec<Option<String>> = Vec::new();
     for s in &all.segments {
@@ -141,6 +135,11 @@ pub fn calibrate(
     for name in names {
         let mut segs = all.clone();
         segs.retain(|s| s.terrain == name);
+        let found = segs.len();
+        let thinned = found > FIT_SEGMENTS;
+        if thinned {
+            segs = segs.subset(&Segments::evenly_spread(&vec![true; found], FIT_SEGMENTS));
+        }
         let label = name.clone().unwrap_or_else(|| "all".into());
         progress(Progress::Stage(&label));
         let mut set = match calibrate_set(&segs, &label, track_width, cfg, progress, &mut warnings)
@@ -157,8 +156,8 @@ pub fn calibrate(
         set.terrain = name;
         if thinned {
             set.notes.push(format!(
-                "fitted on {FIT_SEGMENTS} of the drives' {found} segments, evenly spread \
-                 (the bound that keeps long drives fast)"
+                "fitted on {FIT_SEGMENTS} of its {found} segments, evenly spread over the \
+                 drive (the bound that keeps long drives fast)"
             ));
         }
         // Counts and offsets of the logs that drove on this terrain.

@@ -39,7 +39,7 @@ pub(super) fn fixed(v: f64, digits: u32) -> Option<(u64, u64, bool)> {
         .copied()
         .unwrap_or_else(|| 10u64.pow(digits));
     let s = v.abs() * scale as f64;
-    if !(s < MAX_SCALED) {
+    if s.is_nan() || s >= MAX_SCALED {
         return None;
     }
     // `s` is below 2^53, so its fraction `s - trunc(s)` is exact: rounding

@@ -101,7 +101,7 @@ pub fn read_estimate(path: &Path) -> Result<Vec<EstimateRecord>, LogError> {
             std_y_l: v[9],
             std_y_r: v[10],
             std_x_c: v[11],
-            terrain: terrain.and_then(|i| rec.get(i)).unwrap_or("").to_string(),
+            terrain: terrain.map_or("", |i| tab.cell(rec, i)).to_string(),
             alpha_l: o[0],
             alpha_r: o[1],
             std_alpha_l: o[2],

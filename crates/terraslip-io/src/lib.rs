@@ -8,6 +8,7 @@
 //! to (-pi, pi] on read); body REP-103.
 
 pub mod atomic;
+mod cell;
 mod estimate;
 pub mod params;
 mod read;

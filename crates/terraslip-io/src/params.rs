@@ -137,6 +137,22 @@ pub struct ParamsFile {
 }
 
 impl ParamsFile {
+    /// What the calibration that wrote the file warned about (its
+    /// `warnings`: fits at a limit, a time offset at the edge of its
+    /// search), for whoever uses the parameters to hear it too.
+    pub fn warnings(&self) -> Vec<String> {
+        match self.extra.get("warnings") {
+            Some(serde_json::Value::Array(items)) => items
+                .iter()
+                .map(|w| match w {
+                    serde_json::Value::String(s) => s.clone(),
+                    other => other.to_string(),
+                })
+                .collect(),
+            _ => Vec::new(),
+        }
+    }
+
     /// Reads and validates a parameters file.
     pub fn read(path: &Path) -> Result<Self, LogError> {
         let text = std::fs::read_to_string(path).map_err(|e| LogError::io(path, e))?;

@@ -7,11 +7,16 @@ use crate::types::*;
 /// A CSV file open for reading, with its header indexed by column name.
 /// Rows are streamed one at a time ([`CsvTable::each_timed_row`]) with
 /// their 1-based line numbers (the header is line 1) for error messages,
-/// so memory does not grow with the file.
+/// so memory does not grow with the file. Cells are read through
+/// [`CsvTable::cell`], which trims their whitespace (trimming each cell
+/// read, not every field of every row, is what a 200 MB log can afford).
 pub struct CsvTable {
     pub path: PathBuf,
     pub header: Vec<String>,
     index: HashMap<String, usize>,
+    /// The `t` column, and each column's physical limit ([`physical_limit`]).
+    t_col: Option<usize>,
+    limits: Vec<Option<(f64, &'static str)>>,
     reader: Option<csv::Reader<std::fs::File>>,
     /// The row [`CsvTable::advance`] read last, and its line and time.
     rec: csv::StringRecord,
@@ -30,7 +35,9 @@ pub fn read_csv_table(path: &Path) -> Result<CsvTable, LogError> {
     let mut rdr = csv::ReaderBuilder::new()
         .has_headers(true)
         .flexible(false)
-        .trim(csv::Trim::All)
+        .trim(csv::Trim::Headers)
+        // Fewer, larger reads than the default 8 KiB.
+        .buffer_capacity(READ_BUFFER)
         .from_path(path)
         .map_err(|e| csv_err(path, e))?;
     let header: Vec<String> = rdr
@@ -65,6 +72,8 @@ pub fn read_csv_table(path: &Path) -> Result<CsvTable, LogError> {
     }
     Ok(CsvTable {
         path: path.to_path_buf(),
+        t_col: index.get("t").copied(),
+        limits: header.iter().map(|h| physical_limit(h)).collect(),
         header,
         index,
         reader: Some(rdr),
@@ -72,6 +81,9 @@ pub fn read_csv_table(path: &Path) -> Result<CsvTable, LogError> {
         last: None,
     })
 }
+
+/// Bytes the CSV reader asks the file for at a time.
+const READ_BUFFER: usize = 1 << 16;
 
 fn csv_err(path: &Path, e: csv::Error) -> LogError {
     let line = e.position().map(|p| p.line()).unwrap_or(1);
@@ -123,6 +135,12 @@ impl CsvTable {
         }
     }
 
+    /// The cell of column `i` in `rec`, without leading and trailing
+    /// whitespace; empty where the row has no such column.
+    pub fn cell<'r>(&self, rec: &'r csv::StringRecord, i: usize) -> &'r str {
+        crate::cell::trim(rec.get(i).unwrap_or(""))
+    }
+
     /// A finite number, or `None` for an empty cell.
     pub fn opt_f64(
         &self,
@@ -131,18 +149,17 @@ impl CsvTable {
         col: Option<usize>,
     ) -> Result<Option<f64>, LogError> {
         let Some(i) = col else { return Ok(None) };
-        let cell = rec.get(i).unwrap_or("");
+        let cell = self.cell(rec, i);
         if cell.is_empty() {
             return Ok(None);
         }
         let name = &self.header[i];
-        let v: f64 = cell
-            .parse()
-            .map_err(|_| self.err(line, format!("column `{name}`: `{cell}` is not a number; write a number with `.` as the decimal point, or leave the cell empty")))?;
+        let v = crate::cell::parse_f64(cell)
+            .ok_or_else(|| self.err(line, format!("column `{name}`: `{cell}` is not a number; write a number with `.` as the decimal point, or leave the cell empty")))?;
         if !v.is_finite() {
             return Err(self.err(line, format!("column `{name}`: `{cell}` is not finite; write a finite number, or leave the cell empty")));
         }
-        if let Some((limit, unit)) = physical_limit(name) {
+        if let Some(&Some((limit, unit))) = self.limits.get(i) {
             if v.abs() > limit {
                 return Err(self.err(
                     line,
@@ -173,7 +190,10 @@ impl CsvTable {
     /// decrease); the row itself is then [`CsvTable::record`]. `None` at the
     /// end of the file.
     pub fn advance(&mut self) -> Result<Option<(u64, f64)>, LogError> {
-        let ti = self.require("t")?;
+        let ti = match self.t_col {
+            Some(i) => i,
+            None => self.require("t")?,
+        };
         let Some(rdr) = self.reader.as_mut() else {
             return Ok(None);
         };
@@ -371,7 +391,7 @@ pub fn read_images(path: &Path) -> Result<Vec<ImageRef>, LogError> {
     let pc = tab.require("path")?;
     let mut out = Vec::new();
     tab.each_timed_row(|tab, line, t, rec| {
-        let p = rec.get(pc).unwrap_or("");
+        let p = tab.cell(rec, pc);
         if p.is_empty() {
             return Err(tab.err(
                 line,
@@ -410,7 +430,7 @@ pub fn read_terrain(path: &Path) -> Result<Vec<TerrainLabel>, LogError> {
     let c = tab.require("terrain")?;
     let mut out = Vec::new();
     tab.each_timed_row(|tab, line, t, rec| {
-        let name = rec.get(c).unwrap_or("");
+        let name = tab.cell(rec, c);
         if name.is_empty() {
             return Err(tab.err(line, "column `terrain` is empty; give the terrain's name"));
         }

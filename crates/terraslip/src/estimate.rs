@@ -3,7 +3,6 @@
 //! as the estimator reads it, the terrain evidence, the run, the content of
 //! `summary.json` and the columns of `estimate.csv`.
 
-use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::{bail, Context, Result};
@@ -11,6 +10,8 @@ use terraslip_io::{DriveLog, GyroStream, LogError, ParamsFile, PoseStream, Strea
 
 use crate::config::EstimatorConfig;
 use crate::pipeline::{self, EstimateRow, EstimateRun, RowSink, RunOptions, TerrainEvidence};
+
+mod numbers;
 
 /// Reads only what the estimator uses: wheels, pose, imu, meta and
 /// terrain (truth is for scoring, not estimating).
@@ -470,32 +471,55 @@ pub fn values(r: &EstimateRow) -> [f64; 25] {
     ]
 }
 
-/// Appends one line of `estimate.csv` for `r`; `terrains` names its
-/// terrain index ([`EstimateRun::terrains`]).
-pub fn write_row(buf: &mut String, terrains: &[String], r: &EstimateRow) {
-    for (k, (v, (_, col))) in values(r).into_iter().zip(COLUMNS).enumerate() {
-        if k > 0 {
-            buf.push(',');
-        }
-        match col {
-            Column::Time => {
-                let _ = write!(buf, "{v}");
+/// Writes the lines of `estimate.csv`. Each column's last text is kept:
+/// many columns (the speed factors, `x_c`, the clock offset, `nis`) repeat
+/// from row to row, and a repeated number is copied, not written again.
+#[derive(Debug, Default)]
+pub struct RowWriter {
+    last: [Option<(u64, numbers::Text)>; 25],
+}
+
+impl RowWriter {
+    /// Appends one line (UTF-8 text) for `r`; `terrains` names its terrain
+    /// index ([`EstimateRun::terrains`]).
+    pub fn write(&mut self, buf: &mut Vec<u8>, terrains: &[String], r: &EstimateRow) {
+        for (k, (v, (_, col))) in values(r).into_iter().zip(COLUMNS).enumerate() {
+            if k > 0 {
+                buf.push(b',');
             }
-            Column::Fixed(digits) => push_fixed(buf, v, digits),
-            Column::Flag => buf.push(if v != 0.0 { '1' } else { '0' }),
-            Column::Terrain => {
-                buf.push_str(r.terrain.and_then(|k| terrains.get(k)).map_or("", |s| s))
+            match col {
+                Column::Time => numbers::push_time(buf, v),
+                Column::Fixed(digits) => {
+                    let bits = v.to_bits();
+                    match &self.last[k] {
+                        Some((b, text)) if *b == bits => text.push_to(buf),
+                        _ => match numbers::fixed_text(v, digits) {
+                            Some(text) => {
+                                text.push_to(buf);
+                                self.last[k] = Some((bits, text));
+                            }
+                            None => numbers::push_fixed(buf, v, digits),
+                        },
+                    }
+                }
+                Column::Flag => buf.push(if v != 0.0 { b'1' } else { b'0' }),
+                Column::Terrain => buf.extend_from_slice(
+                    r.terrain
+                        .and_then(|k| terrains.get(k))
+                        .map_or("", |s| s)
+                        .as_bytes(),
+                ),
             }
         }
+        buf.push(b'\n');
     }
-    buf.push('\n');
 }
 
 /// `v` as `estimate.csv` holds it: the number its text reads back as
 /// ([`Column::Fixed`] columns rounded to their decimals).
 pub fn as_written(v: f64, col: Column) -> f64 {
     match col {
-        Column::Fixed(digits) => match fixed(v, digits) {
+        Column::Fixed(digits) => match numbers::fixed(v, digits) {
             // Both exact in f64 and the division correctly rounded: the
             // nearest double to the decimal text, as parsing gives.
             Some((n, scale, negative)) => {
@@ -509,92 +533,5 @@ pub fn as_written(v: f64, col: Column) -> f64 {
             None => v,
         },
         _ => v,
-    }
-}
-
-/// `|v|` in units of the last of `digits` decimals, rounded, the scale and
-/// whether the text has a minus sign; `None` where it is too large for
-/// integer arithmetic or not finite.
-fn fixed(v: f64, digits: u32) -> Option<(u64, u64, bool)> {
-    let scale = 10u64.pow(digits);
-    let scaled = (v.abs() * scale as f64).round();
-    if !v.is_finite() || scaled >= 9.0e15 {
-        return None;
-    }
-    let n = scaled as u64;
-    Some((n, scale, v < 0.0 && n != 0))
-}
-
-/// Appends `v` with `digits` decimals. Integer arithmetic and digits
-/// written by hand: `format!` with a precision costs ~1 s per hour of 50 Hz
-/// rows, and even integer `format!` was a third of `estimate`'s time.
-fn push_fixed(buf: &mut String, v: f64, digits: u32) {
-    let Some((n, scale, negative)) = fixed(v, digits) else {
-        let _ = write!(buf, "{v:.*}", digits as usize);
-        return;
-    };
-    if negative {
-        buf.push('-');
-    }
-    // At most 16 digits before the point (n < 9e15) and 20 after.
-    let mut text = [b'0'; 40];
-    let (mut int, mut frac) = (n / scale, n % scale);
-    let point = 39 - digits as usize;
-    for d in text[point + 1..].iter_mut().rev() {
-        *d = b'0' + (frac % 10) as u8;
-        frac /= 10;
-    }
-    text[point] = b'.';
-    let mut start = point;
-    loop {
-        start -= 1;
-        text[start] = b'0' + (int % 10) as u8;
-        int /= 10;
-        if int == 0 {
-            break;
-        }
-    }
-    buf.push_str(std::str::from_utf8(&text[start..]).unwrap_or_default());
-}
-
-#[cfg(test)]
-mod tests {
-    use super::{as_written, push_fixed, Column};
-
-    #[test]
-    fn fixed_formatting_matches_format_and_reads_back_as_written() {
-        for v in [
-            0.0,
-            -0.0,
-            1.5,
-            -2.25,
-            0.123456789,
-            -0.00004,
-            123456.7,
-            1e300,
-            f64::NAN,
-            -1e-9,
-            -2.765432,
-            0.00015,
-        ] {
-            for d in [3, 4, 5, 6] {
-                let mut s = String::new();
-                push_fixed(&mut s, v, d);
-                let want = format!("{v:.*}", d as usize);
-                let want =
-                    if want.starts_with('-') && want[1..].chars().all(|c| c == '0' || c == '.') {
-                        want[1..].to_string()
-                    } else {
-                        want
-                    };
-                assert_eq!(s, want, "{v} {d}");
-                let read: f64 = s.parse().unwrap();
-                let got = as_written(v, Column::Fixed(d));
-                assert!(
-                    read == got || (read.is_nan() && got.is_nan()),
-                    "{v} {d}: {read} != {got}"
-                );
-            }
-        }
     }
 }

@@ -43,6 +43,33 @@ fn write_log(dir: &Path, name: &str, labelled: bool, cfg: &SynthConfig) -> std::
     p
 }
 
+/// `calibrate LOG --out PARAMS --method lm` and `extra`, which must succeed.
+fn calibrate_lm(log: &Path, params: &Path, extra: &[&OsStr]) -> Output {
+    let mut args = vec![
+        s("calibrate"),
+        log.as_os_str(),
+        s("--out"),
+        params.as_os_str(),
+        s("--method"),
+        s("lm"),
+    ];
+    args.extend_from_slice(extra);
+    terraslip(&args, true)
+}
+
+/// `calibrate validate LOG --params PARAMS` and `extra`, which must succeed.
+fn validate(log: &Path, params: &Path, extra: &[&OsStr]) -> Output {
+    let mut args = vec![
+        s("calibrate"),
+        s("validate"),
+        log.as_os_str(),
+        s("--params"),
+        params.as_os_str(),
+    ];
+    args.extend_from_slice(extra);
+    terraslip(&args, true)
+}
+
 fn json_of(out: &[u8]) -> serde_json::Value {
     let text = String::from_utf8(out.to_vec()).expect("utf8");
     assert_eq!(
@@ -58,18 +85,7 @@ fn calibrate_json_and_validate_json_follow_the_contract() {
     let d = tempfile::tempdir().expect("tempdir");
     let log = write_log(d.path(), "drive", false, &SynthConfig::p3at(150.0, 21));
     let params = d.path().join("params.json");
-    let out = terraslip(
-        &[
-            s("calibrate"),
-            log.as_os_str(),
-            s("--out"),
-            params.as_os_str(),
-            s("--method"),
-            s("lm"),
-            s("--json"),
-        ],
-        true,
-    );
+    let out = calibrate_lm(&log, &params, &[s("--json")]);
     let j = json_of(&out.stdout);
     // stderr is a pipe here: progress comes as plain lines, one per stage.
     let err = String::from_utf8_lossy(&out.stderr);
@@ -93,19 +109,7 @@ fn calibrate_json_and_validate_json_follow_the_contract() {
     assert_eq!(file["params"], j["params"]);
 
     let svg = d.path().join("v.svg");
-    let out = terraslip(
-        &[
-            s("calibrate"),
-            s("validate"),
-            log.as_os_str(),
-            s("--params"),
-            params.as_os_str(),
-            s("--json"),
-            s("--plot"),
-            svg.as_os_str(),
-        ],
-        true,
-    );
+    let out = validate(&log, &params, &[s("--json"), s("--plot"), svg.as_os_str()]);
     let v = json_of(&out.stdout);
     assert!(v["segments"].as_u64().is_some_and(|n| n > 50));
     for m in ["mse", "nominal_mse"] {
@@ -121,6 +125,27 @@ fn calibrate_json_and_validate_json_follow_the_contract() {
     assert_eq!(v["constant_mse"], v["mse"]);
     let svg_text = std::fs::read_to_string(&svg).expect("plot written");
     assert!(svg_text.contains("<svg"));
+}
+
+#[test]
+fn validate_repeats_the_warnings_of_the_calibration() {
+    let d = tempfile::tempdir().expect("tempdir");
+    let log = write_log(d.path(), "drive", false, &SynthConfig::p3at(150.0, 21));
+    let params = d.path().join("params.json");
+    calibrate_lm(&log, &params, &[]);
+    // A fit at a limit, as calibrate records it in the file.
+    let mut file: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&params).expect("read")).expect("json");
+    let edge = "drive: the time offset +0.500 s is at the edge of its search range (±0.5 s)";
+    file["warnings"] = serde_json::json!([edge]);
+    std::fs::write(&params, file.to_string()).expect("write");
+    let out = validate(&log, &params, &[]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.lines()
+            .any(|l| l.starts_with("warning: ") && l.contains(edge) && l.contains("params.json")),
+        "{err}"
+    );
 }
 
 #[test]

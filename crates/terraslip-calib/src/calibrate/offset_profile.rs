@@ -47,32 +47,52 @@ pub(super) fn refine_offset(
     offset::parabolic_minimum(&curve, STEP).unwrap_or(offset)
 }
 
+/// Most segments each quick fit of the profile uses; a longer drive's
+/// common segments are thinned to this many, evenly spread
+/// ([`Segments::evenly_spread`]), each fit then integrating only their
+/// steps. A 600 s drive has about 600.
+const PROFILE_SEGMENTS: usize = 2000;
+
 /// `(offset, trimmed residual)` of a quick per-terrain LM fit at each
-/// offset of `grid`, all on the same segments.
+/// offset of `grid`, all on the same segments. One offset's segments are
+/// in memory at a time.
 fn profile(log: &DriveLog, cfg: &SegmentConfig, grid: &[f64], yaw_weight: f64) -> Vec<(f64, f64)> {
-    let all = offset::common_segments(log, grid, cfg);
-    let Some(first) = all.first() else {
-        return Vec::new();
-    };
-    let width = match log.meta.track_width.or_else(|| spread_from_yaw(first)) {
-        Some(w) => w,
-        None => return Vec::new(),
-    };
-    let mut names: Vec<Option<String>> = Vec::new();
-    for s in &first.segments {
-        if !names.contains(&s.terrain) {
-            names.push(s.terrain.clone());
-        }
-    }
+    let keys = offset::common_keys(log, grid, cfg);
     let quick = LmConfig {
         irls_rounds: 2,
         ..LmConfig::default()
     };
-    // Warm start from the previous offset's fit: neighbouring offsets have
-    // neighbouring parameters.
-    let mut starts: Vec<IcrParams> = vec![IcrParams::no_slip(width); names.len()];
+    // Terrain names and the starting width, from the first offset's
+    // segments (every offset has the same ones).
+    let mut names: Vec<Option<String>> = Vec::new();
+    let mut starts: Vec<IcrParams> = Vec::new();
     let mut curve = Vec::new();
-    for (segs, &t) in all.iter().zip(grid) {
+    for (k, &t) in grid.iter().enumerate() {
+        let mut segs = offset::segments_among(log, t, cfg, &keys);
+        if segs.len() > PROFILE_SEGMENTS {
+            segs = segs.subset(&Segments::evenly_spread(
+                &vec![true; segs.len()],
+                PROFILE_SEGMENTS,
+            ));
+        }
+        if k == 0 {
+            if segs.is_empty() {
+                return Vec::new();
+            }
+            let width = match log.meta.track_width.or_else(|| spread_from_yaw(&segs)) {
+                Some(w) => w,
+                None => return Vec::new(),
+            };
+            for s in &segs.segments {
+                if !names.contains(&s.terrain) {
+                    names.push(s.terrain.clone());
+                }
+            }
+            // Warm start from the previous offset's fit: neighbouring
+            // offsets have neighbouring parameters.
+            starts = vec![IcrParams::no_slip(width); names.len()];
+        }
+        let segs = &segs;
         let mut sq: Vec<f64> = Vec::new();
         for (name, start) in names.iter().zip(starts.iter_mut()) {
             let active: Vec<bool> = segs.segments.iter().map(|s| s.terrain == *name).collect();

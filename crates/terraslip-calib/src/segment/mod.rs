@@ -457,6 +457,42 @@ impl Segments {
         keep
     }
 
+    /// At most `bound` of the segments `mask` selects, evenly spread over
+    /// them in their order (every selected one when there are no more
+    /// than `bound`): a long drive's evidence at a bounded cost.
+    pub fn evenly_spread(mask: &[bool], bound: usize) -> Vec<bool> {
+        let chosen: Vec<usize> = (0..mask.len()).filter(|&i| mask[i]).collect();
+        if chosen.len() <= bound {
+            return mask.to_vec();
+        }
+        let mut keep = vec![false; mask.len()];
+        for k in 0..bound {
+            // The k-th of `bound` equal shares of the selected ones.
+            keep[chosen[k * chosen.len() / bound]] = true;
+        }
+        keep
+    }
+
+    /// The segments `keep` selects, each with a copy of its own steps, so
+    /// that integrating the result walks only their steps, not the whole
+    /// drive's. Their residuals are those of the originals.
+    pub fn subset(&self, keep: &[bool]) -> Segments {
+        let mut out = Segments {
+            stats: self.stats,
+            per_log: self.per_log.clone(),
+            ..Default::default()
+        };
+        for (seg, _) in self.segments.iter().zip(keep).filter(|(_, &k)| k) {
+            let start = out.steps.len();
+            out.steps.extend_from_slice(self.steps_of(seg));
+            out.segments.push(Segment {
+                steps: start..out.steps.len(),
+                ..seg.clone()
+            });
+        }
+        out
+    }
+
     /// The steps of one segment.
     pub fn steps_of(&self, seg: &Segment) -> &[Step] {
         &self.steps[seg.steps.clone()]

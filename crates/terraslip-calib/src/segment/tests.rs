@@ -181,3 +181,48 @@ fn segments_across_a_terrain_change_are_skipped() {
     assert_eq!(s.stats.terrain_change, 1);
     assert!(s.segments.iter().any(|x| x.terrain.as_deref() == Some("b")));
 }
+
+#[test]
+fn a_long_drive_is_thinned_evenly_and_a_short_one_kept_whole() {
+    // 1000 selected of 1500: every third left out.
+    let mask: Vec<bool> = (0..1500).map(|i| i % 3 != 2).collect();
+    assert_eq!(Segments::evenly_spread(&mask, 1000), mask);
+    assert_eq!(Segments::evenly_spread(&mask, 5000), mask);
+    let keep = Segments::evenly_spread(&mask, 100);
+    assert_eq!(keep.iter().filter(|&&k| k).count(), 100);
+    // Only selected ones, one in each tenth of the selection.
+    assert!(keep.iter().zip(&mask).all(|(&k, &m)| !k || m));
+    let at: Vec<usize> = (0..keep.len()).filter(|&i| keep[i]).collect();
+    assert_eq!(at[0], 0);
+    for (k, w) in at.windows(2).enumerate() {
+        // 10 selected (15 in all) apart, give or take the left-out ones.
+        assert!((14..=16).contains(&(w[1] - w[0])), "{k}: {w:?}");
+    }
+    for tenth in 0..10 {
+        let n = at.iter().filter(|&&i| i / 150 == tenth).count();
+        assert_eq!(n, 10, "tenth {tenth}");
+    }
+}
+
+#[test]
+fn a_subset_keeps_its_segments_increments_with_only_their_steps() {
+    let log = straight_log(1.0, 40.0);
+    let s = Segments::build(&[&log], &[0.0], &SegmentConfig::default());
+    let keep: Vec<bool> = (0..s.len()).map(|i| i % 4 == 1).collect();
+    let sub = s.subset(&keep);
+    let kept: Vec<&Segment> = s
+        .segments
+        .iter()
+        .zip(&keep)
+        .filter(|(_, &k)| k)
+        .map(|(g, _)| g)
+        .collect();
+    assert_eq!(sub.len(), kept.len());
+    let total: usize = kept.iter().map(|g| g.steps.len()).sum();
+    assert_eq!(sub.steps.len(), total);
+    assert!(sub.steps.len() < s.steps.len() / 3);
+    for (a, b) in sub.segments.iter().zip(kept) {
+        assert_eq!((a.t0, a.t1, a.reference), (b.t0, b.t1, b.reference));
+        assert_eq!(sub.steps_of(a), s.steps_of(b));
+    }
+}

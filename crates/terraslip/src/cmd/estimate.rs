@@ -244,26 +244,31 @@ fn progress(total: u64, unit: &str) -> Progress {
 /// The files `estimate` writes into its output directory.
 const OUTPUTS: [&str; 2] = ["estimate.csv", "summary.json"];
 
+/// Bytes of `estimate.csv` gathered before each write.
+const CSV_CHUNK: usize = 1 << 18;
+
 /// `estimate.csv` being written, row by row, under a temporary name.
 struct CsvSink {
     file: AtomicFile,
-    buf: String,
+    buf: Vec<u8>,
+    rows: terraslip::estimate::RowWriter,
 }
 
 impl CsvSink {
     fn create(path: &Path) -> Result<Self> {
-        let mut buf = String::with_capacity(1 << 16);
-        buf.push_str(&terraslip::estimate::header());
-        buf.push('\n');
+        let mut buf = Vec::with_capacity(CSV_CHUNK + 4096);
+        buf.extend_from_slice(terraslip::estimate::header().as_bytes());
+        buf.push(b'\n');
         Ok(Self {
             file: AtomicFile::create(path)?,
             buf,
+            rows: Default::default(),
         })
     }
 
     fn flush_buf(&mut self) -> Result<(), PipelineError> {
         self.file
-            .write_all(self.buf.as_bytes())
+            .write_all(&self.buf)
             .map_err(|source| PipelineError::Write {
                 path: self.file.path().display().to_string(),
                 source,
@@ -275,8 +280,8 @@ impl CsvSink {
 
 impl RowSink for CsvSink {
     fn row(&mut self, terrains: &[String], r: &EstimateRow) -> Result<(), PipelineError> {
-        terraslip::estimate::write_row(&mut self.buf, terrains, r);
-        if self.buf.len() > 60_000 {
+        self.rows.write(&mut self.buf, terrains, r);
+        if self.buf.len() > CSV_CHUNK {
             self.flush_buf()?;
         }
         Ok(())

@@ -48,6 +48,13 @@ pub(super) struct ValidateArgs {
 pub(super) fn run(a: ValidateArgs) -> anyhow::Result<()> {
     let params = ParamsFile::read(&a.params)
         .with_context(|| format!("reading parameters {}", a.params.display()))?;
+    // The limits the fit hit hold for these scores too.
+    for w in params.warnings() {
+        eprintln!(
+            "warning: {w} (from the calibration, {})",
+            a.params.display()
+        );
+    }
     let cfg = ValidateConfig {
         segment: a.seg.config()?,
         time_offset: parse_offset(&a.time_offset, "`params`, `auto` or seconds")?,

@@ -244,13 +244,20 @@ impl Estimator {
             self.filter.break_gyro();
             return Ok(());
         };
-        match self.filter.add_gyro(rate * dt, per_s * dt) {
-            Ok(_) => Ok(()),
+        let r = self.filter.add_gyro(rate * dt, per_s * dt).map(|_| ());
+        self.count_refused(r)
+    }
+
+    /// Bad input is an error; any other failed update is refused (the
+    /// filter unchanged) and counted.
+    fn count_refused(&mut self, r: Result<(), FilterError>) -> Result<(), FilterError> {
+        match r {
             Err(FilterError::BadInput(what)) => Err(FilterError::BadInput(what)),
             Err(_) => {
                 self.counts.refused += 1;
                 Ok(())
             }
+            Ok(()) => Ok(()),
         }
     }
 
@@ -329,11 +336,11 @@ impl Estimator {
         self.pending[i] = None;
         self.pending_len -= 1;
         let now = self.t.unwrap_or(p.t);
-        match self.filter.update(p.t, now - p.t, &p.fix) {
-            Ok(rep) => self.record(&rep),
-            Err(FilterError::BadInput(what)) => return Err(FilterError::BadInput(what)),
-            Err(_) => self.counts.refused += 1,
+        let r = self.filter.update(p.t, now - p.t, &p.fix);
+        if let Ok(rep) = &r {
+            self.record(rep);
         }
+        self.count_refused(r.map(|_| ()))?;
         self.schedule.on_update(&mut self.filter);
         Ok(())
     }

@@ -107,13 +107,10 @@ impl Estimator {
 
     /// A yaw-rate gyro sample `rate` (rad/s, counter-clockwise about body
     /// z) at `t` (s, the wheels' clock); the samples between two wheels
-    /// rows are averaged. Ignored when the configuration's
-    /// `measurement.std_gyro` is 0.
+    /// rows are integrated. The filter leaves it out when the
+    /// configuration's `measurement.std_gyro` is 0.
     fn on_gyro(&mut self, t: f64, rate: f64) -> PyResult<()> {
         guard(|| {
-            if self.cfg.measurement.std_gyro == 0.0 {
-                return Ok(());
-            }
             self.est
                 .on_gyro(t, rate)
                 .map_err(|e| PyValueError::new_err(format!("gyro sample at t = {t}: {e}")))

@@ -189,11 +189,9 @@ pub fn estimate_streamed(
     let mut no_pose = std::iter::empty();
     let mut no_gyro = std::iter::empty();
     // The gyro's clock against the wheels', from the first minutes.
-    use pipeline::GyroClock;
     let fuse = gyro.as_ref().is_some_and(|g| g.has_gyro()) && cfg.measurement.std_gyro > 0.0;
     let clock = fuse.then(|| pipeline::gyro_delay_in(&log.dir));
-    let clock = clock.unwrap_or(GyroClock::Unknown);
-    gyro = gyro.filter(|_| !matches!(clock, GyroClock::NotYaw(_)));
+    let clock = clock.unwrap_or(pipeline::GyroClock::Unknown);
     let run = {
         let mut counted = Counted {
             inner: &mut wheels,
@@ -211,7 +209,7 @@ pub fn estimate_streamed(
                 Some(g) => g,
                 None => &mut no_gyro,
             },
-            gyro_delay: pipeline::gyro_delay_of(clock),
+            gyro_clock: clock,
         };
         pipeline::run_streams(
             &log,
@@ -235,7 +233,6 @@ pub fn estimate_streamed(
     log.warnings.extend(wheels.warnings());
     log.warnings.extend(pose.iter().flat_map(|p| p.warnings()));
     log.warnings.extend(gyro.iter().flat_map(|g| g.warnings()));
-    log.warnings.extend(pipeline::gyro_warning(&log.dir, clock));
     let est = finish(&log, run, &cfg, evidence_name, notes);
     Ok((log, est))
 }

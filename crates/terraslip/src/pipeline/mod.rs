@@ -272,21 +272,16 @@ pub fn run_with(
             .iter()
             .filter_map(|s| s.gyro_z.map(|g| Ok((s.t, g))))
     };
-    let clock = if cfg.measurement.std_gyro > 0.0 {
+    let gyro_clock = if cfg.measurement.std_gyro > 0.0 {
         gyro_delay(&mut log.wheels.iter().copied().map(Ok), &mut gyro())
     } else {
         GyroClock::Unknown
     };
-    let mut no_gyro = std::iter::empty();
-    let mut some_gyro = gyro();
     let streams = Streams {
         wheels: &mut log.wheels.iter().copied().map(Ok),
         pose: &mut log.pose.iter().cloned().map(Ok),
-        gyro: match clock {
-            GyroClock::NotYaw(_) => &mut no_gyro,
-            _ => &mut some_gyro,
-        },
-        gyro_delay: gyro_delay_of(clock),
+        gyro: &mut gyro(),
+        gyro_clock,
     };
     let mut run = run_streams(
         log,
@@ -300,7 +295,6 @@ pub fn run_with(
     )?;
     progress(total, total);
     run.rows = rows;
-    run.warnings.extend(gyro_warning(&log.dir, clock));
     Ok(run)
 }
 
@@ -338,8 +332,21 @@ pub fn run_streams(
         mut warnings,
     } = setup::setup(log, cfg, evidence, init)?;
     let mut pose = streams.pose.peekable();
-    let mut gyro = streams.gyro.peekable();
-    let delay = streams.gyro_delay;
+    // The gyro is fused when configured and when it is the body's yaw
+    // rate; its samples are moved onto the wheels' clock.
+    let mut no_gyro = std::iter::empty();
+    let (gyro, delay): (&mut dyn Iterator<Item = _>, f64) = match streams.gyro_clock {
+        _ if cfg.measurement.std_gyro == 0.0 => (&mut no_gyro, 0.0),
+        GyroClock::NotYaw(c) => {
+            warnings.push(format!(
+                "{dir}: the gyro (imu gyro_z) does not follow the tread speed difference at any delay within 1 s (best correlation {c:.2}), so it is not fused; it is not the body's yaw rate: check the IMU's mounting (for a bag, `[imu] mount_rpy_deg` in the topics file)"
+            ));
+            (&mut no_gyro, 0.0)
+        }
+        GyroClock::Delay(d) => (streams.gyro, d),
+        GyroClock::Unknown => (streams.gyro, 0.0),
+    };
+    let mut gyro = gyro.peekable();
     if pose.peek().is_none() {
         warnings.push(format!(
             "{dir}: no pose observations: dead reckoning from the origin with the initial ICRs"
@@ -371,25 +378,6 @@ pub fn run_streams(
             gyro_delay: delay,
         },
     ))
-}
-
-/// The delay the gyro's samples are moved by (0 when it cannot be told).
-pub fn gyro_delay_of(clock: GyroClock) -> f64 {
-    match clock {
-        GyroClock::Delay(d) => d,
-        _ => 0.0,
-    }
-}
-
-/// The warning for a gyro that is not the body's yaw rate.
-pub fn gyro_warning(dir: &std::path::Path, clock: GyroClock) -> Option<String> {
-    match clock {
-        GyroClock::NotYaw(c) => Some(format!(
-            "{}: the gyro (imu gyro_z) does not follow the tread speed difference at any delay within 1 s (best correlation {c:.2}), so it is not fused; it is not the body's yaw rate: check the IMU's mounting (for a bag, `[imu] mount_rpy_deg` in the topics file)",
-            dir.display()
-        )),
-        _ => None,
-    }
 }
 
 /// What the set-up decided, carried into the result.

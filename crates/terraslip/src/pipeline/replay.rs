@@ -31,14 +31,13 @@ impl RowSink for Vec<EstimateRow> {
 
 /// A log's wheels rows, pose rows and gyro rates (`(t, gyro_z)`, s and
 /// rad/s), each in time order, as a run reads them (from memory, or from
-/// the files row by row), and how late the wheels are stamped against the
-/// gyro (s, [`super::gyro_delay`]): the gyro's samples are moved by it onto
-/// the wheels' clock.
+/// the files row by row), and what the drive's start says of the gyro's
+/// clock ([`super::gyro_delay`]; `Unknown` when it was not looked at).
 pub struct Streams<'a> {
     pub wheels: &'a mut dyn Iterator<Item = Result<WheelSample, LogError>>,
     pub pose: &'a mut dyn Iterator<Item = Result<PoseObs, LogError>>,
     pub gyro: &'a mut dyn Iterator<Item = Result<(f64, f64), LogError>>,
-    pub gyro_delay: f64,
+    pub gyro_clock: super::GyroClock,
 }
 
 type Pose<'a> = Peekable<&'a mut dyn Iterator<Item = Result<PoseObs, LogError>>>;
@@ -175,9 +174,7 @@ pub(super) fn replay(
         while let Some(g) = gyro.next_if(|g| g.as_ref().map_or(true, |g| g.0 + gyro_delay <= w.t)) {
             let (t, rate) = g?;
             let t = t + gyro_delay;
-            if cfg.measurement.std_gyro > 0.0 {
-                estimator.on_gyro(t, rate).map_err(|e| filter_err(t, e))?;
-            }
+            estimator.on_gyro(t, rate).map_err(|e| filter_err(t, e))?;
         }
         // Starts of the prediction before this row take the previous
         // row's parameters (those in effect then).

@@ -291,7 +291,9 @@ mod tests {
         // Times of a 50 Hz log, and numbers of every magnitude and pattern.
         values.extend((0..20_000).map(|k| k as f64 * 0.02));
         values.extend((0..20_000).map(|k| 1.7e9 + k as f64 * 0.001));
-        // Exactly halfway between two texts of the shortest length.
+        // Exactly halfway between two texts of the shortest length (the
+        // digits past f64's precision are the point).
+        #[allow(clippy::excessive_precision)]
         values.extend([1658206780088562.2, 10000000000000.0625, 68719476736.0078125]);
         for f in 1..12 {
             let q = 0.5f64.powi(f);

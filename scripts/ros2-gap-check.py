@@ -1,18 +1,28 @@
 #!/usr/bin/env python3
-"""GNSS gaps on a log imported from a bag: the estimate against dead reckoning
-on the recorded wheel odometry, scored on the held-out fixes.
+"""GNSS gaps on a log imported from a bag: the estimate against dead reckoning,
+scored on the held-out fixes.
 
-For each window [T0, T0+L) the fixes inside are dropped (`estimate --outage`);
-dead reckoning starts from the estimate's own pose at T0 and integrates the
-recorded odometry twist (v = (v_l+v_r)/2, w = (v_r-v_l)/S, S the controller's
-separation the log was imported with). Both are scored by the horizontal
-distance to each held-out fix. Pure Python; prints one line per window and the
-mean over windows.
+For each window [T0, T0+L) the fixes inside are dropped (`estimate --outage`).
+Two dead reckonings start from the estimate's own pose at T0, so that all
+three share the error they start with and differ only in how they carry the
+pose through the gap:
+
+* odometry: the recorded odometry twist, v = (v_l+v_r)/2, w = (v_r-v_l)/S, S
+  the controller's separation the log was imported with;
+* gyro (when imu.csv has gyro_z): the odometry's v along the raw gyro's
+  heading, the gyro moved onto the wheels' clock by the delay `estimate`
+  reports (summary.json gyro.wheels_late_by_s), its bias not removed.
+
+Each is scored by the RMS horizontal distance to the held-out fixes. Prints
+one line per window, then the mean over windows and how many windows the
+estimate wins against each. Pure Python.
 
 usage: ros2-gap-check.py TERRASLIP LOG S [LENGTH_S] [T0 ...] [-- ESTIMATE_ARGS ...]
-(ESTIMATE_ARGS, e.g. `--init params.json`, are passed to every `estimate`.)
+(ESTIMATE_ARGS, e.g. `--init params.json`, are passed to every `estimate`;
+T0 defaults to 60 120 180 240 300.)
 """
 import csv
+import json
 import math
 import os
 import subprocess
@@ -41,6 +51,30 @@ def interp(ts, vs, t):
     return vs[lo] + a * (vs[hi] - vs[lo])
 
 
+def dead_reckon(tw, speed, rate, k, t1, pose):
+    """Integrate speed(i) along the heading turned by rate(i) from row k to t1."""
+    x, y, yaw = pose
+    track = []
+    for i in range(k, len(tw) - 1):
+        if tw[i] >= t1:
+            break
+        v, w, dt = speed(i), rate(i), tw[i + 1] - tw[i]
+        x += v * math.cos(yaw + w * dt / 2) * dt
+        y += v * math.sin(yaw + w * dt / 2) * dt
+        yaw += w * dt
+        track.append((tw[i + 1], x, y))
+    return track
+
+
+def rms_to_fixes(track, fixes, t0, t1):
+    ts = [p[0] for p in track]
+    xs = [p[1] for p in track]
+    ys = [p[2] for p in track]
+    err = [math.hypot(interp(ts, xs, t) - e, interp(ts, ys, t) - n)
+           for t, e, n in fixes if t0 <= t < t1 and ts and ts[0] <= t <= ts[-1]]
+    return math.sqrt(sum(e * e for e in err) / len(err)), len(err)
+
+
 def main():
     argv, extra = sys.argv, []
     if "--" in argv:
@@ -50,53 +84,48 @@ def main():
     length = float(argv[4]) if len(argv) > 4 else 30.0
     starts = [float(x) for x in argv[5:]] or [60, 120, 180, 240, 300]
     wheels = rows(os.path.join(log, "wheels.csv"))
-    fixes = [r for r in rows(os.path.join(log, "pose.csv")) if r["east"]]
+    fixes = [(float(r["t"]), float(r["east"]), float(r["north"]))
+             for r in rows(os.path.join(log, "pose.csv")) if r["east"]]
     tw = [float(r["t"]) for r in wheels]
-    tot = {"est": [], "dr": []}
+    vl = [float(r["v_left"]) for r in wheels]
+    vr = [float(r["v_right"]) for r in wheels]
+    imu_path = os.path.join(log, "imu.csv")
+    imu = rows(imu_path) if os.path.exists(imu_path) else []
+    gyro = [(float(r["t"]), float(r["gyro_z"])) for r in imu if r.get("gyro_z")]
+    names = ["estimate", "odometry"] + (["gyro"] if gyro else [])
+    tot = {n: [] for n in names}
     for t0 in starts:
         t1 = t0 + length
         with tempfile.TemporaryDirectory() as d:
             subprocess.run([exe, "estimate", log, "--out", d, "--outage", f"{t0},{t1}"] + extra,
                            check=True, stderr=subprocess.DEVNULL)
             est = rows(os.path.join(d, "estimate.csv"))
-        te = [float(r["t"]) for r in est]
-        e_e = [float(r["east"]) for r in est]
-        e_n = [float(r["north"]) for r in est]
-        e_y = [math.atan2(math.sin(float(r["yaw"])), math.cos(float(r["yaw"]))) for r in est]
-        # dead reckoning from the estimate's pose at the last row before t0
+            with open(os.path.join(d, "summary.json")) as f:
+                late = (json.load(f).get("gyro") or {}).get("wheels_late_by_s", 0.0)
         k = max(i for i, t in enumerate(tw) if t <= t0)
-        x, y, yaw = e_e[k], e_n[k], e_y[k]
-        dr = []
-        for i in range(k, len(wheels) - 1):
-            if tw[i] >= t1:
-                break
-            vl, vr = float(wheels[i]["v_left"]), float(wheels[i]["v_right"])
-            v, w = (vl + vr) / 2, (vr - vl) / sep
-            dt = tw[i + 1] - tw[i]
-            x += v * math.cos(yaw + w * dt / 2) * dt
-            y += v * math.sin(yaw + w * dt / 2) * dt
-            yaw += w * dt
-            dr.append((tw[i + 1], x, y))
-        dts = [p[0] for p in dr]
-        err = {"est": [], "dr": []}
-        for f in fixes:
-            t = float(f["t"])
-            if t0 <= t < t1 and dts and dts[0] <= t <= dts[-1]:
-                fe, fn = float(f["east"]), float(f["north"])
-                err["est"].append(math.hypot(interp(te, e_e, t) - fe, interp(te, e_n, t) - fn))
-                err["dr"].append(math.hypot(interp(dts, [p[1] for p in dr], t) - fe,
-                                            interp(dts, [p[2] for p in dr], t) - fn))
-        rms = {k: math.sqrt(sum(e * e for e in v) / len(v)) for k, v in err.items()}
-        end = {k: v[-1] for k, v in err.items()}
-        for k in tot:
-            tot[k].append((rms[k], end[k]))
-        print(f"gap [{t0:.0f}, {t1:.0f}) s, {len(err['est'])} held-out fixes: "
-              f"estimate RMS {rms['est']:.2f} m (end {end['est']:.2f} m), "
-              f"odometry dead reckoning RMS {rms['dr']:.2f} m (end {end['dr']:.2f} m)")
-    n = len(starts)
-    print(f"mean over {n} gaps: estimate RMS {sum(r for r, _ in tot['est']) / n:.2f} m, "
-          f"end {sum(e for _, e in tot['est']) / n:.2f} m; dead reckoning RMS "
-          f"{sum(r for r, _ in tot['dr']) / n:.2f} m, end {sum(e for _, e in tot['dr']) / n:.2f} m")
+        yaw = float(est[k]["yaw"])
+        start = (float(est[k]["east"]), float(est[k]["north"]), math.atan2(math.sin(yaw), math.cos(yaw)))
+        tracks = {
+            "estimate": [(float(r["t"]), float(r["east"]), float(r["north"])) for r in est],
+            "odometry": dead_reckon(tw, lambda i: (vl[i] + vr[i]) / 2,
+                                    lambda i: (vr[i] - vl[i]) / sep, k, t1, start),
+        }
+        if gyro:
+            tg = [t - late for t, _ in gyro]
+            gz = [g for _, g in gyro]
+            tracks["gyro"] = dead_reckon(tw, lambda i: (vl[i] + vr[i]) / 2,
+                                         lambda i: interp(tg, gz, tw[i]), k, t1, start)
+        line, n_fixes = [], 0
+        for n in names:
+            rms, n_fixes = rms_to_fixes(tracks[n], fixes, t0, t1)
+            tot[n].append(rms)
+            line.append(f"{n} {rms:.2f} m")
+        print(f"gap [{t0:.0f}, {t1:.0f}) s, {n_fixes} held-out fixes, RMS: " + ", ".join(line))
+    count = len(starts)
+    means = ", ".join(f"{n} {sum(tot[n]) / count:.2f} m" for n in names)
+    wins = ", ".join(f"against {n} {sum(e <= b for e, b in zip(tot['estimate'], tot[n]))}/{count}"
+                     for n in names[1:])
+    print(f"mean over {count} gaps: {means}; the estimate wins {wins}")
 
 
 if __name__ == "__main__":

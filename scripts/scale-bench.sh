@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Scale of `estimate` and `calibrate` on a ~200 MB wheels.csv: wall time,
+# Scale of `estimate`, `calibrate` and `calibrate validate --time-offset auto`
+# on a ~200 MB wheels.csv: wall time,
 # throughput and peak memory (GNU time's maximum resident set size).
 # Targets (docs/benchmarks.md): estimate >= 20 MB/s of CSV with a peak
 # under 100 MB; calibrate of that file in under 20 s.
@@ -39,3 +40,4 @@ measure() {
 }
 measure estimate "$bin" estimate "$work/log" --out "$work/est"
 measure calibrate "$bin" calibrate "$work/log" --out "$work/params.json"
+measure validate "$bin" calibrate validate --params "$work/params.json" --time-offset auto "$work/log"

@@ -198,9 +198,14 @@ pub fn validate(
         offsets.push(match cfg.time_offset {
             OffsetChoice::Fixed(o) => o,
             OffsetChoice::FromParams => stored_offset(params).unwrap_or(0.0),
-            OffsetChoice::Auto { max, step } => estimate_offset(log, &scfg, max, step)
-                .map(|x| x.0)
-                .unwrap_or(0.0),
+            // A long drive's offset is searched on evenly spread windows
+            // of it, as `calibrate` does.
+            OffsetChoice::Auto { max, step } => {
+                let windows = crate::offset::thinned(log, crate::offset::OFFSET_POSES);
+                estimate_offset(&windows, &scfg, max, step)
+                    .map(|x| x.0)
+                    .unwrap_or(0.0)
+            }
         });
     }
     let refs: Vec<&DriveLog> = logs.iter().collect();

@@ -354,12 +354,12 @@ pub fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) ->
             "learned": est.noise.learned,
         },
         // The yaw-rate gyro (imu.csv's gyro_z), null without one.
-        "gyro": (est.gyro.fused + est.gyro.gated > 0).then(|| serde_json::json!({
+        "gyro": (est.gyro.fused > 0).then(|| serde_json::json!({
             "std_rad_s": est.gyro.std,
             "bias_rad_s": est.gyro.bias,
             "bias_std_rad_s": est.gyro.bias_std,
             "windows_fused": est.gyro.fused,
-            "windows_gated": est.gyro.gated,
+            "windows_widened": est.gyro.widened,
             "wheels_late_by_s": est.gyro_delay,
         })),
         "terrain_changes": est.changes.iter().map(|c| serde_json::json!({

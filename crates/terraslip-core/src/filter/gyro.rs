@@ -38,6 +38,9 @@ pub const GYRO_WINDOW: f64 = 0.5;
 const MIN_STD_GYRO: f64 = 1e-4;
 /// Windows behind the noise belief before the gate applies.
 const GATE_WARMUP: f64 = 20.0;
+/// Heading change of the model over a window (rad) above which the
+/// window's residual says whether the model turns too little or too much.
+const MIN_DETECTOR_TURN: f64 = 0.05;
 
 /// What the filter has learned about its gyro.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -50,8 +53,9 @@ pub struct GyroNoise {
     pub bias_std: f64,
     /// Windows fused.
     pub fused: u64,
-    /// Windows rejected by the gate.
-    pub gated: u64,
+    /// Of those, windows whose turn the model missed by more than the gate
+    /// allows, fused with the model's heading error widened to fit.
+    pub widened: u64,
 }
 
 /// The gyro window being integrated.
@@ -184,18 +188,33 @@ impl Filter {
         let d = self.icr().guarded_spread();
         let r_tick = tick * tick / (3.0 * d * d);
         let r = r_nom * self.gyro_noise.sensor() + w.model_var + r_tick;
-        let C = w.cross;
+        let mut C = w.cross;
         let ph = self.P * H;
-        let s = H.dot(&ph) + r + 2.0 * H.dot(&C);
+        let mut s = H.dot(&ph) + r + 2.0 * H.dot(&C);
         if !(s > 0.0 && s.is_finite()) {
             return Err(FilterError::SingularInnovation);
         }
-        let gated = nu * nu / s > self.cfg.gate_yaw && self.gyro_noise.count() >= GATE_WARMUP;
-        self.gyro_noise
-            .add((nu * nu).min(self.cfg.gate_yaw * s), s, r_nom, 0.0);
-        if gated {
+        self.detect_change(nu / libm::sqrt(s), m.d_yaw)?;
+        let beyond = nu * nu / s > self.cfg.gate_yaw && self.gyro_noise.count() >= GATE_WARMUP;
+        if !beyond {
+            // (Capped: before the gate applies, one window counts a gate's
+            // worth at most.)
+            self.gyro_noise
+                .add((nu * nu).min(self.cfg.gate_yaw * s), s, r_nom, 0.0);
+        } else {
+            // The model missed the window's turn by more than its assumed
+            // heading error allows (new ground, a spin): that error was
+            // larger. Widen it, in the measurement, in the yaw and in their
+            // covariance alike, until the window sits on the gate; the yaw
+            // then follows the gyro and the slip parameters learn little
+            // from the window. (`H` has no yaw entry: `P H'` is unchanged.)
+            let extra = nu * nu / self.cfg.gate_yaw - s;
+            s += extra;
+            if self.anchored[1] {
+                self.P[(YAW, YAW)] += extra;
+                C[YAW] += extra;
+            }
             self.gyro_counts[1] += 1;
-            return Ok(false);
         }
 
         // K = (P H' + C) / S with the rows of what must not learn zeroed;
@@ -224,6 +243,27 @@ impl Filter {
         Ok(true)
     }
 
+    /// The slip-change detector on the gyro windows. A wrong spread makes
+    /// the model turn too little or too much whichever way the robot
+    /// turns, so the normalised residual `z` of a turning window is signed
+    /// by the model's turn `d_yaw` (rad): new ground shows as a run of one
+    /// sign, a bias error (the same sign whichever way) averages out.
+    fn detect_change(&mut self, z: f64, d_yaw: f64) -> Result<(), FilterError> {
+        let turning = libm::fabs(d_yaw) > MIN_DETECTOR_TURN;
+        if !(turning && self.cfg.learn_icr && !self.still && self.anchored[1])
+            || self.gyro_noise.count() < super::update::DETECTOR_WARMUP
+        {
+            return Ok(());
+        }
+        let z = if d_yaw > 0.0 { z } else { -z };
+        let stat = self.detector[2].push(self.elapsed, [z, 0.0], 1, self.cfg.change_window);
+        if stat.is_some_and(|s| s > self.cfg.change_threshold) {
+            self.raise_slip_uncertainty()?;
+            self.gyro_change = true;
+        }
+        Ok(())
+    }
+
     /// The gyro as learned (all zero before the first gyro window).
     pub fn gyro_noise(&self) -> GyroNoise {
         if !self.gyro_seen {
@@ -235,7 +275,7 @@ impl Filter {
             bias: self.x[GYRO_BIAS],
             bias_std: libm::sqrt(self.P[(GYRO_BIAS, GYRO_BIAS)].max(0.0)),
             fused: self.gyro_counts[0],
-            gated: self.gyro_counts[1],
+            widened: self.gyro_counts[1],
         }
     }
 

@@ -146,6 +146,8 @@ struct Chord {
     start: (f64, f64),
     /// Dead-reckoned displacement since, in the filter's (unanchored) frame, m.
     odo: (f64, f64),
+    /// Heading the model turned through since, rad (its sum of `|omega dt|`).
+    turned: f64,
 }
 
 /// The estimator's filter: state, covariance and what it has learned about
@@ -180,7 +182,14 @@ pub struct Filter {
     noise_started: [bool; 2],
     /// Std of the correlated part of the position error in effect, m.
     bias_std: f64,
-    detector: [Detector; 2],
+    /// Slip-change detectors on the position fixes, the heading fixes and
+    /// the gyro windows.
+    detector: [Detector; 3],
+    /// Time driven through by the predictions, s (the gyro detector's
+    /// clock).
+    elapsed: f64,
+    /// The gyro's detector fired since the last fix's report.
+    gyro_change: bool,
     /// Pose parts taken from a fix yet (position, heading).
     anchored: [bool; 2],
     chord: Option<Chord>,
@@ -199,7 +208,7 @@ pub struct Filter {
     /// heading error over it and the part the yaw took (rad^2): what a
     /// gyro's heading change over that step shares with the state.
     last_step: (f64, f64, f64),
-    /// Gyro rates fused and gated.
+    /// Gyro windows fused, and of those widened.
     gyro_counts: [u64; 2],
 }
 
@@ -298,7 +307,9 @@ impl Filter {
             basis: [0.0; 2],
             noise_started: [false; 2],
             bias_std: 0.0,
-            detector: [Detector::new(), Detector::new()],
+            detector: [Detector::new(), Detector::new(), Detector::new()],
+            elapsed: 0.0,
+            gyro_change: false,
             anchored: [false; 2],
             chord: None,
             heading_seen: false,

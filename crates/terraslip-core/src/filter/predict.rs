@@ -22,6 +22,7 @@ impl Filter {
             self.last_step = (0.0, 0.0, 0.0);
             return Ok(());
         }
+        self.elapsed += dt;
         let u = TreadInput { v_left, v_right };
         // The ground takes a new turn up with a lag: the law reads the
         // tread speed difference low-passed.
@@ -114,6 +115,7 @@ impl Filter {
         if let Some(c) = self.chord.as_mut() {
             c.odo.0 += ve * dt;
             c.odo.1 += vn * dt;
+            c.turned += libm::fabs(twist.omega * dt);
         }
         self.x = x;
         self.x[BIAS_E] *= phi;

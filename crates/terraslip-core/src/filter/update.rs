@@ -41,7 +41,7 @@ const GATE_WARMUP: f64 = 2.0;
 
 /// Fixes of each kind before the slip-change detector trusts the learned
 /// noise enough to test (the noise scale must have settled first).
-const DETECTOR_WARMUP: f64 = 20.0;
+pub(super) const DETECTOR_WARMUP: f64 = 20.0;
 
 impl Filter {
     /// Fuses a pose fix stamped `t` (s, the pose stream's clock) that is
@@ -154,6 +154,7 @@ impl Filter {
                 self.chord = Some(Chord {
                     start: (z[0], z[1]),
                     odo: (0.0, 0.0),
+                    turned: 0.0,
                 });
             }
         }
@@ -198,6 +199,7 @@ impl Filter {
             }
             report.change = true;
         }
+        report.change |= core::mem::take(&mut self.gyro_change);
         report.nis_position = nis[0];
         report.nis_yaw = nis[1];
 
@@ -270,9 +272,15 @@ impl Filter {
                 self.chord = Some(Chord {
                     start: (z[0], z[1]),
                     odo: (0.0, 0.0),
+                    turned: 0.0,
                 });
                 self.raise_slip_uncertainty()?;
             }
+        }
+        if report.position == Fate::Gated && !self.anchored[1] {
+            // The chord is made of every fix, gated or not: the prediction
+            // a fix failed rests on the heading the chord is to find.
+            self.find_heading(Vector2::new(z[0], z[1]), libm::sqrt(r[0]));
         }
         if !use_pos && !use_yaw {
             return Ok(report);
@@ -520,7 +528,12 @@ impl Filter {
         }
         let turn = libm::atan2(g.1, g.0) - libm::atan2(c.odo.1, c.odo.0);
         self.x[YAW] = angle::wrap(self.x[YAW] + turn);
-        let sd = 2.0 * std_xy / lg;
+        // The fixes' noise across the chord, and the model's turning over
+        // it: a turning gain wrong by its relative uncertainty turns the
+        // dead-reckoned chord by up to that much of the heading turned.
+        let gain = self.spread_std() / self.icr().guarded_spread();
+        let sd = libm::hypot(2.0 * std_xy / lg, gain * c.turned);
+
         isolate(&mut self.P, YAW, sd * sd);
         self.gyro_win.close();
         self.anchored[1] = true;

@@ -13,15 +13,10 @@ ratio of GNSS speed to odometry speed at that lag. Pure Python.
 usage: ros2-clock-check.py LOG [GYRO_COLUMN]   (default gyro_z)
 """
 import bisect
-import csv
 import math
-import os
 import sys
 
-
-def rows(log, name):
-    with open(os.path.join(log, name)) as f:
-        return list(csv.DictReader(f))
+from logcsv import rows
 
 
 def at(ts, vs, t):

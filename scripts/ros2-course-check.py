@@ -23,15 +23,10 @@ usage: ros2-course-check.py LOG S TRACK [DELAY]
 back by it.)
 """
 import bisect
-import csv
 import math
-import os
 import sys
 
-
-def rows(path):
-    with open(path) as f:
-        return list(csv.DictReader(f))
+from logcsv import rows
 
 
 def integral(ts, vs, a, b):
@@ -47,9 +42,9 @@ def integral(ts, vs, a, b):
 def main():
     log, sep, track = sys.argv[1], float(sys.argv[2]), float(sys.argv[3])
     delay = float(sys.argv[4]) if len(sys.argv) > 4 else 0.0
-    imu = rows(os.path.join(log, "imu.csv"))
-    wheels = rows(os.path.join(log, "wheels.csv"))
-    fixes = [r for r in rows(os.path.join(log, "pose.csv")) if r["east"]]
+    imu = rows(log, "imu.csv")
+    wheels = rows(log, "wheels.csv")
+    fixes = [r for r in rows(log, "pose.csv") if r["east"]]
     tg = [float(r["t"]) for r in imu]
     gz = [float(r["gyro_z"]) for r in imu]
     tw = [float(r["t"]) - delay for r in wheels]

@@ -21,7 +21,6 @@ usage: ros2-gap-check.py TERRASLIP LOG S [LENGTH_S] [T0 ...] [-- ESTIMATE_ARGS .
 (ESTIMATE_ARGS, e.g. `--init params.json`, are passed to every `estimate`;
 T0 defaults to 60 120 180 240 300.)
 """
-import csv
 import json
 import math
 import os
@@ -29,26 +28,7 @@ import subprocess
 import sys
 import tempfile
 
-
-def rows(path):
-    with open(path) as f:
-        return list(csv.DictReader(f))
-
-
-def interp(ts, vs, t):
-    lo, hi = 0, len(ts) - 1
-    if t <= ts[0]:
-        return vs[0]
-    if t >= ts[-1]:
-        return vs[-1]
-    while hi - lo > 1:
-        mid = (lo + hi) // 2
-        if ts[mid] <= t:
-            lo = mid
-        else:
-            hi = mid
-    a = (t - ts[lo]) / (ts[hi] - ts[lo])
-    return vs[lo] + a * (vs[hi] - vs[lo])
+from logcsv import interp, rows
 
 
 def dead_reckon(tw, speed, rate, k, t1, pose):
@@ -83,14 +63,14 @@ def main():
     exe, log, sep = argv[1], argv[2], float(argv[3])
     length = float(argv[4]) if len(argv) > 4 else 30.0
     starts = [float(x) for x in argv[5:]] or [60, 120, 180, 240, 300]
-    wheels = rows(os.path.join(log, "wheels.csv"))
+    wheels = rows(log, "wheels.csv")
     fixes = [(float(r["t"]), float(r["east"]), float(r["north"]))
-             for r in rows(os.path.join(log, "pose.csv")) if r["east"]]
+             for r in rows(log, "pose.csv") if r["east"]]
     tw = [float(r["t"]) for r in wheels]
     vl = [float(r["v_left"]) for r in wheels]
     vr = [float(r["v_right"]) for r in wheels]
     imu_path = os.path.join(log, "imu.csv")
-    imu = rows(imu_path) if os.path.exists(imu_path) else []
+    imu = rows(log, "imu.csv") if os.path.exists(imu_path) else []
     gyro = [(float(r["t"]), float(r["gyro_z"])) for r in imu if r.get("gyro_z")]
     names = ["estimate", "odometry"] + (["gyro"] if gyro else [])
     tot = {n: [] for n in names}
@@ -99,7 +79,7 @@ def main():
         with tempfile.TemporaryDirectory() as d:
             subprocess.run([exe, "estimate", log, "--out", d, "--outage", f"{t0},{t1}"] + extra,
                            check=True, stderr=subprocess.DEVNULL)
-            est = rows(os.path.join(d, "estimate.csv"))
+            est = rows(d, "estimate.csv")
             with open(os.path.join(d, "summary.json")) as f:
                 late = (json.load(f).get("gyro") or {}).get("wheels_late_by_s", 0.0)
         k = max(i for i, t in enumerate(tw) if t <= t0)

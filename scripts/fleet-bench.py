@@ -10,7 +10,9 @@ worker count and each repeat, a fresh LocalCluster (one thread per worker
 process) runs `terraslip.fleet.estimate` into a temporary directory; the
 time counted is from the first task submitted to the tables written
 (cluster start-up excluded, printed apart). Worker memory is the peak RSS
-of each worker process (getrusage), read when the run ends.
+of each worker process (getrusage), read when the run ends; worker CPU is the
+workers' user + system time during the run (Dask's own work included), the
+figure a cluster is sized by when the machine is shared.
 
 Dask talks over loopback TCP: the script re-runs itself in a private
 network namespace (`unshare -n`, lo up) unless --no-netns.
@@ -36,6 +38,11 @@ def _peak_rss_mb():
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
+def _cpu_s():
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
 def run_one(recs, workers, topics):
     from distributed import Client, LocalCluster
 
@@ -47,16 +54,18 @@ def run_one(recs, workers, topics):
         start_s = time.perf_counter() - t0
         out = tempfile.mkdtemp(prefix="fleet-bench-")
         try:
+            cpu0 = c.run(_cpu_s)
             t1 = time.perf_counter()
             table = fleet.estimate(recs, out, scheduler=c, topics=topics, progress=False)
             wall = time.perf_counter() - t1
+            cpu = sum(c.run(_cpu_s).values()) - sum(cpu0.values())
         finally:
             shutil.rmtree(out, ignore_errors=True)
         rss = list(c.run(_peak_rss_mb).values())
     rows = table.to_pylist()
     failed = sum(r["error"] is not None for r in rows)
     hours = sum(r["duration_s"] or 0.0 for r in rows) / 3600.0
-    return {"start_s": start_s, "wall_s": wall, "n": len(rows), "failed": failed, "hours": hours, "rss": rss}
+    return {"start_s": start_s, "cpu_s": cpu, "wall_s": wall, "n": len(rows), "failed": failed, "hours": hours, "rss": rss}
 
 
 def main():
@@ -82,8 +91,10 @@ def main():
             f.write(HUSKY_TOPICS)
     base = fleet.recordings([os.path.abspath(args.data)])
     print(f"fleet: {len(base)} recordings under {args.data}; cores {os.cpu_count()}; load {os.getloadavg()[0]:.1f}", file=sys.stderr)
-    print("| workers | recordings | recording h | cluster start s | run s | recordings/min | recording h per wall h | worker peak RSS MB |")
-    print("|---|---|---|---|---|---|---|---|")
+    # A first run, not counted: the workers' first imports and the page cache.
+    run_one(base, 1, topics)
+    print("| workers | recordings | recording h | cluster start s | run s | recordings/min | recording h per wall h | worker CPU s per recording h | worker peak RSS MB |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for workers in map(int, args.workers.split(",")):
         for k in map(int, args.repeat.split(",")):
             recs = [fleet.Recording(r.path, r.kind, f"{r.robot}-{i}", r.date, r.topics) for i in range(k) for r in base]
@@ -93,7 +104,7 @@ def main():
             speed = res["hours"] / (res["wall_s"] / 3600)
             rss = "/".join(f"{m:.0f}" for m in sorted(res["rss"]))
             print(
-                f"| {workers} | {res['n']} | {res['hours']:.2f} | {res['start_s']:.1f} | {res['wall_s']:.1f} | {rate:.0f} | {speed:.0f} | {rss} |",
+                f"| {workers} | {res['n']} | {res['hours']:.2f} | {res['start_s']:.1f} | {res['wall_s']:.1f} | {rate:.0f} | {speed:.0f} | {res['cpu_s'] / res['hours']:.2f} | {rss} |",
                 flush=True,
             )
     shutil.rmtree(tmp, ignore_errors=True)

@@ -76,7 +76,7 @@ def _parser() -> argparse.ArgumentParser:
         default="auto",
         help="use a log's terrain.csv as the terrain evidence (--terrain-labels): auto = when it has one (default)",
     )
-    e.add_argument("--rows", action="store_true", help="also write every estimate row (OUT/rows/; ~40 bytes per row compressed)")
+    e.add_argument("--rows", action="store_true", help="also write every estimate row (OUT/rows/; about 90 bytes per row)")
     e.add_argument("--report", action="store_true", help="also write OUT/report.html")
 
     c = sub.add_parser(

@@ -63,8 +63,19 @@ def _announce(c: Any, quiet: bool) -> None:
     if quiet:
         return
     link = getattr(c, "dashboard_link", None)
+    try:
+        import bokeh  # noqa: F401 - Dask's dashboard is drawn with it
+    except ImportError:
+        link = None if isinstance(c.cluster, _local_cluster_type()) else link
     workers = len(c.scheduler_info().get("workers", {}))
-    print(f"fleet: {workers} Dask worker(s); dashboard {link or 'not available'}", file=sys.stderr)
+    where = link or "not available (pip install bokeh, for the local cluster's)"
+    print(f"fleet: {workers} Dask worker(s); dashboard {where}", file=sys.stderr)
+
+
+def _local_cluster_type() -> type:
+    from distributed import LocalCluster
+
+    return LocalCluster
 
 
 def run(c: Any, fn: Callable[..., Any], args: Sequence[Sequence[Any]], what: str, *, progress: bool = True) -> List[Any]:

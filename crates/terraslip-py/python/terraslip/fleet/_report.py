@@ -106,10 +106,9 @@ class _Axes:
 
     def frame(self, xlabel: str, ylabel: str, xticks: Sequence[Tuple[float, str]]) -> List[str]:
         out = [f'<rect x="{self.l}" y="{self.t}" width="{self.w - self.l - self.r}" height="{self.h - self.t - self.b}" fill="none" stroke="#888"/>']
-        for i in range(5):
-            v = self.y0 + (self.y1 - self.y0) * (i + 0.5) / 5
+        for v in nice_ticks(self.y0, self.y1):
             out.append(f'<line x1="{self.l}" x2="{self.w - self.r}" y1="{self.y(v):.1f}" y2="{self.y(v):.1f}" stroke="#eee"/>')
-            out.append(f'<text x="{self.l - 4}" y="{self.y(v) + 4:.1f}" font-size="11" text-anchor="end">{v:.4g}</text>')
+            out.append(f'<text x="{self.l - 4}" y="{self.y(v) + 4:.1f}" font-size="11" text-anchor="end">{v:g}</text>')
         for v, label in xticks:
             out.append(f'<text x="{self.x(v):.1f}" y="{self.h - self.b + 14}" font-size="11" text-anchor="middle">{html.escape(label)}</text>')
         out.append(f'<text x="{(self.l + self.w - self.r) / 2}" y="{self.h - 4}" font-size="12" text-anchor="middle">{html.escape(xlabel)}</text>')
@@ -118,6 +117,17 @@ class _Axes:
 
     def svg(self, parts: Sequence[str]) -> str:
         return f'<svg xmlns="http://www.w3.org/2000/svg" width="{self.w}" height="{self.h}" viewBox="0 0 {self.w} {self.h}" font-family="sans-serif">' + "".join(parts) + "</svg>"
+
+
+def nice_ticks(lo: float, hi: float, n: int = 5) -> List[float]:
+    """About ``n`` round values (1, 2 or 5 times a power of ten apart) in [lo, hi]."""
+    raw = (hi - lo) / max(n, 1)
+    if not raw > 0 or not math.isfinite(raw):
+        return [lo]
+    mag = 10 ** math.floor(math.log10(raw))
+    step = next(m * mag for m in (1, 2, 5, 10) if m * mag >= raw)
+    first = math.ceil(lo / step) * step
+    return [first + k * step for k in range(int((hi - first) / step + 1e-9) + 1)]
 
 
 def _when(row: Dict[str, Any], i: int) -> float:
@@ -132,8 +142,10 @@ def _ticks(xs: Sequence[float], dated: bool) -> List[Tuple[float, str]]:
     n = 1 if hi - lo < 1e-9 else 5
     vals = [lo + (hi - lo) * k / max(n - 1, 1) for k in range(n)]
     if dated:
-        return [(v, _dt.datetime.fromtimestamp(v, tz=_dt.timezone.utc).strftime("%Y-%m-%d")) for v in vals]
-    return [(v, f"{v:.0f}") for v in vals]
+        # Within two days the hour tells the recordings apart.
+        form = "%Y-%m-%d" if hi - lo > 2 * 86400 else "%m-%d %H:%M"
+        return [(v, _dt.datetime.fromtimestamp(v, tz=_dt.timezone.utc).strftime(form)) for v in vals]
+    return [(v, f"{v:.0f}") for v in nice_ticks(lo, hi)]
 
 
 def _terrain(row: Dict[str, Any]) -> str:
@@ -191,7 +203,7 @@ def slip_map(tracks: Sequence[Dict[str, Any]]) -> str:
     slips = sorted(p["slip"] for p in tracks)
     lo = slips[int(0.02 * (len(slips) - 1))]
     hi = slips[int(0.98 * (len(slips) - 1))]
-    parts = ax.frame("east (m)", "north (m)", [(v, f"{v:.0f}") for v in _span(ax.x0, ax.x1)])
+    parts = ax.frame("east (m)", "north (m)", [(v, f"{v:g}") for v in nice_ticks(ax.x0, ax.x1)])
     for p in tracks:
         u = 0.0 if hi - lo < 1e-12 else min(1.0, max(0.0, (p["slip"] - lo) / (hi - lo)))
         parts.append(f'<circle cx="{ax.x(p["east"]):.1f}" cy="{ax.y(p["north"]):.1f}" r="2" fill="{_ramp(u)}"/>')
@@ -201,10 +213,6 @@ def slip_map(tracks: Sequence[Dict[str, Any]]) -> str:
     parts.append(f'<text x="{ax.w - 164}" y="{ax.t + 15}" font-size="11" text-anchor="end">slip {lo:.2f}</text>')
     parts.append(f'<text x="{ax.w - 24}" y="{ax.t + 28}" font-size="11" text-anchor="end">{hi:.2f}</text>')
     return ax.svg(parts)
-
-
-def _span(a: float, b: float) -> List[float]:
-    return [a + (b - a) * k / 4 for k in range(5)]
 
 
 def _ramp(u: float) -> str:

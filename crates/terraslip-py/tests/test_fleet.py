@@ -33,12 +33,23 @@ HUSKY_TOPICS = '[wheels]\nseparation = 1.040625\n[heading]\ntopic = ""\n'
 CLUSTER_TIMEOUT_S = 600
 
 
-def _in_netns(args, timeout):
-    """Runs `python -m terraslip.fleet ARGS` in a private network namespace
-    with only loopback up; returns the CompletedProcess."""
+# A cluster started apart, given to the command by its scheduler address
+# (as a remote one would be).
+BY_ADDRESS = (
+    "import sys, logging; from distributed import LocalCluster; from terraslip.fleet.__main__ import main; "
+    "c = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=logging.ERROR); "
+    "rc = main(sys.argv[1:] + ['--scheduler', c.scheduler_address]); c.close(); sys.exit(rc)"
+)
+
+
+def _in_netns(args, timeout, by_address=False):
+    """Runs `python -m terraslip.fleet ARGS` (with ``by_address``: against a
+    LocalCluster of 2 started apart, by its tcp:// address) in a private
+    network namespace with only loopback up; returns the CompletedProcess."""
     if shutil.which("unshare") is None or shutil.which("ip") is None:
         pytest.fail("unshare and ip (util-linux, iproute2) are needed to run the Dask cluster on a private loopback")
-    inner = " ".join(["ip link set lo up &&", "exec", sys.executable, "-m", "terraslip.fleet", *map(_q, args)])
+    how = ["-c", BY_ADDRESS] if by_address else ["-m", "terraslip.fleet"]
+    inner = " ".join(["ip link set lo up &&", "exec", sys.executable, *map(_q, how), *map(_q, args)])
     proc = subprocess.run(["unshare", "-n", "sh", "-c", inner], capture_output=True, text=True, timeout=timeout)
     if proc.returncode != 0 and "unshare" in proc.stderr and "Operation not permitted" in proc.stderr:
         pytest.fail(f"unshare -n needs root (or CAP_SYS_ADMIN): {proc.stderr}")
@@ -52,8 +63,8 @@ def _q(s):
 
 @pytest.fixture(scope="module")
 def fleet_run(tmp_path_factory):
-    """estimate (with --rows) and calibrate of ../shared/data on a
-    LocalCluster of 2 processes."""
+    """estimate (with --rows) of ../shared/data on a LocalCluster of 2
+    processes (--scheduler local:2), calibrate on one given by address."""
     if not SHARED.is_dir():
         pytest.skip(f"{SHARED}: not here")
     tmp = tmp_path_factory.mktemp("fleet")
@@ -66,8 +77,9 @@ def fleet_run(tmp_path_factory):
     # two Husky logs without a pose and the Husky bag, whose GNSS gives
     # no heading: their groups fail, as rows.
     cal_paths = [SHARED / "drive", SHARED / "borealtc" / "ice_borealtc_00", SHARED / "borealtc" / "ice_borealtc_03", SHARED / "ros2" / "husky_test1_mcap"]
-    cal = _in_netns(["calibrate", *cal_paths, "--topics", topics, "--out", out, "--scheduler", "local:2"], CLUSTER_TIMEOUT_S)
+    cal = _in_netns(["calibrate", *cal_paths, "--topics", topics, "--out", out], CLUSTER_TIMEOUT_S, by_address=True)
     assert cal.returncode == 0, cal.stderr
+    assert "2 Dask worker(s)" in cal.stderr and "7 robot and terrain groups" in cal.stderr, cal.stderr
     return {"out": out, "topics": topics, "estimate": est, "calibrate": cal}
 
 

@@ -137,6 +137,8 @@ def _prepare(fleet: _Fleet, out: Any, scheduler: Any):
     if isinstance(scheduler, str):
         _cluster.parse_scheduler(scheduler)
     recs = _as_recordings(fleet)
+    if not recs:
+        raise FleetError("no recording given")
     out = str(out)
     _check_out(out, recs)
     return recs, out
@@ -163,7 +165,8 @@ def _fan_out(out: str, scheduler: Any, progress: bool, task: Any, args_of: Any, 
 
 def terrains_of(rec: Recording) -> List[str]:
     """The terrain labels of a log's terrain.csv in order of appearance
-    ([] for a bag or a log without one)."""
+    ([] for a bag, a log without one, or one without a terrain column:
+    calibrating it then says what is wrong with it)."""
     import fsspec
 
     if rec.kind != "log":
@@ -178,7 +181,7 @@ def terrains_of(rec: Recording) -> List[str]:
     text = fs.cat_file(path).decode("utf-8", "replace")
     rows = csv.DictReader(io.StringIO(text))
     if rows.fieldnames is None or "terrain" not in rows.fieldnames:
-        raise FleetError(f"{url}: line 1: no terrain column")
+        return []
     return list(dict.fromkeys(r["terrain"].strip() for r in rows if r.get("terrain") and r["terrain"].strip()))
 
 

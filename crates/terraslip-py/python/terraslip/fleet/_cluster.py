@@ -4,6 +4,7 @@ either way."""
 
 from __future__ import annotations
 
+import importlib.util
 import logging
 import os
 import sys
@@ -63,9 +64,7 @@ def _announce(c: Any, quiet: bool) -> None:
     if quiet:
         return
     link = getattr(c, "dashboard_link", None)
-    try:
-        import bokeh  # noqa: F401 - Dask's dashboard is drawn with it
-    except ImportError:
+    if importlib.util.find_spec("bokeh") is None:  # Dask's dashboard is drawn with it
         link = None if isinstance(c.cluster, _local_cluster_type()) else link
     workers = len(c.scheduler_info().get("workers", {}))
     where = link or "not available (pip install bokeh, for the local cluster's)"

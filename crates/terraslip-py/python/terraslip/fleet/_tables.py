@@ -172,4 +172,6 @@ def read(out: str, name: str):
     fs, root = fsspec.core.url_to_fs(f"{out.rstrip('/')}/{name}")
     if not fs.exists(root):
         return None
-    return ds.dataset(root, filesystem=fs, format="parquet", partitioning="hive").to_table()
+    keys = [("robot", STR)] if name == "calibrations" else [("robot", STR), ("date", STR)]
+    part = ds.partitioning(pa.schema(keys), flavor="hive")
+    return ds.dataset(root, filesystem=fs, format="parquet", partitioning=part).to_table()

@@ -141,7 +141,10 @@ def test_the_fleet_recordings_table_equals_terraslip_estimate(cli, fleet_run, tm
     tracks = _tables.read(str(out), "tracks")
     assert {p for p in tracks.column("path").to_pylist()} == {p for p, r in rows.items() if r["fixes"] > 0}
     report = (out / "report.html").read_text()
-    assert "Where the fleet slips" in report and report.count("<svg") >= 3 * 3 + 2
+    # Charts (controller factor, two speed factors) for the two robots with
+    # a pose reference, a map each; the BorealTC Husky has none.
+    assert "Where the fleet slips" in report and report.count("<svg") == 3 * 2 + 2
+    assert "46 recording(s) without a pose reference, not charted" in report
 
 
 @needs_shared
@@ -270,3 +273,25 @@ def test_the_docs_duckdb_query_reads_the_tables_as_written(fleet_run):
     rows = _tables.read(str(fleet_run["out"]), "recordings").to_pylist()
     assert sum(r[2] for r in got) == sum(r["error"] is None for r in rows) == 54
     assert {r[0] for r in got} == {"clearpath-husky-a200", "clearpath-warthog", "ros2"}
+
+
+def test_the_report_flags_a_robot_that_left_its_own_history(tmp_path):
+    import datetime as dt
+
+    day = dt.datetime(2026, 5, 1, 8, tzinfo=dt.timezone.utc)
+    spread = [3.30, 3.32, 3.29, 3.31, 3.30, 3.31, 3.80]  # m; the last drive's tyres are soft
+    rows = [
+        {
+            "robot": "w-07", "date": (day + dt.timedelta(days=i)).date().isoformat(), "path": f"drive-{i}",
+            "kind": "log", "time": day + dt.timedelta(days=i), "fixes": 900, "terrains": ["gravel"],
+            "track_width_m": 1.1, "controller_factor": s / 1.1, "std_spread": 0.01,
+            "alpha_l": 0.91, "alpha_r": 0.92, "std_alpha_l": 0.005, "std_alpha_r": 0.005,
+            "duration_s": 600.0, "distance_m": 900.0, "warnings": [], "error": None,
+        }
+        for i, s in enumerate(spread)
+    ]
+    _tables.write_partitioned(str(tmp_path / "recordings"), rows, _tables.RECORDINGS, by_date=True)
+    page = (tmp_path / "report.html")
+    assert fleet.report(str(tmp_path)) == str(page)
+    flagged = page.read_text().split("<h2>Flagged recordings</h2>")[1].split("<h2>")[0]
+    assert flagged.count("<tr>") == 2 and "drive-6" in flagged and "controller factor" in flagged

@@ -53,12 +53,6 @@ def _fs(url: str) -> Tuple[fsspec.AbstractFileSystem, str]:
     return fs, path
 
 
-def is_local(url: str) -> bool:
-    """True when ``url`` is a path (or file:// URL) of this machine."""
-    fs, _ = _fs(url)
-    return "file" in _protocols(fs)
-
-
 def _protocols(fs: fsspec.AbstractFileSystem) -> Tuple[str, ...]:
     p = fs.protocol
     return (p,) if isinstance(p, str) else tuple(p)

@@ -1,7 +1,8 @@
 """The fleet report: one HTML page (the report crate's style, inline SVG)
 from an output directory's tables.
 
-Per robot: the controller factor (``wheel_separation_multiplier``) and the
+Per robot, for the recordings with a pose reference (without one the
+estimator learns nothing): the controller factor (``wheel_separation_multiplier``) and the
 speed factors of each recording over time, with each recording's 2σ band,
 and the control limits of the robot's own history on that terrain. A
 recording is flagged by a Shewhart individuals chart: with at least
@@ -261,8 +262,11 @@ def write_report(out: str, path: Optional[str] = None) -> str:
             key=lambda r: (r["time"].timestamp() if isinstance(r.get("time"), _dt.datetime) else 0.0, r["path"]),
         )
         body.append(f"<h2>{html.escape(robot)}</h2>")
+        blind = [r for r in mine if not r.get("fixes")]
+        mine = [r for r in mine if r.get("fixes")]
+        if blind:
+            body.append(f"<p>{len(blind)} recording(s) without a pose reference, not charted: without fixes the estimator learns nothing from the drive.</p>")
         if not mine:
-            body.append("<p>No recording estimated.</p>")
             continue
         terrains = sorted({_terrain(r) for r in mine})
         colours = {t: PALETTE[(i + 1) % len(PALETTE)] for i, t in enumerate(terrains)}
@@ -279,7 +283,7 @@ def write_report(out: str, path: Optional[str] = None) -> str:
             body.append(f'<tr><td>{html.escape(robot)}</td><td>{html.escape(label)}</td><td>{html.escape(r["path"])}</td><td class="flag">{v:.4f}</td><td>{c:.4f}</td><td>{h:.4f}</td></tr>')
         body.append("</table>")
     else:
-        body.append(f"<p>None (a chart needs {MIN_HISTORY} earlier recordings of a robot on a terrain before it can flag one).</p>")
+        body.append(f"<p>None: every recording with {MIN_HISTORY} or more earlier ones of its robot on its terrain lies within its limits.</p>")
     body.append("<h2>Where the fleet slips</h2>")
     if tracks_t is not None and tracks_t.num_rows:
         t = tracks_t.to_pylist()

@@ -16,7 +16,7 @@ import os
 import tempfile
 import traceback
 from contextlib import ExitStack
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Dict, List, Optional, Sequence
 
 import fsspec
@@ -48,7 +48,6 @@ class Options:
     method: Optional[str] = None
     rows: bool = False
     track_period_s: float = 1.0
-    extra: Dict[str, str] = field(default_factory=dict)
 
     def config_hash(self, topics: Optional[str]) -> str:
         """sha256 (first 16 hex digits) of everything that decides a row's

@@ -295,3 +295,28 @@ def test_the_report_flags_a_robot_that_left_its_own_history(tmp_path):
     assert fleet.report(str(tmp_path)) == str(page)
     flagged = page.read_text().split("<h2>Flagged recordings</h2>")[1].split("<h2>")[0]
     assert flagged.count("<tr>") == 2 and "drive-6" in flagged and "controller factor" in flagged
+
+
+def test_tables_replace_only_tables(tmp_path):
+    rows = [{"robot": "r", "date": "2026-05-01", "path": "a", "error": None}]
+    first = _tables.Output(str(tmp_path))
+    _tables.write_partitioned(first.table("recordings"), rows, _tables.RECORDINGS, by_date=True)
+    first.commit(["recordings"])
+    assert _tables.read(str(tmp_path), "recordings").column("path").to_pylist() == ["a"]
+    # A second run replaces the table; a directory of something else under
+    # a table's name is left alone, and so is every table of that run.
+    (tmp_path / "rows").mkdir()
+    (tmp_path / "rows" / "notes.txt").write_text("mine")
+    second = _tables.Output(str(tmp_path))
+    _tables.write_partitioned(second.table("recordings"), [dict(rows[0], path="b")], _tables.RECORDINGS, by_date=True)
+    _tables.write_partitioned(second.table("rows"), rows, _tables.RECORDINGS, by_date=True)
+    with pytest.raises(fleet.FleetError, match=r"rows: holds notes.txt, not a table"):
+        second.commit(["recordings", "rows"])
+    second.discard()
+    assert (tmp_path / "rows" / "notes.txt").read_text() == "mine"
+    assert _tables.read(str(tmp_path), "recordings").column("path").to_pylist() == ["a"]
+    third = _tables.Output(str(tmp_path))
+    _tables.write_partitioned(third.table("recordings"), [dict(rows[0], path="c")], _tables.RECORDINGS, by_date=True)
+    third.commit(["recordings"])
+    assert _tables.read(str(tmp_path), "recordings").column("path").to_pylist() == ["c"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["recordings", "rows"]

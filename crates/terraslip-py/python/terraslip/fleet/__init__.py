@@ -139,7 +139,7 @@ def _prepare(fleet: _Fleet, out: Any, scheduler: Any):
     recs = _as_recordings(fleet)
     if not recs:
         raise FleetError("no recording given")
-    out = str(out)
+    out = str(out) if "://" in str(out) else os.path.abspath(out)
     _check_out(out, recs)
     return recs, out
 

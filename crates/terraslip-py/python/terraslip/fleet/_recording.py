@@ -190,11 +190,13 @@ def recordings(paths_or_manifest: Sequence[str], robot: Optional[str] = None) ->
     """The fleet named by ``paths_or_manifest``: manifests (``.csv``,
     ``.parquet``) are read, other paths discovered (:func:`discover`).
     ``robot`` names the robot of every discovered recording; without it
-    each robot is :func:`robot_of` its recording."""
+    each robot is :func:`robot_of` its recording. Local paths are made
+    absolute."""
     if isinstance(paths_or_manifest, (str, os.PathLike)):
         paths_or_manifest = [paths_or_manifest]
     out: List[Recording] = []
-    for p in map(str, paths_or_manifest):
+    # Local paths absolute: the workers' working directory is not ours.
+    for p in (q if "://" in q else os.path.abspath(q) for q in map(str, paths_or_manifest)):
         if p.lower().endswith(MANIFESTS):
             out.extend(read_manifest(p))
         else:

@@ -144,14 +144,19 @@ class Output:
 
     def commit(self, names: Iterable[str]) -> None:
         """Moves each staged table over the previous one; tables not staged
-        (e.g. rows when not asked for) are left as they were."""
+        (e.g. rows when not asked for) are left as they were. Refuses, before
+        moving any, to replace a directory that is not such a table."""
+        from ._recording import FleetError
+
         _, staging = fsspec.core.url_to_fs(self.staging)
-        for name in names:
-            new = f"{staging}/{name}"
-            if not self.fs.exists(new):
-                continue
-            dest = f"{self.root}/{name}"
-            old = f"{staging}/{name}.old"
+        moves = [(f"{staging}/{n}", f"{self.root}/{n}", f"{staging}/{n}.old") for n in names]
+        moves = [m for m in moves if self.fs.exists(m[0])]
+        for _, dest, _ in moves:
+            if self.fs.exists(dest):
+                foreign = [e for e in self.fs.ls(dest, detail=False) if not posixpath.basename(e.rstrip("/")).startswith("robot=")]
+                if foreign:
+                    raise FleetError(f"{dest}: holds {posixpath.basename(foreign[0])}, not a table of terraslip.fleet; not replaced (choose another --out)")
+        for new, dest, old in moves:
             if self.fs.exists(dest):
                 self.fs.mv(dest, old, recursive=True)
             self.fs.mv(new, dest, recursive=True)

@@ -35,8 +35,8 @@ class FleetError(ValueError):
 class Recording:
     """One drive to process.
 
-    ``path``: local path or fsspec URL, as given. ``robot``: the robot's name
-    (the tables' partition). ``date``: ``YYYY-MM-DD`` (UTC) or None when
+    ``path``: local path (absolute) or fsspec URL. ``kind``: ``log`` or
+    ``bag``. ``robot``: the robot's name (the tables' partition). ``date``: ``YYYY-MM-DD`` (UTC) or None when
     the recording is to tell it. ``topics``: a ``--topics`` TOML file for a
     bag (local path or URL), or None for the fleet's.
     """

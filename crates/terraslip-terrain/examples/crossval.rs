@@ -12,6 +12,10 @@
 //! partitions and deals them at random (seed `TS_SPLIT_SEED`, default 1)
 //! to the folds, so windows of one run are both trained and tested on
 //! (4 s windows unless `TS_WINDOW`).
+//!
+//! The manoeuvre split: `TS_SPLIT=manoeuvre` holds out every terrain's
+//! fastest drive and slowest spin ([`manoeuvre_split`]) and trains once on
+//! the rest (`folds` is ignored).
 
 use terraslip_terrain::classify::SplitMix64;
 use terraslip_terrain::*;
@@ -148,7 +152,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         None => logs,
     };
     let t0 = std::time::Instant::now();
-    let rep = crossval(&logs, &opts, folds, |i, n| eprint!("\rfolds done {i}/{n}"))?;
+    let progress = |i, n| eprint!("\rfolds done {i}/{n}");
+    let rep = if std::env::var("TS_SPLIT").as_deref() == Ok("manoeuvre") {
+        let (rep, held) = crossval_manoeuvre(&logs, &opts, progress)?;
+        eprintln!();
+        for h in &held {
+            println!("held out {}: {}", logs[h.run].name(), h.why);
+        }
+        rep
+    } else {
+        crossval(&logs, &opts, folds, progress)?
+    };
     eprintln!();
     println!(
         "{} logs, {} folds, {:.1} s",
@@ -200,6 +214,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         never,
         rep.change_latency_s.len()
     );
+    if let Some(f) = rep.outside_envelope_share() {
+        println!(
+            "held-out windows outside their fold's training envelope: {:.1} %",
+            100.0 * f
+        );
+    }
     print!("{}", rep.runs_table());
     Ok(())
 }

@@ -1,6 +1,9 @@
 //! Leave-runs-out cross-validation: whole runs out per fold, folds in
 //! parallel, held-out runs scored alone, spliced into logs with terrain
-//! changes, and chained across folds.
+//! changes, and chained across folds. Two ways to choose the runs held
+//! out: dealt round-robin ([`run_folds`]), or by how they were driven
+//! ([`manoeuvre_split`]: runs outside the speeds and turn rates that the
+//! training runs of their terrain cover).
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc;
@@ -28,6 +31,127 @@ pub fn run_folds(logs: &[DriveLog], k: usize) -> Vec<Vec<usize>> {
     }
     folds.retain(|f| !f.is_empty());
     folds
+}
+
+/// How a run was driven, from its own `wheels.csv` (tread speeds, m/s).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Manoeuvre {
+    /// Mean of (|v_left| + |v_right|) / 2, m/s.
+    pub speed: f64,
+    /// Mean of |v_right − v_left|, m/s (how hard it turned).
+    pub tread_diff: f64,
+    /// Mean of |v_r − v_l| / (|v_l| + |v_r|): 0 straight, 1 spinning in place.
+    pub spin_share: f64,
+}
+
+/// A run whose spin share is at least this is a spin, otherwise a drive.
+pub const SPIN_SHARE_OF_A_SPIN: f64 = 0.5;
+
+/// Runs within this relative distance of a terrain's extreme are held out
+/// with it (ties: several runs driven alike).
+const EXTREME_TIE: f64 = 0.05;
+
+impl Manoeuvre {
+    /// The means over the log's wheel samples (zeros without any).
+    pub fn of(log: &DriveLog) -> Self {
+        let n = log.wheels.len().max(1) as f64;
+        let mut m = Self {
+            speed: 0.0,
+            tread_diff: 0.0,
+            spin_share: 0.0,
+        };
+        for w in &log.wheels {
+            let sum = w.v_left.abs() + w.v_right.abs();
+            let diff = (w.v_right - w.v_left).abs();
+            m.speed += 0.5 * sum;
+            m.tread_diff += diff;
+            if sum > 1e-6 {
+                m.spin_share += diff / sum;
+            }
+        }
+        m.speed /= n;
+        m.tread_diff /= n;
+        m.spin_share /= n;
+        m
+    }
+
+    /// Whether the run spins (turns in place) rather than drives.
+    pub fn is_spin(&self) -> bool {
+        self.spin_share >= SPIN_SHARE_OF_A_SPIN
+    }
+}
+
+/// A run held out by [`manoeuvre_split`], and why.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct HeldOut {
+    /// Index in the logs.
+    pub run: usize,
+    pub manoeuvre: Manoeuvre,
+    /// E.g. `fastest drive of snow: 0.39 m/s, training drives 0.19-0.28 m/s`.
+    pub why: String,
+}
+
+/// The manoeuvre split: for every terrain (a run's first label), its
+/// fastest drive (highest mean tread speed) and its slowest spin (lowest
+/// mean tread difference) are held out, each with the runs of its kind
+/// within 5 % of it, when the terrain keeps at least one run of that kind
+/// to train on. Drives and spins are told apart by the spin share
+/// ([`SPIN_SHARE_OF_A_SPIN`]). Every held-out run is then driven outside
+/// the speed (drives) or turn rate (spins) of the training runs of its
+/// terrain, which a robot in the field does; leave-run-out mostly tests
+/// runs driven like a training run. Defined from the runs' own statistics,
+/// not from their names.
+pub fn manoeuvre_split(logs: &[DriveLog]) -> Vec<HeldOut> {
+    let all: Vec<usize> = (0..logs.len()).collect();
+    let m: Vec<Manoeuvre> = logs.iter().map(Manoeuvre::of).collect();
+    let mut out = Vec::new();
+    for (terrain, runs) in group_by_terrain(logs, &all) {
+        for spin in [false, true] {
+            let kind: Vec<usize> = runs
+                .iter()
+                .copied()
+                .filter(|&r| m[r].is_spin() == spin)
+                .collect();
+            // Drives: the fastest; spins: the gentlest turn.
+            let key = |r: usize| if spin { -m[r].tread_diff } else { m[r].speed };
+            let Some(extreme) = kind.iter().map(|&r| key(r)).max_by(|a, b| a.total_cmp(b)) else {
+                continue;
+            };
+            let tie = EXTREME_TIE * extreme.abs();
+            let (held, kept): (Vec<usize>, Vec<usize>) =
+                kind.iter().partition(|&&r| key(r) >= extreme - tie);
+            if kept.is_empty() {
+                continue;
+            }
+            let range = |v: &mut dyn Iterator<Item = f64>| {
+                v.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
+                    (lo.min(x), hi.max(x))
+                })
+            };
+            for r in held {
+                let why = if spin {
+                    let (lo, hi) = range(&mut kept.iter().map(|&k| m[k].tread_diff));
+                    format!(
+                        "slowest spin of {terrain}: tread difference {:.2} m/s, training spins {lo:.2}-{hi:.2} m/s",
+                        m[r].tread_diff
+                    )
+                } else {
+                    let (lo, hi) = range(&mut kept.iter().map(|&k| m[k].speed));
+                    format!(
+                        "fastest drive of {terrain}: {:.2} m/s, training drives {lo:.2}-{hi:.2} m/s",
+                        m[r].speed
+                    )
+                };
+                out.push(HeldOut {
+                    run: r,
+                    manoeuvre: m[r],
+                    why,
+                });
+            }
+        }
+    }
+    out.sort_by_key(|h| h.run);
+    out
 }
 
 /// Result of a cross-validation.
@@ -83,6 +207,21 @@ impl CrossvalReport {
         )
     }
 
+    /// Share of all held-out windows outside the envelope of their
+    /// fold's model (`None` when the models have none).
+    pub fn outside_envelope_share(&self) -> Option<f64> {
+        let mut any = false;
+        let (mut out, mut n) = (0.0, 0.0);
+        for r in &self.runs {
+            if let Some(f) = r.outside_envelope_share {
+                any = true;
+                out += f * r.frames as f64;
+                n += r.frames as f64;
+            }
+        }
+        any.then(|| out / n.max(1.0))
+    }
+
     /// Median and largest [`Self::change_latency_s`] of the changes that
     /// were followed, s, and how many never were.
     pub fn latency_summary(&self) -> (Option<f64>, Option<f64>, usize) {
@@ -97,12 +236,20 @@ impl CrossvalReport {
     /// each class was named (in the order of the header's classes).
     pub fn runs_table(&self) -> String {
         let mut s = format!(
-            "{:<28} {:>6} {:>6} {:>6} {:>12} {:>6} {:>6}  named {:?}\n",
-            "run", "frames", "raw %", "filt %", "read as", "v m/s", "|wz|", self.raw.classes
+            "{:<28} {:>6} {:>6} {:>6} {:>12} {:>6} {:>6} {:>6}  named {:?}\n",
+            "run",
+            "frames",
+            "raw %",
+            "filt %",
+            "read as",
+            "v m/s",
+            "|wz|",
+            "out %",
+            self.raw.classes
         );
         for r in &self.runs {
             s += &format!(
-                "{:<28} {:>6} {:>6.1} {:>6.1} {:>12} {:>6.2} {:>6.2}  {:?}\n",
+                "{:<28} {:>6} {:>6.1} {:>6.1} {:>12} {:>6.2} {:>6.2} {:>6}  {:?}\n",
                 r.log,
                 r.frames,
                 100.0 * r.raw_accuracy,
@@ -110,6 +257,8 @@ impl CrossvalReport {
                 r.most_predicted,
                 r.mean_tread_speed,
                 r.mean_abs_yaw_rate,
+                r.outside_envelope_share
+                    .map_or_else(|| "-".to_string(), |f| format!("{:.0}", 100.0 * f)),
                 r.predicted_counts
             );
         }
@@ -138,6 +287,9 @@ pub struct RunScore {
     pub mean_tread_speed: f64,
     /// Mean |gyro_z| over imu.csv (body yaw rate), rad/s; 0 without gyro_z.
     pub mean_abs_yaw_rate: f64,
+    /// Share of the windows outside the model's envelope for the terrain
+    /// they were read as (`None` without an envelope).
+    pub outside_envelope_share: Option<f64>,
 }
 
 impl RunScore {
@@ -150,7 +302,6 @@ impl RunScore {
             }
         }
         let best = (0..k).max_by_key(|&i| votes[i]).unwrap_or(0);
-        let n_w = log.wheels.len().max(1) as f64;
         let gz: Vec<f64> = log.imu.iter().filter_map(|s| s.gyro_z).collect();
         Self {
             log: s.log.clone(),
@@ -164,13 +315,11 @@ impl RunScore {
             filtered_accuracy: s.filtered.accuracy(),
             most_predicted: s.raw.classes.get(best).cloned().unwrap_or_default(),
             predicted_counts: votes,
-            mean_tread_speed: log
-                .wheels
-                .iter()
-                .map(|w| 0.5 * (w.v_left.abs() + w.v_right.abs()))
-                .sum::<f64>()
-                / n_w,
+            mean_tread_speed: Manoeuvre::of(log).speed,
             mean_abs_yaw_rate: gz.iter().map(|g| g.abs()).sum::<f64>() / gz.len().max(1) as f64,
+            outside_envelope_share: s
+                .outside_envelope
+                .map(|o| o as f64 / s.raw.total().max(1) as f64),
         }
     }
 }
@@ -267,13 +416,51 @@ pub fn crossval(
     logs: &[DriveLog],
     opts: &TrainOptions,
     k: usize,
-    mut progress: impl FnMut(usize, usize),
+    progress: impl FnMut(usize, usize),
 ) -> Result<CrossvalReport> {
     if k < 2 {
         return Err(TerrainError::Config(format!(
             "cross-validation needs at least 2 folds, got {k}"
         )));
     }
+    let folds = run_folds(logs, k);
+    if folds.len() < 2 {
+        return Err(TerrainError::Training(
+            "cross-validation needs at least 2 runs".into(),
+        ));
+    }
+    crossval_folds(logs, opts, &folds, progress)
+}
+
+/// The manoeuvre split ([`manoeuvre_split`]) as one fold: a model trained
+/// on the other runs, scored on the held-out ones as [`crossval`] scores a
+/// fold (`runs`, `chained_filtered` hold the held-out runs only).
+pub fn crossval_manoeuvre(
+    logs: &[DriveLog],
+    opts: &TrainOptions,
+    progress: impl FnMut(usize, usize),
+) -> Result<(CrossvalReport, Vec<HeldOut>)> {
+    let held = manoeuvre_split(logs);
+    if held.is_empty() {
+        return Err(TerrainError::Training(
+            "no run lies outside the speeds and turn rates of the other runs of its terrain \
+             (each terrain needs two drives or two spins)"
+                .into(),
+        ));
+    }
+    let fold: Vec<usize> = held.iter().map(|h| h.run).collect();
+    let rep = crossval_folds(logs, opts, &[fold], progress)?;
+    Ok((rep, held))
+}
+
+/// Cross-validation over the given folds of run indices (disjoint); runs
+/// in no fold are only trained on.
+fn crossval_folds(
+    logs: &[DriveLog],
+    opts: &TrainOptions,
+    folds: &[Vec<usize>],
+    mut progress: impl FnMut(usize, usize),
+) -> Result<CrossvalReport> {
     for (i, a) in logs.iter().enumerate() {
         if !a.dir.as_os_str().is_empty() && logs[..i].iter().any(|b| b.dir == a.dir) {
             return Err(TerrainError::Config(format!(
@@ -285,12 +472,6 @@ pub fn crossval(
     let mut classes: Vec<String> = logs.iter().flat_map(|l| l.terrain_names()).collect();
     classes.sort();
     classes.dedup();
-    let folds = run_folds(logs, k);
-    if folds.len() < 2 {
-        return Err(TerrainError::Training(
-            "cross-validation needs at least 2 runs".into(),
-        ));
-    }
     let threads = std::env::var("TERRASLIP_THREADS")
         .ok()
         .and_then(|v| v.parse::<usize>().ok())
@@ -304,7 +485,7 @@ pub fn crossval(
         let (tx, rx) = mpsc::channel();
         for _ in 0..threads {
             let tx = tx.clone();
-            let (next, failed, folds, classes) = (&next, &failed, &folds, &classes);
+            let (next, failed, classes) = (&next, &failed, &classes);
             scope.spawn(move || loop {
                 let fi = next.fetch_add(1, Ordering::SeqCst);
                 if fi >= folds.len() || failed.load(Ordering::SeqCst) {
@@ -362,20 +543,21 @@ pub fn crossval(
         rep.change_latency_s.extend(f.latency);
         rep.fold_accuracy.push(fold.accuracy());
     }
-    if runs.len() != logs.len() {
+    let tested: Vec<usize> = folds.iter().flatten().copied().collect();
+    if runs.len() != tested.len() {
         return Err(TerrainError::Training(
             "cross-validation stopped before every fold was scored".into(),
         ));
     }
-    let all: Vec<usize> = (0..logs.len()).collect();
     let mut chained = TerrainTimeline {
         classes: classes.clone(),
         ..Default::default()
     };
     let mut truth = Vec::new();
-    for i in interleave_by_terrain(logs, &all) {
+    for i in interleave_by_terrain(logs, &tested) {
         if let Some((tl, t)) = held_out[i].take() {
             chained.frames.extend(tl.frames);
+            chained.outside_envelope.extend(tl.outside_envelope);
             chained.changes.extend(tl.changes);
             truth.extend(t);
         }
@@ -433,4 +615,62 @@ fn interleave_by_terrain(logs: &[DriveLog], runs: &[usize]) -> Vec<usize> {
         round += 1;
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use terraslip_io::{TerrainLabel, WheelSample};
+
+    /// A run of `terrain` at constant tread speeds.
+    fn run(terrain: &str, v_left: f64, v_right: f64) -> DriveLog {
+        DriveLog {
+            wheels: (0..50)
+                .map(|k| WheelSample {
+                    t: k as f64 * 0.1,
+                    v_left,
+                    v_right,
+                })
+                .collect(),
+            terrain: vec![TerrainLabel {
+                t: 0.0,
+                terrain: terrain.into(),
+            }],
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn manoeuvre_split_holds_out_the_fastest_drive_and_the_slowest_spin_per_terrain() {
+        let logs = vec![
+            run("sand", 0.2, 0.2),    // 0 drive
+            run("sand", 0.6, 0.6),    // 1 fastest drive
+            run("sand", 0.3, 0.3),    // 2 drive
+            run("sand", -0.2, 0.2),   // 3 spin, tread difference 0.4
+            run("sand", -0.05, 0.05), // 4 slowest spin, 0.1
+            run("sand", 0.59, 0.59),  // 5 within 5 % of the fastest: held out too
+            run("snow", 0.4, 0.4),    // 6 only drive of snow: kept for training
+            run("snow", -0.1, 0.1),   // 7 only spin of snow: kept
+            run("ice", 0.2, 0.3),     // 8 drive that turns
+            run("ice", 0.5, 0.7),     // 9 fastest ice drive
+        ];
+        let held = manoeuvre_split(&logs);
+        let runs: Vec<usize> = held.iter().map(|h| h.run).collect();
+        assert_eq!(runs, [1, 4, 5, 9]);
+        assert!(held[0].manoeuvre.speed > 0.59 && !held[0].manoeuvre.is_spin());
+        assert!(held[1].manoeuvre.is_spin());
+        assert!(
+            held[0].why.contains("0.60 m/s") && held[0].why.contains("0.20-0.30"),
+            "{}",
+            held[0].why
+        );
+        assert!(
+            held[1].why.contains("0.10") && held[1].why.contains("0.40-0.40"),
+            "{}",
+            held[1].why
+        );
+        // Nothing to hold out: an error, not an empty report.
+        let opts = TrainOptions::default();
+        assert!(crossval_manoeuvre(&logs[6..8], &opts, |_, _| {}).is_err());
+    }
 }

@@ -125,6 +125,9 @@ pub struct LogScore {
     pub filtered: Confusion,
     /// How the camera change detector did (all zero for IMU models).
     pub change: ChangeScore,
+    /// Frames driven outside the model's envelope for the terrain they
+    /// were read as (`None` for a model without an envelope).
+    pub outside_envelope: Option<usize>,
 }
 
 /// Scoring of lv2019's change detector against the label changes.
@@ -223,6 +226,10 @@ pub(crate) fn score_timeline(
         raw,
         filtered,
         change,
+        outside_envelope: model
+            .envelope
+            .as_ref()
+            .map(|_| tl.outside_envelope.iter().filter(|&&o| o).count()),
     }
 }
 

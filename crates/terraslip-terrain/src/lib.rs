@@ -14,7 +14,8 @@
 //!   [`TerrainModel::classify_log`], the call the estimator pipeline makes.
 //! - [`eval`]: confusion matrices, scored and spliced logs; [`crossval`]:
 //!   leave-runs-out cross-validation (parallel folds).
-//! - [`speed_norm`]: learnt per-feature speed slopes.
+//! - [`speed_norm`]: learnt per-feature speed slopes; [`envelope`]: the
+//!   speeds and turns each terrain was trained at.
 //! - [`synth`]: small synthetic labelled logs for tests and benchmarks.
 //!
 //! The Bayesian (HMM) filter and the λ-vote live in
@@ -25,6 +26,7 @@ pub mod boost;
 pub mod classify;
 pub mod crossval;
 pub mod current;
+pub mod envelope;
 pub mod error;
 pub mod eval;
 pub mod model;
@@ -40,7 +42,10 @@ pub mod vision;
 pub mod windows;
 
 pub use classify::{Classifier, ClassifierKind, ClassifierParams};
-pub use crossval::{crossval, run_folds, CrossvalReport, RunScore};
+pub use crossval::{
+    crossval, crossval_manoeuvre, manoeuvre_split, run_folds, CrossvalReport, HeldOut, Manoeuvre,
+    RunScore,
+};
 pub use error::{Result, TerrainError};
 pub use eval::{score_log, splice, ChangeScore, Confusion, LogScore};
 pub use model::{

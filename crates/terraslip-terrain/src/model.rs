@@ -7,6 +7,7 @@ use terraslip_core::terrain_belief::{BeliefConfig, TerrainBelief, MAX_TERRAINS};
 use terraslip_io::DriveLog;
 
 use crate::classify::{Classifier, ClassifierParams, Standardizer};
+use crate::envelope::{lower_confidence, Envelope};
 use crate::error::{Result, TerrainError};
 pub use crate::samples::extract;
 use crate::samples::labelled;
@@ -20,8 +21,8 @@ use crate::vision::VisionConfig;
 /// (`spatial_bands`, grid, scaling). 4: the learnt speed normalisation
 /// (`speed_norm` settings, `speed_normalisation` slopes). 5: the vibration
 /// settings record the motor-current channels (`currents`); the spatial
-/// bands are gone.
-pub const MODEL_FORMAT_VERSION: u32 = 5;
+/// bands are gone. 6: the manoeuvre envelope (`envelope`).
+pub const MODEL_FORMAT_VERSION: u32 = 6;
 
 /// The sensor a model reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -151,6 +152,10 @@ pub struct TerrainModel {
     #[serde(default)]
     pub speed_normalisation: Option<SpeedNormalisation>,
     pub normalisation: Standardizer,
+    /// Tread speeds and differences of the training windows per class
+    /// (vibration models of the `full` set; `null` otherwise).
+    #[serde(default)]
+    pub envelope: Option<Envelope>,
     pub classifier_settings: ClassifierParams,
     pub classifier: Classifier,
     pub belief: BeliefSettings,
@@ -165,6 +170,10 @@ pub struct TerrainTimeline {
     pub frames: Vec<(f64, Vec<f64>)>,
     /// Times (s) at which the camera change detector fired (lv2019); empty for IMU models.
     pub changes: Vec<f64>,
+    /// Per frame: driven outside the model's envelope for the terrain it
+    /// is read as (its probabilities were mixed with a uniform
+    /// distribution). Empty when the model has no envelope.
+    pub outside_envelope: Vec<bool>,
 }
 
 /// One frame after the Bayesian filter.
@@ -180,6 +189,13 @@ pub struct FilteredFrame {
 }
 
 impl TerrainTimeline {
+    /// Share of frames outside the model's envelope, 0..1; `None` when
+    /// the model has no envelope or there are no frames.
+    pub fn outside_envelope_share(&self) -> Option<f64> {
+        let n = self.outside_envelope.len();
+        (n > 0).then(|| self.outside_envelope.iter().filter(|&&o| o).count() as f64 / n as f64)
+    }
+
     /// The frames with each probability vector mixed with `floor` of a
     /// uniform distribution (see [`BeliefSettings::prob_floor`]): what to
     /// feed `TerrainBelief::update` so one confident mistake cannot zero
@@ -257,19 +273,33 @@ impl TerrainModel {
         timeline.frames = timeline.floored(self.belief.prob_floor);
         if let Features::Vibration { config, .. } = &self.features {
             let w = &log.wheels;
-            timeline.frames.retain(|(t, _)| {
-                let lo = w.partition_point(|s| s.t < t - config.window_s);
-                let hi = w.partition_point(|s| s.t <= *t);
-                let n = hi.saturating_sub(lo);
-                if n == 0 {
-                    return false;
-                }
-                let sum: f64 = w[lo..hi]
-                    .iter()
-                    .map(|s| 0.5 * (s.v_left.abs() + s.v_right.abs()))
-                    .sum();
-                sum / n as f64 >= MIN_INFORMATIVE_SPEED
-            });
+            let keep: Vec<bool> = timeline
+                .frames
+                .iter()
+                .map(|(t, _)| {
+                    let lo = w.partition_point(|s| s.t < t - config.window_s);
+                    let hi = w.partition_point(|s| s.t <= *t);
+                    let n = hi.saturating_sub(lo);
+                    if n == 0 {
+                        return false;
+                    }
+                    let sum: f64 = w[lo..hi]
+                        .iter()
+                        .map(|s| 0.5 * (s.v_left.abs() + s.v_right.abs()))
+                        .sum();
+                    sum / n as f64 >= MIN_INFORMATIVE_SPEED
+                })
+                .collect();
+            let mut k = keep.iter();
+            timeline
+                .frames
+                .retain(|_| k.next().copied().unwrap_or(false));
+            if !timeline.outside_envelope.is_empty() {
+                let mut k = keep.iter();
+                timeline
+                    .outside_envelope
+                    .retain(|_| k.next().copied().unwrap_or(false));
+            }
         }
         Ok(timeline)
     }
@@ -423,6 +453,12 @@ impl TerrainModel {
             }
             _ => None,
         };
+        let envelope = manoeuvre_indices(&features).map(|(iv, id)| {
+            Envelope::fit(
+                x.iter().zip(&y).map(|(r, &c)| (c, r[iv], r[id])),
+                classes.len(),
+            )
+        });
         let normalisation = Standardizer::fit(&x);
         let xs: Vec<Vec<f64>> = x.iter().map(|r| normalisation.apply(r)).collect();
         let classifier = Classifier::fit(&xs, &y, classes.len(), &opts.classifier)?;
@@ -438,6 +474,7 @@ impl TerrainModel {
             feature_names,
             speed_normalisation,
             normalisation,
+            envelope,
             classifier_settings: opts.classifier.clone(),
             classifier,
             belief: opts.belief,
@@ -492,7 +529,9 @@ impl TerrainModel {
             classes: self.classes.clone(),
             frames: Vec::with_capacity(samples.len()),
             changes: Vec::new(),
+            outside_envelope: Vec::new(),
         };
+        let manoeuvre = manoeuvre_indices(&self.features);
         for (t, mut x, phi) in samples {
             if x.len() != self.normalisation.mean.len() {
                 return Err(TerrainError::Data(format!(
@@ -502,12 +541,20 @@ impl TerrainModel {
                     self.normalisation.mean.len()
                 )));
             }
+            let driven = manoeuvre.map(|(iv, id)| (x[iv], x[id]));
             if let Some(sn) = &self.speed_normalisation {
                 sn.apply(&mut x);
             }
             let mut p = vec![0.0; k];
             self.classifier
                 .predict_proba(&self.normalisation.apply(&x), &mut p);
+            if let (Some(e), Some((v, d))) = (&self.envelope, driven) {
+                let outside = !e.covers(argmax(&p), v, d);
+                if outside {
+                    lower_confidence(&mut p);
+                }
+                tl.outside_envelope.push(outside);
+            }
             if phi > threshold {
                 tl.changes.push(t);
             }
@@ -533,4 +580,15 @@ fn change_threshold_from(same: &[f64], change: &[f64]) -> f64 {
     } else {
         2.0 * p99
     }
+}
+
+/// Indices of the tread speed and tread speed difference features (the
+/// `full` vibration set), which the envelope reads.
+fn manoeuvre_indices(f: &Features) -> Option<(usize, usize)> {
+    let Features::Vibration { config, .. } = f else {
+        return None;
+    };
+    let names = config.feature_names();
+    let at = |n: &str| names.iter().position(|m| m == n);
+    Some((at("tread_speed")?, at("tread_speed_diff")?))
 }

@@ -101,6 +101,11 @@ impl TerrainModel {
             Some(_) => return Err("speed slopes in a model trained without speed_norm".into()),
             None => return Err("speed_norm is set but the model holds no speed slopes".into()),
         }
+        match (&self.envelope, &self.features) {
+            (Some(e), Features::Vibration { .. }) => e.check(k)?,
+            (None, _) => {}
+            (Some(_), _) => return Err("a manoeuvre envelope in a camera model".into()),
+        }
         let source_ok = matches!(
             (&self.features, self.source),
             (Features::Vibration { .. }, Source::Imu) | (Features::Vision { .. }, Source::Camera)

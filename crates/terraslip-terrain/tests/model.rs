@@ -490,3 +490,56 @@ fn speed_normalised_model_learns_the_slopes_from_training_runs_only() {
     let e = TerrainModel::train(&runs, &o).unwrap_err();
     assert!(e.to_string().contains("tread speed"), "{e}");
 }
+
+/// A log whose treads read `factor` times the synthetic 0.5 m/s.
+fn driven_at(mut log: DriveLog, factor: f64) -> DriveLog {
+    for w in &mut log.wheels {
+        w.v_left *= factor;
+        w.v_right *= factor;
+    }
+    log
+}
+
+#[test]
+fn windows_driven_unlike_the_training_runs_are_flagged_and_less_confident() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = TerrainModel::train(&imu_runs(1), &fast_opts()).unwrap();
+    let env = model
+        .envelope
+        .as_ref()
+        .expect("a full vibration model records its envelope");
+    assert_eq!(env.cells.len(), 3);
+    // Saved and read back with the envelope.
+    let path = dir.path().join("m.json");
+    model.save(&path).unwrap();
+    let model = TerrainModel::load(&path).unwrap();
+    let same = vibration_log(&NAMES, &[(1, 30.0)], 99, 0.0);
+    let tl = model.classify_log(&same).unwrap();
+    assert_eq!(tl.outside_envelope.len(), tl.frames.len());
+    assert_eq!(tl.outside_envelope_share(), Some(0.0));
+    // The same vibration, the treads twice as fast: every window outside,
+    // and no window more confident than the uniform mix allows.
+    let fast = driven_at(same.clone(), 2.0);
+    let tl = model.classify_log(&fast).unwrap();
+    assert_eq!(tl.outside_envelope_share(), Some(1.0));
+    let cap = 1.0 - envelope::OUTSIDE_MIX + envelope::OUTSIDE_MIX / 3.0;
+    assert!(tl
+        .frames
+        .iter()
+        .all(|(_, p)| p.iter().all(|&v| v <= cap + 1e-12)
+            && (p.iter().sum::<f64>() - 1.0).abs() < 1e-9));
+    let s = score_log(&model, &fast).unwrap();
+    assert_eq!(s.outside_envelope, Some(s.raw.total() as usize));
+    // The estimator's evidence keeps the flags of the windows it keeps.
+    let ev = model.estimator_evidence(&fast).unwrap();
+    assert_eq!(ev.outside_envelope.len(), ev.frames.len());
+    // A file of the previous format is refused with "retrain".
+    let text = std::fs::read_to_string(&path).unwrap().replacen(
+        &format!("\"format_version\": {MODEL_FORMAT_VERSION}"),
+        "\"format_version\": 5",
+        1,
+    );
+    std::fs::write(&path, text).unwrap();
+    let e = TerrainModel::load(&path).unwrap_err().to_string();
+    assert!(e.contains("retrain"), "{e}");
+}

@@ -258,13 +258,30 @@ impl Iterator for Counted<'_> {
     }
 }
 
+/// What summary.json says of the terrain evidence.
+struct EvidenceInfo {
+    name: String,
+    /// Share of a terrain model's windows driven outside its training
+    /// envelope (`None` without a model, or for a model without envelope).
+    outside_envelope_share: Option<f64>,
+}
+
+impl From<String> for EvidenceInfo {
+    fn from(name: String) -> Self {
+        Self {
+            name,
+            outside_envelope_share: None,
+        }
+    }
+}
+
 /// The terrain evidence `inputs` ask for (the model's smoothing put into
 /// `cfg`), its name in summary.json, and what the command prints about it.
 fn terrain_evidence(
     log: &DriveLog,
     cfg: &mut EstimatorConfig,
     inputs: &Inputs,
-) -> Result<(TerrainEvidence, String, Vec<String>)> {
+) -> Result<(TerrainEvidence, EvidenceInfo, Vec<String>)> {
     let mut notes = Vec::new();
     if inputs.terrain_labels {
         if log.terrain.is_empty() {
@@ -272,12 +289,12 @@ fn terrain_evidence(
         }
         return Ok((
             TerrainEvidence::Labels(log.terrain.clone()),
-            "labels (terrain.csv)".to_string(),
+            "labels (terrain.csv)".to_string().into(),
             notes,
         ));
     }
     let Some(path) = inputs.terrain_model else {
-        return Ok((TerrainEvidence::None, "none".to_string(), notes));
+        return Ok((TerrainEvidence::None, "none".to_string().into(), notes));
     };
     let ctx = || format!("--terrain-model {}", path.display());
     let model = terraslip_terrain::TerrainModel::load(path).with_context(ctx)?;
@@ -299,9 +316,21 @@ fn terrain_evidence(
         },
         timeline.classes.join(", ")
     ));
+    let outside = timeline.outside_envelope_share();
+    if let Some(f) = outside.filter(|&f| f > 0.0) {
+        notes.push(format!(
+            "terrain: {:.1} % of the windows were driven at a speed or turn that no training run \
+             of the terrain they were read as has (their confidence was lowered); record such \
+             driving on every terrain and retrain",
+            100.0 * f
+        ));
+    }
     Ok((
         TerrainEvidence::from(timeline),
-        format!("model {} ({:?})", path.display(), model.source),
+        EvidenceInfo {
+            name: format!("model {} ({:?})", path.display(), model.source),
+            outside_envelope_share: outside,
+        },
         notes,
     ))
 }
@@ -310,11 +339,14 @@ fn finish(
     log: &DriveLog,
     run: EstimateRun,
     cfg: &EstimatorConfig,
-    evidence_name: String,
+    evidence: EvidenceInfo,
     notes: Vec<String>,
 ) -> Estimate {
     let mut summary = summary_json(log, &run, cfg);
-    summary["terrain_evidence"] = serde_json::Value::String(evidence_name);
+    summary["terrain_evidence"] = serde_json::Value::String(evidence.name);
+    if let Some(f) = evidence.outside_envelope_share {
+        summary["terrain_outside_envelope_share"] = serde_json::json!(f);
+    }
     Estimate {
         run,
         summary,

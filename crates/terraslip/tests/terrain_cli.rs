@@ -26,6 +26,24 @@ fn terraslip() -> Command {
     Command::cargo_bin("terraslip").unwrap()
 }
 
+/// Runs `cmd`, which must succeed, and parses its stdout as JSON; with its stderr.
+fn run_json(cmd: &mut Command) -> (serde_json::Value, String) {
+    let out = cmd.output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "{stderr}");
+    (serde_json::from_slice(&out.stdout).unwrap(), stderr)
+}
+
+/// A synthetic run of terrain `k` whose treads read twice the usual 0.5 m/s.
+fn write_fast_run(path: &Path, k: usize, seed: u64) {
+    let mut log = vibration_log(&NAMES, &[(k, 25.0)], seed, 0.0);
+    for w in &mut log.wheels {
+        w.v_left *= 2.0;
+        w.v_right *= 2.0;
+    }
+    log.write(path).unwrap();
+}
+
 /// Trains a small model on `runs` (1 s windows) into `model`.
 fn train_model(runs: &[String], model: &Path, rounds: &str) {
     terraslip()
@@ -124,18 +142,12 @@ fn train_then_eval_json_has_the_contract_fields_and_draws_plots() {
 fn crossval_reports_leave_runs_out_accuracy() {
     let dir = tempfile::tempdir().unwrap();
     let runs = write_runs(dir.path());
-    let out = terraslip()
-        .args(["terrain", "crossval"])
-        .args(&runs)
-        .args(["--folds", "2", "--window", "1", "--rounds", "40", "--json"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let (v, _) = run_json(
+        terraslip()
+            .args(["terrain", "crossval"])
+            .args(&runs)
+            .args(["--folds", "2", "--window", "1", "--rounds", "40", "--json"]),
     );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["folds"], 2);
     let per_fold = v["fold_accuracy"].as_array().unwrap();
     assert_eq!(per_fold.len(), 2);
@@ -449,4 +461,78 @@ fn train_reads_the_channels_every_log_has_and_names_what_is_missing() {
         .args(["--out", dir.path().join("x.json").to_str().unwrap()])
         .assert()
         .success();
+}
+
+#[test]
+fn crossval_by_manoeuvre_holds_out_the_run_driven_faster_than_its_terrain_was_trained() {
+    let dir = tempfile::tempdir().unwrap();
+    let runs = write_runs(dir.path());
+    // Every run at 0.5 m/s: no run is outside its terrain's speeds.
+    fails_with(
+        terraslip()
+            .args(["terrain", "crossval", "--split", "manoeuvre"])
+            .args(&runs)
+            .args(["--window", "1", "--rounds", "40"]),
+        "no run lies outside the speeds and turn rates",
+    );
+    // A third grass run, its treads reading twice as fast.
+    let fast = dir.path().join("run_fast_grass");
+    write_fast_run(&fast, 1, 77);
+    let (v, stderr) = run_json(
+        terraslip()
+            .args(["terrain", "crossval", "--split", "manoeuvre"])
+            .args(&runs)
+            .arg(&fast)
+            .args(["--window", "1", "--rounds", "40", "--json"]),
+    );
+    assert_eq!(v["split"], "manoeuvre");
+    let held = v["held_out"].as_array().unwrap();
+    assert_eq!(held.len(), 1, "{v}");
+    assert_eq!(held[0]["log"], "run_fast_grass");
+    assert!((held[0]["mean_tread_speed"].as_f64().unwrap() - 1.0).abs() < 0.05);
+    assert!(held[0]["why"]
+        .as_str()
+        .unwrap()
+        .contains("fastest drive of grass"));
+    // Only the held-out run is scored, and it is driven where no training run was.
+    assert_eq!(v["runs"].as_array().unwrap().len(), 1);
+    assert_eq!(v["outside_envelope_share"].as_f64(), Some(1.0), "{v}");
+    assert_eq!(v["runs"][0]["outside_envelope_share"].as_f64(), Some(1.0));
+    assert!(
+        stderr.contains("split by manoeuvre: 1 runs held out"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn eval_reports_the_share_of_windows_driven_outside_the_training_envelope() {
+    let dir = tempfile::tempdir().unwrap();
+    let runs = write_runs(dir.path());
+    let model = dir.path().join("model.json");
+    train_model(&runs[..3], &model, "40");
+    let eval = |log: &Path| {
+        run_json(
+            terraslip()
+                .args(["terrain", "eval"])
+                .arg(log)
+                .arg("--model")
+                .arg(&model)
+                .arg("--plots")
+                .arg(dir.path().join("plots"))
+                .arg("--json"),
+        )
+    };
+    // Driven like the training runs: no window outside.
+    let (v, _) = eval(Path::new(&runs[4]));
+    assert_eq!(v["outside_envelope_share"].as_f64(), Some(0.0), "{v}");
+    // The treads at twice the speed: every window outside, said in the text.
+    let fast = dir.path().join("fast");
+    write_fast_run(&fast, 1, 55);
+    let (v, text) = eval(&fast);
+    assert_eq!(v["outside_envelope_share"].as_f64(), Some(1.0), "{v}");
+    assert_eq!(v["logs"][0]["outside_envelope_share"].as_f64(), Some(1.0));
+    assert!(
+        text.contains("driven outside the training envelope: 100.0 %"),
+        "{text}"
+    );
 }

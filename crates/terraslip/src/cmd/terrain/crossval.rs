@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context};
-use terraslip_terrain::{crossval, Source};
+use terraslip_terrain::{crossval, crossval_manoeuvre, Source};
 
 use super::settings::{options, TrainSettings};
 use super::{read_logs, Progress};
@@ -19,11 +19,26 @@ pub(super) struct CrossvalArgs {
     /// in parallel (TERRASLIP_THREADS caps the threads).
     #[arg(long, default_value_t = 5, value_parser = parse_folds)]
     folds: usize,
+    /// Which runs are held out. `runs`: dealt round-robin to --folds folds.
+    /// `manoeuvre`: one fold of the runs driven outside the speeds and turn
+    /// rates of the other runs of their terrain (each terrain's fastest drive
+    /// and slowest spin, by the runs' own mean tread speed and tread
+    /// difference; a run spins when |v_r - v_l| / (|v_l| + |v_r|) averages
+    /// 0.5 or more), trained on all the others: how the model carries to a
+    /// way of driving it has not seen.
+    #[arg(long, value_enum, default_value_t = Split::Runs)]
+    split: Split,
     #[command(flatten)]
     settings: TrainSettings,
     /// Print one JSON object on stdout.
     #[arg(long)]
     json: bool,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Split {
+    Runs,
+    Manoeuvre,
 }
 
 pub(super) fn run(a: CrossvalArgs) -> anyhow::Result<()> {
@@ -42,20 +57,39 @@ pub(super) fn run(a: CrossvalArgs) -> anyhow::Result<()> {
         seen.push((real, p));
     }
     let logs = read_logs(&a.logs, a.json)?;
-    let folds = a.folds;
-    let mut bar = Progress::new(
-        folds.min(logs.len()) as u64,
-        "cross-validating (folds done)",
-        a.json,
-    );
-    let rep =
-        crossval(&logs, &opts, folds, |i, _| bar.set(i as u64)).context("cross-validation")?;
+    let folds = match a.split {
+        Split::Runs => a.folds.min(logs.len()),
+        Split::Manoeuvre => 1,
+    };
+    let mut bar = Progress::new(folds as u64, "cross-validating (folds done)", a.json);
+    let (rep, held) = match a.split {
+        Split::Runs => (
+            crossval(&logs, &opts, a.folds, |i, _| bar.set(i as u64))
+                .context("cross-validation")?,
+            Vec::new(),
+        ),
+        Split::Manoeuvre => crossval_manoeuvre(&logs, &opts, |i, _| bar.set(i as u64))
+            .context("cross-validation by manoeuvre")?,
+    };
     bar.finish();
     let latency = rep.latency_summary();
+    let split = match a.split {
+        Split::Runs => format!("{} folds (whole runs left out)", rep.folds),
+        Split::Manoeuvre => {
+            let mut s = format!(
+                "split by manoeuvre: {} runs held out, trained on the other {}\n",
+                held.len(),
+                logs.len() - held.len()
+            );
+            for h in &held {
+                s += &format!("  {}: {}\n", logs[h.run].name(), h.why);
+            }
+            s.trim_end().to_string()
+        }
+    };
     let text = format!(
-        "{} logs, {} folds (whole runs left out)\nsingle windows: accuracy {:.1} % (balanced {:.1} %; per fold median {:.1} %, worst {:.1} %)\n{}\nruns filtered one by one: accuracy {:.1} %\nspliced runs (terrain changes): raw {:.1} %, filtered {:.1} % (misclassification {:.2} %)\n{}",
+        "{} logs, {split}\nsingle windows: accuracy {:.1} % (balanced {:.1} %; per fold median {:.1} %, worst {:.1} %)\n{}\nruns filtered one by one: accuracy {:.1} %\nspliced runs (terrain changes): raw {:.1} %, filtered {:.1} % (misclassification {:.2} %)\n{}",
         logs.len(),
-        rep.folds,
         100.0 * rep.raw.accuracy(),
         100.0 * rep.raw.balanced_accuracy(),
         100.0 * rep.fold_summary().0,
@@ -70,7 +104,8 @@ pub(super) fn run(a: CrossvalArgs) -> anyhow::Result<()> {
     let text = format!(
         "{text}spliced logs: {} terrain changes; filtered without the windows straddling a change: {:.1} %; \
          a change to a correct filtered label: median {}, worst {}, never {} of {}\n\
-         held-out outputs of all folds chained ({} terrain changes), filtered: {:.1} % (misclassification {:.2} %)\n{}",
+         held-out outputs of all folds chained ({} terrain changes), filtered: {:.1} % (misclassification {:.2} %)\n\
+         held-out windows driven outside their fold's training envelope: {}\n{}",
         rep.spliced_changes,
         100.0 * rep.spliced_filtered_settled.accuracy(),
         seconds(latency.0),
@@ -80,6 +115,8 @@ pub(super) fn run(a: CrossvalArgs) -> anyhow::Result<()> {
         rep.chained_changes,
         100.0 * rep.chained_filtered.accuracy(),
         100.0 * (1.0 - rep.chained_filtered.accuracy()),
+        rep.outside_envelope_share()
+            .map_or_else(|| "-".to_string(), |f| format!("{:.1} %", 100.0 * f)),
         rep.runs_table()
     );
     let text = if opts.source == Source::Camera {
@@ -94,6 +131,14 @@ pub(super) fn run(a: CrossvalArgs) -> anyhow::Result<()> {
         eprintln!("{text}");
         let out = serde_json::json!({
             "folds": rep.folds,
+            "split": match a.split { Split::Runs => "runs", Split::Manoeuvre => "manoeuvre" },
+            "held_out": held.iter().map(|h| serde_json::json!({
+                "log": logs[h.run].name(),
+                "mean_tread_speed": h.manoeuvre.speed,
+                "mean_tread_diff": h.manoeuvre.tread_diff,
+                "spin_share": h.manoeuvre.spin_share,
+                "why": h.why,
+            })).collect::<Vec<_>>(),
             "windows": rep.raw.total(),
             "accuracy": rep.raw.accuracy(),
             "accuracy_filtered": rep.filtered.accuracy(),
@@ -106,6 +151,7 @@ pub(super) fn run(a: CrossvalArgs) -> anyhow::Result<()> {
             "spliced_accuracy_filtered_settled": rep.spliced_filtered_settled.accuracy(),
             "chained_changes": rep.chained_changes,
             "chained_accuracy_filtered": rep.chained_filtered.accuracy(),
+            "outside_envelope_share": rep.outside_envelope_share(),
             "change_latency_s": rep.change_latency_s,
             "fold_accuracy": rep.fold_accuracy,
             "runs": rep.runs,

@@ -23,7 +23,10 @@ pub(super) struct EvalArgs {
     #[arg(long, default_value = "out/terrain-eval")]
     plots: PathBuf,
     /// Print one JSON object on stdout: windows, accuracy, accuracy_filtered,
-    /// classes, confusion (rows = true class), confusion_filtered, per-log scores.
+    /// classes, confusion (rows = true class), confusion_filtered,
+    /// outside_envelope_share (share of windows driven at a speed or turn no
+    /// training run of the terrain they were read as has; null for models
+    /// without an envelope), per-log scores.
     #[arg(long)]
     json: bool,
 }
@@ -49,12 +52,16 @@ pub(super) fn run(a: EvalArgs) -> anyhow::Result<()> {
     let mut filtered = Confusion::new(&model.classes);
     let mut scores = Vec::new();
     let mut change = ChangeScore::default();
+    let mut outside = model.envelope.as_ref().map(|_| 0usize);
     for log in &logs {
         let s =
             score_log(&model, log).with_context(|| format!("classifying {}", log.dir.display()))?;
         raw.merge(&s.raw);
         filtered.merge(&s.filtered);
         change.merge(&s.change);
+        if let (Some(o), Some(n)) = (outside.as_mut(), s.outside_envelope) {
+            *o += n;
+        }
         scores.push(s);
         bar.inc();
     }
@@ -112,8 +119,19 @@ pub(super) fn run(a: EvalArgs) -> anyhow::Result<()> {
     } else {
         String::new()
     };
+    let outside_share = outside.map(|o| o as f64 / raw.total().max(1) as f64);
+    let envelope_text = match outside_share {
+        Some(f) if f > 0.0 => format!(
+            "driven outside the training envelope: {:.1} % of the windows (a speed or turn that no \
+             training run of the terrain they were read as has; their confidence was lowered; \
+             record such driving on every terrain and retrain)\n",
+            100.0 * f
+        ),
+        Some(_) => "driven outside the training envelope: none of the windows\n".into(),
+        None => String::new(),
+    };
     let text = format!(
-        "{} windows from {} logs\nsingle windows: accuracy {:.1} % (balanced {:.1} %)\n{}\nafter the Bayesian filter: accuracy {:.1} % (balanced {:.1} %)\n{}{change_text}plots in {}",
+        "{} windows from {} logs\nsingle windows: accuracy {:.1} % (balanced {:.1} %)\n{}\nafter the Bayesian filter: accuracy {:.1} % (balanced {:.1} %)\n{}{change_text}{envelope_text}plots in {}",
         raw.total(),
         logs.len(),
         100.0 * raw.accuracy(),
@@ -132,6 +150,8 @@ pub(super) fn run(a: EvalArgs) -> anyhow::Result<()> {
                 serde_json::json!({
                     "log": s.log, "windows": s.raw.total(),
                     "accuracy": s.raw.accuracy(), "accuracy_filtered": s.filtered.accuracy(),
+                    "outside_envelope_share": s.outside_envelope
+                        .map(|o| o as f64 / s.raw.total().max(1) as f64),
                 })
             })
             .collect();
@@ -145,6 +165,7 @@ pub(super) fn run(a: EvalArgs) -> anyhow::Result<()> {
             "confusion_filtered": filtered.counts,
             "source": model.source.name(),
             "change_detection": change,
+            "outside_envelope_share": outside_share,
             "logs": per_log,
             "plots": plots,
         });

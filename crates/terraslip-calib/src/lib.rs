@@ -65,11 +65,13 @@ pub enum CalibError {
         "{log}: meta.toml has no track_width, so the no-slip model to compare against is undefined"
     )]
     NoTrackWidth { log: PathBuf },
-    #[error("set `{set}`: only {moving} usable moving segments, need at least {needed} (is the robot moving while the pose reference is valid?)")]
+    #[error("set `{set}`: only {moving} usable moving segments, need at least {needed} ({hint})")]
     TooFewSegments {
         set: String,
         moving: usize,
         needed: usize,
+        /// What to look at, from why pose rows and segments were dropped.
+        hint: String,
     },
     #[error("set `{set}`: cannot identify {}: {reason}", params.join(", "))]
     Unobservable {

@@ -3,13 +3,20 @@
 //! for slip models).
 //!
 //! Every `stride` seconds after a `warmup`, from the reference pose at `t`
-//! (linear interpolation of `pose.csv`, the yaw unwrapped), the tread
+//! (linear interpolation of `pose.csv`'s positions, and of its headings,
+//! unwrapped, which may sit on rows of their own), the tread
 //! speeds of `wheels.csv` are integrated over `[t, t + horizon]` with the
 //! ICR model and the parameters in effect at `t`, held for the whole
 //! horizon; the error is the distance to the reference position at
 //! `t + horizon`. Starts where the pose stream has a gap longer than
 //! `max_gap` inside the horizon are skipped. The same segments are scored
 //! with the no-slip model of the track width, for comparison.
+//!
+//! A position-only reference (GNSS without a heading) has no start
+//! heading of its own: [`PredictionStream`] then takes the estimate's
+//! heading at `t` when it is given one (the heading the robot itself
+//! would predict from), and counts the starts that did
+//! (`start_heading` of the score).
 
 use std::collections::VecDeque;
 
@@ -83,6 +90,9 @@ impl ErrorStats {
 pub struct PredictionScore {
     pub spec: PredictionSpec,
     pub segments: Vec<PredictionSegment>,
+    /// Segments whose start heading was the estimate's (the reference had
+    /// none at their start); the others took the reference's.
+    pub estimate_headings: usize,
     /// Of the parameters.
     pub stats: ErrorStats,
     /// Of the no-slip model on the same segments.
@@ -94,6 +104,7 @@ impl PredictionScore {
     pub fn from_segments(spec: PredictionSpec, segments: Vec<PredictionSegment>) -> Self {
         Self {
             spec,
+            estimate_headings: 0,
             stats: ErrorStats::of(segments.iter().map(|s| s.error)),
             no_slip: ErrorStats::of(segments.iter().map(|s| s.no_slip)),
             segments,
@@ -109,29 +120,13 @@ impl PredictionScore {
             "rmse_m": self.stats.rmse_m,
             "p90_m": self.stats.p90_m,
             "no_slip": self.no_slip,
+            "start_heading": match self.estimate_headings {
+                0 => "reference".to_string(),
+                n if n == self.segments.len() => "estimate".to_string(),
+                n => format!("reference, the estimate's on {n} segments"),
+            },
         })
     }
-}
-
-fn interpolate(r: &[(f64, f64, f64, f64)], t: f64) -> Option<(f64, f64, f64)> {
-    let i = r.partition_point(|p| p.0 < t);
-    if let Some(p) = r.get(i).filter(|p| p.0 == t) {
-        return Some((p.1, p.2, p.3));
-    }
-    if i == 0 || i >= r.len() {
-        return None;
-    }
-    let (a, b) = (r[i - 1], r[i]);
-    let f = if b.0 > a.0 {
-        (t - a.0) / (b.0 - a.0)
-    } else {
-        0.0
-    };
-    Some((
-        a.1 + f * (b.1 - a.1),
-        a.2 + f * (b.2 - a.2),
-        a.3 + f * (b.3 - a.3),
-    ))
 }
 
 /// Integrates the wheels over `[t0, t1]` from pose `start` (east, north,
@@ -162,8 +157,39 @@ pub fn predict(
     (e, n)
 }
 
-/// A reference pose: time, east, north and the yaw unwrapped.
-type Reference = (f64, f64, f64, f64);
+/// A reference position: time, east, north.
+type Reference = (f64, f64, f64);
+
+fn interpolate_position(r: &[Reference], t: f64) -> Option<(f64, f64)> {
+    let i = r.partition_point(|p| p.0 < t);
+    if let Some(p) = r.get(i).filter(|p| p.0 == t) {
+        return Some((p.1, p.2));
+    }
+    if i == 0 || i >= r.len() {
+        return None;
+    }
+    let (a, b) = (r[i - 1], r[i]);
+    let f = if b.0 > a.0 {
+        (t - a.0) / (b.0 - a.0)
+    } else {
+        0.0
+    };
+    Some((a.1 + f * (b.1 - a.1), a.2 + f * (b.2 - a.2)))
+}
+
+/// The heading at `t` from headings `(t, yaw unwrapped)` no further apart
+/// than `max_gap` around it.
+fn heading_at(h: &[(f64, f64)], t: f64, max_gap: f64) -> Option<f64> {
+    let i = h.partition_point(|p| p.0 < t);
+    if let Some(p) = h.get(i).filter(|p| p.0 == t) {
+        return Some(p.1);
+    }
+    let (a, b) = (h.get(i.checked_sub(1)?)?, h.get(i)?);
+    if b.0 - a.0 > max_gap {
+        return None;
+    }
+    Some(a.1 + (t - a.0) / (b.0 - a.0) * (b.1 - a.1))
+}
 
 /// [`score`] computed as the drive streams by: give the pose rows and the
 /// wheels rows in time order, each pose row before the wheels rows stamped
@@ -174,8 +200,13 @@ type Reference = (f64, f64, f64, f64);
 pub struct PredictionStream {
     spec: PredictionSpec,
     no_slip: IcrParams,
-    /// Reference poses from the last one before the oldest open start.
+    /// Reference positions from the last one before the oldest open start.
     refs: VecDeque<Reference>,
+    /// Reference headings (unwrapped) likewise.
+    headings: VecDeque<(f64, f64)>,
+    /// The estimate's heading at the latest wheels row, rad.
+    estimate_heading: Option<f64>,
+    estimate_headings: usize,
     /// Time of the first and of the latest reference pose.
     r_first: Option<f64>,
     r_max: f64,
@@ -184,8 +215,9 @@ pub struct PredictionStream {
     w_max: f64,
     /// The next start to open (from the first wheels row on).
     next_start: Option<f64>,
-    /// Open starts and the parameters in effect at each.
-    open: VecDeque<(f64, Option<IcrParams>)>,
+    /// Open starts, the parameters in effect at each and the estimate's
+    /// heading then.
+    open: VecDeque<(f64, Option<IcrParams>, Option<f64>)>,
     segments: Vec<PredictionSegment>,
 }
 
@@ -196,6 +228,9 @@ impl PredictionStream {
             spec,
             no_slip: IcrParams::no_slip(track_width),
             refs: VecDeque::new(),
+            headings: VecDeque::new(),
+            estimate_heading: None,
+            estimate_headings: 0,
             r_first: None,
             r_max: f64::NEG_INFINITY,
             wheels: VecDeque::new(),
@@ -210,18 +245,27 @@ impl PredictionStream {
         self.spec.horizon > 0.0 && self.spec.stride > 0.0
     }
 
-    /// The next pose row; only rows with all of east, north and yaw are
-    /// reference poses.
+    /// The next pose row: its position and its heading, each when present.
     pub fn pose(&mut self, p: &PoseObs) {
-        if let (Some(e), Some(n), Some(y)) = (p.east, p.north, p.yaw) {
-            let y = match self.refs.back() {
-                Some(&(_, _, _, prev)) => prev + terraslip_core::angle::wrap(y - prev),
+        if let Some(y) = p.yaw.filter(|y| y.is_finite()) {
+            let y = match self.headings.back() {
+                Some(&(_, prev)) => prev + terraslip_core::angle::wrap(y - prev),
                 None => y,
             };
-            self.refs.push_back((p.t, e, n, y));
+            self.headings.push_back((p.t, y));
+        }
+        if let (Some(e), Some(n)) = (p.east, p.north) {
+            self.refs.push_back((p.t, e, n));
             self.r_first.get_or_insert(p.t);
             self.r_max = p.t;
         }
+    }
+
+    /// The estimate's heading (rad, ENU) after the latest wheels row: the
+    /// start heading of the starts opened at the next row when the
+    /// reference has none there.
+    pub fn estimate_heading(&mut self, yaw: f64) {
+        self.estimate_heading = yaw.is_finite().then_some(yaw);
     }
 
     /// The next wheels row; `params_at(t)` gives the parameters in effect
@@ -232,7 +276,8 @@ impl PredictionStream {
         }
         let mut next = self.next_start.unwrap_or(w.t + self.spec.warmup);
         while next < w.t {
-            self.open.push_back((next, params_at(next)));
+            self.open
+                .push_back((next, params_at(next), self.estimate_heading));
             next += self.spec.stride;
         }
         self.next_start = Some(next);
@@ -247,20 +292,22 @@ impl PredictionStream {
         if self.segments.is_empty() {
             return None;
         }
-        Some(PredictionScore::from_segments(self.spec, self.segments))
+        let mut score = PredictionScore::from_segments(self.spec, self.segments);
+        score.estimate_headings = self.estimate_headings;
+        Some(score)
     }
 
     /// Scores or drops the open starts that can be decided (all of them at
     /// the `end`), oldest first, and forgets what no open start needs.
     fn close(&mut self, end: bool) {
         let (h, gap) = (self.spec.horizon, self.spec.max_gap);
-        while let Some(&(t, params)) = self.open.front() {
+        while let Some(&(t, params, heading)) = self.open.front() {
             let t1 = t + h;
             let covered = self.r_max >= t1 && self.w_max >= t1;
             if end || covered && t <= self.r_max - h && t <= self.w_max - h {
                 self.open.pop_front();
                 if t <= self.r_max - h && t <= self.w_max - h {
-                    self.score_start(t, params);
+                    self.score_start(t, params, heading);
                 }
                 continue;
             }
@@ -276,11 +323,14 @@ impl PredictionStream {
             self.open.pop_front();
         }
         let oldest = match (self.open.front(), self.next_start) {
-            (Some(&(t, _)), _) | (None, Some(t)) => t,
+            (Some(&(t, _, _)), _) | (None, Some(t)) => t,
             (None, None) => return,
         };
         while self.refs.len() >= 2 && self.refs[1].0 < oldest {
             self.refs.pop_front();
+        }
+        while self.headings.len() >= 2 && self.headings[1].0 < oldest {
+            self.headings.pop_front();
         }
         while self.wheels.front().is_some_and(|w| w.t <= oldest) {
             self.wheels.pop_front();
@@ -289,7 +339,7 @@ impl PredictionStream {
 
     /// One start, as [`score`] defines it, on the kept poses and wheels
     /// (which hold everything it reads).
-    fn score_start(&mut self, t: f64, params: Option<IcrParams>) {
+    fn score_start(&mut self, t: f64, params: Option<IcrParams>, estimate: Option<f64>) {
         let t1 = t + self.spec.horizon;
         let r = self.refs.make_contiguous();
         let i = r.partition_point(|p| p.0 <= t).saturating_sub(1);
@@ -301,7 +351,17 @@ impl PredictionStream {
         if !gap_free {
             return;
         }
-        if let (Some(a), Some(b), Some(p)) = (interpolate(r, t), interpolate(r, t1), params) {
+        let reference = heading_at(self.headings.make_contiguous(), t, self.spec.max_gap);
+        let Some(yaw) = reference.or(estimate) else {
+            return;
+        };
+        if let (Some(a), Some(b), Some(p)) = (
+            interpolate_position(r, t),
+            interpolate_position(r, t1),
+            params,
+        ) {
+            let a = (a.0, a.1, yaw);
+            self.estimate_headings += usize::from(reference.is_none());
             let wheels = self.wheels.make_contiguous();
             let (e, n) = predict(wheels, &p, t, t1, a);
             let (en, nn) = predict(wheels, &self.no_slip, t, t1, a);
@@ -315,8 +375,8 @@ impl PredictionStream {
 }
 
 /// Scores the parameters `params_at(t)` (those in effect at `t`) on the
-/// drive; `None` without a pose reference with headings or wheels, or when
-/// no segment qualifies.
+/// drive; `None` without a pose reference with positions and headings or
+/// wheels, or when no segment qualifies.
 pub fn score(
     wheels: &[WheelSample],
     pose: &[PoseObs],
@@ -445,12 +505,82 @@ mod tests {
         assert!(held < 200, "{held}");
         let got = stream.finish().unwrap();
         // Starts 5..=98 s (94); left out: 59..=69 (their 2 s reach across
-        // the pose gap; 58 ends at the pose at 60), 79..=84 (across the
-        // poses without heading) and 90..=98 (no parameters).
+        // the pose gap; 58 ends at the pose at 60), 81..=84 (no heading at
+        // their start: the positions go on, the headings stop after 80 s)
+        // and 90..=98 (no parameters).
         assert!(got.segments.iter().all(|g| !(58.5..70.0).contains(&g.t)));
-        assert!(got.segments.iter().all(|g| !(78.5..85.0).contains(&g.t)));
+        assert!(got.segments.iter().all(|g| !(80.5..85.0).contains(&g.t)));
         assert!(got.segments.iter().all(|g| g.t < 90.0));
-        assert_eq!(got.segments.len(), 94 - 11 - 6 - 9);
+        assert_eq!(got.segments.len(), 94 - 11 - 4 - 9);
+        assert_eq!(got.estimate_headings, 0);
         assert_eq!(score(&wheels, &pose, 0.5, &params_at, spec), Some(got));
+    }
+
+    #[test]
+    fn positions_and_headings_on_rows_of_their_own_score_as_one_reference() {
+        let mut truth = IcrParams::new(0.4, -0.38, 0.02);
+        truth.alpha_l = 0.9;
+        let (w, p) = drive(&truth, true, None);
+        let joint = score(&w, &p, 0.5, &|_| Some(truth), PredictionSpec::default()).unwrap();
+        // The same poses as a GNSS import writes them: a position row and a
+        // heading row, 10 ms apart.
+        let mut split = Vec::new();
+        for r in &p {
+            split.push(PoseObs { yaw: None, ..*r });
+            split.push(PoseObs {
+                t: r.t + 0.01,
+                east: None,
+                north: None,
+                ..*r
+            });
+        }
+        let s = score(&w, &split, 0.5, &|_| Some(truth), PredictionSpec::default()).unwrap();
+        assert_eq!(s.segments.len(), joint.segments.len());
+        // Exact up to the heading interpolated 10 ms off.
+        assert!(s.stats.mean_m < 0.01, "{:?}", s.stats);
+        assert_eq!(s.to_json()["start_heading"], "reference");
+    }
+
+    #[test]
+    fn a_position_only_reference_starts_from_the_estimates_heading() {
+        let truth = IcrParams::new(0.4, -0.38, 0.02);
+        let (w, p) = drive(&truth, true, None);
+        let positions: Vec<PoseObs> = p.iter().map(|r| PoseObs { yaw: None, ..*r }).collect();
+        // No heading anywhere: nothing to start from.
+        assert!(score(
+            &w,
+            &positions,
+            0.5,
+            &|_| Some(truth),
+            PredictionSpec::default()
+        )
+        .is_none());
+        // The true heading at every row, as a perfect estimate would give it.
+        let yaw_at = |t: f64| {
+            let k = p.partition_point(|r| r.t <= t) - 1;
+            let (r, dt) = (&p[k], t - p[k].t);
+            r.yaw.unwrap() + dt * truth.twist(0.6, 1.0).omega
+        };
+        // The stream fed the estimate's heading `off` rad wrong.
+        let run = |off: f64| {
+            let mut stream = PredictionStream::new(0.5, PredictionSpec::default());
+            let mut k = 0;
+            for x in &w {
+                while let Some(r) = positions.get(k).filter(|r| r.t <= x.t) {
+                    stream.pose(r);
+                    k += 1;
+                }
+                stream.wheels(*x, &mut |_| Some(truth));
+                stream.estimate_heading(yaw_at(x.t) + off);
+            }
+            stream.finish().unwrap()
+        };
+        let s = run(0.0);
+        assert_eq!(s.segments.len(), 39);
+        assert!(s.stats.mean_m < 1e-6, "{:?}", s.stats);
+        assert_eq!(s.estimate_headings, 39);
+        assert_eq!(s.to_json()["start_heading"], "estimate");
+        // A wrong heading shows: 0.1 rad off over ~1.6 m is ~0.16 m.
+        assert!(run(0.1).stats.mean_m > 0.1);
     }
 }

@@ -242,6 +242,7 @@ pub fn validate(
             set: "validation".into(),
             moving: 0,
             needed: 1,
+            hint: segs.stats.hint(0),
         });
     }
     let (mse, nominal_mse) = scores(&out);

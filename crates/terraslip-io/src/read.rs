@@ -473,12 +473,14 @@ pub fn read_truth(path: &Path) -> Result<Vec<TruthSample>, LogError> {
 
 /// The keys of `meta.toml`: the robot description, then the provenance
 /// `terraslip simulate` records.
-const META_KEYS: [&str; 7] = [
+const META_KEYS: [&str; 9] = [
     "robot",
     "track_width",
     "wheel_radius",
     "length",
     "ticks_per_rev",
+    "separation",
+    "separation_source",
     "scenario",
     "seed",
 ];
@@ -521,6 +523,7 @@ pub fn read_meta(path: &Path) -> Result<Meta, LogError> {
         ("wheel_radius", meta.wheel_radius, 5.0, "m"),
         ("length", meta.length, 50.0, "m"),
         ("ticks_per_rev", meta.ticks_per_rev, 1e9, "ticks"),
+        ("separation", meta.separation, 20.0, "m"),
     ] {
         if let Some(v) = v {
             if !(v.is_finite() && v > 0.0 && v <= max) {

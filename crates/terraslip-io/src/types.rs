@@ -89,6 +89,25 @@ pub struct Meta {
     /// encoder ticks per wheel revolution (terraslip extension)
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ticks_per_rev: Option<f64>,
+    /// The separation S the tread speeds of `wheels.csv` were made with from
+    /// a controller's odometry twist (v ∓ ω·S/2), m (terraslip extension):
+    /// learned ICRs are in its scale, and the learned spread / S is the factor
+    /// by which the controller's `wheel_separation_multiplier` is off.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub separation: Option<f64>,
+    /// Where [`Meta::separation`] came from: `given` (the controller's own
+    /// value, so the ICRs are absolute), `urdf`, `track_width` or `default`
+    /// (a nominal scale).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub separation_source: Option<String>,
+}
+
+impl Meta {
+    /// Whether the tread speeds' scale is the robot's own: no separation
+    /// was needed (tread speeds measured), or the controller's was given.
+    pub fn separation_is_absolute(&self) -> bool {
+        self.separation.is_none() || self.separation_source.as_deref() == Some("given")
+    }
 }
 
 /// A whole drive log in memory. Every vector is sorted by `t`.

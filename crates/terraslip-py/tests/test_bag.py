@@ -97,12 +97,18 @@ def test_calibrate_and_validate_read_a_bag_as_the_cli(cli, tmp_path):
 
 
 @needs_husky
-def test_a_bag_without_its_topics_gives_the_cli_message(cli, tmp_path):
-    with pytest.raises(terraslip.TerraslipError) as e:
-        terraslip.estimate(HUSKY)
-    message = cli_error(cli("estimate", HUSKY, "--out", tmp_path / "o", check=False))
-    assert str(e.value) == message
-    assert "separation" in message and "husky_velocity_controller" in message
+def test_a_bag_without_its_topics_runs_as_the_cli(cli, tmp_path):
+    # No separation given: a nominal one, stated, and the controller's
+    # correction as a factor.
+    out = tmp_path / "o"
+    cli("estimate", HUSKY, "--out", out)
+    got = terraslip.estimate(HUSKY)
+    assert got["summary"] == json.loads((out / "summary.json").read_text())
+    controller = got["summary"]["controller"]
+    assert controller["separation_source"] == "default"
+    assert controller["wheel_separation_m"] is None
+    assert 0.8 < controller["separation_factor"] < 1.0
+    assert got["summary"]["prediction"]["start_heading"] == "estimate"
 
 
 def test_a_broken_bag_gives_the_cli_message(cli, tmp_path):

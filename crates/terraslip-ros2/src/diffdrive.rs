@@ -75,11 +75,24 @@ pub struct ParamsBlock {
     /// 2 s prediction position error on the calibration drives, m RMS:
     /// (full ICR model, the diff-drive approximation), when known.
     pub cost: Option<(f64, f64)>,
+    /// For tread speeds made from the controller's odometry twist with a
+    /// separation S: spread / S, the factor by which the recording's
+    /// `wheel_separation_multiplier` is off.
+    pub separation_factor: Option<f64>,
 }
 
 /// A ROS 2 parameter YAML, one controller block per terrain, named
 /// `<controller>_<terrain>` (the pooled set keeps the plain name).
-pub fn params_yaml(controller: &str, blocks: &[ParamsBlock]) -> String {
+/// `nominal`: the separation (m) and its source when the tread speeds were
+/// made with a nominal one, not the controller's: the ICRs are then in its
+/// scale, so the blocks give the radius multipliers and, as a comment, the
+/// factor on the controller's own `wheel_separation_multiplier`, not
+/// absolute separations.
+pub fn params_yaml(
+    controller: &str,
+    blocks: &[ParamsBlock],
+    nominal: Option<(f64, &str)>,
+) -> String {
     let mut s = String::new();
     s.push_str("# diff_drive_controller parameters from `terraslip calibrate`.\n");
     s.push_str("# The differential-drive model cannot represent the ICR model's longitudinal\n");
@@ -88,6 +101,12 @@ pub fn params_yaml(controller: &str, blocks: &[ParamsBlock]) -> String {
     s.push_str("# the effective separation and the speed factors as radius multipliers.\n");
     s.push_str("# wheel_separation and wheel_radius are the nominal values; the multipliers\n");
     s.push_str("# assume the recording's controller ran with radius multipliers of 1.\n");
+    if let Some((sep, source)) = nominal {
+        let _ = writeln!(
+            s,
+            "# The recording's controller separation was not given: the tread speeds were made\n# with a nominal S = {sep} m ({source}), so the ICRs below are in that scale. Multiply\n# the controller's own wheel_separation_multiplier by the factor of each block."
+        );
+    }
     for b in blocks {
         let name = if b.terrain == "all" || blocks.len() == 1 {
             controller.to_string()
@@ -106,6 +125,20 @@ pub fn params_yaml(controller: &str, blocks: &[ParamsBlock]) -> String {
                 "# 2 s prediction error on the calibration drive (RMS, this set in its two forms): {full:.3} m as ICRs, {dd:.3} m as diff-drive (+{:.3} m)",
                 dd - full
             );
+        }
+        if let Some(f) = b.separation_factor {
+            let _ = writeln!(
+                s,
+                "# factor on the recording's wheel_separation_multiplier: {f:.4} (spread / the separation the tread speeds were made with)"
+            );
+        }
+        if nominal.is_some() {
+            let _ = write!(
+                s,
+                "{name}:\n  ros__parameters:\n    left_wheel_radius_multiplier: {:.6}\n    right_wheel_radius_multiplier: {:.6}\n",
+                p.left_wheel_radius_multiplier, p.right_wheel_radius_multiplier
+            );
+            continue;
         }
         let _ = write!(
             s,
@@ -179,11 +212,44 @@ mod tests {
             y_r: -0.52,
             x_c: 0.0,
             cost: Some((0.1, 0.12)),
+            separation_factor: None,
         };
-        let y = params_yaml("diff_drive_base_controller", &[b("grass"), b("asphalt")]);
+        let y = params_yaml(
+            "diff_drive_base_controller",
+            &[b("grass"), b("asphalt")],
+            None,
+        );
         assert!(y.contains("diff_drive_base_controller_grass:\n  ros__parameters:"));
         assert!(y.contains("diff_drive_base_controller_asphalt:"));
         assert!(y.contains("wheel_separation_multiplier: 1.873874"));
         assert!(y.contains("cannot represent"));
+    }
+
+    #[test]
+    fn a_nominal_separation_gives_a_factor_not_a_separation() {
+        let p = DiffDriveParams::from_icr(0.45, -0.45, 0.9, 0.92, 1.0, 1.0);
+        let block = ParamsBlock {
+            terrain: "all".into(),
+            params: p,
+            y_l: 0.45,
+            y_r: -0.45,
+            x_c: 0.0,
+            cost: None,
+            separation_factor: Some(0.9),
+        };
+        let y = params_yaml("c", std::slice::from_ref(&block), Some((1.0, "default")));
+        assert!(y.contains("nominal S = 1 m (default)"), "{y}");
+        assert!(y.contains("wheel_separation_multiplier: 0.9000"), "{y}");
+        assert!(!y.contains("    wheel_separation:"), "{y}");
+        assert!(
+            y.contains("    left_wheel_radius_multiplier: 0.900000"),
+            "{y}"
+        );
+        // Given, the absolute values and the factor.
+        let y = params_yaml("c", &[block], None);
+        assert!(
+            y.contains("    wheel_separation: 1.000000") && y.contains("0.9000"),
+            "{y}"
+        );
     }
 }

@@ -155,6 +155,7 @@ pub fn simulate(scenario: &Scenario, seed: u64) -> Result<SimRun, SimError> {
                 wheel_radius: Some(robot.wheel_radius),
                 length: Some(robot.length),
                 ticks_per_rev: Some(sc.wheels.ticks_per_rev),
+                ..Default::default()
             },
             terrain: timeline.labels.clone(),
             ..DriveLog::default()

@@ -61,6 +61,9 @@ pub struct Imported {
     pub time_origin_ns: u64,
     /// The topics the log's streams were read from.
     pub topics: Vec<String>,
+    /// What the import decided that the bag does not state, and how sure
+    /// it is, one line each (`terraslip_ros2::ImportReport::decisions`).
+    pub decisions: Vec<String>,
     /// The temporary log directory, kept (and removed on drop) while the
     /// log's camera frames are read from it; the log's `dir` is then that
     /// directory, otherwise the bag.
@@ -120,6 +123,8 @@ fn import(
     log.write(&dir)?;
     let mut log =
         read(&dir).with_context(|| format!("reading the log imported from {}", bag.display()))?;
+    // The import's warnings are the log's: every command shows them.
+    log.warnings.extend(report.warnings.iter().cloned());
     let mut used: Vec<String> = report.streams.iter().map(|s| s.topic.clone()).collect();
     used.dedup();
     let frames = if log.images.is_empty() {
@@ -133,6 +138,7 @@ fn import(
         bag: Some(Imported {
             time_origin_ns: report.time_origin_ns,
             topics: used,
+            decisions: report.decisions,
             _frames: frames,
         }),
     })

@@ -10,6 +10,7 @@ use terraslip_io::{DriveLog, GyroStream, LogError, ParamsFile, PoseStream, Strea
 
 use crate::config::EstimatorConfig;
 use crate::pipeline::{self, EstimateRow, EstimateRun, RowSink, RunOptions, TerrainEvidence};
+use terraslip_core::IcrParams;
 
 mod numbers;
 
@@ -370,6 +371,7 @@ pub fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) ->
             "y_l": r.std[3], "y_r": r.std[4], "x_c": r.std[5], "spread": r.std_spread,
         })),
         "track_width": est.track_width,
+        "controller": controller_json(&log.meta, &icr),
         "variant": cfg.filter.variant,
         "init": est.init_source,
         "clock_offset_s": {"value": est.clock_offset.0, "std": est.clock_offset.1},
@@ -415,6 +417,31 @@ pub fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) ->
         // How well the parameters the filter reported at each time predict
         // the next 2 s of motion against the pose reference (absent without one).
         "prediction": est.prediction.as_ref().map(|p| p.to_json()),
+    })
+}
+
+/// The `controller` object of `summary.json`: for tread speeds made from a
+/// controller's odometry twist with separation S (`meta.toml`'s
+/// `separation`), the factors by which its `wheel_separation_multiplier` is
+/// off: `separation_factor` = spread / S (with the speed factors as its
+/// radius multipliers), `turn_factor` = spread / (mean speed factor × S)
+/// (with its radius multipliers left at 1: what a course check measures).
+/// The ICRs are in S's scale: absolute (`wheel_separation_m`, the spread)
+/// only when S was the controller's own. `null` for measured tread speeds.
+pub fn controller_json(meta: &terraslip_io::Meta, icr: &IcrParams) -> serde_json::Value {
+    let Some(s) = meta.separation.filter(|s| s.is_finite() && *s > 0.0) else {
+        return serde_json::Value::Null;
+    };
+    let spread = icr.y_l - icr.y_r;
+    let alpha = 0.5 * (icr.alpha_l + icr.alpha_r);
+    let absolute = meta.separation_is_absolute();
+    serde_json::json!({
+        "separation_m": s,
+        "separation_source": meta.separation_source.as_deref().unwrap_or("given"),
+        "icr_scale": if absolute { "absolute" } else { "nominal: the ICRs are in the scale of the separation used; only the factors carry over" },
+        "separation_factor": spread / s,
+        "turn_factor": spread / (alpha * s),
+        "wheel_separation_m": absolute.then_some(spread),
     })
 }
 

@@ -68,15 +68,29 @@ fn a_bag_and_its_imported_log_give_the_same_estimate() {
         d.path().join("e.mcap"),
     );
 
-    // Without the separation: refused, naming the topic and the key.
-    let out = run(&["import", &s(&bag), "--out", &s(&log)]);
-    assert!(!out.status.success());
+    // Without the separation: a nominal one (nothing in the bag tells it),
+    // said so, and the estimate's controller factor in its scale.
+    let e0 = d.path().join("e0");
+    let out = run(&["estimate", &s(&bag), "--out", &s(&e0)]);
     let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
     assert!(
-        err.contains("/terraslip/odom") && err.contains("separation"),
+        err.contains("decided: separation S = 1 m") && err.contains("/terraslip/odom"),
         "{err}"
     );
-    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(e0.join("summary.json")).unwrap()).unwrap();
+    let c = &summary["controller"];
+    assert_eq!(c["separation_source"], "default");
+    assert!(c["wheel_separation_m"].is_null());
+    assert!(c["separation_factor"].as_f64().unwrap() > 0.0);
+    // 60 s of drive end within the prediction's 60 s warm-up: no figure,
+    // and a warning that says why.
+    assert!(summary["prediction"].is_null());
+    assert!(
+        err.contains("no 2 s prediction figure: after the first 60 s"),
+        "{err}"
+    );
 
     let out = run(&[
         "import",

@@ -248,6 +248,7 @@ fn calibrate_set(
             set: label.into(),
             moving: chained(n),
             needed: cfg.min_segments,
+            hint: segs.stats.hint(n),
         });
     }
     let mut notes = Vec::new();
@@ -297,6 +298,7 @@ fn calibrate_set(
             set: label.into(),
             moving: 0,
             needed: cfg.min_segments,
+            hint: segs.stats.hint(0),
         }
     })?;
     if lm_fit.capped {
@@ -314,6 +316,7 @@ fn calibrate_set(
             set: label.into(),
             moving: chained(used),
             needed: cfg.min_segments,
+            hint: segs.stats.hint(used),
         });
     }
     let c = cfg.lm.cauchy_c * lm_fit.sigma;

@@ -13,6 +13,7 @@ use terraslip_core::angle;
 use terraslip_io::{DriveLog, WheelSample};
 
 mod gates;
+pub mod reference;
 
 pub use gates::{clean_poses, drop_mistimed, plausible};
 
@@ -149,6 +150,20 @@ pub struct SegmentStats {
 }
 
 impl SegmentStats {
+    /// What to look at when too few segments are usable: pose rows with no
+    /// heading (a position-only reference), else whether the robot moves
+    /// while the reference is valid.
+    pub fn hint(&self, segments: usize) -> String {
+        if segments == 0 && self.incomplete_poses > 0 {
+            format!(
+                "{} pose rows have no position or no heading: segments need both; a position-only reference (GNSS without a heading) cannot calibrate, add a heading (an IMU orientation that agrees with the GNSS course, `[heading]` of the topics file for a bag) or a pose with yaw",
+                self.incomplete_poses
+            )
+        } else {
+            "is the robot moving while the pose reference is valid?".into()
+        }
+    }
+
     pub fn add(&mut self, o: &SegmentStats) {
         self.incomplete_poses += o.incomplete_poses;
         self.stale_poses += o.stale_poses;
@@ -235,7 +250,15 @@ impl Segments {
         cfg: &SegmentConfig,
     ) {
         let mut stats = SegmentStats::default();
-        let mut poses = clean_poses(&log.pose, &mut stats);
+        // Positions and headings on rows of their own (what a GNSS bag
+        // carries): completed as `reference` describes.
+        let split = log
+            .pose
+            .iter()
+            .any(|p| p.yaw.is_some() && (p.east.is_none() || p.north.is_none()));
+        let completed = split.then(|| reference::complete(&log.pose)).flatten();
+        let pose = completed.as_deref().unwrap_or(&log.pose);
+        let mut poses = clean_poses(pose, &mut stats);
         let w = &log.wheels;
         if cfg.drop_mistimed {
             let n0 = poses.len();

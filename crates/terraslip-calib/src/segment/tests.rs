@@ -226,3 +226,53 @@ fn a_subset_keeps_its_segments_increments_with_only_their_steps() {
         assert_eq!(sub.steps_of(a), s.steps_of(b));
     }
 }
+
+#[test]
+fn positions_and_headings_on_rows_of_their_own_make_the_same_segments() {
+    let log = straight_log(1.0, 20.0);
+    let joint = Segments::build(&[&log], &[0.0], &SegmentConfig::default());
+    // As a GNSS import writes them: each position row, and 10 ms later a
+    // heading row.
+    let mut split = log.clone();
+    split.pose = log
+        .pose
+        .iter()
+        .flat_map(|p| {
+            [
+                PoseObs { yaw: None, ..*p },
+                PoseObs {
+                    t: p.t + 0.01,
+                    east: None,
+                    north: None,
+                    ..*p
+                },
+            ]
+        })
+        .collect();
+    let s = Segments::build(&[&split], &[0.0], &SegmentConfig::default());
+    // The first position has no heading before it to interpolate from:
+    // the chain starts at the next one (and ends a segment short).
+    assert!(s.len() >= joint.len() - 2, "{} {}", s.len(), joint.len());
+    assert_eq!(s.segments[0].t0, 0.1);
+    for a in &s.segments {
+        // 1 m/s straight ahead, whichever poses the segment joins.
+        assert!((a.reference.dx - (a.t1 - a.t0)).abs() < 1e-9, "{a:?}");
+        assert!(a.reference.dyaw.abs() < 1e-9);
+    }
+    // Positions alone: no segment, and the hint says why.
+    let mut positions = log.clone();
+    for p in &mut positions.pose {
+        p.yaw = None;
+    }
+    let s = Segments::build(&[&positions], &[0.0], &SegmentConfig::default());
+    assert_eq!(s.len(), 0);
+    let hint = s.stats.hint(0);
+    assert!(
+        hint.contains("no position or no heading") && hint.contains("position-only"),
+        "{hint}"
+    );
+    assert_eq!(
+        joint.stats.hint(0),
+        "is the robot moving while the pose reference is valid?"
+    );
+}

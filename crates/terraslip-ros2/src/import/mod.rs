@@ -11,12 +11,14 @@
 //! was made.
 
 mod config;
+mod course;
 mod decoder;
 mod image;
 pub mod mount;
 mod prior;
 mod report;
 mod rows;
+pub mod scale;
 mod topics;
 
 use std::collections::HashMap;
@@ -93,35 +95,52 @@ pub fn import(
         x => x,
     };
 
+    // The scale the tread speeds are made in (scale.rs): the topics
+    // file's, else the URDF's, else the track width, else a default.
     let wheel_ty = short_type(&bag.topics[wheels].ty);
-    let sep = cfg.wheels.separation;
-    if wheel_ty != "sensor_msgs/JointState" {
-        match sep {
-            Some(s) if s.is_finite() && s > 0.0 => {}
-            _ => {
-                return Err(Ros2Error::Bag {
-                    bag: bag.path.clone(),
-                    reason: format!(
-                        "the wheel source is {} ({}): tread speeds from its twist need the controller's effective wheel separation S = wheel_separation × wheel_separation_multiplier (not the track width). Give it in a --topics file: `[wheels] separation = <S in m>`",
-                        bag.topics[wheels].name, bag.topics[wheels].ty
-                    ),
-                })
+    let joints = wheel_ty == "sensor_msgs/JointState";
+    let needs_urdf = if joints {
+        cfg.wheels.wheel_radius.is_none()
+    } else {
+        cfg.wheels.separation.is_none()
+    };
+    let urdf = if needs_urdf {
+        robot_description(&mut bag)?
+    } else {
+        None
+    };
+    let mut wheels_cfg = cfg.wheels.clone();
+    let wheel_name = &bag.topics[wheels].name;
+    let mut sep_scale = None;
+    let scale_line = if joints {
+        let r = scale::wheel_radius(cfg, urdf.as_ref());
+        wheels_cfg.wheel_radius = Some(r.value);
+        format!(
+            "wheel radius {} m ({}; {wheel_name} gives rad/s){}",
+            r.value,
+            scale::describe(r.source),
+            if r.is_given() {
+                ""
+            } else {
+                ": the speed factors are relative to it"
             }
-        }
-    } else if !cfg
-        .wheels
-        .wheel_radius
-        .is_some_and(|r| r.is_finite() && r > 0.0)
-    {
-        return Err(Ros2Error::Bag {
-            bag: bag.path.clone(),
-            reason: format!(
-                "the wheel source is {} (sensor_msgs/JointState): wheel speeds in rad/s need the wheel radius. Give it in a --topics file: `[wheels] wheel_radius = <m>`",
-                bag.topics[wheels].name
-            ),
-        });
-    }
-
+        )
+    } else {
+        let s = scale::separation(cfg, urdf.as_ref());
+        wheels_cfg.separation = Some(s.value);
+        let line = format!(
+            "separation S = {} m for the tread speeds v ∓ ω·S/2 of {wheel_name} ({}){}",
+            s.value,
+            scale::describe(s.source),
+            if s.is_given() {
+                String::new()
+            } else {
+                "; the ICRs are learned in this scale and the controller's correction is given as a factor (learned spread / S)".to_string()
+            }
+        );
+        sep_scale = Some(s);
+        line
+    };
     let mut sels: Vec<Sel> = Vec::new();
     for (t, role) in [
         (Some(wheels), Role::Wheels),
@@ -169,7 +188,7 @@ pub fn import(
         },
         enu: None,
         dropped_fixes: 0,
-        wheels: &cfg.wheels,
+        wheels: &wheels_cfg,
         heading: &cfg.heading,
         images_dir: out_dir.map(|d| d.join("images")),
         frames: HashMap::new(),
@@ -178,8 +197,13 @@ pub fn import(
     };
     let mut report = ImportReport {
         bag: bag.path.clone(),
+        decisions: vec![scale_line],
         ..Default::default()
     };
+    if let Some(s) = &sep_scale {
+        rows.log.meta.separation = Some(s.value);
+        rows.log.meta.separation_source = Some(s.source.to_string());
+    }
     let mut origin: Option<u64> = None;
     let want: Vec<bool> = (0..bag.topics.len())
         .map(|i| sels.iter().any(|s| s.topic == i))
@@ -263,6 +287,10 @@ pub fn import(
         .map(|t| (t.name.clone(), t.ty.clone(), t.count))
         .collect();
     let mut log = rows.log;
+    let by_t = |a: f64, b: f64| a.total_cmp(&b);
+    log.wheels.sort_by(|a, b| by_t(a.t, b.t));
+    log.imu.sort_by(|a, b| by_t(a.t, b.t));
+    log.images.sort_by(|a, b| by_t(a.t, b.t));
     mount::apply(
         &mount::Sensors {
             bag: &bag,
@@ -277,6 +305,14 @@ pub fn import(
         &mut log,
         &mut report,
     );
+    if heading.is_some() && cfg.heading.topic.is_none() {
+        course::check_heading(
+            &mut log.pose,
+            &bag.topics[heading.unwrap_or(0)].name,
+            &mut report,
+        );
+    }
+    log.pose.sort_by(|a, b| by_t(a.t, b.t));
     if log.wheels.is_empty() {
         return Err(Ros2Error::Bag {
             bag: bag.path.clone(),
@@ -286,10 +322,31 @@ pub fn import(
             ),
         });
     }
-    let by_t = |a: f64, b: f64| a.total_cmp(&b);
-    log.wheels.sort_by(|a, b| by_t(a.t, b.t));
-    log.pose.sort_by(|a, b| by_t(a.t, b.t));
-    log.imu.sort_by(|a, b| by_t(a.t, b.t));
-    log.images.sort_by(|a, b| by_t(a.t, b.t));
     Ok((log, report))
+}
+
+/// The URDF of the bag's `/robot_description` (std_msgs/String, the first
+/// message), read in a pass of its own; `None` when the bag has none or it
+/// names no wheel joints.
+fn robot_description(bag: &mut Bag) -> Result<Option<scale::UrdfWheels>, Ros2Error> {
+    let Some(t) = bag
+        .topic("/robot_description")
+        .filter(|&i| short_type(&bag.topics[i].ty) == "std_msgs/String")
+    else {
+        return Ok(None);
+    };
+    let dec = Decoder::new(bag, t, &["data"])?;
+    let mut xml: Option<String> = None;
+    bag.for_each(&|i| i == t, &mut |bag, m| {
+        if xml.is_none() {
+            let v = dec
+                .decode(m.data)
+                .map_err(|e| bag.msg_err(m.topic, m.index, e))?;
+            if let Some(crate::msg::Value::Str(s)) = dec.get(&v, "data") {
+                xml = Some(s.clone());
+            }
+        }
+        Ok(())
+    })?;
+    Ok(xml.as_deref().and_then(scale::urdf_wheels))
 }

@@ -7,7 +7,7 @@
 
 use std::collections::HashMap;
 
-use terraslip_io::{DriveLog, ImuSample, PoseObs};
+use terraslip_io::{DriveLog, ImuSample, PoseObs, WheelSample};
 
 use super::config::TopicsConfig;
 use super::report::ImportReport;
@@ -201,7 +201,7 @@ pub(super) struct Sensors<'a> {
 impl Sensors<'_> {
     /// The mounting of `topic` (`base ← sensor`): `given` (degrees, from the
     /// topics file), else the static transforms' chain from its frame. `None`
-    /// when neither tells (its axes are then taken as the base frame's).
+    /// when neither tells (then [`mounting_from_data`]).
     fn mounting(
         &self,
         topic: usize,
@@ -222,7 +222,7 @@ impl Sensors<'_> {
                     Some(q) => (q, tf_name.clone()),
                     None => {
                         report.warnings.push(format!(
-                            "{name}: its frame `{frame}` has no static transform to {base} in {tf_name}; its axes are taken as {base}'s (give `mount_rpy_deg` in the topics file)"
+                            "{name}: its frame `{frame}` has no static transform to {base} in {tf_name}; its mounting is found from the data where it can be, else its axes are taken as {base}'s (give `mount_rpy_deg` in the topics file)"
                         ));
                         return None;
                     }
@@ -238,8 +238,179 @@ impl Sensors<'_> {
         if !report.mounts.contains(&line) {
             report.mounts.push(line);
         }
-        (q != IDENTITY).then_some(q)
+        Some(q)
     }
+}
+
+/// Linear interpolation of `(t, value)` rows at `t` (`None` outside them).
+fn at(rows: &[(f64, f64)], t: f64) -> Option<f64> {
+    let i = rows.partition_point(|r| r.0 < t);
+    if i == 0 || i >= rows.len() {
+        return None;
+    }
+    let (a, b) = (rows[i - 1], rows[i]);
+    let f = if b.0 > a.0 {
+        (t - a.0) / (b.0 - a.0)
+    } else {
+        0.0
+    };
+    Some(a.1 + f * (b.1 - a.1))
+}
+
+/// Correlation of paired samples (0 when either does not vary).
+fn correlation(pairs: &[(f64, f64)]) -> f64 {
+    let n = pairs.len() as f64;
+    if n < 3.0 {
+        return 0.0;
+    }
+    let (ma, mb) = pairs
+        .iter()
+        .fold((0.0, 0.0), |(a, b), p| (a + p.0 / n, b + p.1 / n));
+    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
+    for (a, b) in pairs {
+        sab += (a - ma) * (b - mb);
+        saa += (a - ma) * (a - ma);
+        sbb += (b - mb) * (b - mb);
+    }
+    if saa > 0.0 && sbb > 0.0 {
+        sab / (saa * sbb).sqrt()
+    } else {
+        0.0
+    }
+}
+
+/// A mounting found from the data, when nothing states one, and how sure
+/// it is (one line).
+///
+/// Roll and pitch from gravity: the rotation that takes the mean
+/// acceleration (the specific force, up) onto +z, when it is more than 5°
+/// off. Yaw about the vertical from the forward acceleration: the
+/// horizontal acceleration's covariance with the rate of change of the
+/// mean tread speed (over ±0.5 s) points along base x; used when their
+/// correlation exceeds 0.2, rounded to a multiple of 90° within 15°; then
+/// roll, pitch and yaw within 3° of a multiple of 90° are rounded to it. The
+/// yaw-rate axis's sign from the gyro: the rotated `gyro_z` must follow the
+/// tread speed difference v_r − v_l; a clearly negative correlation (an IMU
+/// that reports gravity downwards) turns the mounting 180° about x.
+/// `None` when the mean acceleration is not gravity-sized (7-12.5 m/s²) or
+/// there are fewer than 50 samples.
+pub fn mounting_from_data(imu: &[ImuSample], wheels: &[WheelSample]) -> Option<(Quat, String)> {
+    let acc: Vec<(f64, [f64; 3])> = imu
+        .iter()
+        .filter_map(|s| {
+            let a = [s.accel_x?, s.accel_y?, s.accel_z];
+            a.iter().all(|c| c.is_finite()).then_some((s.t, a))
+        })
+        .collect();
+    if acc.len() < 50 {
+        return None;
+    }
+    let n = acc.len() as f64;
+    let m = acc.iter().fold([0.0; 3], |m, (_, a)| {
+        [m[0] + a[0] / n, m[1] + a[1] / n, m[2] + a[2] / n]
+    });
+    let g = (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt();
+    if !(7.0..=12.5).contains(&g) {
+        return None;
+    }
+    let u = m.map(|c| c / g);
+    let tilt = u[2].clamp(-1.0, 1.0).acos();
+    let mut q = IDENTITY;
+    let mut line = format!(
+        "gravity ({:.2}, {:.2}, {:.2}) m/s² is {:.1}° off the IMU's +z",
+        m[0],
+        m[1],
+        m[2],
+        tilt.to_degrees()
+    );
+    if tilt > 5f64.to_radians() {
+        // Shortest arc u -> +z: axis u × z, angle tilt (about x when u = -z).
+        let axis = [u[1], -u[0], 0.0];
+        let an = axis[0].hypot(axis[1]);
+        let axis = if an > 1e-9 {
+            axis.map(|c| c / an)
+        } else {
+            [1.0, 0.0, 0.0]
+        };
+        let (sh, ch) = (tilt / 2.0).sin_cos();
+        q = [axis[0] * sh, axis[1] * sh, 0.0, ch];
+    }
+    let mean_v: Vec<(f64, f64)> = wheels
+        .iter()
+        .map(|w| (w.t, 0.5 * (w.v_left + w.v_right)))
+        .collect();
+    let diff_v: Vec<(f64, f64)> = wheels.iter().map(|w| (w.t, w.v_right - w.v_left)).collect();
+    // Yaw from the forward acceleration.
+    let (mut cx, mut cy, mut pairs) = (0.0, 0.0, Vec::new());
+    for (t, a) in &acc {
+        let (Some(v0), Some(v1)) = (at(&mean_v, t - 0.5), at(&mean_v, t + 0.5)) else {
+            continue;
+        };
+        let h = rotate(q, *a);
+        let dv = v1 - v0;
+        cx += h[0] * dv;
+        cy += h[1] * dv;
+        pairs.push((h[0], h[1], dv));
+    }
+    let psi = (-cy).atan2(cx);
+    let along: Vec<(f64, f64)> = pairs
+        .iter()
+        .map(|(x, y, dv)| (x * psi.cos() - y * psi.sin(), *dv))
+        .collect();
+    let r_fwd = correlation(&along);
+    if r_fwd > 0.2 {
+        let quarter = std::f64::consts::FRAC_PI_2;
+        let snapped = (psi / quarter).round() * quarter;
+        let yaw = if (psi - snapped).abs() < 15f64.to_radians() {
+            snapped
+        } else {
+            psi
+        };
+        q = mul(from_rpy(0.0, 0.0, yaw), q);
+        line.push_str(&format!(
+            "; forward axis from the acceleration against the tread speeds' change (correlation {r_fwd:.2})"
+        ));
+    } else {
+        line.push_str(&format!(
+            "; yaw about the vertical not told by the data (forward correlation {r_fwd:.2}): accel_x/accel_y may not be the robot's"
+        ));
+    }
+    // Brackets are square: angles within 3° of a multiple of 90° are that
+    // multiple (a mean over a drive is tilted by slopes and turns).
+    let snap = |a: f64| {
+        let k = (a / std::f64::consts::FRAC_PI_2).round() * std::f64::consts::FRAC_PI_2;
+        if (a - k).abs() < 3f64.to_radians() {
+            k
+        } else {
+            a
+        }
+    };
+    let [r, p, y] = rpy_of(q).map(snap);
+    q = from_rpy(r, p, y);
+    // The yaw-rate axis's sign.
+    let turn: Vec<(f64, f64)> = imu
+        .iter()
+        .filter_map(|s| {
+            let w = rotate(q, [s.gyro_x?, s.gyro_y?, s.gyro_z?]);
+            Some((w[2], at(&diff_v, s.t)?))
+        })
+        .filter(|p| p.0.is_finite() && p.1.is_finite())
+        .collect();
+    let mut r_turn = correlation(&turn);
+    if r_turn < -0.3 {
+        q = mul([1.0, 0.0, 0.0, 0.0], q);
+        r_turn = -r_turn;
+        line.push_str("; turned 180° about x: the gyro turned against the treads");
+    }
+    line.push_str(&format!(
+        "; gyro_z against v_r − v_l: correlation {r_turn:.2}{}",
+        if r_turn > 0.5 {
+            ""
+        } else {
+            " (weak: check the mounting)"
+        }
+    ));
+    Some((q, line))
 }
 
 /// Rotates the IMU's accelerations and rates, and the heading's
@@ -247,8 +418,23 @@ impl Sensors<'_> {
 /// +z (an IMU not mounted z-up, with no mounting given).
 pub(super) fn apply(s: &Sensors, log: &mut DriveLog, report: &mut ImportReport) {
     let cfg = s.cfg;
+    let mut found = None;
     if let Some(t) = s.imu {
-        if let Some(q) = s.mounting(t, cfg.imu.mount_rpy_deg, report) {
+        let q = s.mounting(t, cfg.imu.mount_rpy_deg, report).or_else(|| {
+            let (q, how) = mounting_from_data(&log.imu, &log.wheels)?;
+            let name = &s.bag.topics[t].name;
+            let [r, p, y] = rpy_of(q).map(|a| (a.to_degrees() * 10.0).round() / 10.0 + 0.0);
+            report.mounts.push(format!(
+                "{name}: mounted roll {r:.1}°, pitch {p:.1}°, yaw {y:.1}° in {}, from the data",
+                cfg.tf.base_frame
+            ));
+            report.decisions.push(format!(
+                "{name} mounting from the data ({how}); give `[imu] mount_rpy_deg` or record /tf_static to state it"
+            ));
+            found = Some(q);
+            Some(q)
+        });
+        if let Some(q) = q.filter(|q| *q != IDENTITY) {
             rotate_imu(q, &mut log.imu);
         }
         if let Some(g) = gravity_off_vertical(&log.imu) {
@@ -263,7 +449,10 @@ pub(super) fn apply(s: &Sensors, log: &mut DriveLog, report: &mut ImportReport) 
             .heading
             .mount_rpy_deg
             .or(cfg.imu.mount_rpy_deg.filter(|_| s.imu == Some(t)));
-        if let Some(q) = s.mounting(t, given, report) {
+        let q = s
+            .mounting(t, given, report)
+            .or(found.filter(|_| s.imu == Some(t)));
+        if let Some(q) = q.filter(|q| *q != IDENTITY) {
             remount_heading(&mut log.pose, s.heading_rows, q, |b| {
                 heading_yaw(&cfg.heading, b)
             });

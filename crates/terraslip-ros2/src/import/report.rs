@@ -33,6 +33,10 @@ pub struct ImportReport {
     pub streams: Vec<StreamReport>,
     /// How IMU topics were rotated into the base frame, one line each.
     pub mounts: Vec<String>,
+    /// What the import decided that the bag does not state (the tread
+    /// speeds' scale, a mounting found from the data, a heading left out),
+    /// and how sure it is, one line each.
+    pub decisions: Vec<String>,
     /// Every topic of the bag: name, type, messages.
     pub topics: Vec<(String, String, u64)>,
     pub warnings: Vec<String>,
@@ -63,6 +67,9 @@ impl ImportReport {
         }
         for m in &self.mounts {
             let _ = writeln!(s, "{m}");
+        }
+        for d in &self.decisions {
+            let _ = writeln!(s, "decided: {d}");
         }
         s
     }

@@ -40,6 +40,9 @@ pub fn read_with(
 ) -> anyhow::Result<DriveLog> {
     let input = terraslip::bag::read(path, topics(), read)?;
     if let Some(bag) = input.bag {
+        for d in &bag.decisions {
+            eprintln!("{}: decided: {d}", path.display());
+        }
         if let Ok(mut v) = IMPORTED.lock() {
             v.push((path.to_path_buf(), bag));
         }

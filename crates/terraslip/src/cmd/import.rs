@@ -12,12 +12,17 @@ use anyhow::{bail, Context, Result};
 /// PoseWithCovarianceStamped / PoseStamped, else Odometry pose), the heading
 /// (Imu orientation, with a GNSS pose), imu.csv (Imu) and camera frames
 /// (CompressedImage, else Image) by message type when the choice is unique;
-/// rotates the IMU into base_link by /tf_static or the topics file;
-/// --topics FILE.toml names them otherwise. Prints topic -> file, counts,
-/// rates and gaps; writes LOG/import.json with the same and the time origin,
-/// and, when the wheels came from an odometry twist, LOG/controller.json: the
-/// controller's model (spread = separation, x_c 0, speed factors 1) as an
-/// --init file.
+/// rotates the IMU into base_link by the topics file, else /tf_static, else
+/// from the data (gravity, the forward acceleration, the gyro against the
+/// treads); leaves out a heading that disagrees with the GNSS course.
+/// Without a topics file, an odometry twist's tread speeds are made with a
+/// nominal separation (the URDF's wheel joints in /robot_description, else
+/// [meta] track_width, else 1 m), and what is learned is in its scale.
+/// --topics FILE.toml names topics and values and overrides all of this.
+/// Prints topic -> file, counts, rates, gaps and every decision; writes
+/// LOG/import.json with the same and the time origin, and, when the wheels
+/// came from an odometry twist, LOG/controller.json: the controller's model
+/// (spread = separation, x_c 0, speed factors 1) as an --init file.
 #[derive(clap::Args, Debug)]
 #[command(after_help = AFTER_HELP)]
 pub struct Args {
@@ -35,11 +40,12 @@ const AFTER_HELP: &str = "\
 The topics file (--topics, a global option; every key optional):
   [wheels]
   topic = \"/joint_states\"   # JointState, Odometry or TwistStamped
-  wheel_radius = 0.165       # JointState: m (velocities are rad/s)
+  wheel_radius = 0.165       # JointState: m (velocities are rad/s; default: the URDF's)
   left = [\"left\"]            # JointState: left wheel joint name patterns
   right = [\"right\"]
   separation = 1.04          # Odometry/TwistStamped: the controller's effective
                              # separation S = wheel_separation x multiplier, m
+                             # (default: a nominal one; results then in its scale)
   [pose]
   topic = \"/fix\"             # NavSatFix, Odometry, PoseStamped, PoseWithCovarianceStamped; \"\" for none
   [heading]
@@ -63,6 +69,7 @@ The topics file (--topics, a global option; every key optional):
   track_width = 0.555        # written to meta.toml
 
 Examples:
+  terraslip import husky_bag/ --out husky                       # no settings: decisions printed
   terraslip import husky_bag/ --out husky --topics husky.toml
   terraslip estimate husky_bag/ --topics husky.toml --out est   # the same, without the log";
 
@@ -88,7 +95,7 @@ pub fn run(args: Args) -> Result<()> {
     let json = serde_json::to_string_pretty(&report)?;
     terraslip_io::write_atomic(out.join("import.json"), json.as_bytes())?;
     eprint!("{}", report.to_text());
-    if let Some(model) = terraslip_ros2::import::controller_model(&cfg, &report) {
+    if let Some(model) = terraslip_ros2::import::controller_model(&log.meta, &report) {
         let path = out.join(terraslip_ros2::import::CONTROLLER_FILE);
         model.write(&path)?;
         eprintln!(

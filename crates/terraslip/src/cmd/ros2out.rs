@@ -64,9 +64,19 @@ pub fn write_params(
     score: impl Fn(&[DriveLog], &ParamsFile) -> Option<f64>,
 ) -> Result<()> {
     let meta = &logs.first().context("no logs")?.meta;
-    let sep = meta.track_width.filter(|w| *w > 0.0).context(
-        "--ros2-params: the log's meta.toml needs track_width (the nominal wheel_separation)",
-    )?;
+    // Tread speeds made from an odometry twist with a nominal separation:
+    // only the factor on the controller's multiplier is known.
+    let nominal = meta
+        .separation
+        .filter(|_| !meta.separation_is_absolute())
+        .map(|s| (s, meta.separation_source.clone().unwrap_or_default()));
+    let sep = match (meta.track_width.filter(|w| *w > 0.0), &nominal) {
+        (Some(w), _) => w,
+        (None, Some((s, _))) => *s,
+        (None, None) => anyhow::bail!(
+            "--ros2-params: the log's meta.toml needs track_width (the nominal wheel_separation)"
+        ),
+    };
     let radius = meta.wheel_radius.filter(|r| *r > 0.0).unwrap_or(1.0);
     let mut sets: Vec<(String, terraslip_core::IcrParams)> = Vec::new();
     if let Some(p) = pf.params {
@@ -99,13 +109,18 @@ pub fn write_params(
         blocks.push(ParamsBlock {
             terrain: name.clone(),
             params: DiffDriveParams::from_icr(p.y_l, p.y_r, p.alpha_l, p.alpha_r, sep, radius),
+            separation_factor: meta.separation.map(|s| p.spread() / s),
             y_l: p.y_l,
             y_r: p.y_r,
             x_c: p.x_c,
             cost,
         });
     }
-    let text = params_yaml("diff_drive_controller", &blocks);
+    let text = params_yaml(
+        "diff_drive_controller",
+        &blocks,
+        nominal.as_ref().map(|(s, src)| (*s, src.as_str())),
+    );
     terraslip_io::write_atomic(path, text.as_bytes())?;
     eprintln!("wrote {}", path.display());
     Ok(())

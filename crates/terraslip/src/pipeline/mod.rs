@@ -391,6 +391,21 @@ struct RunInfo {
 
 /// The run's result: the learned noise, the warnings the whole run
 /// reveals, the counters.
+/// Why a run has no 2 s prediction figure, given the pose rows with a
+/// position it saw and its wheels rows.
+fn no_prediction(dir: &str, positions: usize, rows: usize) -> String {
+    let spec = terraslip_calib::prediction::PredictionSpec::default();
+    if positions == 0 {
+        return format!(
+            "{dir}: no 2 s prediction figure: the log has no pose reference (pose.csv with positions) to score it against"
+        );
+    }
+    format!(
+        "{dir}: no 2 s prediction figure: after the first {} s of the {rows} wheels rows, no start has {} s of pose reference without a gap over {} s (a 1 Hz GNSS is too sparse) and a start heading (the reference's, or the estimate's)",
+        spec.warmup, spec.horizon, spec.max_gap
+    )
+}
+
 fn finish(
     log: &DriveLog,
     cfg: &EstimatorConfig,
@@ -432,12 +447,16 @@ fn finish(
             counts.refused
         ));
     }
+    let prediction = totals.prediction.finish();
+    if prediction.is_none() {
+        warnings.push(no_prediction(&dir, totals.positions, totals.rows));
+    }
     EstimateRun {
         rows: Vec::new(),
         row_count: totals.rows,
         first_row: totals.first,
         last_row: totals.last,
-        prediction: totals.prediction.finish(),
+        prediction,
         terrains,
         changes,
         track_width,

@@ -64,6 +64,8 @@ pub(super) struct Totals {
     pub stated: bool,
     pub std_xy: Option<f64>,
     pub std_yaw: Option<f64>,
+    /// Pose rows with a position.
+    pub positions: usize,
     pub prediction: PredictionStream,
 }
 
@@ -78,6 +80,7 @@ impl Totals {
             stated: false,
             std_xy: None,
             std_yaw: None,
+            positions: 0,
             prediction: PredictionStream::new(track_width, PredictionSpec::default()),
         }
     }
@@ -86,6 +89,7 @@ impl Totals {
         self.stated |= p.std_xy.is_some() || p.std_yaw.is_some();
         self.std_xy = self.std_xy.or(p.std_xy);
         self.std_yaw = self.std_yaw.or(p.std_yaw);
+        self.positions += usize::from(p.east.is_some() && p.north.is_some());
         self.prediction.pose(p);
     }
 }
@@ -187,6 +191,7 @@ pub(super) fn replay(
         let r = row(estimator, w.t, terrain.current, &summary);
         sink.row(terrains, &r)?;
         params = Some(r.icr());
+        totals.prediction.estimate_heading(r.yaw);
         totals.rows += 1;
         totals.band.add(&r, &band);
         totals.first.get_or_insert(r);

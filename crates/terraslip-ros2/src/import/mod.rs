@@ -13,6 +13,7 @@
 mod config;
 mod decoder;
 mod image;
+mod live;
 pub mod mount;
 mod prior;
 mod report;
@@ -28,11 +29,12 @@ pub use config::{
     HeadingConfig, ImuConfig, PoseConfig, TfConfig, TimeConfig, TopicOnly, TopicsConfig,
     WheelsConfig,
 };
+pub use live::{LiveImport, LiveRow};
 pub use prior::{controller_model, CONTROLLER_FILE};
 pub use report::{ImportReport, StreamReport};
 pub use rows::yaw_of;
 
-use crate::msg::short_type;
+use crate::msg::{self, short_type};
 use crate::{Bag, Ros2Error};
 use decoder::{fields_for, Decoder};
 use report::stream_report;
@@ -56,30 +58,8 @@ pub fn import(
     out_dir: Option<&Path>,
 ) -> Result<(DriveLog, ImportReport), Ros2Error> {
     let mut bag = Bag::open(bag_path)?;
-    let wheels = choose(&bag, Role::Wheels, &cfg.wheels.topic, &[])?.ok_or_else(|| Ros2Error::Bag {
-        bag: bag.path.clone(),
-        reason: format!(
-            "no usable wheel source: no sensor_msgs/JointState, nav_msgs/Odometry or geometry_msgs/TwistStamped topic (the bag has: {})",
-            list(&bag, &(0..bag.topics.len()).collect::<Vec<_>>())
-        ),
-    })?;
-    let pose = choose(&bag, Role::Pose, &cfg.pose.topic, &[wheels])?;
-    let pose_is_gnss =
-        pose.is_some_and(|p| short_type(&bag.topics[p].ty) == "sensor_msgs/NavSatFix");
-    let heading = if pose_is_gnss || cfg.heading.topic.is_some() {
-        choose(&bag, Role::Heading, &cfg.heading.topic, &[])?
-    } else {
-        None
-    };
-    let imu = choose(&bag, Role::Imu, &cfg.imu.topic, &[])?;
-    // Static transforms, for the IMUs' mountings.
-    let tf = match &cfg.tf.topic {
-        _ if imu.is_none() && heading.is_none() => None,
-        Some(_) => choose(&bag, Role::Tf, &cfg.tf.topic, &[])?,
-        None => bag
-            .topic("/tf_static")
-            .filter(|&i| short_type(&bag.topics[i].ty) == "tf2_msgs/TFMessage"),
-    };
+    let chosen = choose_streams(&bag, cfg, "bag")?;
+    let (wheels, heading, imu, tf) = (chosen.wheels, chosen.heading, chosen.imu, chosen.tf);
     let images = match choose(&bag, Role::Images, &cfg.images.topic, &[])? {
         Some(i) if out_dir.is_none() => {
             return Err(Ros2Error::Bag {
@@ -93,73 +73,27 @@ pub fn import(
         x => x,
     };
 
-    let wheel_ty = short_type(&bag.topics[wheels].ty);
-    let sep = cfg.wheels.separation;
-    if wheel_ty != "sensor_msgs/JointState" {
-        match sep {
-            Some(s) if s.is_finite() && s > 0.0 => {}
-            _ => {
-                return Err(Ros2Error::Bag {
-                    bag: bag.path.clone(),
-                    reason: format!(
-                        "the wheel source is {} ({}): tread speeds from its twist need the controller's effective wheel separation S = wheel_separation × wheel_separation_multiplier (not the track width). Give it in a --topics file: `[wheels] separation = <S in m>`",
-                        bag.topics[wheels].name, bag.topics[wheels].ty
-                    ),
-                })
-            }
-        }
-    } else if !cfg
-        .wheels
-        .wheel_radius
-        .is_some_and(|r| r.is_finite() && r > 0.0)
-    {
-        return Err(Ros2Error::Bag {
-            bag: bag.path.clone(),
-            reason: format!(
-                "the wheel source is {} (sensor_msgs/JointState): wheel speeds in rad/s need the wheel radius. Give it in a --topics file: `[wheels] wheel_radius = <m>`",
-                bag.topics[wheels].name
-            ),
-        });
-    }
-
-    let mut sels: Vec<Sel> = Vec::new();
-    for (t, role) in [
-        (Some(wheels), Role::Wheels),
-        (pose, Role::Pose),
-        (heading, Role::Heading),
-        (imu, Role::Imu),
-        (images, Role::Images),
-        (tf, Role::Tf),
-    ] {
-        let Some(t) = t else { continue };
-        if let Some(s) = sels.iter_mut().find(|s| s.topic == t) {
-            s.roles.push(role);
-            continue;
-        }
+    let mut sels = selections(&bag, &chosen)?;
+    if let Some(t) = images {
         let ty = short_type(&bag.topics[t].ty);
-        let mut fields = fields_for(&ty, role);
-        if ty == "nav_msgs/Odometry" && role == Role::Wheels && pose == Some(t) {
-            fields.extend(fields_for(&ty, Role::Pose));
-        }
-        sels.push(Sel {
-            topic: t,
-            dec: Decoder::new(&bag, t, &fields)?,
-            ty,
-            roles: vec![role],
-            times: HashMap::new(),
-        });
+        // Before the static transforms, as the streams are reported.
+        let at = sels
+            .iter()
+            .position(|s| s.roles == [Role::Tf])
+            .unwrap_or(sels.len());
+        sels.insert(
+            at,
+            Sel {
+                topic: t,
+                dec: Decoder::new(&bag, t, &fields_for(&ty, Role::Images))?,
+                ty,
+                roles: vec![Role::Images],
+                times: HashMap::new(),
+            },
+        );
     }
 
-    let receive_only = match cfg.time.stamp.as_deref() {
-        None | Some("header") => false,
-        Some("receive") => true,
-        Some(x) => {
-            return Err(Ros2Error::Bag {
-                bag: bag.path.clone(),
-                reason: format!("[time] stamp = `{x}`: expected `header` or `receive`"),
-            })
-        }
-    };
+    let receive_only = receive_only(&bag, cfg)?;
 
     let mut rows = Rows {
         log: DriveLog {
@@ -208,14 +142,7 @@ pub fn import(
             .decode(m.data)
             .map_err(|e| bag.msg_err(m.topic, m.index, e))?;
         let d = &sel.dec;
-        // Integer nanoseconds: f64 of ns since the epoch would lose ~0.2 µs.
-        let stamp_ns: i128 = match (d.f(&v, "header.stamp.sec"), d.f(&v, "header.stamp.nanosec")) {
-            (Some(s), Some(n)) if !receive_only && (s != 0.0 || n != 0.0) => {
-                s as i128 * 1_000_000_000 + n as i128
-            }
-            _ => m.recv_ns as i128,
-        };
-        let t = (stamp_ns - org as i128) as f64 * 1e-9;
+        let t = (stamp_ns(d, &v, m.recv_ns, receive_only) - org as i128) as f64 * 1e-9;
         let msg = Msg {
             bag,
             topic: m.topic,
@@ -292,4 +219,144 @@ pub fn import(
     log.imu.sort_by(|a, b| by_t(a.t, b.t));
     log.images.sort_by(|a, b| by_t(a.t, b.t));
     Ok((log, report))
+}
+
+/// Refuses a wheel source that cannot give tread speeds with the topics
+/// file: a twist without the controller's separation, joint velocities
+/// without the wheel radius.
+fn check_wheel_source(bag: &Bag, cfg: &TopicsConfig, wheels: usize) -> Result<(), Ros2Error> {
+    let wheel_ty = short_type(&bag.topics[wheels].ty);
+    let sep = cfg.wheels.separation;
+    if wheel_ty != "sensor_msgs/JointState" {
+        match sep {
+            Some(s) if s.is_finite() && s > 0.0 => {}
+            _ => {
+                return Err(Ros2Error::Bag {
+                    bag: bag.path.clone(),
+                    reason: format!(
+                        "the wheel source is {} ({}): tread speeds from its twist need the controller's effective wheel separation S = wheel_separation × wheel_separation_multiplier (not the track width). Give it in a --topics file: `[wheels] separation = <S in m>`",
+                        bag.topics[wheels].name, bag.topics[wheels].ty
+                    ),
+                })
+            }
+        }
+    } else if !cfg
+        .wheels
+        .wheel_radius
+        .is_some_and(|r| r.is_finite() && r > 0.0)
+    {
+        return Err(Ros2Error::Bag {
+            bag: bag.path.clone(),
+            reason: format!(
+                "the wheel source is {} (sensor_msgs/JointState): wheel speeds in rad/s need the wheel radius. Give it in a --topics file: `[wheels] wheel_radius = <m>`",
+                bag.topics[wheels].name
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// `[time] stamp`: whether times are the receive times (`receive`) rather
+/// than the header stamps (`header`, the default).
+fn receive_only(bag: &Bag, cfg: &TopicsConfig) -> Result<bool, Ros2Error> {
+    match cfg.time.stamp.as_deref() {
+        None | Some("header") => Ok(false),
+        Some("receive") => Ok(true),
+        Some(x) => Err(Ros2Error::Bag {
+            bag: bag.path.clone(),
+            reason: format!("[time] stamp = `{x}`: expected `header` or `receive`"),
+        }),
+    }
+}
+
+/// A message's time, ns since the epoch: its header stamp, or `recv_ns`
+/// when the stamp is zero, absent or not wanted. Integer nanoseconds: f64
+/// of ns since the epoch would lose ~0.2 µs.
+fn stamp_ns(d: &Decoder, v: &msg::Value, recv_ns: u64, receive_only: bool) -> i128 {
+    match (d.f(v, "header.stamp.sec"), d.f(v, "header.stamp.nanosec")) {
+        (Some(s), Some(n)) if !receive_only && (s != 0.0 || n != 0.0) => {
+            s as i128 * 1_000_000_000 + n as i128
+        }
+        _ => recv_ns as i128,
+    }
+}
+
+/// The topic of each sensor stream (`None`: not read).
+struct Chosen {
+    wheels: usize,
+    pose: Option<usize>,
+    heading: Option<usize>,
+    imu: Option<usize>,
+    /// Static transforms, for the IMUs' mountings.
+    tf: Option<usize>,
+}
+
+/// Chooses the topics of the sensor streams (all but the camera's) of
+/// `bag` (`what` it is, for messages: `bag`, `graph`) and checks that the
+/// wheel source can give tread speeds.
+fn choose_streams(bag: &Bag, cfg: &TopicsConfig, what: &str) -> Result<Chosen, Ros2Error> {
+    let wheels = choose(bag, Role::Wheels, &cfg.wheels.topic, &[])?.ok_or_else(|| Ros2Error::Bag {
+        bag: bag.path.clone(),
+        reason: format!(
+            "no usable wheel source: no sensor_msgs/JointState, nav_msgs/Odometry or geometry_msgs/TwistStamped topic (the {what} has: {})",
+            list(bag, &(0..bag.topics.len()).collect::<Vec<_>>())
+        ),
+    })?;
+    let pose = choose(bag, Role::Pose, &cfg.pose.topic, &[wheels])?;
+    let pose_is_gnss =
+        pose.is_some_and(|p| short_type(&bag.topics[p].ty) == "sensor_msgs/NavSatFix");
+    let heading = if pose_is_gnss || cfg.heading.topic.is_some() {
+        choose(bag, Role::Heading, &cfg.heading.topic, &[])?
+    } else {
+        None
+    };
+    let imu = choose(bag, Role::Imu, &cfg.imu.topic, &[])?;
+    // Static transforms, for the IMUs' mountings.
+    let tf = match &cfg.tf.topic {
+        _ if imu.is_none() && heading.is_none() => None,
+        Some(_) => choose(bag, Role::Tf, &cfg.tf.topic, &[])?,
+        None => bag
+            .topic("/tf_static")
+            .filter(|&i| short_type(&bag.topics[i].ty) == "tf2_msgs/TFMessage"),
+    };
+    check_wheel_source(bag, cfg, wheels)?;
+    Ok(Chosen {
+        wheels,
+        pose,
+        heading,
+        imu,
+        tf,
+    })
+}
+
+/// A decoder for each topic of `c`, with the streams it feeds (an
+/// odometry that is both the wheel and the pose source decodes both).
+fn selections(bag: &Bag, c: &Chosen) -> Result<Vec<Sel>, Ros2Error> {
+    let mut sels: Vec<Sel> = Vec::new();
+    for (t, role) in [
+        (Some(c.wheels), Role::Wheels),
+        (c.pose, Role::Pose),
+        (c.heading, Role::Heading),
+        (c.imu, Role::Imu),
+        (c.tf, Role::Tf),
+    ] {
+        let Some(t) = t else { continue };
+        if let Some(s) = sels.iter_mut().find(|s| s.topic == t) {
+            s.roles.push(role);
+            continue;
+        }
+        let ty = short_type(&bag.topics[t].ty);
+        let mut fields = fields_for(&ty, role);
+        if ty == "nav_msgs/Odometry" && role == Role::Wheels && c.pose == Some(t) {
+            fields.extend(fields_for(&ty, Role::Pose));
+        }
+        sels.push(Sel {
+            topic: t,
+            dec: Decoder::new(bag, t, &fields)?,
+            ty,
+            roles: vec![role],
+            times: HashMap::new(),
+        });
+    }
+    Ok(sels)
 }

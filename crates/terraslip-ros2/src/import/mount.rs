@@ -202,7 +202,7 @@ impl Sensors<'_> {
     /// The mounting of `topic` (`base ← sensor`): `given` (degrees, from the
     /// topics file), else the static transforms' chain from its frame. `None`
     /// when neither tells (its axes are then taken as the base frame's).
-    fn mounting(
+    pub(super) fn mounting(
         &self,
         topic: usize,
         given: Option<[f64; 3]>,

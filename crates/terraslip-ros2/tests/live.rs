@@ -47,7 +47,7 @@ fn a_recording_played_live_makes_the_rows_import_makes() {
     let pose: Vec<_> = rows
         .iter()
         .filter_map(|r| match r {
-            LiveRow::Pose(p) => Some(p.clone()),
+            LiveRow::Pose(p) => Some(*p),
             _ => None,
         })
         .collect();

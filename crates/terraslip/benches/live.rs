@@ -24,6 +24,9 @@ fn hour() -> Vec<Sample> {
         ..Default::default()
     };
     let log = drive(&spec);
+    let mut s: Vec<Sample> = Vec::new();
+    s.extend(log.wheels.iter().map(|w| Sample::Wheels(*w)));
+    s.extend(log.pose.iter().map(|p| Sample::Pose(*p)));
     s.extend(
         gyro(spec.terrains[0].2, 3600.0, 100.0)
             .into_iter()

@@ -232,8 +232,10 @@ impl<'a> Live<'a> {
         gyro_delay: f64,
     ) -> Result<Self, PipelineError> {
         cfg.validate().map_err(|e| PipelineError::Config(e.0))?;
-        let mut log = DriveLog::default();
-        log.dir = name.into();
+        let mut log = DriveLog {
+            dir: name.into(),
+            ..Default::default()
+        };
         log.meta.track_width = Some(track_width);
         let s = setup::setup(&log, cfg, &NO_EVIDENCE, init)?;
         let fuse_gyro = cfg.measurement.std_gyro > 0.0;

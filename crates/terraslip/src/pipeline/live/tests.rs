@@ -20,7 +20,7 @@ fn drive_with_gyro(duration: f64) -> DriveLog {
 fn arrivals(log: &DriveLog) -> Vec<(f64, Sample)> {
     let mut a: Vec<(f64, Sample)> = Vec::new();
     a.extend(log.wheels.iter().map(|w| (w.t, Sample::Wheels(*w))));
-    a.extend(log.pose.iter().map(|p| (p.t, Sample::Pose(p.clone()))));
+    a.extend(log.pose.iter().map(|p| (p.t, Sample::Pose(*p))));
     a.extend(log.imu.iter().map(|s| (s.t, Sample::Imu(*s))));
     a
 }

@@ -363,4 +363,40 @@ mod tests {
         let icr = bag.topic("/terraslip/icr").unwrap();
         assert!(crate::msg::Registry::parse(ICR_TYPE, &bag.topics[icr].definition, None).is_ok());
     }
+
+    #[test]
+    fn diagnostics_decode_with_the_ros_definition() {
+        let values = vec![
+            ("y_l_m".to_string(), "0.3".to_string()),
+            (
+                "warning_0".to_string(),
+                "clock offset at its limit".to_string(),
+            ),
+        ];
+        let m = diagnostics_message(
+            1_700_000_000_250_000_000,
+            "terraslip: slip estimator",
+            DiagnosticLevel::Warn,
+            "clock offset at its limit",
+            &values,
+        );
+        let (reg, root) =
+            crate::msg::Registry::parse(m.ty, "", Some(crate::defs::BUILTIN)).unwrap();
+        let v = reg.decode(root, &m.data).unwrap();
+        let sec = reg.resolve(root, "header.stamp.sec").unwrap();
+        assert_eq!(v.f64_at(&sec), Some(1_700_000_000.0));
+        let status = reg.resolve(root, "status").unwrap();
+        let Some(crate::msg::Value::List(items)) = v.at(&status) else {
+            panic!("no status list: {v:?}")
+        };
+        assert_eq!(items.len(), 1);
+        let flat = format!("{:?}", items[0]);
+        for s in ["terraslip: slip estimator", "y_l_m", "0.3", "warning_0"] {
+            assert!(flat.contains(s), "{s} missing from {flat}");
+        }
+        let crate::msg::Value::Struct(fields) = &items[0] else {
+            panic!("{flat}")
+        };
+        assert_eq!(fields[0].as_f64(), Some(1.0), "level WARN: {flat}");
+    }
 }

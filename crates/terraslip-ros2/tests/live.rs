@@ -1,24 +1,26 @@
 //! The Husky recording in ../shared/data/ros2 played message by message
-//! into [`LiveImport`] makes the rows `import` makes of it (skipped, and
-//! said so, where the shared data is absent).
+//! into [`LiveImport`] makes the rows `import` makes of it (fails, naming
+//! the path, where the shared data is absent).
 
 use std::path::PathBuf;
 
 use terraslip_ros2::import::{LiveImport, LiveRow};
 use terraslip_ros2::{import, Bag, TopicsConfig};
 
-fn husky() -> Option<PathBuf> {
+fn husky() -> PathBuf {
     let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../../../shared/data/ros2/husky_test1_mcap");
-    if !p.is_dir() {
-        eprintln!("SKIPPED: {} is absent", p.display());
-    }
-    p.is_dir().then_some(p)
+    assert!(
+        p.is_dir(),
+        "{} is absent: this test needs the shared data beside the clone",
+        p.display()
+    );
+    p
 }
 
 #[test]
 fn a_recording_played_live_makes_the_rows_import_makes() {
-    let Some(path) = husky() else { return };
+    let path = husky();
     let cfg: TopicsConfig =
         toml::from_str("[wheels]\nseparation = 1.040625\n[imu]\nmount_rpy_deg = [90, 0, -90]\n")
             .unwrap();

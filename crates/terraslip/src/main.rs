@@ -53,7 +53,7 @@ enum Command {
     #[cfg(feature = "ros2")]
     Import(cmd::import::Args),
     /// Run the estimator live as a ROS 2 node (no ROS install needed).
-    #[cfg(feature = "node")]
+    #[cfg(any(feature = "node", feature = "node-humble"))]
     Node(cmd::node::Args),
 }
 
@@ -79,7 +79,7 @@ fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().collect();
     let (own, ros_args) = split_ros_args(&args);
     let cli = Cli::parse_from(own);
-    #[cfg(not(feature = "node"))]
+    #[cfg(not(any(feature = "node", feature = "node-humble")))]
     if !ros_args.is_empty() {
         eprintln!("error: --ros-args is for `terraslip node` (build with --features node)");
         return ExitCode::FAILURE;
@@ -94,7 +94,7 @@ fn main() -> ExitCode {
         Command::Calibrate(a) => cmd::calibrate::run(*a),
         #[cfg(feature = "ros2")]
         Command::Import(a) => cmd::import::run(a),
-        #[cfg(feature = "node")]
+        #[cfg(any(feature = "node", feature = "node-humble"))]
         Command::Node(a) => cmd::node::run(a, &ros_args),
     };
 

@@ -6,7 +6,7 @@ pub mod demo;
 pub mod estimate;
 #[cfg(feature = "ros2")]
 pub mod import;
-#[cfg(feature = "node")]
+#[cfg(any(feature = "node", feature = "node-humble"))]
 pub mod node;
 pub mod report;
 #[cfg(feature = "ros2")]

@@ -156,6 +156,19 @@ impl Bag {
     }
 
     /// Index of a topic by name.
+    /// The topics of a live ROS 2 graph as a bag with no storage files, so
+    /// that topic choice, decoding and error messages are those of a
+    /// recording; `label` names the graph in errors (e.g. `ROS 2 graph,
+    /// domain 0`). Reading messages from it yields none.
+    pub fn live(label: impl Into<PathBuf>, topics: Vec<Topic>) -> Self {
+        Bag {
+            path: label.into(),
+            topics,
+            files: Vec::new(),
+            message_zstd: false,
+        }
+    }
+
     pub fn topic(&self, name: &str) -> Option<usize> {
         self.topics.iter().position(|t| t.name == name)
     }

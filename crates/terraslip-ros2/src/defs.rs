@@ -25,7 +25,10 @@ pub const BUILTIN: &str = "=====================================================
 ================================================================================\nMSG: sensor_msgs/NavSatStatus\nint8 STATUS_NO_FIX=-1\nint8 STATUS_FIX=0\nint8 status\nuint16 service\n\
 ================================================================================\nMSG: sensor_msgs/NavSatFix\nuint8 COVARIANCE_TYPE_UNKNOWN=0\nuint8 COVARIANCE_TYPE_APPROXIMATED=1\nuint8 COVARIANCE_TYPE_DIAGONAL_KNOWN=2\nuint8 COVARIANCE_TYPE_KNOWN=3\nstd_msgs/Header header\nsensor_msgs/NavSatStatus status\nfloat64 latitude\nfloat64 longitude\nfloat64 altitude\nfloat64[9] position_covariance\nuint8 position_covariance_type\n\
 ================================================================================\nMSG: sensor_msgs/Image\nstd_msgs/Header header\nuint32 height\nuint32 width\nstring encoding\nuint8 is_bigendian\nuint32 step\nuint8[] data\n\
-================================================================================\nMSG: sensor_msgs/CompressedImage\nstd_msgs/Header header\nstring format\nuint8[] data\n";
+================================================================================\nMSG: sensor_msgs/CompressedImage\nstd_msgs/Header header\nstring format\nuint8[] data\n\
+================================================================================\nMSG: diagnostic_msgs/KeyValue\nstring key\nstring value\n\
+================================================================================\nMSG: diagnostic_msgs/DiagnosticStatus\nbyte OK=0\nbyte WARN=1\nbyte ERROR=2\nbyte STALE=3\nbyte level\nstring name\nstring message\nstring hardware_id\ndiagnostic_msgs/KeyValue[] values\n\
+================================================================================\nMSG: diagnostic_msgs/DiagnosticArray\nstd_msgs/Header header\ndiagnostic_msgs/DiagnosticStatus[] status\n";
 
 /// Whether `ty` (`pkg/Name` or `pkg/msg/Name`) has a built-in definition.
 pub fn has_builtin(ty: &str) -> bool {

@@ -102,11 +102,6 @@ impl EstimateMcap {
         Ok(c)
     }
 
-    fn builtin_channel(&mut self, topic: &str, ty: &str) -> Result<u16, Ros2Error> {
-        let def = crate::defs::definition_of(ty).unwrap_or_default();
-        self.channel(topic, ty, &def)
-    }
-
     /// Writes one CDR message.
     pub fn write(&mut self, channel: u16, ns: u64, data: &[u8]) -> Result<(), Ros2Error> {
         self.seq = self.seq.wrapping_add(1);
@@ -125,64 +120,9 @@ impl EstimateMcap {
 
     /// Publishes one estimate row on the terraslip topics.
     pub fn estimate(&mut self, s: &EstimateSample, terrain: Option<&str>) -> Result<(), Ros2Error> {
-        // Quaternion of a rotation by yaw about z: (0, 0, sin yaw/2, cos yaw/2).
-        let (sz, cz) = (s.yaw / 2.0).sin_cos();
-        let mut w = CdrWriter::new();
-        w.header(s.stamp_ns, "odom").string("base_link");
-        planar_pose(&mut w, s.east, s.north, sz, cz);
-        let mut cov = [0.0; 36];
-        cov[0] = s.std_pose[0].powi(2);
-        cov[7] = s.std_pose[1].powi(2);
-        cov[35] = s.std_pose[2].powi(2);
-        for c in cov {
-            w.f64(c);
-        }
-        w.f64(s.twist[0])
-            .f64(s.twist[1])
-            .f64(0.0)
-            .f64(0.0)
-            .f64(0.0)
-            .f64(s.twist[2]);
-        for _ in 0..36 {
-            w.f64(0.0);
-        }
-        let c = self.builtin_channel("/terraslip/odom", "nav_msgs/msg/Odometry")?;
-        self.write(c, s.stamp_ns, &w.finish())?;
-
-        let mut w = CdrWriter::new();
-        w.u32(1).header(s.stamp_ns, "odom").string("base_link");
-        planar_pose(&mut w, s.east, s.north, sz, cz);
-        let c = self.builtin_channel("/tf", "tf2_msgs/msg/TFMessage")?;
-        self.write(c, s.stamp_ns, &w.finish())?;
-
-        let mut w = CdrWriter::new();
-        w.header(s.stamp_ns, "base_link");
-        for v in s.icr.iter().chain(&s.std_icr) {
-            w.f64(*v);
-        }
-        let def = format!("{ICR_DEF}{}", header_sections());
-        let c = self.channel("/terraslip/icr", ICR_TYPE, &def)?;
-        self.write(c, s.stamp_ns, &w.finish())?;
-
-        let mut w = CdrWriter::new();
-        w.header(s.stamp_ns, "base_link");
-        w.f64(s.nis)
-            .u8(s.fused as u8)
-            .u8(s.gated as u8)
-            .f64(s.q_scale)
-            .u8(s.change as u8);
-        let def = format!("{INNOVATION_DEF}{}", header_sections());
-        let c = self.channel("/terraslip/innovation", INNOVATION_TYPE, &def)?;
-        self.write(c, s.stamp_ns, &w.finish())?;
-
-        // The terrain label when it changes (and first), latched for Foxglove's state view.
-        let t = terrain.unwrap_or("");
-        if self.last_terrain.as_deref() != Some(t) {
-            let mut w = CdrWriter::new();
-            w.string(t);
-            let c = self.builtin_channel("/terraslip/terrain", "std_msgs/msg/String")?;
-            self.write(c, s.stamp_ns, &w.finish())?;
-            self.last_terrain = Some(t.to_string());
+        for m in estimate_messages(s, terrain, &mut self.last_terrain) {
+            let c = self.channel(m.topic, m.ty, &m.definition())?;
+            self.write(c, s.stamp_ns, &m.data)?;
         }
         Ok(())
     }
@@ -224,6 +164,143 @@ impl EstimateMcap {
 impl Drop for EstimateMcap {
     fn drop(&mut self) {
         let _ = std::fs::remove_file(&self.tmp);
+    }
+}
+
+/// One encoded output message: topic, type and CDR (with its
+/// encapsulation header).
+#[derive(Debug, Clone, PartialEq)]
+pub struct OutMessage {
+    pub topic: &'static str,
+    pub ty: &'static str,
+    pub data: Vec<u8>,
+}
+
+impl OutMessage {
+    /// The type's `ros2msg` definition, as a schema stores it.
+    pub fn definition(&self) -> String {
+        match self.ty {
+            ICR_TYPE => format!("{ICR_DEF}{}", header_sections()),
+            INNOVATION_TYPE => format!("{INNOVATION_DEF}{}", header_sections()),
+            ty => crate::defs::definition_of(ty).unwrap_or_default(),
+        }
+    }
+}
+
+/// The messages of one estimate row: `/terraslip/odom`, `/tf`,
+/// `/terraslip/icr`, `/terraslip/innovation`, and `/terraslip/terrain`
+/// when the terrain differs from `last_terrain` (then updated).
+pub fn estimate_messages(
+    s: &EstimateSample,
+    terrain: Option<&str>,
+    last_terrain: &mut Option<String>,
+) -> Vec<OutMessage> {
+    let mut out = Vec::with_capacity(5);
+    // Quaternion of a rotation by yaw about z: (0, 0, sin yaw/2, cos yaw/2).
+    let (sz, cz) = (s.yaw / 2.0).sin_cos();
+    let mut w = CdrWriter::new();
+    w.header(s.stamp_ns, "odom").string("base_link");
+    planar_pose(&mut w, s.east, s.north, sz, cz);
+    let mut cov = [0.0; 36];
+    cov[0] = s.std_pose[0].powi(2);
+    cov[7] = s.std_pose[1].powi(2);
+    cov[35] = s.std_pose[2].powi(2);
+    for c in cov {
+        w.f64(c);
+    }
+    w.f64(s.twist[0])
+        .f64(s.twist[1])
+        .f64(0.0)
+        .f64(0.0)
+        .f64(0.0)
+        .f64(s.twist[2]);
+    for _ in 0..36 {
+        w.f64(0.0);
+    }
+    out.push(OutMessage {
+        topic: "/terraslip/odom",
+        ty: "nav_msgs/msg/Odometry",
+        data: w.finish(),
+    });
+
+    let mut w = CdrWriter::new();
+    w.u32(1).header(s.stamp_ns, "odom").string("base_link");
+    planar_pose(&mut w, s.east, s.north, sz, cz);
+    out.push(OutMessage {
+        topic: "/tf",
+        ty: "tf2_msgs/msg/TFMessage",
+        data: w.finish(),
+    });
+
+    let mut w = CdrWriter::new();
+    w.header(s.stamp_ns, "base_link");
+    for v in s.icr.iter().chain(&s.std_icr) {
+        w.f64(*v);
+    }
+    out.push(OutMessage {
+        topic: "/terraslip/icr",
+        ty: ICR_TYPE,
+        data: w.finish(),
+    });
+
+    let mut w = CdrWriter::new();
+    w.header(s.stamp_ns, "base_link");
+    w.f64(s.nis)
+        .u8(s.fused as u8)
+        .u8(s.gated as u8)
+        .f64(s.q_scale)
+        .u8(s.change as u8);
+    out.push(OutMessage {
+        topic: "/terraslip/innovation",
+        ty: INNOVATION_TYPE,
+        data: w.finish(),
+    });
+
+    // The terrain label when it changes (and first), latched for Foxglove's state view.
+    let t = terrain.unwrap_or("");
+    if last_terrain.as_deref() != Some(t) {
+        let mut w = CdrWriter::new();
+        w.string(t);
+        out.push(OutMessage {
+            topic: "/terraslip/terrain",
+            ty: "std_msgs/msg/String",
+            data: w.finish(),
+        });
+        *last_terrain = Some(t.to_string());
+    }
+    out
+}
+
+/// Level of a `diagnostic_msgs/DiagnosticStatus`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DiagnosticLevel {
+    Ok = 0,
+    Warn = 1,
+    Error = 2,
+    Stale = 3,
+}
+
+/// A `/diagnostics` message (`diagnostic_msgs/DiagnosticArray`) with one
+/// status: `name`, `level`, `message`, and `values` as key/value strings.
+pub fn diagnostics_message(
+    stamp_ns: u64,
+    name: &str,
+    level: DiagnosticLevel,
+    message: &str,
+    values: &[(String, String)],
+) -> OutMessage {
+    let mut w = CdrWriter::new();
+    w.header(stamp_ns, "");
+    w.u32(1);
+    w.u8(level as u8).string(name).string(message).string("");
+    w.u32(values.len() as u32);
+    for (k, v) in values {
+        w.string(k).string(v);
+    }
+    OutMessage {
+        topic: "/diagnostics",
+        ty: "diagnostic_msgs/msg/DiagnosticArray",
+        data: w.finish(),
     }
 }
 
@@ -285,5 +362,41 @@ mod tests {
         assert_eq!(easts, (0..10).map(|k| k as f64).collect::<Vec<_>>());
         let icr = bag.topic("/terraslip/icr").unwrap();
         assert!(crate::msg::Registry::parse(ICR_TYPE, &bag.topics[icr].definition, None).is_ok());
+    }
+
+    #[test]
+    fn diagnostics_decode_with_the_ros_definition() {
+        let values = vec![
+            ("y_l_m".to_string(), "0.3".to_string()),
+            (
+                "warning_0".to_string(),
+                "clock offset at its limit".to_string(),
+            ),
+        ];
+        let m = diagnostics_message(
+            1_700_000_000_250_000_000,
+            "terraslip: slip estimator",
+            DiagnosticLevel::Warn,
+            "clock offset at its limit",
+            &values,
+        );
+        let (reg, root) =
+            crate::msg::Registry::parse(m.ty, "", Some(crate::defs::BUILTIN)).unwrap();
+        let v = reg.decode(root, &m.data).unwrap();
+        let sec = reg.resolve(root, "header.stamp.sec").unwrap();
+        assert_eq!(v.f64_at(&sec), Some(1_700_000_000.0));
+        let status = reg.resolve(root, "status").unwrap();
+        let Some(crate::msg::Value::List(items)) = v.at(&status) else {
+            panic!("no status list: {v:?}")
+        };
+        assert_eq!(items.len(), 1);
+        let flat = format!("{:?}", items[0]);
+        for s in ["terraslip: slip estimator", "y_l_m", "0.3", "warning_0"] {
+            assert!(flat.contains(s), "{s} missing from {flat}");
+        }
+        let crate::msg::Value::Struct(fields) = &items[0] else {
+            panic!("{flat}")
+        };
+        assert_eq!(fields[0].as_f64(), Some(1.0), "level WARN: {flat}");
     }
 }

@@ -47,21 +47,26 @@ pub fn config_from(
         None => EstimatorConfig::default(),
     };
     if let Some((text, name)) = toml_text {
-        // Checked alone first, so errors point at the user's own lines.
-        toml::from_str::<EstimatorConfig>(text)
-            .map_err(|e| crate::config::toml_error(text, &e))
-            .with_context(|| name.to_string())?;
-        // A preset is the base; the file's keys override it.
-        let base = toml::Value::try_from(&cfg).context("serialising the base configuration")?;
-        let over: toml::Value = toml::from_str(text)
-            .map_err(|e| crate::config::toml_error(text, &e))
-            .with_context(|| name.to_string())?;
-        let merged = merge(base, over);
-        cfg = EstimatorConfig::from_toml(&toml::to_string(&merged).unwrap_or_default())
-            .with_context(|| name.to_string())?;
+        cfg = overlay(cfg, text, name)?;
     }
     cfg.validate()?;
     Ok(cfg)
+}
+
+/// `cfg` with the keys of TOML `text` over it (checked alone first, so
+/// errors point at the user's own lines); `name` prefixes the errors.
+pub fn overlay(cfg: EstimatorConfig, text: &str, name: &str) -> Result<EstimatorConfig> {
+    toml::from_str::<EstimatorConfig>(text)
+        .map_err(|e| crate::config::toml_error(text, &e))
+        .with_context(|| name.to_string())?;
+    // The base is the preset; the text's keys override it.
+    let base = toml::Value::try_from(&cfg).context("serialising the base configuration")?;
+    let over: toml::Value = toml::from_str(text)
+        .map_err(|e| crate::config::toml_error(text, &e))
+        .with_context(|| name.to_string())?;
+    let merged = merge(base, over);
+    EstimatorConfig::from_toml(&toml::to_string(&merged).unwrap_or_default())
+        .with_context(|| name.to_string())
 }
 
 fn merge(base: toml::Value, over: toml::Value) -> toml::Value {

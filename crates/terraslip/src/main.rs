@@ -52,10 +52,38 @@ enum Command {
     /// Convert a ROS 2 bag (MCAP or sqlite3) into a drive log.
     #[cfg(feature = "ros2")]
     Import(cmd::import::Args),
+    /// Run the estimator live as a ROS 2 node (no ROS install needed).
+    #[cfg(any(feature = "node", feature = "node-humble"))]
+    Node(cmd::node::Args),
+}
+
+/// Splits a command line at `--ros-args`: the arguments before it (and
+/// after a closing `--`), and those of the ROS section.
+fn split_ros_args(args: &[String]) -> (Vec<String>, Vec<String>) {
+    let mut own = Vec::new();
+    let mut ros = Vec::new();
+    let mut in_ros = false;
+    for a in args {
+        match a.as_str() {
+            "--ros-args" => in_ros = true,
+            "--" if in_ros => in_ros = false,
+            _ if in_ros => ros.push(a.clone()),
+            _ => own.push(a.clone()),
+        }
+    }
+    (own, ros)
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    // ROS 2 arguments (`--ros-args ...`) are the node's, not clap's.
+    let args: Vec<String> = std::env::args().collect();
+    let (own, ros_args) = split_ros_args(&args);
+    let cli = Cli::parse_from(own);
+    #[cfg(not(any(feature = "node", feature = "node-humble")))]
+    if !ros_args.is_empty() {
+        eprintln!("error: --ros-args is for `terraslip node` (build with --features node)");
+        return ExitCode::FAILURE;
+    }
     cmd::bag::set_topics(cli.topics);
     let result = match cli.command {
         Command::Demo(a) => cmd::demo::run(a),
@@ -66,7 +94,10 @@ fn main() -> ExitCode {
         Command::Calibrate(a) => cmd::calibrate::run(*a),
         #[cfg(feature = "ros2")]
         Command::Import(a) => cmd::import::run(a),
+        #[cfg(any(feature = "node", feature = "node-humble"))]
+        Command::Node(a) => cmd::node::run(a, &ros_args),
     };
+
     cmd::bag::cleanup();
     match result {
         Ok(()) => ExitCode::SUCCESS,

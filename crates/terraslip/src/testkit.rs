@@ -3,7 +3,7 @@
 //! terrain change schedule. Not a substitute for `terraslip-sim`.
 
 use terraslip_core::IcrParams;
-use terraslip_io::{DriveLog, Meta, PoseObs, TerrainLabel, TruthSample, WheelSample};
+use terraslip_io::{DriveLog, ImuSample, Meta, PoseObs, TerrainLabel, TruthSample, WheelSample};
 
 /// Settings of [`drive`].
 #[derive(Debug, Clone)]
@@ -72,6 +72,27 @@ pub fn tread_speeds(t: f64) -> (f64, f64) {
     let v = 0.75 + 0.25 * (0.05 * t).sin();
     let turn = 0.35 * (0.21 * t).sin() + 0.2 * (0.077 * t).cos();
     (v - turn, v + turn)
+}
+
+/// A noiseless yaw-rate gyro at `hz` over `duration` s of the
+/// [`tread_speeds`] drive with ICRs `icr`, stamped 3 ms after the wheels'
+/// grid.
+pub fn gyro(icr: IcrParams, duration: f64, hz: f64) -> Vec<ImuSample> {
+    (0..(duration * hz) as usize)
+        .map(|k| {
+            let t = k as f64 / hz + 0.003;
+            let (vl, vr) = tread_speeds(t);
+            ImuSample {
+                t,
+                accel_z: 9.81,
+                accel_x: None,
+                accel_y: None,
+                gyro_x: None,
+                gyro_y: None,
+                gyro_z: Some(icr.twist(vl, vr).omega),
+            }
+        })
+        .collect()
 }
 
 /// A drive with truth, labels and noisy pose.

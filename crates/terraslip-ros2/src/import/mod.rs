@@ -14,6 +14,7 @@ mod config;
 mod course;
 mod decoder;
 mod image;
+mod live;
 pub mod mount;
 mod prior;
 mod report;
@@ -30,11 +31,12 @@ pub use config::{
     HeadingConfig, ImuConfig, PoseConfig, TfConfig, TimeConfig, TopicOnly, TopicsConfig,
     WheelsConfig,
 };
+pub use live::{LiveImport, LiveRow};
 pub use prior::{controller_model, CONTROLLER_FILE};
 pub use report::{ImportReport, StreamReport};
 pub use rows::yaw_of;
 
-use crate::msg::short_type;
+use crate::msg::{self, short_type};
 use crate::{Bag, Ros2Error};
 use decoder::{fields_for, Decoder};
 use report::stream_report;
@@ -58,30 +60,8 @@ pub fn import(
     out_dir: Option<&Path>,
 ) -> Result<(DriveLog, ImportReport), Ros2Error> {
     let mut bag = Bag::open(bag_path)?;
-    let wheels = choose(&bag, Role::Wheels, &cfg.wheels.topic, &[])?.ok_or_else(|| Ros2Error::Bag {
-        bag: bag.path.clone(),
-        reason: format!(
-            "no usable wheel source: no sensor_msgs/JointState, nav_msgs/Odometry or geometry_msgs/TwistStamped topic (the bag has: {})",
-            list(&bag, &(0..bag.topics.len()).collect::<Vec<_>>())
-        ),
-    })?;
-    let pose = choose(&bag, Role::Pose, &cfg.pose.topic, &[wheels])?;
-    let pose_is_gnss =
-        pose.is_some_and(|p| short_type(&bag.topics[p].ty) == "sensor_msgs/NavSatFix");
-    let heading = if pose_is_gnss || cfg.heading.topic.is_some() {
-        choose(&bag, Role::Heading, &cfg.heading.topic, &[])?
-    } else {
-        None
-    };
-    let imu = choose(&bag, Role::Imu, &cfg.imu.topic, &[])?;
-    // Static transforms, for the IMUs' mountings.
-    let tf = match &cfg.tf.topic {
-        _ if imu.is_none() && heading.is_none() => None,
-        Some(_) => choose(&bag, Role::Tf, &cfg.tf.topic, &[])?,
-        None => bag
-            .topic("/tf_static")
-            .filter(|&i| short_type(&bag.topics[i].ty) == "tf2_msgs/TFMessage"),
-    };
+    let chosen = choose_streams(&bag, cfg, "bag")?;
+    let (wheels, heading, imu, tf) = (chosen.wheels, chosen.heading, chosen.imu, chosen.tf);
     let images = match choose(&bag, Role::Images, &cfg.images.topic, &[])? {
         Some(i) if out_dir.is_none() => {
             return Err(Ros2Error::Bag {
@@ -97,88 +77,33 @@ pub fn import(
 
     // The scale the tread speeds are made in (scale.rs): the topics
     // file's, else the URDF's, else the track width, else a default.
-    let wheel_ty = short_type(&bag.topics[wheels].ty);
-    let joints = wheel_ty == "sensor_msgs/JointState";
-    let needs_urdf = if joints {
-        cfg.wheels.wheel_radius.is_none()
-    } else {
-        cfg.wheels.separation.is_none()
-    };
-    let urdf = if needs_urdf {
+    let urdf = if needs_urdf(&bag, cfg, wheels) {
         robot_description(&mut bag)?
     } else {
         None
     };
-    let mut wheels_cfg = cfg.wheels.clone();
-    let wheel_name = &bag.topics[wheels].name;
-    let mut sep_scale = None;
-    let scale_line = if joints {
-        let r = scale::wheel_radius(cfg, urdf.as_ref());
-        wheels_cfg.wheel_radius = Some(r.value);
-        format!(
-            "wheel radius {} m ({}; {wheel_name} gives rad/s){}",
-            r.value,
-            scale::describe(r.source),
-            if r.is_given() {
-                ""
-            } else {
-                ": the speed factors are relative to it"
-            }
-        )
-    } else {
-        let s = scale::separation(cfg, urdf.as_ref());
-        wheels_cfg.separation = Some(s.value);
-        let line = format!(
-            "separation S = {} m for the tread speeds v ∓ ω·S/2 of {wheel_name} ({}){}",
-            s.value,
-            scale::describe(s.source),
-            if s.is_given() {
-                String::new()
-            } else {
-                "; the ICRs are learned in this scale and the controller's correction is given as a factor (learned spread / S)".to_string()
-            }
-        );
-        sep_scale = Some(s);
-        line
-    };
-    let mut sels: Vec<Sel> = Vec::new();
-    for (t, role) in [
-        (Some(wheels), Role::Wheels),
-        (pose, Role::Pose),
-        (heading, Role::Heading),
-        (imu, Role::Imu),
-        (images, Role::Images),
-        (tf, Role::Tf),
-    ] {
-        let Some(t) = t else { continue };
-        if let Some(s) = sels.iter_mut().find(|s| s.topic == t) {
-            s.roles.push(role);
-            continue;
-        }
+    let (wheels_cfg, sep_scale, scale_line) = wheel_scale(&bag, cfg, wheels, urdf.as_ref());
+    let mut sels = selections(&bag, &chosen)?;
+    if let Some(t) = images {
         let ty = short_type(&bag.topics[t].ty);
-        let mut fields = fields_for(&ty, role);
-        if ty == "nav_msgs/Odometry" && role == Role::Wheels && pose == Some(t) {
-            fields.extend(fields_for(&ty, Role::Pose));
-        }
-        sels.push(Sel {
-            topic: t,
-            dec: Decoder::new(&bag, t, &fields)?,
-            ty,
-            roles: vec![role],
-            times: HashMap::new(),
-        });
+        // Before the static transforms, as the streams are reported.
+        let at = sels
+            .iter()
+            .position(|s| s.roles == [Role::Tf])
+            .unwrap_or(sels.len());
+        sels.insert(
+            at,
+            Sel {
+                topic: t,
+                dec: Decoder::new(&bag, t, &fields_for(&ty, Role::Images))?,
+                ty,
+                roles: vec![Role::Images],
+                times: HashMap::new(),
+            },
+        );
     }
 
-    let receive_only = match cfg.time.stamp.as_deref() {
-        None | Some("header") => false,
-        Some("receive") => true,
-        Some(x) => {
-            return Err(Ros2Error::Bag {
-                bag: bag.path.clone(),
-                reason: format!("[time] stamp = `{x}`: expected `header` or `receive`"),
-            })
-        }
-    };
+    let receive_only = receive_only(&bag, cfg)?;
 
     let mut rows = Rows {
         log: DriveLog {
@@ -188,7 +113,7 @@ pub fn import(
         },
         enu: None,
         dropped_fixes: 0,
-        wheels: &wheels_cfg,
+        wheels: wheels_cfg,
         heading: &cfg.heading,
         images_dir: out_dir.map(|d| d.join("images")),
         frames: HashMap::new(),
@@ -232,14 +157,7 @@ pub fn import(
             .decode(m.data)
             .map_err(|e| bag.msg_err(m.topic, m.index, e))?;
         let d = &sel.dec;
-        // Integer nanoseconds: f64 of ns since the epoch would lose ~0.2 µs.
-        let stamp_ns: i128 = match (d.f(&v, "header.stamp.sec"), d.f(&v, "header.stamp.nanosec")) {
-            (Some(s), Some(n)) if !receive_only && (s != 0.0 || n != 0.0) => {
-                s as i128 * 1_000_000_000 + n as i128
-            }
-            _ => m.recv_ns as i128,
-        };
-        let t = (stamp_ns - org as i128) as f64 * 1e-9;
+        let t = (stamp_ns(d, &v, m.recv_ns, receive_only) - org as i128) as f64 * 1e-9;
         let msg = Msg {
             bag,
             topic: m.topic,
@@ -349,4 +267,160 @@ fn robot_description(bag: &mut Bag) -> Result<Option<scale::UrdfWheels>, Ros2Err
         Ok(())
     })?;
     Ok(xml.as_deref().and_then(scale::urdf_wheels))
+}
+
+/// `[time] stamp`: whether times are the receive times (`receive`) rather
+/// than the header stamps (`header`, the default).
+fn receive_only(bag: &Bag, cfg: &TopicsConfig) -> Result<bool, Ros2Error> {
+    match cfg.time.stamp.as_deref() {
+        None | Some("header") => Ok(false),
+        Some("receive") => Ok(true),
+        Some(x) => Err(Ros2Error::Bag {
+            bag: bag.path.clone(),
+            reason: format!("[time] stamp = `{x}`: expected `header` or `receive`"),
+        }),
+    }
+}
+
+/// A message's time, ns since the epoch: its header stamp, or `recv_ns`
+/// when the stamp is zero, absent or not wanted. Integer nanoseconds: f64
+/// of ns since the epoch would lose ~0.2 µs.
+fn stamp_ns(d: &Decoder, v: &msg::Value, recv_ns: u64, receive_only: bool) -> i128 {
+    match (d.f(v, "header.stamp.sec"), d.f(v, "header.stamp.nanosec")) {
+        (Some(s), Some(n)) if !receive_only && (s != 0.0 || n != 0.0) => {
+            s as i128 * 1_000_000_000 + n as i128
+        }
+        _ => recv_ns as i128,
+    }
+}
+
+/// The topic of each sensor stream (`None`: not read).
+struct Chosen {
+    wheels: usize,
+    pose: Option<usize>,
+    heading: Option<usize>,
+    imu: Option<usize>,
+    /// Static transforms, for the IMUs' mountings.
+    tf: Option<usize>,
+}
+
+/// Chooses the topics of the sensor streams (all but the camera's) of
+/// `bag` (`what` it is, for messages: `bag`, `graph`).
+fn choose_streams(bag: &Bag, cfg: &TopicsConfig, what: &str) -> Result<Chosen, Ros2Error> {
+    let wheels = choose(bag, Role::Wheels, &cfg.wheels.topic, &[])?.ok_or_else(|| Ros2Error::Bag {
+        bag: bag.path.clone(),
+        reason: format!(
+            "no usable wheel source: no sensor_msgs/JointState, nav_msgs/Odometry or geometry_msgs/TwistStamped topic (the {what} has: {})",
+            list(bag, &(0..bag.topics.len()).collect::<Vec<_>>())
+        ),
+    })?;
+    let pose = choose(bag, Role::Pose, &cfg.pose.topic, &[wheels])?;
+    let pose_is_gnss =
+        pose.is_some_and(|p| short_type(&bag.topics[p].ty) == "sensor_msgs/NavSatFix");
+    let heading = if pose_is_gnss || cfg.heading.topic.is_some() {
+        choose(bag, Role::Heading, &cfg.heading.topic, &[])?
+    } else {
+        None
+    };
+    let imu = choose(bag, Role::Imu, &cfg.imu.topic, &[])?;
+    // Static transforms, for the IMUs' mountings.
+    let tf = match &cfg.tf.topic {
+        _ if imu.is_none() && heading.is_none() => None,
+        Some(_) => choose(bag, Role::Tf, &cfg.tf.topic, &[])?,
+        None => bag
+            .topic("/tf_static")
+            .filter(|&i| short_type(&bag.topics[i].ty) == "tf2_msgs/TFMessage"),
+    };
+    Ok(Chosen {
+        wheels,
+        pose,
+        heading,
+        imu,
+        tf,
+    })
+}
+
+/// A decoder for each topic of `c`, with the streams it feeds (an
+/// odometry that is both the wheel and the pose source decodes both).
+fn selections(bag: &Bag, c: &Chosen) -> Result<Vec<Sel>, Ros2Error> {
+    let mut sels: Vec<Sel> = Vec::new();
+    for (t, role) in [
+        (Some(c.wheels), Role::Wheels),
+        (c.pose, Role::Pose),
+        (c.heading, Role::Heading),
+        (c.imu, Role::Imu),
+        (c.tf, Role::Tf),
+    ] {
+        let Some(t) = t else { continue };
+        if let Some(s) = sels.iter_mut().find(|s| s.topic == t) {
+            s.roles.push(role);
+            continue;
+        }
+        let ty = short_type(&bag.topics[t].ty);
+        let mut fields = fields_for(&ty, role);
+        if ty == "nav_msgs/Odometry" && role == Role::Wheels && c.pose == Some(t) {
+            fields.extend(fields_for(&ty, Role::Pose));
+        }
+        sels.push(Sel {
+            topic: t,
+            dec: Decoder::new(bag, t, &fields)?,
+            ty,
+            roles: vec![role],
+            times: HashMap::new(),
+        });
+    }
+    Ok(sels)
+}
+
+/// Whether the tread speeds' scale is left to the bag's URDF: the topics
+/// file gives no separation (a twist) or no wheel radius (joint velocities).
+fn needs_urdf(bag: &Bag, cfg: &TopicsConfig, wheels: usize) -> bool {
+    if short_type(&bag.topics[wheels].ty) == "sensor_msgs/JointState" {
+        cfg.wheels.wheel_radius.is_none()
+    } else {
+        cfg.wheels.separation.is_none()
+    }
+}
+
+/// The wheel settings the tread speeds are made with: the topics file's,
+/// with the separation (a twist) or the wheel radius (joint velocities)
+/// from [`scale`] when it gives none; the separation's scale when it was
+/// decided here; and the line that tells the user what was decided.
+fn wheel_scale(
+    bag: &Bag,
+    cfg: &TopicsConfig,
+    wheels: usize,
+    urdf: Option<&scale::UrdfWheels>,
+) -> (WheelsConfig, Option<scale::Scale>, String) {
+    let mut wheels_cfg = cfg.wheels.clone();
+    let wheel_name = &bag.topics[wheels].name;
+    if short_type(&bag.topics[wheels].ty) == "sensor_msgs/JointState" {
+        let r = scale::wheel_radius(cfg, urdf);
+        wheels_cfg.wheel_radius = Some(r.value);
+        let line = format!(
+            "wheel radius {} m ({}; {wheel_name} gives rad/s){}",
+            r.value,
+            scale::describe(r.source),
+            if r.is_given() {
+                ""
+            } else {
+                ": the speed factors are relative to it"
+            }
+        );
+        (wheels_cfg, None, line)
+    } else {
+        let s = scale::separation(cfg, urdf);
+        wheels_cfg.separation = Some(s.value);
+        let line = format!(
+            "separation S = {} m for the tread speeds v ∓ ω·S/2 of {wheel_name} ({}){}",
+            s.value,
+            scale::describe(s.source),
+            if s.is_given() {
+                ""
+            } else {
+                "; the ICRs are learned in this scale and the controller's correction is given as a factor (learned spread / S)"
+            }
+        );
+        (wheels_cfg, Some(s), line)
+    }
 }

@@ -202,7 +202,7 @@ impl Sensors<'_> {
     /// The mounting of `topic` (`base ← sensor`): `given` (degrees, from the
     /// topics file), else the static transforms' chain from its frame. `None`
     /// when neither tells (then [`mounting_from_data`]).
-    fn mounting(
+    pub(super) fn mounting(
         &self,
         topic: usize,
         given: Option<[f64; 3]>,

@@ -53,7 +53,7 @@ pub(super) struct Rows<'c> {
     pub enu: Option<(f64, f64, f64)>,
     /// Fixes dropped for a status < 0 or no position.
     pub dropped_fixes: u64,
-    pub wheels: &'c WheelsConfig,
+    pub wheels: WheelsConfig,
     pub heading: &'c HeadingConfig,
     /// Where camera frames go (`LOG/images`).
     pub images_dir: Option<PathBuf>,
@@ -142,7 +142,7 @@ impl Rows<'_> {
             }
             (n > 0).then(|| sum / n as f64)
         };
-        let wcfg = self.wheels;
+        let wcfg = &self.wheels;
         let r = wcfg.wheel_radius.unwrap_or(f64::NAN);
         match (pick(&wcfg.left), pick(&wcfg.right)) {
             (Some(l), Some(rr)) => self.log.wheels.push(WheelSample {

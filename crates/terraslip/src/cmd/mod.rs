@@ -6,6 +6,8 @@ pub mod demo;
 pub mod estimate;
 #[cfg(feature = "ros2")]
 pub mod import;
+#[cfg(any(feature = "node", feature = "node-humble"))]
+pub mod node;
 pub mod report;
 #[cfg(feature = "ros2")]
 pub mod ros2out;

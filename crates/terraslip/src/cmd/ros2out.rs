@@ -3,7 +3,7 @@
 use std::path::Path;
 
 use anyhow::{Context, Result};
-use terraslip::pipeline::EstimateRun;
+use terraslip::pipeline::{EstimateRow, EstimateRun};
 use terraslip_io::{DriveLog, ParamsFile};
 use terraslip_ros2::diffdrive::{params_yaml, DiffDriveParams, ParamsBlock};
 use terraslip_ros2::out::{EstimateMcap, EstimateSample};
@@ -15,24 +15,8 @@ pub fn write_mcap(path: &Path, input: &Path, log: &DriveLog, est: &EstimateRun) 
     let ns = |t: f64| (origin as f64 + t * 1e9).max(0.0) as u64;
     let mut m = EstimateMcap::create(path)?;
     for (k, r) in est.rows.iter().enumerate() {
-        let w = log.wheels.get(k).copied();
-        let tw = w.map(|w| r.icr().twist(w.v_left, w.v_right));
-        let s = EstimateSample {
-            stamp_ns: ns(r.t),
-            east: r.east,
-            north: r.north,
-            yaw: r.yaw,
-            std_pose: [r.std[0], r.std[1], r.std[2]],
-            twist: tw.map_or([0.0; 3], |t| [t.v_x, t.v_y, t.omega]),
-            icr: [r.y_l, r.y_r, r.x_c, r.alpha_l, r.alpha_r],
-            std_icr: [r.std[3], r.std[4], r.std[5], r.std[6], r.std[7]],
-            nis: r.nis,
-            fused: r.fused,
-            gated: r.gated,
-            q_scale: r.q_scale,
-            change: r.change,
-        };
-        m.estimate(&s, est.terrain_name(r))?;
+        let w = log.wheels.get(k).map(|w| (w.v_left, w.v_right));
+        m.estimate(&sample(r, ns(r.t), w), est.terrain_name(r))?;
     }
     let mut passed = 0;
     if let Some((_, topics)) = &imported {
@@ -52,6 +36,28 @@ pub fn write_mcap(path: &Path, input: &Path, log: &DriveLog, est: &EstimateRun) 
         path.display()
     );
     Ok(())
+}
+
+/// The messages' content of estimate row `r` stamped `stamp_ns` (ns since
+/// the epoch); the body twist from the row's tread speeds `wheels` (m/s,
+/// left and right) when known.
+pub fn sample(r: &EstimateRow, stamp_ns: u64, wheels: Option<(f64, f64)>) -> EstimateSample {
+    let tw = wheels.map(|(l, rr)| r.icr().twist(l, rr));
+    EstimateSample {
+        stamp_ns,
+        east: r.east,
+        north: r.north,
+        yaw: r.yaw,
+        std_pose: [r.std[0], r.std[1], r.std[2]],
+        twist: tw.map_or([0.0; 3], |t| [t.v_x, t.v_y, t.omega]),
+        icr: [r.y_l, r.y_r, r.x_c, r.alpha_l, r.alpha_r],
+        std_icr: [r.std[3], r.std[4], r.std[5], r.std[6], r.std[7]],
+        nis: r.nis,
+        fused: r.fused,
+        gated: r.gated,
+        q_scale: r.q_scale,
+        change: r.change,
+    }
 }
 
 /// Writes a diff_drive_controller parameter file from calibrated `pf`, with

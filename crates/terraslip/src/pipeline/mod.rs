@@ -4,6 +4,7 @@
 //! one [`EstimateRow`] is taken after each wheels row.
 
 mod gyro_delay;
+pub mod live;
 mod replay;
 pub mod row;
 mod setup;
@@ -381,6 +382,7 @@ pub fn run_streams(
 }
 
 /// What the set-up decided, carried into the result.
+#[derive(Clone)]
 struct RunInfo {
     terrains: Vec<String>,
     track_width: f64,

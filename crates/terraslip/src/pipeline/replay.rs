@@ -53,6 +53,7 @@ pub(super) struct Replay {
 }
 
 /// What the result needs of the rows and samples that went by.
+#[derive(Clone)]
 pub(super) struct Totals {
     pub rows: usize,
     pub first: Option<EstimateRow>,
@@ -109,7 +110,8 @@ pub(super) struct Context<'a> {
 }
 
 /// Merges the streams by time into the estimator: terrain evidence, then
-/// the pose fixes up to each wheels row, then the row itself.
+/// the pose fixes up to each wheels row, then the gyro samples up to it,
+/// then the row itself.
 pub(super) fn replay(
     cx: Context,
     wheels: &mut dyn Iterator<Item = Result<WheelSample, LogError>>,
@@ -129,73 +131,19 @@ pub(super) fn replay(
         sink,
         progress,
     } = cx;
-    let filter_err = |t: f64, source| PipelineError::Filter {
-        dir: dir.to_string(),
-        t,
-        source,
-    };
-    let band = cfg.band(track_width);
-    let mut totals = Totals::new(track_width);
-    let mut terrain = TerrainFeed::new(evidence, cfg);
-    let mut changes = Vec::new();
-    let mut dropped = 0usize;
-    let mut used = 0usize;
-    let mut t_prev: Option<f64> = None;
-    let mut params: Option<IcrParams> = None;
+    let mut feed = Feed::new(dir, cfg, evidence, opts, track_width);
     for (i, w) in wheels.enumerate() {
         let w = w?;
-        if let Some(tp) = t_prev {
-            if w.t - tp > cfg.filter.max_wheel_gap
-                && !warnings.iter().any(|w| w.contains("without tread speeds"))
-            {
-                warnings.push(format!(
-                    "{dir}/wheels.csv: {:.1} s without tread speeds before t = {}; pose uncertainty widened instead of integrating",
-                    w.t - tp,
-                    w.t
-                ));
-            }
-        }
-        t_prev = Some(w.t);
-        totals.moved |= w.v_left.abs().max(w.v_right.abs()) >= cfg.filter.still_speed;
-        if let Some(c) = terrain
-            .advance(estimator, w.t)
-            .map_err(|e| filter_err(w.t, e))?
-        {
-            changes.push(c);
-        }
+        feed.advance(estimator, warnings, &w)?;
         while let Some(p) = pose.next_if(|p| p.as_ref().map_or(true, |p| p.t <= w.t)) {
-            let p = p?;
-            totals.pose(&p);
-            if opts.outage.is_some_and(|(t0, t1)| p.t >= t0 && p.t < t1) {
-                dropped += 1;
-                continue;
-            }
-            estimator
-                .on_pose(p.t, pose_fix(cfg, &p))
-                .map_err(|e| filter_err(p.t, e))?;
-            used += 1;
+            feed.pose(estimator, &p?)?;
         }
         while let Some(g) = gyro.next_if(|g| g.as_ref().map_or(true, |g| g.0 + gyro_delay <= w.t)) {
             let (t, rate) = g?;
-            let t = t + gyro_delay;
-            estimator.on_gyro(t, rate).map_err(|e| filter_err(t, e))?;
+            feed.gyro(estimator, t + gyro_delay, rate)?;
         }
-        // Starts of the prediction before this row take the previous
-        // row's parameters (those in effect then).
-        totals.prediction.wheels(w, &mut |_| params);
-        estimator
-            .on_wheels(w.t, w.v_left, w.v_right)
-            .map_err(|e| filter_err(w.t, e))?;
-        let summary = estimator.take_fix_summary();
-        terrain.jump |= summary.change;
-        let r = row(estimator, w.t, terrain.current, &summary);
+        let r = feed.wheels(estimator, &w)?;
         sink.row(terrains, &r)?;
-        params = Some(r.icr());
-        totals.prediction.estimate_heading(r.yaw);
-        totals.rows += 1;
-        totals.band.add(&r, &band);
-        totals.first.get_or_insert(r);
-        totals.last = Some(r);
         if i % 4096 == 0 {
             progress(i);
         }
@@ -203,12 +151,166 @@ pub(super) fn replay(
     // Pose rows after the last wheels row are not fused, but they are
     // part of the pose reference.
     for p in pose {
-        totals.pose(&p?);
+        feed.totals.pose(&p?);
     }
-    Ok(Replay {
-        changes,
-        used,
-        dropped,
-        totals,
-    })
+    Ok(feed.finish())
+}
+
+/// What goes between a drive's samples and the estimator, one sample at a
+/// time: the outage, the terrain evidence, the counters and totals of the
+/// result. A replay and a live node call it in the same order: for each
+/// wheels row [`Feed::advance`], the pose fixes and gyro samples up to it,
+/// then [`Feed::wheels`].
+pub(super) struct Feed<'a> {
+    dir: &'a str,
+    cfg: &'a EstimatorConfig,
+    opts: RunOptions,
+    band: terraslip_core::filter::IcrBand,
+    totals: Totals,
+    terrain: TerrainFeed<'a>,
+    changes: Vec<TerrainChange>,
+    dropped: usize,
+    used: usize,
+    t_prev: Option<f64>,
+    params: Option<IcrParams>,
+}
+
+impl<'a> Feed<'a> {
+    pub fn new(
+        dir: &'a str,
+        cfg: &'a EstimatorConfig,
+        evidence: &'a TerrainEvidence,
+        opts: RunOptions,
+        track_width: f64,
+    ) -> Self {
+        Self {
+            dir,
+            cfg,
+            opts,
+            band: cfg.band(track_width),
+            totals: Totals::new(track_width),
+            terrain: TerrainFeed::new(evidence, cfg),
+            changes: Vec::new(),
+            dropped: 0,
+            used: 0,
+            t_prev: None,
+            params: None,
+        }
+    }
+
+    fn filter_err(&self, t: f64, source: terraslip_core::FilterError) -> PipelineError {
+        PipelineError::Filter {
+            dir: self.dir.to_string(),
+            t,
+            source,
+        }
+    }
+
+    /// Before wheels row `w`: a gap before it, whether the robot moves,
+    /// and the terrain in effect at its time.
+    pub fn advance(
+        &mut self,
+        estimator: &mut Estimator,
+        warnings: &mut Vec<String>,
+        w: &WheelSample,
+    ) -> Result<(), PipelineError> {
+        let cfg = self.cfg;
+        if let Some(tp) = self.t_prev {
+            if w.t - tp > cfg.filter.max_wheel_gap
+                && !warnings.iter().any(|w| w.contains("without tread speeds"))
+            {
+                warnings.push(format!(
+                    "{}/wheels.csv: {:.1} s without tread speeds before t = {}; pose uncertainty widened instead of integrating",
+                    self.dir,
+                    w.t - tp,
+                    w.t
+                ));
+            }
+        }
+        self.t_prev = Some(w.t);
+        self.totals.moved |= w.v_left.abs().max(w.v_right.abs()) >= cfg.filter.still_speed;
+        if let Some(c) = self
+            .terrain
+            .advance(estimator, w.t)
+            .map_err(|e| self.filter_err(w.t, e))?
+        {
+            self.changes.push(c);
+        }
+        Ok(())
+    }
+
+    /// A pose fix (dropped inside the run's outage).
+    pub fn pose(&mut self, estimator: &mut Estimator, p: &PoseObs) -> Result<(), PipelineError> {
+        self.totals.pose(p);
+        if self
+            .opts
+            .outage
+            .is_some_and(|(t0, t1)| p.t >= t0 && p.t < t1)
+        {
+            self.dropped += 1;
+            return Ok(());
+        }
+        estimator
+            .on_pose(p.t, pose_fix(self.cfg, p))
+            .map_err(|e| self.filter_err(p.t, e))?;
+        self.used += 1;
+        Ok(())
+    }
+
+    /// A gyro rate (rad/s) at `t` (s, on the wheels' clock).
+    pub fn gyro(
+        &mut self,
+        estimator: &mut Estimator,
+        t: f64,
+        rate: f64,
+    ) -> Result<(), PipelineError> {
+        estimator
+            .on_gyro(t, rate)
+            .map_err(|e| self.filter_err(t, e))
+    }
+
+    /// Wheels row `w` into the estimator; the estimate after it.
+    pub fn wheels(
+        &mut self,
+        estimator: &mut Estimator,
+        w: &WheelSample,
+    ) -> Result<EstimateRow, PipelineError> {
+        // Starts of the prediction before this row take the previous
+        // row's parameters (those in effect then).
+        let params = self.params;
+        self.totals.prediction.wheels(*w, &mut |_| params);
+        estimator
+            .on_wheels(w.t, w.v_left, w.v_right)
+            .map_err(|e| self.filter_err(w.t, e))?;
+        let summary = estimator.take_fix_summary();
+        self.terrain.jump |= summary.change;
+        let r = row(estimator, w.t, self.terrain.current, &summary);
+        self.params = Some(r.icr());
+        self.totals.prediction.estimate_heading(r.yaw);
+        self.totals.rows += 1;
+        self.totals.band.add(&r, &self.band);
+        self.totals.first.get_or_insert(r);
+        self.totals.last = Some(r);
+        Ok(r)
+    }
+
+    /// What the run produced besides its rows.
+    pub fn finish(self) -> Replay {
+        Replay {
+            changes: self.changes,
+            used: self.used,
+            dropped: self.dropped,
+            totals: self.totals,
+        }
+    }
+
+    /// [`Feed::finish`] of a copy, for a result while the run goes on.
+    pub fn snapshot(&self) -> Replay {
+        Replay {
+            changes: self.changes.clone(),
+            used: self.used,
+            dropped: self.dropped,
+            totals: self.totals.clone(),
+        }
+    }
 }

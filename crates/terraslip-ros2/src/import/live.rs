@@ -1,0 +1,251 @@
+//! Messages of a live ROS 2 graph to drive-log rows, one message at a time,
+//! with the topic choice, decoding, time base and sensor mountings of
+//! [`super::import`], so that a recording played into a live node makes the
+//! rows `import` makes of it.
+//!
+//! Differences a live graph forces: time 0 is the first message's header
+//! stamp (whole seconds), not its receive time (a replay is received now);
+//! an IMU's mounting is applied as soon as it is known (the topics file, or
+//! the static transforms received so far), each row as it is made.
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+
+use terraslip_io::{ImuSample, PoseObs, WheelSample};
+
+use super::config::TopicsConfig;
+use super::mount::{self, Quat, Sensors};
+use super::report::ImportReport;
+use super::rows::{heading_yaw, Msg, Rows};
+use super::topics::Role;
+use super::{choose_streams, receive_only, selections, stamp_ns, wheel_scale, Sel};
+use crate::{Bag, Ros2Error, Topic};
+
+/// One row of the drive log made from a live message; `t` in s from
+/// [`LiveImport::origin_ns`].
+#[derive(Debug, Clone, PartialEq)]
+pub enum LiveRow {
+    Wheels(WheelSample),
+    Pose(PoseObs),
+    Imu(ImuSample),
+}
+
+impl LiveRow {
+    /// Time of the row, s.
+    pub fn t(&self) -> f64 {
+        match self {
+            LiveRow::Wheels(w) => w.t,
+            LiveRow::Pose(p) => p.t,
+            LiveRow::Imu(s) => s.t,
+        }
+    }
+}
+
+/// The streams of a live graph being turned into rows.
+pub struct LiveImport<'c> {
+    bag: Bag,
+    cfg: &'c TopicsConfig,
+    sels: Vec<Sel>,
+    rows: Rows<'c>,
+    imu: Option<usize>,
+    heading: Option<usize>,
+    tf: Option<usize>,
+    receive_only: bool,
+    origin: Option<u64>,
+    /// Messages seen per topic (for error messages).
+    seen: HashMap<usize, u64>,
+    /// Each IMU topic's mounting once known (`None` inside: none needed).
+    mounts: HashMap<usize, Option<Quat>>,
+    /// What was decided about the mountings, for the user.
+    pub report: ImportReport,
+}
+
+impl<'c> LiveImport<'c> {
+    /// Chooses the topics of `topics` (the graph as discovered, named
+    /// `graph` in errors) for each stream, as `import` chooses a bag's:
+    /// named in `cfg`, or by type when the choice is unique.
+    pub fn new(
+        graph: impl Into<PathBuf>,
+        topics: Vec<Topic>,
+        cfg: &'c TopicsConfig,
+    ) -> Result<Self, Ros2Error> {
+        let bag = Bag::live(graph, topics);
+        let c = choose_streams(&bag, cfg, "graph")?;
+        let sels = selections(&bag, &c)?;
+        let (imu, heading, tf) = (c.imu, c.heading, c.tf);
+        let receive_only = receive_only(&bag, cfg)?;
+        // A live graph's URDF is not read: the topics file's scale, else
+        // the track width, else a default.
+        let (wheels_cfg, _, scale_line) = wheel_scale(&bag, cfg, c.wheels, None);
+        let rows = Rows {
+            log: Default::default(),
+            enu: None,
+            dropped_fixes: 0,
+            wheels: wheels_cfg,
+            heading: &cfg.heading,
+            images_dir: None,
+            frames: HashMap::new(),
+            tf: Default::default(),
+            heading_rows: Vec::new(),
+        };
+        let report = ImportReport {
+            bag: bag.path.clone(),
+            decisions: vec![scale_line],
+            ..Default::default()
+        };
+        Ok(Self {
+            bag,
+            cfg,
+            sels,
+            rows,
+            imu,
+            heading,
+            tf,
+            receive_only,
+            origin: None,
+            seen: HashMap::new(),
+            mounts: HashMap::new(),
+            report,
+        })
+    }
+
+    /// The topics read, with the streams each feeds (`wheels`, `pose`,
+    /// `heading`, `imu`, `tf`).
+    pub fn subscriptions(&self) -> Vec<(&Topic, Vec<&'static str>)> {
+        self.sels
+            .iter()
+            .map(|s| {
+                (
+                    &self.bag.topics[s.topic],
+                    s.roles.iter().map(|r| r.key()).collect(),
+                )
+            })
+            .collect()
+    }
+
+    /// Time 0 of the rows, ns since the epoch (once a message came).
+    pub fn origin_ns(&self) -> Option<u64> {
+        self.origin
+    }
+
+    /// The ENU origin (latitude, longitude in degrees, altitude in m): the
+    /// first good GNSS fix.
+    pub fn enu_origin(&self) -> Option<[f64; 3]> {
+        self.rows.enu.map(|(a, b, c)| [a, b, c])
+    }
+
+    /// GNSS fixes dropped (status < 0 or no position).
+    pub fn dropped_fixes(&self) -> u64 {
+        self.rows.dropped_fixes
+    }
+
+    /// The rows message `data` (CDR) of topic `topic` (index into the
+    /// topics given to [`Self::new`]) makes; `recv_ns` is its arrival time,
+    /// ns since the epoch, used only when it has no header stamp. Messages
+    /// of topics not read make none.
+    pub fn message(
+        &mut self,
+        topic: usize,
+        recv_ns: u64,
+        data: &[u8],
+    ) -> Result<Vec<LiveRow>, Ros2Error> {
+        let Some(k) = self.sels.iter().position(|s| s.topic == topic) else {
+            return Ok(Vec::new());
+        };
+        let index = {
+            let n = self.seen.entry(topic).or_default();
+            *n += 1;
+            *n - 1
+        };
+        let sel = &self.sels[k];
+        let v = sel
+            .dec
+            .decode(data)
+            .map_err(|e| self.bag.msg_err(topic, index, e))?;
+        let stamp = stamp_ns(&sel.dec, &v, recv_ns, self.receive_only);
+        let org = match sel.roles[..] {
+            [Role::Tf] => self.origin.unwrap_or(0),
+            _ => *self
+                .origin
+                .get_or_insert((stamp.max(0) as u64) / 1_000_000_000 * 1_000_000_000),
+        };
+        let msg = Msg {
+            bag: &self.bag,
+            topic,
+            index,
+            t: (stamp - org as i128) as f64 * 1e-9,
+            d: &sel.dec,
+            v: &v,
+        };
+        let (w0, p0, i0) = (
+            self.rows.log.wheels.len(),
+            self.rows.log.pose.len(),
+            self.rows.log.imu.len(),
+        );
+        let h0 = self.rows.heading_rows.len();
+        for &role in &sel.roles {
+            self.rows.add(role, &sel.ty, &msg)?;
+        }
+        // What this message made, moved out: the live log keeps no rows.
+        let heading: Vec<(usize, Quat)> = self.rows.heading_rows.drain(h0..).collect();
+        let mut pose: Vec<PoseObs> = self.rows.log.pose.drain(p0..).collect();
+        let mut imu: Vec<ImuSample> = self.rows.log.imu.drain(i0..).collect();
+        let wheels: Vec<WheelSample> = self.rows.log.wheels.drain(w0..).collect();
+        if !imu.is_empty() {
+            if let Some(q) = self.mounting(topic, self.cfg.imu.mount_rpy_deg) {
+                mount::rotate_imu(q, &mut imu);
+            }
+        }
+        if !heading.is_empty() && Some(topic) == self.heading {
+            let given = self.cfg.heading.mount_rpy_deg.or(self
+                .cfg
+                .imu
+                .mount_rpy_deg
+                .filter(|_| self.imu == Some(topic)));
+            if let Some(q) = self.mounting(topic, given) {
+                let rows: Vec<(usize, Quat)> = heading.iter().map(|&(i, q)| (i - p0, q)).collect();
+                let h = &self.cfg.heading;
+                mount::remount_heading(&mut pose, &rows, q, |b| heading_yaw(h, b));
+            }
+        }
+        let mut out: Vec<LiveRow> = wheels.into_iter().map(LiveRow::Wheels).collect();
+        out.extend(pose.into_iter().map(LiveRow::Pose));
+        out.extend(imu.into_iter().map(LiveRow::Imu));
+        Ok(out)
+    }
+
+    /// The mounting of IMU topic `topic` (`base ← sensor`), once it is
+    /// known: `given` in the topics file, or the static transforms.
+    fn mounting(&mut self, topic: usize, given: Option<[f64; 3]>) -> Option<Quat> {
+        if let Some(&q) = self.mounts.get(&topic) {
+            return q;
+        }
+        let frame = self.rows.frames.get(&topic).map_or("", String::as_str);
+        let known = given.is_some()
+            || self.tf.is_none()
+            || self
+                .rows
+                .tf
+                .rotation(&self.cfg.tf.base_frame, frame)
+                .is_some();
+        let s = Sensors {
+            bag: &self.bag,
+            cfg: self.cfg,
+            imu: self.imu,
+            heading: self.heading,
+            tf: self.tf,
+            frames: &self.rows.frames,
+            tf_tree: &self.rows.tf,
+            heading_rows: &[],
+        };
+        let mut report = ImportReport::default();
+        let q = s.mounting(topic, given, &mut report);
+        // Until the static transforms name the frame, rows pass unrotated
+        // and the question stays open.
+        if known {
+            self.mounts.insert(topic, q);
+            self.report.mounts.extend(report.mounts);
+        }
+        q
+    }
+}

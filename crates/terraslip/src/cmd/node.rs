@@ -1,0 +1,534 @@
+//! `terraslip node`: the online estimator on a live ROS 2 graph (RustDDS,
+//! no ROS install). Topics are read as `import` reads a bag's, the samples
+//! put back in stamp order by the live pipeline, and each estimate row
+//! published as `estimate --mcap` writes it.
+
+use std::collections::VecDeque;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant, SystemTime};
+
+use anyhow::{bail, Context, Result};
+use terraslip::pipeline::live::{Live, Sample};
+use terraslip::pipeline::{EstimateRow, EstimateRun, PipelineError, RowSink};
+use terraslip_io::ParamsFile;
+use terraslip_node::{Graph, GraphTopic, RosArgs, RosEnv, TopicQos, Wait, Writer};
+use terraslip_ros2::import::{LiveImport, LiveRow};
+use terraslip_ros2::out::{diagnostics_message, estimate_messages, DiagnosticLevel};
+
+/// Run the online estimator as a ROS 2 node on the live graph.
+///
+/// Joins the ROS 2 graph (domain ROS_DOMAIN_ID; ROS_LOCALHOST_ONLY=1 or
+/// ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST keep it on this host) with no
+/// ROS install, picks the wheel, pose, heading and IMU topics as `import`
+/// picks a bag's (by type when unique, or from --topics), and publishes for
+/// each wheels message /terraslip/odom (nav_msgs/Odometry with covariance,
+/// odom -> base_link), /tf, /terraslip/icr, /terraslip/innovation,
+/// /terraslip/terrain, and once a second /diagnostics (learned parameters,
+/// pose noise, clock offset, warnings). All timing comes from the header
+/// stamps: samples wait --lag seconds of stamp time for late ones, so a
+/// recording played in gives what `terraslip estimate` gives of it.
+///
+/// The learned parameters are written (atomically) to --params at the end
+/// (SIGINT, SIGTERM) and every --save-every seconds of drive; the next
+/// start recalls them from there.
+#[derive(clap::Args, Debug)]
+#[command(after_help = AFTER_HELP)]
+pub struct Args {
+    /// TOML estimator configuration (`terraslip estimate --print-config`).
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Start from a named variant (see `terraslip estimate --help`).
+    #[arg(long, value_name = "NAME")]
+    pub preset: Option<String>,
+    /// Starting ICRs from `terraslip calibrate` or a node's --params (read only).
+    #[arg(long, value_name = "PARAMS")]
+    pub init: Option<PathBuf>,
+    /// The node's parameters file: recalled at start when it exists (unless
+    /// --init is given), written at the end and every --save-every s.
+    #[arg(long, value_name = "FILE", default_value = "terraslip-params.json")]
+    pub params: PathBuf,
+    /// Seconds of drive (stamp time) between writes of --params.
+    #[arg(long, value_name = "S", default_value_t = 300.0)]
+    pub save_every: f64,
+    /// Seconds of stamp time a sample waits for earlier ones of other topics.
+    #[arg(long, value_name = "S", default_value_t = 0.3)]
+    pub lag: f64,
+    /// Track width, m (else `[meta] track_width` of --topics, else the
+    /// configuration's `init.default_track_width`).
+    #[arg(long, value_name = "M")]
+    pub track_width: Option<f64>,
+    /// How late the wheels are stamped against the gyro, s (else --init's
+    /// or --params' `gyro_delay_s`, else 0; `estimate` reports it as
+    /// `gyro.wheels_late_by_s`).
+    #[arg(long, value_name = "S")]
+    pub gyro_delay: Option<f64>,
+    /// Do not publish odom -> base_link on /tf (when another node does).
+    #[arg(long)]
+    pub no_tf: bool,
+    /// Node name.
+    #[arg(long, default_value = "terraslip")]
+    pub name: String,
+    /// Seconds (wall clock) to wait for the sensor topics to be discovered
+    /// before each new look at the graph.
+    #[arg(long, value_name = "S", default_value_t = 2.0)]
+    pub discovery_wait: f64,
+    /// End after this many seconds (wall clock) without a message, once
+    /// messages came (for replays; default: run until SIGINT/SIGTERM).
+    #[arg(long, value_name = "S")]
+    pub idle_exit: Option<f64>,
+}
+
+const AFTER_HELP: &str = "\
+ROS 2 conventions: --ros-args after the node's own flags takes -r from:=to
+(remaps of the topics named in --topics, and __node:=, __ns:=), -p name:=value
+and --params-file FILE.yaml (`ros__parameters` of /** or of the node). The
+parameters lag, save_every, track_width, gyro_delay, publish_tf (bool) set the
+flags of the same name; any other is a key of the TOML configuration
+(`filter.still_speed` is [filter] still_speed).
+
+Examples:
+  terraslip node --topics husky.toml
+  terraslip node --topics husky.toml --params /var/lib/terraslip/params.json
+  terraslip node --topics husky.toml --ros-args -r /odom:=/husky_velocity_controller/odom -p lag:=0.5
+  ROS_DOMAIN_ID=7 ROS_LOCALHOST_ONLY=1 terraslip node --no-tf
+
+docs/user-guide.md \"Live on the robot\" has a launch file, a systemd unit and
+the Foxglove view.";
+
+/// Parameters of the node itself (the rest are configuration keys).
+const NODE_PARAMS: [&str; 5] = [
+    "lag",
+    "save_every",
+    "track_width",
+    "gyro_delay",
+    "publish_tf",
+];
+
+pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
+    let ros = RosArgs::parse(ros_args, &args.name)?;
+    let name = ros.node_name.clone().unwrap_or_else(|| args.name.clone());
+    let namespace = ros.namespace.clone().unwrap_or_else(|| "/".into());
+    let mut table = ros.params_table();
+    apply_node_params(&mut args, &mut table)?;
+    let mut cfg = terraslip::estimate::load_config(args.preset.as_deref(), args.config.as_deref())?;
+    if !table.is_empty() {
+        let text = toml::to_string(&table).context("--ros-args parameters")?;
+        cfg = terraslip::estimate::overlay(cfg, &text, "--ros-args parameters")?;
+        cfg.validate()?;
+    }
+    if let Some(init) = &args.init {
+        super::refuse_overwrite(&args.params, &[init.as_path()], &[])?;
+    }
+    let start = match (&args.init, args.params.is_file()) {
+        (Some(p), _) => Some(ParamsFile::read(p).with_context(|| "--init")?),
+        (None, true) => Some(ParamsFile::read(&args.params).with_context(|| "--params")?),
+        (None, false) => None,
+    };
+    let mut topics_cfg = super::bag::topics().config()?;
+    for t in [
+        &mut topics_cfg.wheels.topic,
+        &mut topics_cfg.pose.topic,
+        &mut topics_cfg.heading.topic,
+        &mut topics_cfg.imu.topic,
+        &mut topics_cfg.tf.topic,
+    ] {
+        if let Some(n) = t.as_mut().filter(|n| !n.is_empty()) {
+            *n = ros.remap(n);
+        }
+    }
+    let track_width = args
+        .track_width
+        .or(topics_cfg.meta.track_width)
+        .unwrap_or(cfg.init.default_track_width);
+    let gyro_delay = args
+        .gyro_delay
+        .or_else(|| {
+            start
+                .as_ref()
+                .and_then(|p| p.extra.get("gyro_delay_s")?.as_f64())
+        })
+        .unwrap_or(0.0);
+
+    let stop = terraslip_node::signals::Stop::install().context("signal handlers")?;
+    let env = RosEnv::from_env()?;
+    let graph = Graph::join(&name, &namespace, env)?;
+    let label = format!(
+        "ROS 2 graph (domain {}, {})",
+        env.domain_id,
+        terraslip_node::DISTRO
+    );
+    eprintln!(
+        "node {}/{name} joined domain {} ({:?} discovery, built for {}); looking for the sensor topics",
+        namespace.trim_end_matches('/'),
+        env.domain_id,
+        env.range,
+        terraslip_node::DISTRO
+    );
+
+    // The streams, once the graph shows them.
+    let mut said = String::new();
+    let (topics, mut import) = loop {
+        if stop.asked() {
+            return Ok(());
+        }
+        std::thread::sleep(Duration::from_secs_f64(args.discovery_wait.max(0.1)));
+        // Topics someone writes, other than ours.
+        let found: Vec<GraphTopic> = graph
+            .topics()
+            .into_iter()
+            .filter(|(t, writers)| *writers > 0 && !OUTPUT_TOPICS.iter().any(|o| o.0 == t.name))
+            .map(|(t, _)| t)
+            .collect();
+        let bag_topics: Vec<terraslip_ros2::Topic> = found
+            .iter()
+            .map(|t| terraslip_ros2::Topic {
+                name: t.name.clone(),
+                ty: t.ty.clone(),
+                definition: String::new(),
+                count: 0,
+            })
+            .collect();
+        match LiveImport::new(&label, bag_topics, &topics_cfg) {
+            Ok(i) => break (found, i),
+            Err(e) => {
+                let e = e.to_string();
+                if e != said {
+                    eprintln!("waiting: {e}");
+                    said = e;
+                }
+            }
+        }
+    };
+    let mut readers = Vec::new();
+    for (t, roles) in import.subscriptions() {
+        let gt = GraphTopic {
+            name: t.name.clone(),
+            ty: t.ty.clone(),
+        };
+        let qos = if roles == ["tf"] {
+            TopicQos::Latched
+        } else {
+            TopicQos::Sensor
+        };
+        let idx = topics
+            .iter()
+            .position(|x| *x == gt)
+            .context("a chosen topic vanished")?;
+        eprintln!("reading {} ({}) for {}", gt.name, gt.ty, roles.join(", "));
+        readers.push((idx, graph.reader(&gt, qos)?, 0u64, qos));
+    }
+    let mut wait = Wait::new().context("event poll")?;
+    for (k, r) in readers.iter_mut().enumerate() {
+        wait.register(&mut r.1, k).context("event poll")?;
+    }
+
+    let mut live = Live::new(
+        &label,
+        &cfg,
+        track_width,
+        start.as_ref(),
+        args.lag,
+        gyro_delay,
+    )?;
+    let mut out = Outputs::new(&graph, !args.no_tf)?;
+    let mut bad = BadMessages::default();
+    let subscribed = Instant::now();
+    let mut warned_unmatched = false;
+    let mut last_message: Option<Instant> = None;
+    let mut next_save: Option<f64> = None;
+    loop {
+        let mut got = false;
+        for (idx, reader, count, _) in readers.iter_mut() {
+            while let Some((raw, source_ns)) = reader.take()? {
+                got = true;
+                *count += 1;
+                let recv_ns = if source_ns > 0 { source_ns } else { now_ns() };
+                let rows = match import.message(*idx, recv_ns, &raw.0) {
+                    Ok(r) => r,
+                    Err(e) => {
+                        bad.note(&e.to_string());
+                        continue;
+                    }
+                };
+                out.origin_ns = import.origin_ns().unwrap_or(0);
+                for r in rows {
+                    let s = match r {
+                        LiveRow::Wheels(w) => {
+                            out.wheels.push_back((w.t, w.v_left, w.v_right));
+                            Sample::Wheels(w)
+                        }
+                        LiveRow::Pose(p) => Sample::Pose(p),
+                        LiveRow::Imu(i) => Sample::Imu(i),
+                    };
+                    live.push(s, &mut out)?;
+                }
+            }
+        }
+        if got {
+            last_message = Some(Instant::now());
+        }
+        out.failed()?;
+        // Diagnostics once a second and the parameters every
+        // --save-every s, of stamp time.
+        if let Some(t) = out.last_t {
+            if out.diagnostics_due.is_none_or(|d| t >= d) {
+                out.diagnostics_due = Some(t + 1.0);
+                out.diagnostics(&live.summary(), &live, &bad)?;
+            }
+            let due = *next_save.get_or_insert(t + args.save_every);
+            if t >= due {
+                next_save = Some(t + args.save_every);
+                save(&args.params, &live.summary())?;
+            }
+        }
+        if !warned_unmatched && subscribed.elapsed() > Duration::from_secs(5) {
+            warned_unmatched = true;
+            for (idx, reader, count, qos) in &readers {
+                if *count == 0 {
+                    let t = &topics[*idx];
+                    let why = graph.unmatchable_writers(&t.name, &t.ty, *qos);
+                    eprintln!(
+                        "warning: {} ({}): no message in 5 s{}",
+                        reader.topic.name,
+                        t.ty,
+                        if why.is_empty() {
+                            String::new()
+                        } else {
+                            format!(": writers that cannot match: {}", why.join("; "))
+                        }
+                    );
+                }
+            }
+        }
+        let idle = last_message.map_or(Duration::ZERO, |m| m.elapsed());
+        if stop.asked() || args.idle_exit.is_some_and(|s| idle.as_secs_f64() > s) {
+            break;
+        }
+        if !got {
+            wait.wait(Duration::from_millis(100))
+                .context("event poll")?;
+        }
+    }
+    live.flush(&mut out)?;
+    out.failed()?;
+    let summary = live.summary();
+    out.diagnostics(&summary, &live, &bad)?;
+    save(&args.params, &summary)?;
+    eprintln!(
+        "node: {} estimates published, {} bad messages, late samples {:?}; parameters in {}",
+        out.published,
+        bad.count,
+        live.late(),
+        args.params.display()
+    );
+    Ok(())
+}
+
+/// Moves the node's own parameters out of `table` into `args`.
+fn apply_node_params(args: &mut Args, table: &mut toml::Table) -> Result<()> {
+    for key in NODE_PARAMS {
+        let Some(v) = table.remove(key) else { continue };
+        let num = || {
+            v.as_float()
+                .or(v.as_integer().map(|i| i as f64))
+                .with_context(|| format!("--ros-args parameter {key} = {v}: expected a number"))
+        };
+        match key {
+            "lag" => args.lag = num()?,
+            "save_every" => args.save_every = num()?,
+            "track_width" => args.track_width = Some(num()?),
+            "gyro_delay" => args.gyro_delay = Some(num()?),
+            "publish_tf" => {
+                args.no_tf = !v.as_bool().with_context(|| {
+                    format!("--ros-args parameter publish_tf = {v}: expected true or false")
+                })?
+            }
+            _ => {}
+        }
+    }
+    if !(args.lag.is_finite() && args.lag >= 0.0) {
+        bail!("lag = {}: expected seconds >= 0", args.lag);
+    }
+    if !(args.save_every.is_finite() && args.save_every > 0.0) {
+        bail!("save_every = {}: expected seconds > 0", args.save_every);
+    }
+    Ok(())
+}
+
+/// Writes the learned parameters atomically.
+fn save(path: &Path, run: &EstimateRun) -> Result<()> {
+    if run.row_count == 0 {
+        return Ok(());
+    }
+    run.params_file()
+        .write(path)
+        .with_context(|| format!("{}: writing the parameters", path.display()))
+}
+
+fn now_ns() -> u64 {
+    SystemTime::now()
+        .duration_since(SystemTime::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos() as u64)
+}
+
+/// Messages that could not be decoded: counted, the first few printed.
+#[derive(Default)]
+struct BadMessages {
+    count: u64,
+    last: Option<String>,
+}
+
+impl BadMessages {
+    fn note(&mut self, e: &str) {
+        self.count += 1;
+        if self.count <= 5 {
+            eprintln!("warning: message skipped: {e}");
+        }
+        self.last = Some(e.to_string());
+    }
+}
+
+/// The node's publishers, fed the estimate rows.
+struct Outputs {
+    writers: Vec<Writer>,
+    publish_tf: bool,
+    origin_ns: u64,
+    /// Tread speeds of the wheels rows not yet answered: `(t, left, right)`.
+    wheels: VecDeque<(f64, f64, f64)>,
+    last_terrain: Option<String>,
+    last_t: Option<f64>,
+    diagnostics_due: Option<f64>,
+    published: u64,
+    error: Option<anyhow::Error>,
+}
+
+const OUTPUT_TOPICS: [(&str, &str); 6] = [
+    ("/terraslip/odom", "nav_msgs/msg/Odometry"),
+    ("/tf", "tf2_msgs/msg/TFMessage"),
+    ("/terraslip/icr", terraslip_ros2::out::ICR_TYPE),
+    (
+        "/terraslip/innovation",
+        terraslip_ros2::out::INNOVATION_TYPE,
+    ),
+    ("/terraslip/terrain", "std_msgs/msg/String"),
+    ("/diagnostics", "diagnostic_msgs/msg/DiagnosticArray"),
+];
+
+impl Outputs {
+    fn new(graph: &Graph, publish_tf: bool) -> Result<Self> {
+        let mut writers = Vec::new();
+        for (name, ty) in OUTPUT_TOPICS {
+            if name == "/tf" && !publish_tf {
+                continue;
+            }
+            writers.push(graph.writer(&GraphTopic {
+                name: name.into(),
+                ty: ty.into(),
+            })?);
+        }
+        Ok(Self {
+            writers,
+            publish_tf,
+            origin_ns: 0,
+            wheels: VecDeque::new(),
+            last_terrain: None,
+            last_t: None,
+            diagnostics_due: None,
+            published: 0,
+            error: None,
+        })
+    }
+
+    fn send(&self, topic: &str, data: Vec<u8>) -> Result<()> {
+        if let Some(w) = self.writers.iter().find(|w| w.topic.name == topic) {
+            w.write(data)?;
+        }
+        Ok(())
+    }
+
+    fn stamp(&self, t: f64) -> u64 {
+        (self.origin_ns as i128 + (t * 1e9).round() as i128).max(0) as u64
+    }
+
+    /// A publishing error met inside the sink, now.
+    fn failed(&mut self) -> Result<()> {
+        match self.error.take() {
+            Some(e) => Err(e),
+            None => Ok(()),
+        }
+    }
+
+    fn diagnostics(&self, run: &EstimateRun, live: &Live, bad: &BadMessages) -> Result<()> {
+        let Some(t) = self.last_t else { return Ok(()) };
+        let p = run.final_icr;
+        let f = |x: f64| format!("{x:.6}");
+        let mut values: Vec<(String, String)> = vec![
+            ("y_l_m".into(), f(p.y_l)),
+            ("y_r_m".into(), f(p.y_r)),
+            ("x_c_m".into(), f(p.x_c)),
+            ("alpha_l".into(), f(p.alpha_l)),
+            ("alpha_r".into(), f(p.alpha_r)),
+            ("turn_law_s_per_m".into(), f(run.turn_law.0)),
+            ("pose_noise_std_xy_m".into(), f(run.noise.std_xy)),
+            ("pose_noise_std_yaw_rad".into(), f(run.noise.std_yaw)),
+            ("clock_offset_s".into(), f(run.clock_offset.0)),
+            ("gyro_delay_s".into(), f(run.gyro_delay)),
+            ("rows".into(), run.row_count.to_string()),
+            ("fixes_used".into(), run.stats.fixes_used.to_string()),
+            ("late_samples".into(), format!("{:?}", live.late())),
+            ("held_samples".into(), live.held().to_string()),
+            ("bad_messages".into(), bad.count.to_string()),
+        ];
+        if let Some(e) = &bad.last {
+            values.push(("last_bad_message".into(), e.clone()));
+        }
+        for (k, w) in run.warnings.iter().enumerate() {
+            values.push((format!("warning_{k}"), w.clone()));
+        }
+        let (level, message) = if run.warnings.is_empty() && bad.count == 0 {
+            (DiagnosticLevel::Ok, "estimating".to_string())
+        } else {
+            (
+                DiagnosticLevel::Warn,
+                run.warnings
+                    .first()
+                    .cloned()
+                    .unwrap_or_else(|| format!("{} messages could not be read", bad.count)),
+            )
+        };
+        let m = diagnostics_message(
+            self.stamp(t),
+            "terraslip: slip estimator",
+            level,
+            &message,
+            &values,
+        );
+        self.send(m.topic, m.data)
+    }
+}
+
+impl RowSink for Outputs {
+    fn row(&mut self, terrains: &[String], r: &EstimateRow) -> Result<(), PipelineError> {
+        while self.wheels.front().is_some_and(|w| w.0 < r.t) {
+            self.wheels.pop_front();
+        }
+        let w = self
+            .wheels
+            .front()
+            .filter(|w| w.0 == r.t)
+            .map(|w| (w.1, w.2));
+        let s = super::ros2out::sample(r, self.stamp(r.t), w);
+        let terrain = r.terrain.and_then(|k| terrains.get(k)).map(String::as_str);
+        for m in estimate_messages(&s, terrain, &mut self.last_terrain) {
+            if m.topic == "/tf" && !self.publish_tf {
+                continue;
+            }
+            if let Err(e) = self.send(m.topic, m.data) {
+                self.error.get_or_insert(e);
+            }
+        }
+        self.published += 1;
+        self.last_t = Some(r.t);
+        Ok(())
+    }
+}

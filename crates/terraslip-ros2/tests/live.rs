@@ -21,9 +21,12 @@ fn husky() -> PathBuf {
 #[test]
 fn a_recording_played_live_makes_the_rows_import_makes() {
     let path = husky();
-    let cfg: TopicsConfig =
-        toml::from_str("[wheels]\nseparation = 1.040625\n[imu]\nmount_rpy_deg = [90, 0, -90]\n")
-            .unwrap();
+    // The import leaves out a heading that disagrees with the GNSS course,
+    // which a live graph cannot check before it starts: no heading here.
+    let cfg: TopicsConfig = toml::from_str(
+        "[wheels]\nseparation = 1.040625\n[imu]\nmount_rpy_deg = [90, 0, -90]\n[heading]\ntopic = \"\"\n",
+    )
+    .unwrap();
     let (log, report) = import(&path, &cfg, None).unwrap();
 
     let mut bag = Bag::open(&path).unwrap();

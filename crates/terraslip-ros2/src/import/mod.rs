@@ -18,6 +18,7 @@ mod prior;
 mod report;
 mod rows;
 mod topics;
+mod unphysical;
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -31,6 +32,7 @@ pub use config::{
 pub use prior::{controller_model, CONTROLLER_FILE};
 pub use report::{ImportReport, StreamReport};
 pub use rows::yaw_of;
+pub use unphysical::SkippedMessage;
 
 use crate::msg::short_type;
 use crate::{Bag, Ros2Error};
@@ -45,6 +47,8 @@ struct Sel {
     dec: Decoder,
     roles: Vec<Role>,
     times: HashMap<&'static str, Vec<f64>>,
+    /// The time of the last message kept, s.
+    last_t: Option<f64>,
 }
 
 /// Reads `bag` into a drive log. Camera frames, when an image topic is used,
@@ -147,6 +151,7 @@ pub fn import(
             ty,
             roles: vec![role],
             times: HashMap::new(),
+            last_t: None,
         });
     }
 
@@ -175,7 +180,9 @@ pub fn import(
         frames: HashMap::new(),
         tf: Default::default(),
         heading_rows: Vec::new(),
+        unphysical: None,
     };
+    let mut skipped: Vec<SkippedMessage> = Vec::new();
     let mut report = ImportReport {
         bag: bag.path.clone(),
         ..Default::default()
@@ -224,13 +231,49 @@ pub fn import(
             d,
             v: &v,
         };
-        for &role in &sel.roles {
-            if rows.add(role, &sel.ty, &msg)? {
-                sel.times.entry(role.key()).or_default().push(t);
+        let is_tf = sel.roles == [Role::Tf];
+        let mark = unphysical::Mark::of(&rows.log, rows.heading_rows.len());
+        let mut made = Vec::new();
+        let mut why = if is_tf {
+            None
+        } else {
+            unphysical::out_of_order(t, sel.last_t)
+        };
+        if why.is_none() {
+            for &role in &sel.roles {
+                if rows.add(role, &sel.ty, &msg)? {
+                    made.push(role);
+                }
             }
+            why = rows.unphysical.take().or_else(|| mark.unphysical(&rows.log));
+        }
+        if let Some(reason) = why {
+            mark.rollback(&mut rows.log, &mut rows.heading_rows);
+            if cfg.strict {
+                return Err(bag.msg_err(
+                    m.topic,
+                    m.index,
+                    format!("at t = {t:.6} s (stamp {stamp_ns} ns): {reason}; not physical, refused (--strict)"),
+                ));
+            }
+            skipped.push(SkippedMessage {
+                topic: bag.topics[m.topic].name.clone(),
+                index: m.index,
+                t,
+                reason,
+            });
+            return Ok(());
+        }
+        if !is_tf && !made.is_empty() {
+            sel.last_t = Some(t);
+        }
+        for role in made {
+            sel.times.entry(role.key()).or_default().push(t);
         }
         Ok(())
     })?;
+    report.warnings.extend(unphysical::warnings(&skipped));
+    report.skipped = skipped;
 
     report.time_origin_ns = origin.unwrap_or(0);
     report.enu_origin = rows.enu.map(|(a, b, c)| [a, b, c]);

@@ -73,6 +73,9 @@ const SETTLE: f64 = 20.0;
 
 pub fn run(args: Args) -> Result<()> {
     let started = std::time::Instant::now();
+    let mut inputs = super::inputs();
+    inputs.add(Path::new(&args.scenario), "the scenario file");
+    inputs.check_replaced("--out", &args.out)?;
     check_target(&args.out, "summary.json", "an earlier demo")?;
     let mut scenario = Scenario::resolve(&args.scenario)?;
     // The demo compares estimators; camera frames would only cost time.

@@ -30,3 +30,28 @@ pub fn shared_data(rel: &str) -> Option<PathBuf> {
          (set {ALLOW_NO_SHARED}=1 to skip it)"
     );
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_missing_recording_fails_unless_skipping_is_allowed() {
+        // The only test of this binary that reads the variable.
+        let before = std::env::var(ALLOW_NO_SHARED).ok();
+        std::env::remove_var(ALLOW_NO_SHARED);
+        let failed = std::panic::catch_unwind(|| shared_data("no/such/recording"));
+        let message = failed.unwrap_err();
+        let message = message.downcast_ref::<String>().unwrap();
+        assert!(
+            message.contains("no/such/recording is missing"),
+            "{message}"
+        );
+        std::env::set_var(ALLOW_NO_SHARED, "1");
+        assert_eq!(shared_data("no/such/recording"), None);
+        match before {
+            Some(v) => std::env::set_var(ALLOW_NO_SHARED, v),
+            None => std::env::remove_var(ALLOW_NO_SHARED),
+        }
+    }
+}

@@ -65,7 +65,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     if let Some(out) = &args.out {
         let mut inputs = super::inputs();
-        inputs.add(Path::new(name), "the scenario file");
+        // A scenario file (a built-in name is no path).
+        if Path::new(name).is_file() {
+            inputs.add(Path::new(name), "the scenario file");
+        }
         inputs.check_replaced("--out", out)?;
     }
     let mut scenario = Scenario::resolve(name)?;

@@ -45,7 +45,10 @@ def test_estimate_on_a_bag_equals_the_cli(cli, tmp_path, topics, bag):
     cli("estimate", bag, "--topics", topics, "--out", out)
     got = terraslip.estimate(bag, topics=topics)
     assert_matches_csv(got, out / "estimate.csv")
-    assert got["summary"] == json.loads((out / "summary.json").read_text())
+    written = json.loads((out / "summary.json").read_text())
+    # The command also keeps the topics file it was given, for `report`.
+    assert written.pop("bag_topics")["file"] == str(topics)
+    assert got["summary"] == written
     assert got["summary"]["rows"] == 3952
     assert got["summary"]["log"] == str(bag)
     # The topics as a mapping of the file's tables: the same run.

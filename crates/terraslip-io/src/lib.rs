@@ -10,18 +10,21 @@
 pub mod atomic;
 mod cell;
 mod estimate;
+pub mod guard;
 pub mod params;
 mod read;
+pub mod shared;
 mod stream;
 mod types;
 mod write;
 
 pub use atomic::{write_atomic, AtomicFile, DirLock};
 pub use estimate::{read_estimate, EstimateRecord};
+pub use guard::{Inputs, OverInput};
 pub use params::{ParamEntry, ParamsFile, RateModelEntry};
 pub use read::{
-    read_csv_table, read_images, read_imu, read_meta, read_terrain, read_truth, wrap_angle,
-    CsvTable, Streams,
+    physical_limit, read_csv_table, read_images, read_imu, read_meta, read_terrain, read_truth,
+    wrap_angle, CsvTable, Streams,
 };
 pub use stream::{read_currents, read_pose, read_wheels, GyroStream, PoseStream, WheelStream};
 pub use types::*;

@@ -243,8 +243,9 @@ impl CsvTable {
 
 /// The largest magnitude a log column can physically have, with its unit.
 /// Values beyond it are corrupt (or in the wrong unit) and would overflow
-/// the arithmetic downstream.
-fn physical_limit(column: &str) -> Option<(f64, &'static str)> {
+/// the arithmetic downstream. The log reader refuses them; a bag import
+/// skips the messages that would make them.
+pub fn physical_limit(column: &str) -> Option<(f64, &'static str)> {
     Some(match column {
         // Seconds: an epoch in nanoseconds (~1.7e18) is refused here.
         "t" => (1e11, "s"),
@@ -314,6 +315,12 @@ impl DriveLog {
     /// [`DriveLog::read`] of the chosen streams only; the others stay empty.
     pub fn read_streams(dir: impl AsRef<Path>, streams: Streams) -> Result<Self, LogError> {
         let dir = dir.as_ref();
+        if !dir.exists() {
+            return Err(LogError::Invalid {
+                path: dir.to_path_buf(),
+                reason: "does not exist; check the path".into(),
+            });
+        }
         if !dir.is_dir() {
             return Err(LogError::Invalid {
                 path: dir.to_path_buf(),

@@ -67,6 +67,20 @@ fn missing_wheels_file_is_named() {
 }
 
 #[test]
+fn a_path_that_does_not_exist_says_so() {
+    let d = tempfile::tempdir().unwrap();
+    let typo = d.path().join("warthog_gravle");
+    let e = DriveLog::read(&typo).unwrap_err().to_string();
+    assert_eq!(
+        e,
+        format!("{}: does not exist; check the path", typo.display())
+    );
+    std::fs::write(&typo, "").unwrap();
+    let e = DriveLog::read(&typo).unwrap_err().to_string();
+    assert!(e.contains("not a log directory"), "{e}");
+}
+
+#[test]
 fn missing_column_names_column_and_file() {
     let d = log_with(&[("wheels.csv", "t,v_left\n0,1\n")]);
     let err = DriveLog::read(d.path()).unwrap_err();
@@ -253,11 +267,9 @@ fn params_file_round_trips_and_validates() {
 
 #[test]
 fn reads_the_shared_real_logs() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
-    if !root.exists() {
-        eprintln!("shared data not present; skipping");
+    let Some(root) = terraslip_io::shared::shared_data("") else {
         return;
-    }
+    };
     let log = DriveLog::read(root.join("drive/warthog_ice")).unwrap();
     assert!(log.wheels.len() > 10_000 && log.pose.len() > 3_000);
     assert_eq!(log.meta.track_width, Some(1.10));

@@ -13,6 +13,19 @@ DRIVE = REPO / "data" / "warthog_gravel"
 BOREAL = REPO / "data" / "ice_borealtc_04"
 
 
+def require_shared(path):
+    """Fails the calling test when `path` (under ../shared beside the
+    checkout) is missing, unless TERRASLIP_ALLOW_NO_SHARED=1: then skips it."""
+    if path.exists():
+        return
+    if os.environ.get("TERRASLIP_ALLOW_NO_SHARED") == "1":
+        pytest.skip(f"{path}: missing (TERRASLIP_ALLOW_NO_SHARED=1)")
+    pytest.fail(
+        f"{path}: missing; this test needs the shared recordings beside the checkout "
+        "(set TERRASLIP_ALLOW_NO_SHARED=1 to skip it)"
+    )
+
+
 @pytest.fixture(scope="session")
 def cli():
     """Runs the terraslip command; returns the CompletedProcess."""

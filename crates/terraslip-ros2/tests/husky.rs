@@ -1,15 +1,12 @@
 //! The Husky recording in ../shared/data/ros2, in both storage formats
-//! (skipped where the shared data is absent).
+//! (a missing recording fails the test unless TERRASLIP_ALLOW_NO_SHARED=1).
 
 use std::path::PathBuf;
 
 use terraslip_ros2::{import, TopicsConfig};
 
 fn bag(name: &str) -> Option<PathBuf> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data/ros2")
-        .join(name);
-    p.is_dir().then_some(p)
+    terraslip_io::shared::shared_data(&format!("ros2/{name}"))
 }
 
 fn cfg() -> TopicsConfig {
@@ -20,7 +17,6 @@ fn cfg() -> TopicsConfig {
 #[test]
 fn both_storage_formats_give_the_same_log() {
     let (Some(m), Some(d)) = (bag("husky_test1_mcap"), bag("husky_test1_db3")) else {
-        eprintln!("shared data absent: skipped");
         return;
     };
     let (a, ra) = import(&m, &cfg(), None).unwrap();

@@ -64,6 +64,8 @@ pub struct Imported {
     /// What the import decided that the bag does not state, and how sure
     /// it is, one line each (`terraslip_ros2::ImportReport::decisions`).
     pub decisions: Vec<String>,
+    /// Every topic of the bag: name and type.
+    pub bag_topics: Vec<(String, String)>,
     /// The temporary log directory, kept (and removed on drop) while the
     /// log's camera frames are read from it; the log's `dir` is then that
     /// directory, otherwise the bag.
@@ -93,8 +95,20 @@ pub fn read(
     topics: &Topics,
     read: impl Fn(&Path) -> Result<DriveLog, LogError>,
 ) -> anyhow::Result<Input> {
+    read_checked(path, topics, false, read)
+}
+
+/// [`read`]; with `strict`, a bag with a message that cannot be physical is
+/// refused rather than imported without it (as the topics file's
+/// `strict = true`; `--strict` on the command line).
+pub fn read_checked(
+    path: &Path,
+    topics: &Topics,
+    strict: bool,
+    read: impl Fn(&Path) -> Result<DriveLog, LogError>,
+) -> anyhow::Result<Input> {
     if is_bag(path) {
-        return import(path, topics, read);
+        return import(path, topics, strict, read);
     }
     if topics.is_given() && !path.is_dir() {
         anyhow::bail!("{}: --topics is for ROS 2 bags", path.display());
@@ -107,9 +121,11 @@ pub fn read(
 fn import(
     bag: &Path,
     topics: &Topics,
+    strict: bool,
     read: impl Fn(&Path) -> Result<DriveLog, LogError>,
 ) -> anyhow::Result<Input> {
-    let cfg = topics.config()?;
+    let mut cfg = topics.config()?;
+    cfg.strict |= strict;
     let temp = tempfile::Builder::new()
         .prefix("terraslip-bag-")
         .tempdir()
@@ -121,10 +137,10 @@ fn import(
     let dir = temp.path().join(name);
     let (log, report) = terraslip_ros2::import(bag, &cfg, Some(&dir))?;
     log.write(&dir)?;
-    let mut log =
-        read(&dir).with_context(|| format!("reading the log imported from {}", bag.display()))?;
-    // The import's warnings are the log's: every command shows them.
-    log.warnings.extend(report.warnings.iter().cloned());
+    let mut log = read(&dir).map_err(|e| in_bag_terms(&e.to_string(), bag, &dir, &report))?;
+    // What the import warned about (skipped messages, mountings) is the
+    // log's to tell, on every path that reads a bag.
+    log.warnings.splice(0..0, report.warnings.iter().cloned());
     let mut used: Vec<String> = report.streams.iter().map(|s| s.topic.clone()).collect();
     used.dedup();
     let frames = if log.images.is_empty() {
@@ -139,15 +155,45 @@ fn import(
             time_origin_ns: report.time_origin_ns,
             topics: used,
             decisions: report.decisions,
+            bag_topics: report
+                .topics
+                .iter()
+                .map(|(name, ty, _)| (name.clone(), ty.clone()))
+                .collect(),
             _frames: frames,
         }),
     })
+}
+
+/// An error about the temporary log made from `bag` (in `dir`), told in
+/// the bag's terms: each file named by the topic it was made from.
+#[cfg(feature = "ros2")]
+fn in_bag_terms(
+    message: &str,
+    bag: &Path,
+    dir: &Path,
+    report: &terraslip_ros2::ImportReport,
+) -> anyhow::Error {
+    let mut msg = message.to_string();
+    for s in &report.streams {
+        let file = s.file.split(' ').next().unwrap_or(&s.file);
+        msg = msg.replace(
+            &dir.join(file).display().to_string(),
+            &format!("{} topic {} (as {file})", bag.display(), s.topic),
+        );
+    }
+    let msg = msg.replace(
+        &dir.display().to_string(),
+        &format!("the log imported from {}", bag.display()),
+    );
+    anyhow::anyhow!(msg)
 }
 
 #[cfg(not(feature = "ros2"))]
 fn import(
     bag: &Path,
     _: &Topics,
+    _: bool,
     _: impl Fn(&Path) -> Result<DriveLog, LogError>,
 ) -> anyhow::Result<Input> {
     anyhow::bail!(

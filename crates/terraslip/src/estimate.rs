@@ -281,6 +281,24 @@ impl From<String> for EvidenceInfo {
     }
 }
 
+/// How a note that is a warning starts.
+const WARNING: &str = "warning: ";
+
+/// Why a vibration model gave the estimator no window of `log`.
+fn slow_drive(log: &DriveLog, model: &Path) -> String {
+    let speeds: Vec<f64> = log
+        .wheels
+        .iter()
+        .map(|s| 0.5 * (s.v_left.abs() + s.v_right.abs()))
+        .collect();
+    let mean = speeds.iter().sum::<f64>() / speeds.len().max(1) as f64;
+    format!(
+        "--terrain-model {}: no window was used, the terrain stays unknown: the estimator takes a vibration window only where the mean tread speed reaches {} m/s (slower, vibration tells grounds apart poorly), and this drive's is {mean:.2} m/s (`terrain eval` scores every window)",
+        model.display(),
+        terraslip_terrain::MIN_INFORMATIVE_SPEED
+    )
+}
+
 /// The terrain evidence `inputs` ask for (the model's smoothing put into
 /// `cfg`), its name in summary.json, and what the command prints about it.
 fn terrain_evidence(
@@ -305,6 +323,9 @@ fn terrain_evidence(
     let ctx = || format!("--terrain-model {}", path.display());
     let model = terraslip_terrain::TerrainModel::load(path).with_context(ctx)?;
     let timeline = model.estimator_evidence(log).with_context(ctx)?;
+    if timeline.frames.is_empty() && model.source == terraslip_terrain::Source::Imu {
+        notes.push(format!("{WARNING}{}", slow_drive(log, path)));
+    }
     // The model carries the smoothing it was validated with (λ chosen
     // from its own accuracy, wang2018 eq. 14): use it, not the defaults.
     cfg.belief.stay_prob = model.belief.stay_prob;
@@ -341,13 +362,19 @@ fn terrain_evidence(
     ))
 }
 
+/// The estimate's summary; notes that are warnings (`warning: ...`) join
+/// the run's warnings, so summary.json lists them too.
 fn finish(
     log: &DriveLog,
-    run: EstimateRun,
+    mut run: EstimateRun,
     cfg: &EstimatorConfig,
     evidence: EvidenceInfo,
     notes: Vec<String>,
 ) -> Estimate {
+    let (warnings, notes): (Vec<String>, Vec<String>) =
+        notes.into_iter().partition(|n| n.starts_with(WARNING));
+    run.warnings
+        .extend(warnings.iter().map(|w| w[WARNING.len()..].to_string()));
     let mut summary = summary_json(log, &run, cfg);
     summary["terrain_evidence"] = serde_json::Value::String(evidence.name);
     if let Some(f) = evidence.outside_envelope_share {
@@ -368,10 +395,14 @@ pub fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) ->
         "log": log.dir.display().to_string(),
         "rows": est.row_count,
         "duration_s": est.duration(),
+        // The final ICRs: the turn law's straight-line values (a tread speed
+        // difference of 0); estimate.csv's rows hold those in effect at each
+        // row's turn rate.
         "icr": {
             "y_l": icr.y_l, "y_r": icr.y_r, "x_c": icr.x_c,
             "alpha_l": icr.alpha_l, "alpha_r": icr.alpha_r,
         },
+        "icr_holds_at": "straight line (tread speed difference 0)",
         "icr_std": last.map(|r| serde_json::json!({
             "y_l": r.std[3], "y_r": r.std[4], "x_c": r.std[5], "spread": r.std_spread,
         })),

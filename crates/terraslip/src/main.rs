@@ -20,8 +20,8 @@ mod progress;
     propagate_version = true,
     after_help = "Start here:
   terraslip demo                                      # simulate, compare every estimator, write demo-out/report.html
-  terraslip simulate papers --out out/log             # a log with ground truth (see `simulate --list`)
-  terraslip calibrate out/log --out out/params.json   # ICR parameters per terrain from a drive with a pose reference
+  terraslip simulate papers-rtk --out out/log --no-camera   # the papers' drive with an RTK-grade reference and ground truth
+  terraslip calibrate out/log --out out/params.json   # ICR parameters per terrain (needs a precise pose reference)
   terraslip estimate out/log --out out/est --init out/params.json --terrain-labels
   terraslip report out/est                            # out/est/report.html: track, ICRs, prediction error
 Each command's --help has more examples; docs/ has the method and the figures."
@@ -32,6 +32,11 @@ struct Cli {
     /// ROS 2 bags given as LOG: which topic feeds which stream (see `import --help`).
     #[arg(long, global = true, value_name = "FILE.toml")]
     topics: Option<std::path::PathBuf>,
+    /// ROS 2 bags: refuse a bag with a message that cannot be physical (not
+    /// finite, out of range, a stamp out of order or repeated), naming its
+    /// topic, index and stamp; such messages are skipped with a warning otherwise.
+    #[arg(long, global = true)]
+    strict: bool,
 }
 
 #[derive(Subcommand)]
@@ -84,7 +89,7 @@ fn main() -> ExitCode {
         eprintln!("error: --ros-args is for `terraslip node` (build with --features node)");
         return ExitCode::FAILURE;
     }
-    cmd::bag::set_topics(cli.topics);
+    cmd::bag::set_topics(cli.topics, cli.strict);
     let result = match cli.command {
         Command::Demo(a) => cmd::demo::run(a),
         Command::Simulate(a) => cmd::simulate::run(a),

@@ -81,6 +81,7 @@ pub fn write(
     rows: &[EstimateRecord],
     log: Option<&DriveLog>,
     track_width: Option<f64>,
+    final_icr: Option<&IcrParams>,
     out: &Path,
     title: &str,
 ) -> Result<Written, ReportError> {
@@ -206,18 +207,8 @@ pub fn write(
             );
         }
     }
-    let last = &rows[rows.len() - 1];
     let mut sections = vec![
-        Section::Paragraph(format!(
-            "{} rows over {:.1} s. At the end: y_l = {:.3} m, y_r = {:.3} m, x_c = {:.3} m, alpha_l = {:.3}, alpha_r = {:.3}.",
-            rows.len(),
-            last.t - rows[0].t,
-            last.y_l,
-            last.y_r,
-            last.x_c,
-            last.alpha_l,
-            last.alpha_r
-        )),
+        Section::Paragraph(end_values(rows, final_icr)),
         Section::Paragraph(summary),
     ];
     for (p, caption) in plots.iter().zip([
@@ -238,9 +229,62 @@ pub fn write(
     Ok(Written { page, plots })
 }
 
+/// The report's first line: the final ICRs as the terminal and
+/// `summary.json` give them (straight-line values of the turn law), and
+/// the ICRs in effect at the last row's turn rate, each labelled.
+fn end_values(rows: &[EstimateRecord], final_icr: Option<&IcrParams>) -> String {
+    let first = &rows[0];
+    let last = &rows[rows.len() - 1];
+    let fmt = |y_l: f64, y_r: f64, x_c: f64, a_l: f64, a_r: f64| {
+        format!("y_l = {y_l:.3} m, y_r = {y_r:.3} m, x_c = {x_c:.3} m, alpha_l = {a_l:.3}, alpha_r = {a_r:.3}")
+    };
+    let in_effect = format!(
+        "in effect at the last row's turn rate (the turn law applied, as in estimate.csv): {}",
+        fmt(last.y_l, last.y_r, last.x_c, last.alpha_l, last.alpha_r)
+    );
+    let end = match final_icr {
+        Some(p) => format!(
+            "Final ICRs (straight-line values of the turn law, as in summary.json): {}; {in_effect}.",
+            fmt(p.y_l, p.y_r, p.x_c, p.alpha_l, p.alpha_r)
+        ),
+        None => format!("ICRs {in_effect}."),
+    };
+    format!("{} rows over {:.1} s. {end}", rows.len(), last.t - first.t)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn end_values_label_which_icrs_they_are() {
+        let row = |t: f64, y_l: f64| EstimateRecord {
+            t,
+            y_l,
+            y_r: -y_l,
+            alpha_l: 1.0,
+            alpha_r: 1.0,
+            ..Default::default()
+        };
+        let rows = [row(0.0, 0.5), row(10.0, 0.885)];
+        let p = IcrParams {
+            y_l: 1.767,
+            y_r: -1.767,
+            x_c: 0.0,
+            alpha_l: 1.0,
+            alpha_r: 1.0,
+        };
+        let s = end_values(&rows, Some(&p));
+        assert!(
+            s.starts_with("2 rows over 10.0 s. Final ICRs (straight-line values of the turn law, as in summary.json): y_l = 1.767 m"),
+            "{s}"
+        );
+        assert!(
+            s.contains("in effect at the last row's turn rate (the turn law applied, as in estimate.csv): y_l = 0.885 m"),
+            "{s}"
+        );
+        assert!(end_values(&rows, None).contains("in effect at the last row's turn rate"));
+    }
 
     #[test]
     fn thinning_keeps_the_ends() {

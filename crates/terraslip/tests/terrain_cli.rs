@@ -536,3 +536,40 @@ fn eval_reports_the_share_of_windows_driven_outside_the_training_envelope() {
         "{text}"
     );
 }
+
+#[test]
+fn estimate_warns_when_a_slow_drive_gives_the_vibration_model_no_window() {
+    let dir = tempfile::tempdir().unwrap();
+    let runs = write_runs(dir.path());
+    let model = dir.path().join("model.json");
+    train_model(&runs[..3], &model, "40");
+    // The same run driven at 0.05 m/s: `terrain eval` still scores its
+    // windows, the estimator takes none (vibration says little that slowly).
+    let mut slow = terraslip_io::DriveLog::read(&runs[3]).unwrap();
+    for w in &mut slow.wheels {
+        (w.v_left, w.v_right) = (0.05, 0.05);
+    }
+    let slow_dir = dir.path().join("slow");
+    slow.write(&slow_dir).unwrap();
+    for (log, warned) in [(Path::new(&runs[3]), false), (slow_dir.as_path(), true)] {
+        let est = dir.path().join(format!("est-{warned}"));
+        let out = terraslip()
+            .args(["estimate", log.to_str().unwrap(), "--terrain-model"])
+            .args([model.to_str().unwrap(), "--out", est.to_str().unwrap()])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{err}");
+        let says = err.contains("no window was used, the terrain stays unknown")
+            && err.contains("this drive's is 0.05 m/s");
+        assert_eq!(says, warned, "{err}");
+        let summary: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(est.join("summary.json")).unwrap()).unwrap();
+        let in_summary = summary["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|w| w.as_str().unwrap().contains("no window was used"));
+        assert_eq!(in_summary, warned);
+    }
+}

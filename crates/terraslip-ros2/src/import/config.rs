@@ -24,6 +24,11 @@ pub struct TopicsConfig {
     /// Written to the log's `meta.toml`.
     #[serde(default)]
     pub meta: terraslip_io::Meta,
+    /// Refuse the bag at the first message that cannot be physical (not
+    /// finite, beyond the log's physical range, a stamp out of order or
+    /// repeated) instead of skipping it with a warning; `--strict`.
+    #[serde(default)]
+    pub strict: bool,
 }
 
 /// `[wheels]`: the tread speed source.

@@ -18,7 +18,7 @@ use super::mount::{self, Quat, Sensors};
 use super::report::ImportReport;
 use super::rows::{heading_yaw, Msg, Rows};
 use super::topics::Role;
-use super::{choose_streams, receive_only, selections, stamp_ns, wheel_scale, Sel};
+use super::{choose_streams, receive_only, selections, stamp_ns, unphysical, wheel_scale, Sel};
 use crate::{Bag, Ros2Error, Topic};
 
 /// One row of the drive log made from a live message; `t` in s from
@@ -87,6 +87,7 @@ impl<'c> LiveImport<'c> {
             frames: HashMap::new(),
             tf: Default::default(),
             heading_rows: Vec::new(),
+            unphysical: None,
         };
         let report = ImportReport {
             bag: bag.path.clone(),
@@ -183,8 +184,39 @@ impl<'c> LiveImport<'c> {
             self.rows.log.imu.len(),
         );
         let h0 = self.rows.heading_rows.len();
-        for &role in &sel.roles {
-            self.rows.add(role, &sel.ty, &msg)?;
+        // The import's rule for a message that cannot be physical: not
+        // finite, out of range, or not after the last one kept.
+        let is_tf = sel.roles == [Role::Tf];
+        let mark = unphysical::Mark::of(&self.rows.log, h0);
+        let mut why = if is_tf {
+            None
+        } else {
+            unphysical::out_of_order(msg.t, sel.last_t)
+        };
+        if why.is_none() {
+            for &role in &sel.roles {
+                self.rows.add(role, &sel.ty, &msg)?;
+            }
+            why = self
+                .rows
+                .unphysical
+                .take()
+                .or_else(|| mark.unphysical(&self.rows.log));
+        }
+        let t = msg.t;
+        if let Some(reason) = why {
+            mark.rollback(&mut self.rows.log, &mut self.rows.heading_rows);
+            return Err(self.bag.msg_err(
+                topic,
+                index,
+                format!("at t = {t:.6} s (stamp {stamp} ns): {reason}; not physical, skipped"),
+            ));
+        }
+        let made = self.rows.log.wheels.len() > w0
+            || self.rows.log.pose.len() > p0
+            || self.rows.log.imu.len() > i0;
+        if !is_tf && made {
+            self.sels[k].last_t = Some(t);
         }
         // What this message made, moved out: the live log keeps no rows.
         let heading: Vec<(usize, Quat)> = self.rows.heading_rows.drain(h0..).collect();

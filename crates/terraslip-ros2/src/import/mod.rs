@@ -21,6 +21,7 @@ mod report;
 mod rows;
 pub mod scale;
 mod topics;
+mod unphysical;
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -35,6 +36,7 @@ pub use live::{LiveImport, LiveRow};
 pub use prior::{controller_model, CONTROLLER_FILE};
 pub use report::{ImportReport, StreamReport};
 pub use rows::yaw_of;
+pub use unphysical::SkippedMessage;
 
 use crate::msg::{self, short_type};
 use crate::{Bag, Ros2Error};
@@ -49,6 +51,8 @@ struct Sel {
     dec: Decoder,
     roles: Vec<Role>,
     times: HashMap<&'static str, Vec<f64>>,
+    /// The time of the last message kept, s.
+    last_t: Option<f64>,
 }
 
 /// Reads `bag` into a drive log. Camera frames, when an image topic is used,
@@ -99,6 +103,7 @@ pub fn import(
                 ty,
                 roles: vec![Role::Images],
                 times: HashMap::new(),
+                last_t: None,
             },
         );
     }
@@ -119,7 +124,9 @@ pub fn import(
         frames: HashMap::new(),
         tf: Default::default(),
         heading_rows: Vec::new(),
+        unphysical: None,
     };
+    let mut skipped: Vec<SkippedMessage> = Vec::new();
     let mut report = ImportReport {
         bag: bag.path.clone(),
         decisions: vec![scale_line],
@@ -157,7 +164,8 @@ pub fn import(
             .decode(m.data)
             .map_err(|e| bag.msg_err(m.topic, m.index, e))?;
         let d = &sel.dec;
-        let t = (stamp_ns(d, &v, m.recv_ns, receive_only) - org as i128) as f64 * 1e-9;
+        let stamp_ns = stamp_ns(d, &v, m.recv_ns, receive_only);
+        let t = (stamp_ns - org as i128) as f64 * 1e-9;
         let msg = Msg {
             bag,
             topic: m.topic,
@@ -166,13 +174,49 @@ pub fn import(
             d,
             v: &v,
         };
-        for &role in &sel.roles {
-            if rows.add(role, &sel.ty, &msg)? {
-                sel.times.entry(role.key()).or_default().push(t);
+        let is_tf = sel.roles == [Role::Tf];
+        let mark = unphysical::Mark::of(&rows.log, rows.heading_rows.len());
+        let mut made = Vec::new();
+        let mut why = if is_tf {
+            None
+        } else {
+            unphysical::out_of_order(t, sel.last_t)
+        };
+        if why.is_none() {
+            for &role in &sel.roles {
+                if rows.add(role, &sel.ty, &msg)? {
+                    made.push(role);
+                }
             }
+            why = rows.unphysical.take().or_else(|| mark.unphysical(&rows.log));
+        }
+        if let Some(reason) = why {
+            mark.rollback(&mut rows.log, &mut rows.heading_rows);
+            if cfg.strict {
+                return Err(bag.msg_err(
+                    m.topic,
+                    m.index,
+                    format!("at t = {t:.6} s (stamp {stamp_ns} ns): {reason}; not physical, refused (--strict)"),
+                ));
+            }
+            skipped.push(SkippedMessage {
+                topic: bag.topics[m.topic].name.clone(),
+                index: m.index,
+                t,
+                reason,
+            });
+            return Ok(());
+        }
+        if !is_tf && !made.is_empty() {
+            sel.last_t = Some(t);
+        }
+        for role in made {
+            sel.times.entry(role.key()).or_default().push(t);
         }
         Ok(())
     })?;
+    report.warnings.extend(unphysical::warnings(&skipped));
+    report.skipped = skipped;
 
     report.time_origin_ns = origin.unwrap_or(0);
     report.enu_origin = rows.enu.map(|(a, b, c)| [a, b, c]);
@@ -367,6 +411,7 @@ fn selections(bag: &Bag, c: &Chosen) -> Result<Vec<Sel>, Ros2Error> {
             ty,
             roles: vec![role],
             times: HashMap::new(),
+            last_t: None,
         });
     }
     Ok(sels)

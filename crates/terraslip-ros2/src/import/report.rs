@@ -39,6 +39,9 @@ pub struct ImportReport {
     pub decisions: Vec<String>,
     /// Every topic of the bag: name, type, messages.
     pub topics: Vec<(String, String, u64)>,
+    /// Messages that made no row because they cannot be physical (not
+    /// finite, beyond the log's physical range, a stamp out of order).
+    pub skipped: Vec<super::SkippedMessage>,
     pub warnings: Vec<String>,
 }
 

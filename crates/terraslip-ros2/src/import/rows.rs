@@ -64,6 +64,9 @@ pub(super) struct Rows<'c> {
     /// Heading rows: index in `log.pose` and the sensor's orientation, for
     /// a mounting known only at the end.
     pub heading_rows: Vec<(usize, Quat)>,
+    /// Why the message just read cannot be physical, when a stream found
+    /// that before making rows.
+    pub unphysical: Option<String>,
 }
 
 impl Rows<'_> {
@@ -135,7 +138,7 @@ impl Rows<'_> {
             let mut n = 0;
             for (name, w) in names.iter().zip(vel) {
                 let lname = name.to_lowercase();
-                if pats.iter().any(|p| lname.contains(&p.to_lowercase())) && w.is_finite() {
+                if pats.iter().any(|p| lname.contains(&p.to_lowercase())) {
                     sum += w;
                     n += 1;
                 }
@@ -175,9 +178,6 @@ impl Rows<'_> {
             (m.need("twist.linear.x")?, m.need("twist.angular.z")?)
         };
         let s = self.wheels.separation.unwrap_or(f64::NAN);
-        if !(vx.is_finite() && wz.is_finite()) {
-            return Ok(false);
-        }
         self.log.wheels.push(WheelSample {
             t: m.t,
             v_left: vx - wz * s / 2.0,
@@ -195,8 +195,14 @@ impl Rows<'_> {
             m.d.f(m.v, "altitude")
                 .filter(|a| a.is_finite())
                 .unwrap_or(0.0);
-        if status < 0.0 || !lat.is_finite() || !lon.is_finite() || lat.abs() > 90.0 {
+        if status < 0.0 {
             self.dropped_fixes += 1;
+            return Ok(false);
+        }
+        if !(lat.abs() <= 90.0 && lon.abs() <= 360.0) {
+            self.unphysical = Some(format!(
+                "latitude {lat}, longitude {lon} is not a place on Earth"
+            ));
             return Ok(false);
         }
         let (lat0, lon0, alt0) = *self.enu.get_or_insert((lat, lon, alt));
@@ -247,9 +253,6 @@ impl Rows<'_> {
             ),
             _ => (None, None),
         };
-        if !(x.is_finite() && y.is_finite()) {
-            return Ok(false);
-        }
         self.log.pose.push(PoseObs {
             t: m.t,
             east: Some(x),
@@ -270,7 +273,9 @@ impl Rows<'_> {
             _ => None,
         };
         let qn = q.iter().map(|a| a * a).sum::<f64>();
-        if cov.is_some_and(|c| c.0 == -1.0) || !(0.5..1.5).contains(&qn) {
+        // A quaternion far from unit length is no orientation; one that is
+        // not finite is a bad message (the rule of `unphysical`).
+        if cov.is_some_and(|c| c.0 == -1.0) || (qn.is_finite() && !(0.5..1.5).contains(&qn)) {
             return Ok(false);
         }
         let h = self.heading;

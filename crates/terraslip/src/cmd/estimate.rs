@@ -103,14 +103,28 @@ fn parse_window(s: &str) -> Result<(f64, f64), String> {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let cfg = terraslip::estimate::load_config(args.preset.as_deref(), args.config.as_deref())?;
+    let load = || terraslip::estimate::load_config(args.preset.as_deref(), args.config.as_deref());
     if args.print_config {
-        print!("{}", cfg.to_commented_toml());
+        print!("{}", load()?.to_commented_toml());
         return Ok(());
     }
     let (Some(log_dir), Some(out)) = (args.log.as_ref(), args.out.as_ref()) else {
         bail!("LOG and --out are required");
     };
+    let inputs = super::inputs_with(
+        std::slice::from_ref(log_dir),
+        &[
+            ("--init", args.init.as_deref()),
+            ("--config", args.config.as_deref()),
+            ("--terrain-model", args.terrain_model.as_deref()),
+        ],
+    );
+    inputs.check_dir("--out", out, &OUTPUTS)?;
+    #[cfg(feature = "ros2")]
+    if let Some(m) = &args.mcap {
+        inputs.check("--mcap", m)?;
+    }
+    let cfg = load()?;
     // A plain log directory is streamed row by row; a terrain model needs
     // the sensor streams it classifies (imu or images), a bag is imported
     // first, and an MCAP output needs every row: those read the whole log.
@@ -131,14 +145,6 @@ pub fn run(args: Args) -> Result<()> {
     } else {
         Source::Read(Box::new(super::bag::read_with(log_dir, super::read_log)?))
     };
-    let inputs: Vec<&Path> = [&args.init, &args.config, &args.terrain_model]
-        .into_iter()
-        .flatten()
-        .map(|p| p.as_path())
-        .collect();
-    for name in OUTPUTS {
-        super::refuse_overwrite(&out.join(name), &inputs, &[log_dir])?;
-    }
     let init = match &args.init {
         Some(p) => Some(ParamsFile::read(p).with_context(|| "--init")?),
         None => None,
@@ -182,9 +188,15 @@ pub fn run(args: Args) -> Result<()> {
     };
     let Estimate {
         run: est,
-        summary,
+        mut summary,
         notes,
     } = result;
+    // The input as given (a bag's log lives in a temporary directory), and
+    // for a bag the topics it was read with: what `report` reads again.
+    summary["log"] = log_dir.display().to_string().into();
+    if terraslip::bag::is_bag(log_dir) {
+        summary["bag_topics"] = super::bag::topics_record()?;
+    }
     for n in &notes {
         eprintln!("{n}");
     }
@@ -200,7 +212,7 @@ pub fn run(args: Args) -> Result<()> {
     }
     let icr = est.final_icr;
     eprintln!(
-        "estimate: {} rows over {:.1} s, {} fixes ({} position / {} heading gated), final ICRs y_l = {:.4} m, y_r = {:.4} m, x_c = {:.4} m -> {}",
+        "estimate: {} rows over {:.1} s, {} fixes ({} position / {} heading gated), final ICRs (straight line) y_l = {:.4} m, y_r = {:.4} m, x_c = {:.4} m -> {}",
         est.row_count,
         est.duration(),
         est.stats.fixes_used,

@@ -76,19 +76,14 @@ Examples:
 pub fn run(args: Args) -> Result<()> {
     let bag = &args.bag;
     let out = &args.out;
-    if let (Ok(b), Ok(o)) = (bag.canonicalize(), out.canonicalize()) {
-        if o.starts_with(&b) || b.starts_with(&o) {
-            bail!(
-                "--out {} would write over or beside the bag {}",
-                out.display(),
-                bag.display()
-            );
-        }
-    }
+    let mut inputs = super::inputs();
+    inputs.add(bag, "the bag");
+    inputs.check_dir("--out", out, &terraslip_io::DriveLog::FILES)?;
     if out.join("metadata.yaml").exists() {
         bail!("--out {} holds a bag; not writing there", out.display());
     }
-    let cfg = super::bag::topics().config()?;
+    let mut cfg = super::bag::topics().config()?;
+    cfg.strict |= super::bag::strict();
     let (log, report) = terraslip_ros2::import(bag, &cfg, Some(out))?;
     log.write(out)
         .with_context(|| format!("writing log {}", out.display()))?;

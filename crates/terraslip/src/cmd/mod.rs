@@ -16,38 +16,33 @@ pub mod terrain;
 
 pub use terraslip::estimate::read_log;
 
-/// Refuses to write `output` over a file the command reads: one of `files`,
-/// or a file of one of the log directories `logs`.
-pub fn refuse_overwrite(output: &Path, files: &[&Path], logs: &[&Path]) -> anyhow::Result<()> {
-    let Some(out) = resolved(output) else {
-        return Ok(());
-    };
-    let inputs = files.iter().map(|f| f.to_path_buf()).chain(
-        logs.iter()
-            .flat_map(|d| terraslip_io::DriveLog::FILES.iter().map(move |f| d.join(f))),
-    );
-    for input in inputs {
-        if resolved(&input).is_some_and(|i| i == out) {
-            anyhow::bail!(
-                "{}: this is {}, which the command reads; write the output somewhere else",
-                output.display(),
-                input.display()
-            );
-        }
+/// The paths a command reads, to check its outputs against (one rule for
+/// every command: an output is never an input nor inside one): the global
+/// `--topics` when given; the command adds its own.
+pub fn inputs() -> terraslip_io::Inputs {
+    let mut inputs = terraslip_io::Inputs::new();
+    if let terraslip::bag::Topics::File(p) = bag::topics() {
+        inputs.add(p, "--topics");
     }
-    Ok(())
+    inputs
 }
 
-/// `path` made absolute with symbolic links resolved, for a file that may
-/// not exist yet (its directory must); `None` when its directory does not.
-fn resolved(path: &Path) -> Option<PathBuf> {
-    if let Ok(p) = path.canonicalize() {
-        return Some(p);
+/// [`inputs`] with `logs` (log directories or bags) and `files`, each
+/// named by its flag.
+pub fn inputs_with(logs: &[PathBuf], files: &[(&str, Option<&Path>)]) -> terraslip_io::Inputs {
+    let mut inputs = inputs();
+    for l in logs {
+        inputs.add(l, "an input log");
     }
-    let name = path.file_name()?;
-    let parent = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    Some(parent.canonicalize().ok()?.join(name))
+    for (flag, f) in files {
+        if let Some(f) = f {
+            inputs.add(f, flag);
+        }
+    }
+    inputs
+}
+
+/// Whether two output paths name the same file.
+pub fn resolved_same(a: &Path, b: &Path) -> bool {
+    terraslip_io::guard::resolve(a) == terraslip_io::guard::resolve(b)
 }

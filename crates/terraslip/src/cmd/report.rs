@@ -3,12 +3,14 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
+use terraslip::bag::Topics;
 
 /// Draw an estimate: its track against the pose reference, the ICRs and
 /// speed factors with 2σ bands, the 2 s prediction error.
 ///
 /// Reads EST_DIR/estimate.csv and EST_DIR/summary.json (both written by
-/// `terraslip estimate`), reads the log named in summary.json (or --log)
+/// `terraslip estimate`), reads the log or bag named in summary.json (or
+/// --log; a bag with the topics the estimate used, unless --topics is given)
 /// for the pose reference (truth.csv, when the log is simulated) and the
 /// wheels, and writes report.html with
 /// track.svg, slip.svg and prediction.svg into --out (default EST_DIR).
@@ -29,9 +31,11 @@ pub struct Args {
     pub out: Option<PathBuf>,
 }
 
+/// The files `report` writes into its output directory.
+const OUTPUTS: [&str; 4] = ["report.html", "track.svg", "slip.svg", "prediction.svg"];
+
 pub fn run(a: Args) -> Result<()> {
     let csv = a.estimate.join("estimate.csv");
-    let rows = terraslip_io::read_estimate(&csv)?;
     let summary_path = a.estimate.join("summary.json");
     let summary: Option<serde_json::Value> = match std::fs::read_to_string(&summary_path) {
         Ok(text) => Some(
@@ -44,9 +48,25 @@ pub fn run(a: Args) -> Result<()> {
     let log_dir = a
         .log
         .or_else(|| field("log").and_then(|v| v.as_str().map(PathBuf::from)));
+    let out = a.out.unwrap_or_else(|| a.estimate.clone());
+    let mut inputs = super::inputs();
+    inputs
+        .add(&csv, "the estimate")
+        .add(&summary_path, "the estimate's summary");
+    if let Some(d) = &log_dir {
+        inputs.add(d, "the log");
+    }
+    inputs.check_dir("--out", &out, &OUTPUTS)?;
+    let rows = terraslip_io::read_estimate(&csv)?;
+    // A bag is read again with the topics the estimate used, unless
+    // --topics says otherwise.
+    let topics = match (super::bag::topics(), field("bag_topics")) {
+        (Topics::ByType, Some(record)) => super::bag::topics_from_record(&record),
+        (given, _) => given.clone(),
+    };
     let log = match &log_dir {
         Some(dir) if dir.exists() => {
-            let mut log = super::read_log(dir)?;
+            let mut log = super::bag::read_using(dir, &topics, super::read_log)?;
             let truth = dir.join("truth.csv");
             if truth.exists() {
                 log.truth = terraslip_io::read_truth(&truth)?;
@@ -55,7 +75,7 @@ pub fn run(a: Args) -> Result<()> {
         }
         Some(dir) => {
             eprintln!(
-                "warning: log {} (from {}) not found; drawing without the pose reference (pass --log)",
+                "warning: log {} (from {}) does not exist; drawing without the pose reference (pass --log)",
                 dir.display(),
                 summary_path.display()
             );
@@ -67,12 +87,20 @@ pub fn run(a: Args) -> Result<()> {
         }
     };
     let track_width = field("track_width").and_then(|v| v.as_f64());
-    let out = a.out.unwrap_or_else(|| a.estimate.clone());
+    let final_icr =
+        field("icr").and_then(|v| serde_json::from_value::<terraslip_core::IcrParams>(v).ok());
     let title = match &log_dir {
         Some(d) => format!("terraslip estimate of {}", d.display()),
         None => format!("terraslip estimate {}", a.estimate.display()),
     };
-    let written = terraslip::report::write(&rows, log.as_ref(), track_width, &out, &title)?;
+    let written = terraslip::report::write(
+        &rows,
+        log.as_ref(),
+        track_width,
+        final_icr.as_ref(),
+        &out,
+        &title,
+    )?;
     println!("wrote {}", written.page.display());
     for p in &written.plots {
         println!("wrote {}", p.display());

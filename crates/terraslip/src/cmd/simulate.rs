@@ -63,6 +63,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let Some(name) = args.scenario.as_deref() else {
         bail!("no scenario given (try `terraslip simulate --list`)");
     };
+    if let Some(out) = &args.out {
+        let mut inputs = super::inputs();
+        // A scenario file (a built-in name is no path).
+        if Path::new(name).is_file() {
+            inputs.add(Path::new(name), "the scenario file");
+        }
+        inputs.check_replaced("--out", out)?;
+    }
     let mut scenario = Scenario::resolve(name)?;
     if args.no_camera {
         scenario.camera.rate = 0.0;

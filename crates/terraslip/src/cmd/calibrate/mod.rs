@@ -1,7 +1,7 @@
 //! `terraslip calibrate`: offline identification of the ICR kinematic
 //! parameters, and `terraslip calibrate validate`: scoring them on other drives.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{bail, Context};
 use serde::Serialize;
@@ -230,8 +230,24 @@ enum Sub {
     Validate(validate::ValidateArgs),
 }
 
+/// Reads the logs; a bag without a pose reference is refused naming its
+/// topics (a log directory's is told by the calibration).
 fn read_logs(paths: &[PathBuf]) -> anyhow::Result<Vec<DriveLog>> {
-    paths.iter().map(|p| super::bag::read_full(p)).collect()
+    let read = |p: &PathBuf| {
+        let log = super::bag::read_full(p)?;
+        if log.pose.is_empty() {
+            if let Some(topics) = super::bag::bag_topics(p) {
+                bail!(
+                    "{}: no pose reference among its topics ({topics}); calibration needs \
+                     sensor_msgs/NavSatFix, a pose (Odometry, PoseStamped, \
+                     PoseWithCovarianceStamped) or an IMU heading with one",
+                    p.display()
+                );
+            }
+        }
+        Ok(log)
+    };
+    paths.iter().map(read).collect()
 }
 
 fn parse_bound(s: &str) -> anyhow::Result<(usize, (f64, f64))> {
@@ -364,8 +380,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         return Ok(());
     }
     let out = args.out.clone().context("--out PARAMS is required")?;
-    let logs: Vec<&Path> = args.logs.iter().map(|p| p.as_path()).collect();
-    super::refuse_overwrite(&out, &[], &logs)?;
+    let inputs = super::inputs_with(&args.logs, &[]);
+    inputs.check("--out", &out)?;
+    #[cfg(feature = "ros2")]
+    if let Some(p) = &args.ros2_params {
+        inputs.check("--ros2-params", p)?;
+        if super::resolved_same(p, &out) {
+            bail!("--ros2-params {}: the same file as --out", p.display());
+        }
+    }
     let logs = read_logs(&args.logs)?;
     let bar = progress::Progress::new(0, "generations");
     let cal = calibrate(&logs, &cfg, &|p| match p {

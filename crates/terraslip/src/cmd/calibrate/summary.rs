@@ -39,6 +39,7 @@ pub(super) fn print_set(s: &SetCalibration) {
             .collect::<Vec<_>>()
             .join(", ")
     );
+    eprintln!("  constant ICRs fitted to {name} (the same at every turn rate):");
     eprintln!("  method      cost(eq.13)      y_l      y_r      x_c  alpha_l  alpha_r");
     for f in &s.fits {
         let p = f.params;

@@ -46,6 +46,10 @@ pub(super) struct ValidateArgs {
 }
 
 pub(super) fn run(a: ValidateArgs) -> anyhow::Result<()> {
+    if let Some(path) = &a.plot {
+        super::super::inputs_with(&a.logs, &[("--params", Some(&a.params))])
+            .check("--plot", path)?;
+    }
     let params = ParamsFile::read(&a.params)
         .with_context(|| format!("reading parameters {}", a.params.display()))?;
     // The limits the fit hit hold for these scores too.
@@ -126,8 +130,6 @@ pub(super) fn run(a: ValidateArgs) -> anyhow::Result<()> {
         );
     }
     if let Some(path) = &a.plot {
-        let logs: Vec<&Path> = a.logs.iter().map(|p| p.as_path()).collect();
-        super::super::refuse_overwrite(path, &[&a.params], &logs)?;
         plot_validation(&v, path)?;
         eprintln!("wrote {}", path.display());
     }

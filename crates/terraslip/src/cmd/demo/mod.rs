@@ -73,6 +73,12 @@ const SETTLE: f64 = 20.0;
 
 pub fn run(args: Args) -> Result<()> {
     let started = std::time::Instant::now();
+    let mut inputs = super::inputs();
+    // A scenario file (a built-in name is no path).
+    if Path::new(&args.scenario).is_file() {
+        inputs.add(Path::new(&args.scenario), "the scenario file");
+    }
+    inputs.check_replaced("--out", &args.out)?;
     check_target(&args.out, "summary.json", "an earlier demo")?;
     let mut scenario = Scenario::resolve(&args.scenario)?;
     // The demo compares estimators; camera frames would only cost time.

@@ -32,6 +32,11 @@ pub(super) struct EvalArgs {
 }
 
 pub(super) fn run(a: EvalArgs) -> anyhow::Result<()> {
+    super::super::inputs_with(&a.logs, &[("--model", Some(&a.model))]).check_dir(
+        "--plots",
+        &a.plots,
+        &["confusion.svg", "confusion_filtered.svg"],
+    )?;
     let model = TerrainModel::load(&a.model).context("loading the terrain model")?;
     let logs = read_logs(&a.logs, a.json)?;
     for log in &logs {

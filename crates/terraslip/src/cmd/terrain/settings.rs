@@ -105,7 +105,7 @@ pub(super) struct TrainSettings {
     /// camera: TOML file with chen2023's region of interest (a `[camera]`
     /// pinhole model plus horizon_s, length, width, margin); whole frames otherwise.
     #[arg(long)]
-    roi: Option<PathBuf>,
+    pub(super) roi: Option<PathBuf>,
 }
 
 pub(super) fn options(s: &TrainSettings) -> anyhow::Result<TrainOptions> {

@@ -25,6 +25,8 @@ pub(super) struct TrainArgs {
 }
 
 pub(super) fn run(a: TrainArgs) -> anyhow::Result<()> {
+    super::super::inputs_with(&a.logs, &[("--roi", a.settings.roi.as_deref())])
+        .check("--out", &a.out)?;
     let opts = options(&a.settings)?;
     let logs = read_logs(&a.logs, false)?;
     let spinner = std::io::stderr().is_terminal().then(|| {

@@ -6,9 +6,8 @@
 
 use std::iter::Peekable;
 
-use terraslip_calib::prediction::{PredictionSpec, PredictionStream};
+use terraslip_calib::prediction::{PredictionSpec, PredictionStream, Timed};
 use terraslip_core::estimator::Estimator;
-use terraslip_core::IcrParams;
 use terraslip_io::{LogError, PoseObs, WheelSample};
 
 use super::row::{row, BandCounts};
@@ -137,7 +136,7 @@ pub(super) fn replay(
     let mut dropped = 0usize;
     let mut used = 0usize;
     let mut t_prev: Option<f64> = None;
-    let mut params: Option<IcrParams> = None;
+    let mut params: Option<Timed> = None;
     for (i, w) in wheels.enumerate() {
         let w = w?;
         if let Some(tp) = t_prev {
@@ -177,7 +176,7 @@ pub(super) fn replay(
             estimator.on_gyro(t, rate).map_err(|e| filter_err(t, e))?;
         }
         // Starts of the prediction before this row take the previous
-        // row's parameters (those in effect then).
+        // row's parameters and clock offset (those in effect then).
         totals.prediction.wheels(w, &mut |_| params);
         estimator
             .on_wheels(w.t, w.v_left, w.v_right)
@@ -186,7 +185,10 @@ pub(super) fn replay(
         terrain.jump |= summary.change;
         let r = row(estimator, w.t, terrain.current, &summary);
         sink.row(terrains, &r)?;
-        params = Some(r.icr());
+        params = Some(Timed {
+            params: r.icr(),
+            clock_offset: r.clock_offset,
+        });
         totals.rows += 1;
         totals.band.add(&r, &band);
         totals.first.get_or_insert(r);

@@ -17,6 +17,13 @@
 //! heading at `t` when it is given one (the heading the robot itself
 //! would predict from), and counts the starts that did
 //! (`start_heading` of the score).
+//!
+//! A pose stream stamped late against the wheels (a lidar localiser's
+//! pose, stamped when the scan was matched) is read with the model's own
+//! clock offset `c` (s): the start `t` and the end `t + horizon` on the
+//! wheels' clock are the reference poses stamped `t + c` and
+//! `t + horizon + c`. A model that knows the pose is late predicts with
+//! that knowledge; an offset of 0 reads the stamps as they are.
 
 use std::collections::VecDeque;
 
@@ -129,6 +136,46 @@ impl PredictionScore {
     }
 }
 
+/// The reference pose at `t` (linear interpolation; `None` outside them).
+pub fn interpolate(r: &[Reference], t: f64) -> Option<(f64, f64, f64)> {
+    let i = r.partition_point(|p| p.0 < t);
+    if let Some(p) = r.get(i).filter(|p| p.0 == t) {
+        return Some((p.1, p.2, p.3));
+    }
+    if i == 0 || i >= r.len() {
+        return None;
+    }
+    let (a, b) = (r[i - 1], r[i]);
+    let f = if b.0 > a.0 {
+        (t - a.0) / (b.0 - a.0)
+    } else {
+        0.0
+    };
+    Some((
+        a.1 + f * (b.1 - a.1),
+        a.2 + f * (b.2 - a.2),
+        a.3 + f * (b.3 - a.3),
+    ))
+}
+
+/// Parameters in effect at a start and the pose stream's clock offset
+/// then (s: a pose stamped `t + clock_offset` describes wheel time `t`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Timed {
+    pub params: IcrParams,
+    pub clock_offset: f64,
+}
+
+impl Timed {
+    /// `params` read against the pose stamps as they are.
+    pub fn on_time(params: IcrParams) -> Self {
+        Self {
+            params,
+            clock_offset: 0.0,
+        }
+    }
+}
+
 /// Integrates the wheels over `[t0, t1]` from pose `start` (east, north,
 /// yaw) with `p` (a row's speeds hold over the interval that ends at its
 /// time): the position at `t1`.
@@ -139,13 +186,25 @@ pub fn predict(
     t1: f64,
     start: (f64, f64, f64),
 ) -> (f64, f64) {
+    predict_with(wheels, &|w| p.twist(w.v_left, w.v_right), t0, t1, start)
+}
+
+/// [`predict`] with any body twist of a wheels row: `twist(row)` gives
+/// `v_x`, `v_y` (m/s, body frame) and `omega` (rad/s).
+pub fn predict_with(
+    wheels: &[WheelSample],
+    twist: &dyn Fn(&WheelSample) -> terraslip_core::Twist,
+    t0: f64,
+    t1: f64,
+    start: (f64, f64, f64),
+) -> (f64, f64) {
     let (mut e, mut n, mut y) = start;
     let mut i = wheels.partition_point(|w| w.t <= t0);
     let mut t = t0;
     while t < t1 && i < wheels.len() {
         let tn = wheels[i].t.min(t1);
         let dt = tn - t;
-        let tw = p.twist(wheels[i].v_left, wheels[i].v_right);
+        let tw = twist(&wheels[i]);
         e += dt * (tw.v_x * y.cos() - tw.v_y * y.sin());
         n += dt * (tw.v_x * y.sin() + tw.v_y * y.cos());
         y += dt * tw.omega;
@@ -158,9 +217,9 @@ pub fn predict(
 }
 
 /// A reference position: time, east, north.
-type Reference = (f64, f64, f64);
+type Position = (f64, f64, f64);
 
-fn interpolate_position(r: &[Reference], t: f64) -> Option<(f64, f64)> {
+fn interpolate_position(r: &[Position], t: f64) -> Option<(f64, f64)> {
     let i = r.partition_point(|p| p.0 < t);
     if let Some(p) = r.get(i).filter(|p| p.0 == t) {
         return Some((p.1, p.2));
@@ -191,6 +250,66 @@ fn heading_at(h: &[(f64, f64)], t: f64, max_gap: f64) -> Option<f64> {
     Some(a.1 + (t - a.0) / (b.0 - a.0) * (b.1 - a.1))
 }
 
+/// A reference pose: time, east, north and the yaw unwrapped.
+pub type Reference = (f64, f64, f64, f64);
+
+/// The reference poses of a pose stream: its rows with all of east, north
+/// and yaw, the yaw unwrapped.
+pub fn references(pose: &[PoseObs]) -> Vec<Reference> {
+    let mut r: Vec<Reference> = Vec::new();
+    for p in pose {
+        if let Some(q) = reference(r.last(), p) {
+            r.push(q);
+        }
+    }
+    r
+}
+
+/// The reference pose of a pose row with all of east, north and yaw, its
+/// yaw unwrapped against the previous reference's.
+fn reference(prev: Option<&Reference>, p: &PoseObs) -> Option<Reference> {
+    let (Some(e), Some(n), Some(y)) = (p.east, p.north, p.yaw) else {
+        return None;
+    };
+    let y = match prev {
+        Some(&(_, _, _, prev)) => prev + terraslip_core::angle::wrap(y - prev),
+        None => y,
+    };
+    Some((p.t, e, n, y))
+}
+
+/// The position error (m) of the prediction of `twist` from start `t` (s,
+/// wheels' clock) over `spec.horizon`, the references read `clock_offset`
+/// s later; `None` where the references around `[t, t + horizon]` (on
+/// their clock) have a gap longer than `spec.max_gap` or do not cover it.
+pub fn segment_error(
+    refs: &[Reference],
+    wheels: &[WheelSample],
+    twist: &dyn Fn(&WheelSample) -> terraslip_core::Twist,
+    t: f64,
+    clock_offset: f64,
+    spec: &PredictionSpec,
+) -> Option<f64> {
+    let (r0, r1) = (t + clock_offset, t + spec.horizon + clock_offset);
+    if !gap_free(refs, |p| p.0, r0, r1, spec.max_gap) {
+        return None;
+    }
+    let (a, b) = (interpolate(refs, r0)?, interpolate(refs, r1)?);
+    let (e, n) = predict_with(wheels, twist, t, t + spec.horizon, a);
+    Some((e - b.0).hypot(n - b.1))
+}
+
+/// Whether the references `r` (times `time`) around `[r0, r1]` cover it
+/// with no gap longer than `max_gap`.
+fn gap_free<T>(r: &[T], time: impl Fn(&T) -> f64, r0: f64, r1: f64, max_gap: f64) -> bool {
+    let i = r.partition_point(|p| time(p) <= r0).saturating_sub(1);
+    let j = r.partition_point(|p| time(p) < r1);
+    j < r.len()
+        && r[i..=j]
+            .windows(2)
+            .all(|w| time(&w[1]) - time(&w[0]) <= max_gap)
+}
+
 /// [`score`] computed as the drive streams by: give the pose rows and the
 /// wheels rows in time order, each pose row before the wheels rows stamped
 /// after it (as the estimator merges them). Only the wheels and reference
@@ -201,7 +320,7 @@ pub struct PredictionStream {
     spec: PredictionSpec,
     no_slip: IcrParams,
     /// Reference positions from the last one before the oldest open start.
-    refs: VecDeque<Reference>,
+    refs: VecDeque<Position>,
     /// Reference headings (unwrapped) likewise.
     headings: VecDeque<(f64, f64)>,
     /// The estimate's heading at the latest wheels row, rad.
@@ -215,9 +334,9 @@ pub struct PredictionStream {
     w_max: f64,
     /// The next start to open (from the first wheels row on).
     next_start: Option<f64>,
-    /// Open starts, the parameters in effect at each and the estimate's
-    /// heading then.
-    open: VecDeque<(f64, Option<IcrParams>, Option<f64>)>,
+    /// Open starts, the parameters (and clock offset) in effect at each
+    /// and the estimate's heading then.
+    open: VecDeque<(f64, Option<Timed>, Option<f64>)>,
     segments: Vec<PredictionSegment>,
 }
 
@@ -268,9 +387,10 @@ impl PredictionStream {
         self.estimate_heading = yaw.is_finite().then_some(yaw);
     }
 
-    /// The next wheels row; `params_at(t)` gives the parameters in effect
-    /// at a start `t` earlier than this row (called once per start).
-    pub fn wheels(&mut self, w: WheelSample, params_at: &mut dyn FnMut(f64) -> Option<IcrParams>) {
+    /// The next wheels row; `params_at(t)` gives the parameters and clock
+    /// offset in effect at a start `t` earlier than this row (called once
+    /// per start).
+    pub fn wheels(&mut self, w: WheelSample, params_at: &mut dyn FnMut(f64) -> Option<Timed>) {
         if !self.valid() {
             return;
         }
@@ -301,13 +421,16 @@ impl PredictionStream {
     /// the `end`), oldest first, and forgets what no open start needs.
     fn close(&mut self, end: bool) {
         let (h, gap) = (self.spec.horizon, self.spec.max_gap);
-        while let Some(&(t, params, heading)) = self.open.front() {
-            let t1 = t + h;
-            let covered = self.r_max >= t1 && self.w_max >= t1;
-            if end || covered && t <= self.r_max - h && t <= self.w_max - h {
+        while let Some(&(t, timed, heading)) = self.open.front() {
+            // The start and end on the pose stream's clock.
+            let c = timed.map_or(0.0, |p| p.clock_offset);
+            let (r0, r1) = (t + c, t + h + c);
+            let decidable = r0 <= self.r_max - h && t <= self.w_max - h;
+            let covered = self.r_max >= r1 && self.w_max >= t + h;
+            if end || covered && decidable {
                 self.open.pop_front();
-                if t <= self.r_max - h && t <= self.w_max - h {
-                    self.score_start(t, params, heading);
+                if decidable {
+                    self.score_start(t, timed, heading);
                 }
                 continue;
             }
@@ -315,21 +438,26 @@ impl PredictionStream {
             // start with no reference at or before it cannot be
             // interpolated, and one still waiting for its end across a gap
             // longer than `max_gap` cannot be gap-free.
-            let unanchored = self.r_first.is_none_or(|r| r > t) && self.w_max >= t;
-            let broken = self.r_max < t1 && self.w_max - self.r_max > gap;
+            let unanchored = self.r_first.is_none_or(|r| r > r0) && self.w_max >= r0;
+            let broken = self.r_max < r1 && self.w_max - self.r_max > gap;
             if !(unanchored || broken) {
                 break;
             }
             self.open.pop_front();
         }
+        let earliest = self
+            .open
+            .iter()
+            .map(|o| o.1.map_or(0.0, |p| p.clock_offset))
+            .fold(0.0f64, f64::min);
         let oldest = match (self.open.front(), self.next_start) {
             (Some(&(t, _, _)), _) | (None, Some(t)) => t,
             (None, None) => return,
         };
-        while self.refs.len() >= 2 && self.refs[1].0 < oldest {
+        while self.refs.len() >= 2 && self.refs[1].0 < oldest + earliest {
             self.refs.pop_front();
         }
-        while self.headings.len() >= 2 && self.headings[1].0 < oldest {
+        while self.headings.len() >= 2 && self.headings[1].0 < oldest + earliest {
             self.headings.pop_front();
         }
         while self.wheels.front().is_some_and(|w| w.t <= oldest) {
@@ -339,49 +467,65 @@ impl PredictionStream {
 
     /// One start, as [`score`] defines it, on the kept poses and wheels
     /// (which hold everything it reads).
-    fn score_start(&mut self, t: f64, params: Option<IcrParams>, estimate: Option<f64>) {
-        let t1 = t + self.spec.horizon;
+    fn score_start(&mut self, t: f64, timed: Option<Timed>, estimate: Option<f64>) {
+        let Some(Timed {
+            params: p,
+            clock_offset: c,
+        }) = timed
+        else {
+            return;
+        };
+        let (r0, r1) = (t + c, t + self.spec.horizon + c);
         let r = self.refs.make_contiguous();
-        let i = r.partition_point(|p| p.0 <= t).saturating_sub(1);
-        let j = r.partition_point(|p| p.0 < t1);
-        let gap_free = j < r.len()
-            && r[i..=j]
-                .windows(2)
-                .all(|w| w[1].0 - w[0].0 <= self.spec.max_gap);
-        if !gap_free {
+        if !gap_free(r, |p| p.0, r0, r1, self.spec.max_gap) {
             return;
         }
-        let reference = heading_at(self.headings.make_contiguous(), t, self.spec.max_gap);
+        let reference = heading_at(self.headings.make_contiguous(), r0, self.spec.max_gap);
         let Some(yaw) = reference.or(estimate) else {
             return;
         };
-        if let (Some(a), Some(b), Some(p)) = (
-            interpolate_position(r, t),
-            interpolate_position(r, t1),
-            params,
-        ) {
-            let a = (a.0, a.1, yaw);
-            self.estimate_headings += usize::from(reference.is_none());
-            let wheels = self.wheels.make_contiguous();
-            let (e, n) = predict(wheels, &p, t, t1, a);
-            let (en, nn) = predict(wheels, &self.no_slip, t, t1, a);
-            self.segments.push(PredictionSegment {
-                t,
-                error: (e - b.0).hypot(n - b.1),
-                no_slip: (en - b.0).hypot(nn - b.1),
-            });
-        }
+        let (Some(a), Some(b)) = (interpolate_position(r, r0), interpolate_position(r, r1)) else {
+            return;
+        };
+        let a = (a.0, a.1, yaw);
+        self.estimate_headings += usize::from(reference.is_none());
+        let wheels = self.wheels.make_contiguous();
+        let t1 = t + self.spec.horizon;
+        let (e, n) = predict(wheels, &p, t, t1, a);
+        let (en, nn) = predict(wheels, &self.no_slip, t, t1, a);
+        self.segments.push(PredictionSegment {
+            t,
+            error: (e - b.0).hypot(n - b.1),
+            no_slip: (en - b.0).hypot(nn - b.1),
+        });
     }
 }
 
 /// Scores the parameters `params_at(t)` (those in effect at `t`) on the
-/// drive; `None` without a pose reference with positions and headings or
-/// wheels, or when no segment qualifies.
+/// drive, the pose stamps read as they are; `None` without a pose
+/// reference with positions (and headings, or the estimate's) or wheels, or when no segment qualifies.
 pub fn score(
     wheels: &[WheelSample],
     pose: &[PoseObs],
     track_width: f64,
     params_at: &dyn Fn(f64) -> Option<IcrParams>,
+    spec: PredictionSpec,
+) -> Option<PredictionScore> {
+    score_timed(
+        wheels,
+        pose,
+        track_width,
+        &|t| params_at(t).map(Timed::on_time),
+        spec,
+    )
+}
+
+/// [`score`] with each start's own clock offset of the pose stream.
+pub fn score_timed(
+    wheels: &[WheelSample],
+    pose: &[PoseObs],
+    track_width: f64,
+    params_at: &dyn Fn(f64) -> Option<Timed>,
     spec: PredictionSpec,
 ) -> Option<PredictionScore> {
     let mut stream = PredictionStream::new(track_width, spec);
@@ -458,6 +602,67 @@ mod tests {
     }
 
     #[test]
+    fn a_late_pose_stream_is_read_with_the_models_clock_offset() {
+        let mut truth = IcrParams::new(0.4, -0.38, 0.02);
+        truth.alpha_l = 0.9;
+        truth.alpha_r = 0.92;
+        let (w, mut p) = drive(&truth, true, None);
+        // The pose stamped 0.3 s after the wheel time it describes, and
+        // the wheels changing speed so that the lag shows.
+        for q in &mut p {
+            q.t += 0.3;
+        }
+        let w: Vec<WheelSample> = w
+            .iter()
+            .map(|s| {
+                let k = 1.0 + 0.5 * (s.t * 1.3).sin();
+                WheelSample {
+                    v_left: s.v_left * k,
+                    v_right: s.v_right * k,
+                    ..*s
+                }
+            })
+            .collect();
+        // The pose recomputed from the changed speeds, stamped late.
+        let (mut e, mut n, mut y) = (0.0f64, 0.0f64, 0.3f64);
+        for (k, s) in w.iter().enumerate() {
+            if k > 0 {
+                let tw = truth.twist(s.v_left, s.v_right);
+                e += 0.02 * (tw.v_x * y.cos() - tw.v_y * y.sin());
+                n += 0.02 * (tw.v_x * y.sin() + tw.v_y * y.cos());
+                y += 0.02 * tw.omega;
+            }
+            if k % 5 == 0 {
+                let q = &mut p[k / 5];
+                q.east = Some(e);
+                q.north = Some(n);
+                q.yaw = Some(terraslip_core::angle::wrap(y));
+            }
+        }
+        let spec = PredictionSpec::default();
+        let late = score_timed(
+            &w,
+            &p,
+            0.5,
+            &|_| {
+                Some(Timed {
+                    params: truth,
+                    clock_offset: 0.3,
+                })
+            },
+            spec,
+        )
+        .unwrap();
+        let as_stamped = score(&w, &p, 0.5, &|_| Some(truth), spec).unwrap();
+        assert!(late.stats.mean_m < 1e-3, "{:?}", late.stats);
+        assert!(as_stamped.stats.mean_m > 0.05, "{:?}", as_stamped.stats);
+        // The same starts (every pose stamp moved with the clock).
+        let starts = |s: &PredictionScore| s.segments.iter().map(|g| g.t).collect::<Vec<_>>();
+        assert_eq!(starts(&late), starts(&as_stamped));
+        assert_eq!(late.segments.len(), 39);
+    }
+
+    #[test]
     fn gaps_and_missing_parameters_are_skipped() {
         let truth = IcrParams::new(0.4, -0.38, 0.02);
         let (w, p) = drive(&truth, true, Some((70.0, 71.0)));
@@ -498,7 +703,7 @@ mod tests {
                 stream.pose(p);
                 k += 1;
             }
-            stream.wheels(*w, &mut |t| params_at(t));
+            stream.wheels(*w, &mut |t| params_at(t).map(Timed::on_time));
             held = held.max(stream.wheels.len() + stream.refs.len() + stream.open.len());
         }
         // 2.5 s of 50 Hz wheels and 10 Hz poses at most, gaps included.
@@ -570,7 +775,7 @@ mod tests {
                     stream.pose(r);
                     k += 1;
                 }
-                stream.wheels(*x, &mut |_| Some(truth));
+                stream.wheels(*x, &mut |_| Some(Timed::on_time(truth)));
                 stream.estimate_heading(yaw_at(x.t) + off);
             }
             stream.finish().unwrap()

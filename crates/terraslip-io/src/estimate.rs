@@ -32,6 +32,9 @@ pub struct EstimateRecord {
     pub std_alpha_r: f64,
     /// Std of the spread `y_l - y_r`, m (0 where absent).
     pub std_spread: f64,
+    /// How late the pose stream is stamped against the wheels, s (0 where
+    /// absent).
+    pub clock_offset: f64,
 }
 
 impl EstimateRecord {
@@ -73,6 +76,7 @@ pub fn read_estimate(path: &Path) -> Result<Vec<EstimateRecord>, LogError> {
         "std_alpha_l",
         "std_alpha_r",
         "std_spread",
+        "clock_offset",
     ]
     .map(|n| tab.optional(n));
     let mut out = Vec::new();
@@ -81,7 +85,7 @@ pub fn read_estimate(path: &Path) -> Result<Vec<EstimateRecord>, LogError> {
         for (k, c) in cols.iter().enumerate() {
             v[k] = tab.req_f64(line, rec, *c)?;
         }
-        let mut o = [1.0, 1.0, 0.0, 0.0, 0.0];
+        let mut o = [1.0, 1.0, 0.0, 0.0, 0.0, 0.0];
         for (k, c) in opt.iter().enumerate() {
             if let Some(x) = tab.opt_f64(line, rec, *c)? {
                 o[k] = x;
@@ -107,6 +111,7 @@ pub fn read_estimate(path: &Path) -> Result<Vec<EstimateRecord>, LogError> {
             std_alpha_l: o[2],
             std_alpha_r: o[3],
             std_spread: o[4],
+            clock_offset: o[5],
         });
         Ok(())
     })?;

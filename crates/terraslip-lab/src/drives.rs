@@ -1,13 +1,15 @@
 //! `terraslip-lab drives`: each estimator over the real drives with a pose
 //! reference (`../shared/data/drive` by default): the 2 s prediction error
-//! (as `estimate` reports it in summary.json), against the no-slip model
-//! and an LM calibration fitted on the same drive (the offline reference:
-//! it has seen the whole drive).
+//! (as `estimate` reports it in summary.json, read with the clock offset
+//! the run had learned), against the no-slip model and an LM calibration
+//! fitted on the same drive (the offline reference: it has seen the whole
+//! drive; read with its `time_offset_s`).
 
 use std::path::PathBuf;
 
 use anyhow::Context;
 use terraslip::pipeline::{self, TerrainEvidence};
+use terraslip_calib::prediction::Timed;
 use terraslip_calib::{calibrate, CalibConfig, Method};
 use terraslip_io::DriveLog;
 
@@ -27,18 +29,23 @@ pub struct Args {
     no_calibrate: bool,
 }
 
-pub fn run(a: Args) -> anyhow::Result<()> {
-    let mut logs = a.logs.clone();
-    if logs.is_empty() {
-        let root = PathBuf::from("../shared/data/drive");
-        let mut found: Vec<PathBuf> = std::fs::read_dir(&root)
-            .with_context(|| format!("{}: no drives given and none found there", root.display()))?
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.join("pose.csv").exists())
-            .collect();
-        found.sort();
-        logs = found;
+/// `logs`, or every drive with a pose reference under ../shared/data/drive.
+pub fn logs_or_default(logs: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
+    if !logs.is_empty() {
+        return Ok(logs.to_vec());
     }
+    let root = PathBuf::from("../shared/data/drive");
+    let mut found: Vec<PathBuf> = std::fs::read_dir(&root)
+        .with_context(|| format!("{}: no drives given and none found there", root.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.join("pose.csv").exists())
+        .collect();
+    found.sort();
+    Ok(found)
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let logs = logs_or_default(&a.logs)?;
     let cfgs = estimators::resolve(&a.estimators)?;
     println!("2 s prediction error, mean (p90), m; final spread d (m) and speed factor; warnings");
     for dir in &logs {
@@ -83,11 +90,19 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                         pf.for_terrain(k.checked_sub(1).map(|k| log.terrain[k].terrain.as_str()))
                     };
                     let w = log.meta.track_width.unwrap_or(0.5);
-                    if let Some(p) = terraslip_calib::prediction::score(
+                    // Read with the calibration's own clock offset.
+                    let clock_offset = terraslip_calib::validate::stored_offset(&pf).unwrap_or(0.0);
+                    let timed_at = |t: f64| {
+                        params_at(t).map(|params| Timed {
+                            params,
+                            clock_offset,
+                        })
+                    };
+                    if let Some(p) = terraslip_calib::prediction::score_timed(
                         &log.wheels,
                         &log.pose,
                         w,
-                        &params_at,
+                        &timed_at,
                         Default::default(),
                     ) {
                         println!(

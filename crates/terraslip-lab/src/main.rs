@@ -12,9 +12,11 @@
 
 use clap::{Parser, Subcommand};
 
+mod blr;
 mod drives;
 mod estimators;
 mod family;
+mod heldout;
 mod stats;
 
 /// The estimator's quality benchmarks.
@@ -33,11 +35,16 @@ enum Command {
     /// The real drives: the 2 s prediction error of each estimator, against
     /// the no-slip model and a calibration of the same drive.
     Drives(drives::Args),
+    /// DRIVE's learned slip model against the online default and
+    /// `calibrate`, each trained on data the score does not see: first half
+    /// -> second half of every drive, and drive -> drive (`--across`).
+    Heldout(heldout::Args),
 }
 
 fn main() -> anyhow::Result<()> {
     match Cli::parse().command {
         Command::Family(a) => family::run(a),
         Command::Drives(a) => drives::run(a),
+        Command::Heldout(a) => heldout::run(a),
     }
 }

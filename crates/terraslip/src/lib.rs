@@ -24,35 +24,48 @@ pub mod validation;
 
 pub use config::EstimatorConfig;
 pub use pipeline::{run, EstimateRow, EstimateRun, RunOptions, TerrainEvidence};
-pub use terraslip_calib::prediction::{PredictionScore, PredictionSpec};
+pub use terraslip_calib::prediction::{PredictionScore, PredictionSpec, Timed};
 #[doc(hidden)]
 pub mod testkit;
 
 /// How well the ICRs a run reported at each time (those in effect at that
-/// row) predict the next 2 s of motion from the log's pose reference
+/// row) predict the next 2 s of motion from the log's pose reference, read
+/// with the clock offset the run had learned by then
 /// (`terraslip_calib::prediction`); `None` without a pose reference.
 pub fn prediction_score(
     log: &terraslip_io::DriveLog,
     run: &EstimateRun,
 ) -> Option<PredictionScore> {
-    let timeline: Vec<_> = run.rows.iter().map(|r| (r.t, r.icr())).collect();
+    let timeline: Vec<_> = run
+        .rows
+        .iter()
+        .map(|r| {
+            (
+                r.t,
+                Timed {
+                    params: r.icr(),
+                    clock_offset: r.clock_offset,
+                },
+            )
+        })
+        .collect();
     prediction_of(log, run.track_width, &timeline)
 }
 
-/// How well a timeline of ICR parameters (`(t, params)` in time order, each
-/// in effect from its `t` on) predicts the next 2 s of motion from the log's
-/// pose reference; `None` without a pose reference. `track_width` in m
-/// scales the no-slip baseline.
+/// How well a timeline of ICR parameters and clock offsets (`(t, timed)`
+/// in time order, each in effect from its `t` on) predicts the next 2 s of
+/// motion from the log's pose reference; `None` without a pose reference.
+/// `track_width` in m scales the no-slip baseline.
 pub fn prediction_of(
     log: &terraslip_io::DriveLog,
     track_width: f64,
-    timeline: &[(f64, terraslip_core::IcrParams)],
+    timeline: &[(f64, Timed)],
 ) -> Option<PredictionScore> {
     let params_at = |t: f64| {
         let k = timeline.partition_point(|r| r.0 <= t).checked_sub(1)?;
         Some(timeline[k].1)
     };
-    terraslip_calib::prediction::score(
+    terraslip_calib::prediction::score_timed(
         &log.wheels,
         &log.pose,
         track_width,

@@ -158,7 +158,6 @@ pub fn write(
     // The 2 s prediction error over time.
     let mut summary = String::from("No log: no pose reference, no prediction error.");
     if let Some(log) = log {
-        let timeline: Vec<(f64, IcrParams)> = rows.iter().map(|r| (r.t, r.icr())).collect();
         let w = track_width.or(log.meta.track_width).unwrap_or_else(|| {
             let first = &rows[0];
             first.y_l - first.y_r
@@ -169,6 +168,26 @@ pub fn write(
         } else {
             (Some(truth_as_reference(log)), "the ground truth")
         };
+        // The ground truth is on the wheels' clock; a pose reference is
+        // read with the clock offset the run had learned.
+        let timeline: Vec<(f64, crate::Timed)> = rows
+            .iter()
+            .map(|r| {
+                let clock_offset = if reference.is_some() {
+                    0.0
+                } else {
+                    r.clock_offset
+                };
+                let params = r.icr();
+                (
+                    r.t,
+                    crate::Timed {
+                        params,
+                        clock_offset,
+                    },
+                )
+            })
+            .collect();
         let scored = crate::prediction_of(reference.as_ref().unwrap_or(log), w, &timeline);
         summary = format!(
             "No 2 s prediction error: {against} has no headings or no stretch of 2 s without a gap over 0.5 s (a 1 Hz GNSS is too sparse; a lidar, RTK or motion-capture pose is not)."

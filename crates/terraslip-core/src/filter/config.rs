@@ -207,7 +207,10 @@ pub struct FilterConfig {
     /// square-root second of spread (m), centre (m), x_c (m), common speed
     /// factor and factor difference.
     pub slip_walk: SlipStd,
-    /// Random walk of the clock offset, s per square-root second.
+    /// Random walk of the clock offset, s per square-root second. The
+    /// offset is learned in the first seconds, while the slip is still
+    /// wrong; the walk keeps it free to move once the slip is learned
+    /// (0.003: 0.05 s over 5 minutes).
     pub clock_walk: f64,
     /// Random walk of the turn law's slope, s/m per square-root second.
     pub turn_law_walk: f64,
@@ -268,7 +271,7 @@ impl Default for FilterConfig {
                 alpha: 3e-4,
                 alpha_diff: 1e-4,
             },
-            clock_walk: 1e-4,
+            clock_walk: 3e-3,
             turn_law_walk: 1e-3,
             turn_law_lag: 0.25,
             gate_position: 13.8,

@@ -6,9 +6,8 @@
 
 use std::iter::Peekable;
 
-use terraslip_calib::prediction::{PredictionSpec, PredictionStream};
+use terraslip_calib::prediction::{PredictionSpec, PredictionStream, Timed};
 use terraslip_core::estimator::Estimator;
-use terraslip_core::IcrParams;
 use terraslip_io::{LogError, PoseObs, WheelSample};
 
 use super::row::{row, BandCounts};
@@ -172,7 +171,8 @@ pub(super) struct Feed<'a> {
     dropped: usize,
     used: usize,
     t_prev: Option<f64>,
-    params: Option<IcrParams>,
+    /// The parameters and the pose clock offset of the latest row.
+    params: Option<Timed>,
 }
 
 impl<'a> Feed<'a> {
@@ -276,7 +276,7 @@ impl<'a> Feed<'a> {
         w: &WheelSample,
     ) -> Result<EstimateRow, PipelineError> {
         // Starts of the prediction before this row take the previous
-        // row's parameters (those in effect then).
+        // row's parameters and clock offset (those in effect then).
         let params = self.params;
         self.totals.prediction.wheels(*w, &mut |_| params);
         estimator
@@ -285,7 +285,10 @@ impl<'a> Feed<'a> {
         let summary = estimator.take_fix_summary();
         self.terrain.jump |= summary.change;
         let r = row(estimator, w.t, self.terrain.current, &summary);
-        self.params = Some(r.icr());
+        self.params = Some(Timed {
+            params: r.icr(),
+            clock_offset: r.clock_offset,
+        });
         self.totals.prediction.estimate_heading(r.yaw);
         self.totals.rows += 1;
         self.totals.band.add(&r, &self.band);

@@ -1,0 +1,341 @@
+//! `terraslip-lab heldout`: DRIVE's learned slip model ([`crate::blr`])
+//! against the online default and `calibrate`, each trained on data the
+//! score does not see:
+//!
+//! * every drive: trained on its first half (the online default: the
+//!   parameters it had at each start, having seen only the past), scored on
+//!   its second half;
+//! * `--across A:B`: trained on drive A (the online default runs on B,
+//!   alone and started with `--init` from A's calibration), scored on B
+//!   after its first 60 s.
+//!
+//! Every model is scored on the identical 2 s segments (starts every
+//! second that every model can score), each reading the pose with its own
+//! clock offset: the online default the one it had learned at the start,
+//! `calibrate` its `time_offset_s`, DRIVE's model (which has none) the one
+//! that predicts its training data best.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use terraslip::pipeline::{self, TerrainEvidence};
+use terraslip::EstimatorConfig;
+use terraslip_calib::prediction::{references, segment_error, PredictionSpec};
+use terraslip_calib::segment::ACC_HALF_WINDOW;
+use terraslip_calib::validate::{model_for, stored_offset};
+use terraslip_calib::{calibrate, CalibConfig, ModelChoice, RateSlopes};
+use terraslip_core::{IcrParams, Twist};
+use terraslip_io::{DriveLog, ParamsFile, WheelSample};
+
+use crate::blr::Blr;
+
+/// Score each estimator on data it was not trained on.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Log directories with a pose reference (default: every one under
+    /// ../shared/data/drive).
+    logs: Vec<PathBuf>,
+    /// Also score drive A's training on drive B (`A:B`, directories;
+    /// repeatable).
+    #[arg(long, value_name = "A:B")]
+    across: Vec<String>,
+}
+
+/// A twist of a wheels row for a segment starting at `t` (s).
+type TwistFn<'a> = Box<dyn Fn(f64, &WheelSample) -> Twist + 'a>;
+
+/// The model of each terrain label of a drive (`None`: the pooled set).
+type TerrainModels = Vec<(Option<String>, Option<(IcrParams, RateSlopes)>)>;
+
+/// A drive's row of the table: name, each model's (name, mean error m,
+/// clock offset s), the number of segments.
+type TableRow = (String, Vec<(String, f64, f64)>, usize);
+
+/// A model to score: its twist of a wheels row for a segment starting at
+/// `t` (s), and its clock offset at a start (s).
+struct Model<'a> {
+    name: String,
+    twist: TwistFn<'a>,
+    clock_at: Box<dyn Fn(f64) -> f64 + 'a>,
+}
+
+/// The tread acceleration of each wheels row as `calibrate` reads it
+/// (central difference over [`ACC_HALF_WINDOW`], signed by the direction
+/// of travel), m/s^2.
+fn accelerations(w: &[WheelSample]) -> Vec<f64> {
+    let at = |t: f64| {
+        let k = w.partition_point(|s| s.t <= t).clamp(1, w.len()) - 1;
+        0.5 * (w[k].v_left + w[k].v_right)
+    };
+    w.iter()
+        .map(|s| {
+            (at(s.t + ACC_HALF_WINDOW) - at(s.t - ACC_HALF_WINDOW)) / (2.0 * ACC_HALF_WINDOW)
+                * (s.v_left + s.v_right).signum()
+        })
+        .collect()
+}
+
+fn terrain_at(log: &DriveLog, t: f64) -> Option<&str> {
+    let k = log.terrain.partition_point(|l| l.t <= t);
+    k.checked_sub(1).map(|k| log.terrain[k].terrain.as_str())
+}
+
+/// `calibrate`'s selected model and its constant ICRs, for the drive
+/// `target` (terrain sets by its labels).
+fn calibrated<'a>(
+    pf: &'a ParamsFile,
+    target: &'a DriveLog,
+    acc: &'a [f64],
+) -> anyhow::Result<[Model<'a>; 2]> {
+    let offset = stored_offset(pf).unwrap_or(0.0);
+    let mut sets = Vec::new();
+    for choice in [ModelChoice::FromParams, ModelChoice::Constant] {
+        // Every terrain of the target, resolved once.
+        let mut by: TerrainModels = Vec::new();
+        for l in std::iter::once(None).chain(target.terrain.iter().map(|l| Some(l.terrain.clone())))
+        {
+            if !by.iter().any(|b| b.0 == l) {
+                let m = model_for(pf, l.as_deref(), choice)?;
+                by.push((l, m));
+            }
+        }
+        sets.push(by);
+    }
+    let model = |by: TerrainModels, name: &str| Model {
+        name: name.to_string(),
+        twist: Box::new(move |_, w: &WheelSample| {
+            let terrain = terrain_at(target, w.t).map(str::to_string);
+            let m = by
+                .iter()
+                .find(|b| b.0 == terrain)
+                .or_else(|| by.iter().find(|b| b.0.is_none()))
+                .and_then(|b| b.1);
+            match m {
+                Some((p, k)) => {
+                    let i = target
+                        .wheels
+                        .partition_point(|s| s.t < w.t)
+                        .min(acc.len() - 1);
+                    k.twist(&p, w.v_left, w.v_right, acc[i])
+                }
+                None => Twist {
+                    v_x: f64::NAN,
+                    v_y: f64::NAN,
+                    omega: f64::NAN,
+                },
+            }
+        }),
+        clock_at: Box::new(move |_| offset),
+    };
+    let constant = sets.pop().unwrap_or_default();
+    let selected = sets.pop().unwrap_or_default();
+    Ok([
+        model(selected, "calibrate selected"),
+        model(constant, "calibrate constant"),
+    ])
+}
+
+/// DRIVE's model, with the clock offset it was trained with.
+fn drive_model<'a>(blr: Blr) -> Model<'a> {
+    Model {
+        name: "DRIVE's model".into(),
+        twist: Box::new(move |_, s: &WheelSample| blr.twist(s)),
+        clock_at: Box::new(move |_| blr.clock_offset),
+    }
+}
+
+/// The online default's run over `target`: the ICRs and clock offset in
+/// effect at each start.
+fn online<'a>(
+    target: &DriveLog,
+    init: Option<&ParamsFile>,
+    name: &str,
+) -> anyhow::Result<Model<'a>> {
+    let run = pipeline::run(
+        target,
+        &EstimatorConfig::default(),
+        &TerrainEvidence::None,
+        init,
+    )?;
+    let rows: Vec<(f64, IcrParams, f64)> = run
+        .rows
+        .iter()
+        .map(|r| (r.t, r.icr(), r.clock_offset))
+        .collect();
+    let rows = std::rc::Rc::new(rows);
+    let at = move |rows: &[(f64, IcrParams, f64)], t: f64| {
+        let k = rows.partition_point(|r| r.0 <= t).max(1) - 1;
+        rows[k]
+    };
+    let rows2 = rows.clone();
+    Ok(Model {
+        name: name.to_string(),
+        // The parameters in effect at the segment's start.
+        twist: Box::new(move |t, w: &WheelSample| at(&rows, t).1.twist(w.v_left, w.v_right)),
+        clock_at: Box::new(move |t| at(&rows2, t).2),
+    })
+}
+
+/// Mean error of each model on the starts every model can score.
+fn score(target: &DriveLog, models: &[Model], from: f64, to: f64) -> (Vec<f64>, usize) {
+    let refs = references(&target.pose);
+    let spec = PredictionSpec::default();
+    let mut sums = vec![0.0; models.len()];
+    let mut n = 0usize;
+    let mut t = from;
+    while t + spec.horizon <= to {
+        let errs: Option<Vec<f64>> = models
+            .iter()
+            .map(|m| {
+                segment_error(
+                    &refs,
+                    &target.wheels,
+                    &|w| (m.twist)(t, w),
+                    t,
+                    (m.clock_at)(t),
+                    &spec,
+                )
+                .filter(|e| e.is_finite())
+            })
+            .collect();
+        if let Some(e) = errs {
+            for (s, e) in sums.iter_mut().zip(e) {
+                *s += e;
+            }
+            n += 1;
+        }
+        t += spec.stride;
+    }
+    (sums.iter().map(|s| s / n.max(1) as f64).collect(), n)
+}
+
+fn read(dir: &Path) -> anyhow::Result<DriveLog> {
+    DriveLog::read(dir).with_context(|| format!("reading {}", dir.display()))
+}
+
+fn name_of(dir: &Path) -> String {
+    dir.file_name()
+        .map_or(String::new(), |n| n.to_string_lossy().into())
+}
+
+fn print(rows: &[TableRow]) {
+    let Some(first) = rows.first() else {
+        return;
+    };
+    let heads: Vec<&str> = first.1.iter().map(|m| m.0.as_str()).collect();
+    println!("| drive | segments | {} |", heads.join(" | "));
+    println!("|---|---|{}", "---|".repeat(heads.len()));
+    for (drive, cols, n) in rows {
+        let cells: Vec<String> = cols
+            .iter()
+            .map(|(_, e, c)| format!("{e:.3} ({c:+.2} s)"))
+            .collect();
+        println!("| {drive} | {n} | {} |", cells.join(" | "));
+    }
+}
+
+/// Scores `models` on `target` in `[from, to)`; each model's clock offset
+/// shown is its mean over the scored span.
+fn row(
+    target: &DriveLog,
+    models: &[Model],
+    from: f64,
+    to: f64,
+) -> (Vec<(String, f64, f64)>, usize) {
+    let (errs, n) = score(target, models, from, to);
+    let cols = models
+        .iter()
+        .zip(errs)
+        .map(|(m, e)| (m.name.clone(), e, (m.clock_at)(0.5 * (from + to))))
+        .collect();
+    (cols, n)
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let logs = crate::drives::logs_or_default(&a.logs)?;
+    let spec = PredictionSpec::default();
+    let mut table = Vec::new();
+    eprintln!("first half -> second half");
+    for dir in &logs {
+        let log = read(dir)?;
+        let (Some(first), Some(last)) = (log.wheels.first(), log.wheels.last()) else {
+            continue;
+        };
+        let (t0, t1) = (first.t, last.t);
+        let mid = 0.5 * (t0 + t1);
+        let w = log.meta.track_width.unwrap_or(0.5);
+        let acc = accelerations(&log.wheels);
+        let blr = Blr::fit_timed(&log, w, t0, mid).context("DRIVE's model: too few steady rows")?;
+        let mut cc = CalibConfig::default();
+        cc.segment.t_max = mid;
+        let cal = calibrate(std::slice::from_ref(&log), &cc, &|_| {})?;
+        let pf = cal.params_file();
+        let [selected, constant] = calibrated(&pf, &log, &acc)?;
+        let models = [
+            drive_model(blr),
+            online(&log, None, "online default")?,
+            constant,
+            selected,
+        ];
+        let (cols, n) = row(&log, &models, mid, t1 + 1.0 - spec.horizon);
+        eprintln!("  {}", name_of(dir));
+        table.push((name_of(dir), cols, n));
+    }
+    println!(
+        "2 s prediction error on the second half, mean m (clock offset), trained on the first half"
+    );
+    print(&table);
+    let mut table = Vec::new();
+    for pair in &a.across {
+        let (src, dst) = pair
+            .split_once(':')
+            .with_context(|| format!("--across {pair}: expected A:B"))?;
+        let (from_log, to_log) = (read(Path::new(src))?, read(Path::new(dst))?);
+        let w = from_log.meta.track_width.unwrap_or(0.5);
+        let (Some(a0), Some(a1), Some(b0), Some(b1)) = (
+            from_log.wheels.first(),
+            from_log.wheels.last(),
+            to_log.wheels.first(),
+            to_log.wheels.last(),
+        ) else {
+            continue;
+        };
+        let blr = Blr::fit_timed(&from_log, w, a0.t, a1.t + 1.0)
+            .context("DRIVE's model: too few steady rows")?;
+        let cal = calibrate(
+            std::slice::from_ref(&from_log),
+            &CalibConfig::default(),
+            &|_| {},
+        )?;
+        let pf = cal.params_file();
+        let acc = accelerations(&to_log.wheels);
+        let [selected, constant] = calibrated(&pf, &to_log, &acc)?;
+        let models = [
+            drive_model(blr),
+            online(&to_log, None, "online default")?,
+            online(&to_log, Some(&pf), "online --init")?,
+            constant,
+            selected,
+        ];
+        let (cols, n) = row(
+            &to_log,
+            &models,
+            b0.t + spec.warmup,
+            b1.t + 1.0 - spec.horizon,
+        );
+        eprintln!("  {pair}");
+        table.push((
+            format!("{} -> {}", name_of(Path::new(src)), name_of(Path::new(dst))),
+            cols,
+            n,
+        ));
+    }
+    if !table.is_empty() {
+        println!();
+        println!(
+            "2 s prediction error on drive B after 60 s, mean m (clock offset), trained on drive A"
+        );
+        print(&table);
+    }
+    Ok(())
+}

@@ -138,24 +138,29 @@ impl PredictionScore {
 
 /// The reference pose at `t` (linear interpolation; `None` outside them).
 pub fn interpolate(r: &[Reference], t: f64) -> Option<(f64, f64, f64)> {
-    let i = r.partition_point(|p| p.0 < t);
-    if let Some(p) = r.get(i).filter(|p| p.0 == t) {
-        return Some((p.1, p.2, p.3));
+    lerp(r, t, |p| p.0, |p| [p.1, p.2, p.3]).map(|[e, n, y]| (e, n, y))
+}
+
+/// Linear interpolation at `t` of the samples `r` (their times `time`,
+/// their values `value`); `None` outside them.
+fn lerp<T, const N: usize>(
+    r: &[T],
+    t: f64,
+    time: impl Fn(&T) -> f64,
+    value: impl Fn(&T) -> [f64; N],
+) -> Option<[f64; N]> {
+    let i = r.partition_point(|p| time(p) < t);
+    if let Some(p) = r.get(i).filter(|p| time(p) == t) {
+        return Some(value(p));
     }
     if i == 0 || i >= r.len() {
         return None;
     }
-    let (a, b) = (r[i - 1], r[i]);
-    let f = if b.0 > a.0 {
-        (t - a.0) / (b.0 - a.0)
-    } else {
-        0.0
-    };
-    Some((
-        a.1 + f * (b.1 - a.1),
-        a.2 + f * (b.2 - a.2),
-        a.3 + f * (b.3 - a.3),
-    ))
+    let (a, b) = (&r[i - 1], &r[i]);
+    let (ta, tb) = (time(a), time(b));
+    let f = if tb > ta { (t - ta) / (tb - ta) } else { 0.0 };
+    let (va, vb) = (value(a), value(b));
+    Some(std::array::from_fn(|k| va[k] + f * (vb[k] - va[k])))
 }
 
 /// Parameters in effect at a start and the pose stream's clock offset
@@ -220,20 +225,7 @@ pub fn predict_with(
 type Position = (f64, f64, f64);
 
 fn interpolate_position(r: &[Position], t: f64) -> Option<(f64, f64)> {
-    let i = r.partition_point(|p| p.0 < t);
-    if let Some(p) = r.get(i).filter(|p| p.0 == t) {
-        return Some((p.1, p.2));
-    }
-    if i == 0 || i >= r.len() {
-        return None;
-    }
-    let (a, b) = (r[i - 1], r[i]);
-    let f = if b.0 > a.0 {
-        (t - a.0) / (b.0 - a.0)
-    } else {
-        0.0
-    };
-    Some((a.1 + f * (b.1 - a.1), a.2 + f * (b.2 - a.2)))
+    lerp(r, t, |p| p.0, |p| [p.1, p.2]).map(|[e, n]| (e, n))
 }
 
 /// The heading at `t` from headings `(t, yaw unwrapped)` no further apart

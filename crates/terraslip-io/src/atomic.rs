@@ -1,5 +1,7 @@
 //! Atomic file output: write to a temporary file beside the target, flush,
 //! then rename over it, so a reader (or a crash) never sees half a file.
+//! The temporary `.NAME.PID.tmp` that a killed process leaves is removed by
+//! the next writer of NAME.
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -16,13 +18,15 @@ pub struct AtomicFile {
 }
 
 impl AtomicFile {
-    /// Starts writing `target` (its parent directory must exist).
+    /// Starts writing `target` (its parent directory must exist), removing
+    /// the temporaries of `target` left by processes that are gone.
     pub fn create(target: impl AsRef<Path>) -> Result<Self, LogError> {
         let target = target.as_ref().to_path_buf();
         let name = target
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_else(|| "out".into());
+        remove_stale_temps(parent_dir(&target), &[&name]);
         let tmp = target.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
         let file = File::create(&tmp).map_err(|e| LogError::io(&tmp, e))?;
         Ok(Self {
@@ -37,7 +41,8 @@ impl AtomicFile {
         &self.target
     }
 
-    /// Flushes, syncs and renames into place.
+    /// Flushes, syncs and renames into place, then syncs the directory so
+    /// that the rename survives a power loss too.
     pub fn commit(mut self) -> Result<(), LogError> {
         if let Some(w) = self.writer.take() {
             let file = w
@@ -45,7 +50,13 @@ impl AtomicFile {
                 .map_err(|e| LogError::io(&self.tmp, e.into_error()))?;
             file.sync_all().map_err(|e| LogError::io(&self.tmp, e))?;
         }
-        std::fs::rename(&self.tmp, &self.target).map_err(|e| LogError::io(&self.target, e))
+        std::fs::rename(&self.tmp, &self.target).map_err(|e| LogError::io(&self.target, e))?;
+        // Best effort: some filesystems cannot sync a directory, and the
+        // file is in place (whole) either way.
+        if let Ok(dir) = File::open(parent_dir(&self.target)) {
+            let _ = dir.sync_all();
+        }
+        Ok(())
     }
 }
 
@@ -140,25 +151,35 @@ impl DirLock {
     /// Removes the temporaries [`AtomicFile`] left for `names` by processes
     /// that are gone (killed mid-run); a live process's are its own.
     pub fn remove_stale_temps(&self, names: &[&str]) {
-        let Some(dir) = self.lock.parent() else {
-            return;
-        };
-        let Ok(entries) = std::fs::read_dir(dir) else {
-            return;
-        };
-        for entry in entries.flatten() {
-            let file = entry.file_name();
-            let file = file.to_string_lossy();
-            let stale = names.iter().any(|n| {
-                file.strip_prefix(&format!(".{n}."))
-                    .and_then(|rest| rest.strip_suffix(".tmp"))
-                    .and_then(|pid| pid.parse::<u32>().ok())
-                    // A live run's file is its own, whatever the lock says.
-                    .is_some_and(|pid| !process_alive(pid))
-            });
-            if stale {
-                let _ = std::fs::remove_file(entry.path());
-            }
+        remove_stale_temps(parent_dir(&self.lock), names);
+    }
+}
+
+/// The directory a file of `path` goes in (`.` for a bare name).
+fn parent_dir(path: &Path) -> &Path {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    }
+}
+
+/// Removes from `dir` the temporaries `.NAME.PID.tmp` of `names` whose
+/// process is gone; a live process's are its own.
+fn remove_stale_temps(dir: &Path, names: &[&str]) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let file = entry.file_name();
+        let file = file.to_string_lossy();
+        let stale = names.iter().any(|n| {
+            file.strip_prefix(&format!(".{n}."))
+                .and_then(|rest| rest.strip_suffix(".tmp"))
+                .and_then(|pid| pid.parse::<u32>().ok())
+                .is_some_and(|pid| !process_alive(pid))
+        });
+        if stale {
+            let _ = std::fs::remove_file(entry.path());
         }
     }
 }

@@ -10,9 +10,16 @@ Humble and Jazzy type stores, rebuilt as our class, serialised by Cyclone,
 and must equal the recorded bytes and both type stores' serialisation.
 
 Usage (from .ci/node): node_interop.py BAG NODE_CMD_JSON OFFLINE_MCAP SPEED
+  or node_interop.py --kill BAG NODE_CMD_JSON PARAMS SEED: the recording is
+  played into the node, which is killed (SIGKILL) at seeded random moments
+  while it saves every few seconds; after each kill the parameters file
+  must be absent or whole, with no other file beside it but the killed
+  process's temporary, and each restart reads it back (recalls).
 """
 
 import json
+import os
+import random
 import subprocess
 import sys
 import time
@@ -159,8 +166,8 @@ def body(b):
     return b[: len(b) - pad] if pad else b
 
 
-def main():
-    bag, node_cmd, offline_mcap, speed = sys.argv[1], json.loads(sys.argv[2]), sys.argv[3], float(sys.argv[4])
+def recording(bag):
+    """The recording's sensor messages, each checked byte for byte."""
     stores = {s: get_typestore(s) for s in (Stores.ROS2_HUMBLE, Stores.ROS2_JAZZY)}
     reader = Reader(bag)
     reader.open()
@@ -183,7 +190,11 @@ def main():
             sys.exit(f"{conn.topic} ({conn.msgtype}): Cyclone's bytes differ from the recording's:\n{bytes(mine)[:64].hex()}\n{bytes(raw)[:64].hex()}")
         checked[conn.topic] = checked.get(conn.topic, 0) + 1
     print(f"byte check: {checked} messages equal to the recording, Humble and Jazzy type stores")
+    return stores, conns, msgs
 
+
+def peer(conns):
+    """The player's writers (sensors' QoS), the odometry reader, discovery."""
     dp = DomainParticipant()
     best_effort = Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(50))
     reliable = Qos(Policy.Reliability.Reliable(duration(seconds=1)), Policy.History.KeepLast(100))
@@ -195,7 +206,11 @@ def main():
     out_topic = Topic(dp, "rt/terraslip/odom", Odometry)
     out = DataReader(dp, out_topic, qos=Qos(Policy.Reliability.Reliable(duration(seconds=1)), Policy.History.KeepLast(10000)))
     subs = BuiltinDataReader(dp, BuiltinTopicDcpsSubscription)
+    return dp, writers, out, subs
 
+
+def start(node_cmd, conns, subs):
+    """Starts the node and waits until it reads every sensor topic."""
     node = subprocess.Popen(node_cmd)
     want = {"rt" + c.topic for c in conns}
     seen = set()
@@ -208,7 +223,68 @@ def main():
             seen.add(s.topic_name)
         time.sleep(0.1)
     time.sleep(2.0)
-    print(f"node subscribed to {sorted(seen & want)}; playing {len(msgs)} messages at {speed}x")
+    return node
+
+
+def play(msgs, stores, writers, speed, until=None, drain=lambda: None):
+    """Plays the messages at `speed` x real time, for `until` s at most."""
+    t0_bag = msgs[0][1]
+    t0 = time.time()
+    for conn, ts, raw in msgs:
+        due = t0 + (ts - t0_bag) * 1e-9 / speed
+        if until is not None and due - t0 > until:
+            return
+        while time.time() < due:
+            drain()
+            time.sleep(min(0.002, max(0.0, due - time.time())))
+        m = stores[Stores.ROS2_HUMBLE].deserialize_cdr(raw, conn.msgtype)
+        writers[conn.topic].write(rebuild(CLASSES[conn.msgtype], m))
+
+
+def kill_rounds(bag, node_cmd, params, seed, rounds=4):
+    """SIGKILL at random moments of a replay; the file stays whole."""
+    rng = random.Random(seed)
+    stores, conns, msgs = recording(bag)
+    dp, writers, out, subs = peer(conns)
+    folder, name = os.path.split(params)
+    saved = 0
+    for r in range(rounds):
+        recalls = os.path.exists(params)
+        node = start(node_cmd, conns, subs)
+        if node.poll() is not None:
+            sys.exit(f"round {r}: the node did not start (exit {node.returncode}) on the parameters file it left")
+        # Start at a random place so the rounds see different driving.
+        first = rng.randrange(0, len(msgs) // 2)
+        play(msgs[first:], stores, writers, speed=16, until=rng.uniform(2.0, 8.0))
+        if node.poll() is not None:
+            sys.exit(f"round {r}: the node ended by itself (exit {node.returncode})")
+        node.kill()
+        node.wait()
+        left = sorted(set(os.listdir(folder)) - {name})
+        if any(f != f".{name}.{node.pid}.tmp" for f in left):
+            sys.exit(f"round {r}: files left beside {name}: {left}")
+        if os.path.exists(params):
+            with open(params) as f:
+                p = json.load(f)["params"]
+            values = [p["y_l"], p["y_r"], p["x_c"]]
+            if not all(isinstance(v, (int, float)) and abs(v) < 1e3 for v in values) or not p["y_l"] > p["y_r"]:
+                sys.exit(f"round {r}: parameters not sane: {p}")
+            saved += 1
+        print(f"kill round {r}: {'recalled the file, ' if recalls else ''}killed after a random time; "
+              f"{'file whole' if os.path.exists(params) else 'no file yet'}, left beside it: {left}")
+    if saved == 0:
+        sys.exit("the node never saved before it was killed: the test proved nothing")
+
+
+def main():
+    if sys.argv[1] == "--kill":
+        kill_rounds(sys.argv[2], json.loads(sys.argv[3]), sys.argv[4], int(sys.argv[5]))
+        return
+    bag, node_cmd, offline_mcap, speed = sys.argv[1], json.loads(sys.argv[2]), sys.argv[3], float(sys.argv[4])
+    stores, conns, msgs = recording(bag)
+    dp, writers, out, subs = peer(conns)
+    node = start(node_cmd, conns, subs)
+    print(f"node subscribed to the sensor topics; playing {len(msgs)} messages at {speed}x")
 
     got = {}
 
@@ -217,15 +293,8 @@ def main():
             st = s.header.stamp
             got[st.sec * 1_000_000_000 + st.nanosec] = (s.pose.pose.position.x, s.pose.pose.position.y)
 
-    t0_bag = msgs[0][1]
     t0 = time.time()
-    for conn, ts, raw in msgs:
-        due = t0 + (ts - t0_bag) * 1e-9 / speed
-        while time.time() < due:
-            drain()
-            time.sleep(min(0.002, max(0.0, due - time.time())))
-        m = stores[Stores.ROS2_HUMBLE].deserialize_cdr(raw, conn.msgtype)
-        writers[conn.topic].write(rebuild(CLASSES[conn.msgtype], m))
+    play(msgs, stores, writers, speed, drain=drain)
     print(f"played in {time.time() - t0:.1f} s; waiting for the node to end")
     try:
         node.wait(timeout=60)

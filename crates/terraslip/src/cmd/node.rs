@@ -116,9 +116,14 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
         cfg = terraslip::estimate::overlay(cfg, &text, "--ros-args parameters")?;
         cfg.validate()?;
     }
-    if let Some(init) = &args.init {
-        super::refuse_overwrite(&args.params, &[init.as_path()], &[])?;
-    }
+    super::inputs_with(
+        &[],
+        &[
+            ("--init", args.init.as_deref()),
+            ("--config", args.config.as_deref()),
+        ],
+    )
+    .check("--params", &args.params)?;
     let start = match (&args.init, args.params.is_file()) {
         (Some(p), _) => Some(ParamsFile::read(p).with_context(|| "--init")?),
         (None, true) => Some(ParamsFile::read(&args.params).with_context(|| "--params")?),

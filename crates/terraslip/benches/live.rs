@@ -3,8 +3,8 @@
 //!
 //! Prints, before criterion's figures, the latency from a wheels sample's
 //! arrival to its estimate row with `lag = 0` (p50, p99, max over the hour,
-//! one core), and the time and the samples held per 10 minutes of the hour
-//! (flat: nothing grows with the drive). Criterion then times the whole
+//! one core), and per 10 minutes of the hour the time, the samples held and
+//! the process's resident memory (flat: nothing grows with the drive). Criterion then times the whole
 //! hour with the default lag (0.3 s).
 use std::time::Instant;
 
@@ -50,10 +50,30 @@ impl terraslip::pipeline::RowSink for Last {
     }
 }
 
+/// The process's resident memory, MiB (`VmRSS` of /proc/self/status;
+/// NaN where there is no /proc).
+fn resident_mib() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find_map(|l| l.strip_prefix("VmRSS:"))
+                .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
+        })
+        .map_or(f64::NAN, |kib| kib / 1024.0)
+}
+
 fn latency(samples: &[Sample], cfg: &EstimatorConfig) {
     let mut live = Live::new("bench", cfg, 0.5, None, 0.0, 0.0).expect("builds");
     let mut sink = Last(None, 0);
-    let mut lat: Vec<f64> = Vec::with_capacity(180_001);
+    // Written once so its pages are resident before the hour: its filling
+    // must not show as growth of the resident memory.
+    let mut lat: Vec<f64> = vec![f64::NAN; 180_001];
+    lat.clear();
+    eprintln!(
+        "  resident before the hour (its samples loaded): {:.1} MiB",
+        resident_mib()
+    );
     let mut chunk = Instant::now();
     let mut next = 600.0;
     for s in samples {
@@ -71,11 +91,12 @@ fn latency(samples: &[Sample], cfg: &EstimatorConfig) {
         }
         if s.t() >= next {
             eprintln!(
-                "  {:>4.0}-{:>4.0} s of drive: {:.0} ms, {} samples held",
+                "  {:>4.0}-{:>4.0} s of drive: {:.0} ms, {} samples held, resident {:.1} MiB",
                 next - 600.0,
                 next,
                 chunk.elapsed().as_secs_f64() * 1e3,
-                live.held()
+                live.held(),
+                resident_mib()
             );
             chunk = Instant::now();
             next += 600.0;

@@ -100,7 +100,7 @@ fn killed_at_random_moments_leaves_the_file_whole() {
             "round {round}: temporaries of earlier writers are left: {left:?}"
         );
     }
-    assert!(whole >= 10, "the writer wrote in only {whole} of 20 rounds");
+    assert!(whole >= 5, "the writer wrote in only {whole} of 20 rounds");
     // A restart (here: one more write) recalls and then replaces the file,
     // and leaves nothing else.
     let before = ParamsFile::read(&target).unwrap();

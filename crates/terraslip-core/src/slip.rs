@@ -69,6 +69,15 @@ impl Chart {
         }
     }
 
+    /// Indices (in the chart's five) of the parameters only a position
+    /// reference teaches: the speed factor and the ICR centre offsets
+    /// (`a`, `y_c`, `x_c` in [`Chart::Gain`]; `x_c`, `alpha_l`, `alpha_r` in
+    /// [`Chart::Tread`], whose axes cannot hold the common speed factor
+    /// without its difference). Heading and yaw rate see the others.
+    pub fn position_slots(self) -> [usize; 3] {
+        [2, 3, 4]
+    }
+
     /// The chart coordinates of `p`.
     pub fn from_icr(self, p: &IcrParams) -> Slip {
         match self {

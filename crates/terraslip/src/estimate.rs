@@ -10,6 +10,8 @@ use terraslip_io::{DriveLog, GyroStream, LogError, ParamsFile, PoseStream, Strea
 
 use crate::config::EstimatorConfig;
 use crate::pipeline::{self, EstimateRow, EstimateRun, RowSink, RunOptions, TerrainEvidence};
+use terraslip_core::filter::{FilterConfig, SlipHold};
+use terraslip_core::slip::Chart;
 use terraslip_core::IcrParams;
 
 mod numbers;
@@ -403,6 +405,9 @@ pub fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) ->
             "alpha_l": icr.alpha_l, "alpha_r": icr.alpha_r,
         },
         "icr_holds_at": "straight line (tread speed difference 0)",
+        // Per group of slip parameters: "learned" or "held (why)"; a held
+        // group's values in "icr" are its starting values.
+        "learning": learning_json(est.hold, &cfg.filter),
         "icr_std": last.map(|r| serde_json::json!({
             "y_l": r.std[3], "y_r": r.std[4], "x_c": r.std[5], "spread": r.std_spread,
         })),
@@ -453,6 +458,43 @@ pub fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) ->
         // How well the parameters the filter reported at each time predict
         // the next 2 s of motion against the pose reference (absent without one).
         "prediction": est.prediction.as_ref().map(|p| p.to_json()),
+    })
+}
+
+/// The `learning` object of `summary.json`: for the spread, the speed
+/// factor difference, the common speed factor and the ICR centre offsets,
+/// `"learned"` or `"held (why)"`.
+pub fn learning_json(hold: SlipHold, filter: &FilterConfig) -> serde_json::Value {
+    const NO_POSITIONS: &str =
+        "held (no position reference: only positions show it; its starting value)";
+    const NOTHING: &str =
+        "held (no position, heading or gyro: nothing measures the motion; its starting value)";
+    let filter = FilterConfig { hold, ..*filter };
+    let held = filter.held_slots();
+    let (spread, difference, speed, offsets) = match filter.chart {
+        Chart::Gain => (held[0], held[1], held[2], held[3] || held[4]),
+        Chart::Tread => (held[0] || held[1], held[3], held[3], held[2]),
+    };
+    let state = |is_held: bool, factor: bool| {
+        if !filter.learn_icr {
+            "held (filter.learn_icr = false)"
+        } else if factor && !filter.learn_alpha {
+            "held (filter.learn_alpha = false)"
+        } else if !is_held {
+            "learned"
+        } else if hold == SlipHold::All {
+            NOTHING
+        } else if factor && filter.chart == Chart::Tread {
+            "held (no position reference: the tread chart holds both speed factors)"
+        } else {
+            NO_POSITIONS
+        }
+    };
+    serde_json::json!({
+        "spread": state(spread, false),
+        "speed_factor_difference": state(difference, true),
+        "speed_factor": state(speed, true),
+        "icr_centre_offsets": state(offsets, false),
     })
 }
 

@@ -83,6 +83,25 @@ impl SlipStd {
     }
 }
 
+/// Slip parameters the filter holds at their starting values because the
+/// log's sensors cannot tell them. Decided from the sensors a log has (by
+/// the pipeline), not a setting: no process noise is added to a held
+/// parameter and no update moves it; its starting uncertainty is kept.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SlipHold {
+    /// Everything is learned: a position reference is present.
+    #[default]
+    Nothing,
+    /// No position reference, but a heading or a yaw-rate gyro: the
+    /// parameters only positions teach ([`Chart::position_slots`]: the
+    /// common speed factor and the ICR centre offsets) are held; the
+    /// turning gain and the factor difference are learned from the turning.
+    PositionTaught,
+    /// No position, heading or gyro: every slip parameter and the turn law
+    /// are held (dead reckoning with the starting values).
+    All,
+}
+
 /// Gain rule of the filter.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -248,6 +267,10 @@ pub struct FilterConfig {
     /// fixes' noise, the model's speed and heading-rate noise) is averaged,
     /// s (0 = no learning: the stated or configured noise is used).
     pub noise_memory: f64,
+    /// What the log's sensors cannot teach (set by the pipeline from the
+    /// log, not read from a settings file).
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub hold: SlipHold,
 }
 
 impl Default for FilterConfig {
@@ -289,11 +312,48 @@ impl Default for FilterConfig {
                 alpha_diff: 0.0,
             },
             noise_memory: 60.0,
+            hold: SlipHold::Nothing,
         }
     }
 }
 
 impl FilterConfig {
+    /// Which of the chart's five slip parameters [`FilterConfig::hold`]
+    /// keeps at their starting values.
+    pub fn held_slots(&self) -> [bool; 5] {
+        let mut held = [false; 5];
+        match self.hold {
+            SlipHold::Nothing => {}
+            SlipHold::PositionTaught => {
+                for k in self.chart.position_slots() {
+                    held[k] = true;
+                }
+            }
+            SlipHold::All => held = [true; 5],
+        }
+        held
+    }
+
+    /// `cov` with the rows and columns of the held slip parameters zeroed:
+    /// what a random walk or a reset may add to the slip covariance.
+    pub(super) fn unheld(&self, mut cov: SlipMat) -> SlipMat {
+        for (k, held) in self.held_slots().iter().enumerate() {
+            if *held {
+                cov.row_mut(k).fill(0.0);
+                cov.column_mut(k).fill(0.0);
+            }
+        }
+        cov
+    }
+
+    /// The slip random walk per second in chart coordinates at `icr`, none
+    /// on the held parameters.
+    pub(super) fn slip_walk_cov(&self, icr: &IcrParams) -> Option<SlipMat> {
+        self.slip_walk
+            .chart_cov(self.chart, icr)
+            .map(|q| self.unheld(q))
+    }
+
     /// Checks every setting; the error names the key.
     pub fn validate(&self) -> Result<(), FilterError> {
         let finite_nonneg = |v: f64| v.is_finite() && v >= 0.0;

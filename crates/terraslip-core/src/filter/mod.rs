@@ -28,7 +28,9 @@ mod predict;
 mod reset;
 mod update;
 
-pub use config::{FilterConfig, IcrBand, MeasurementConfig, SlipStd, Variant, MAX_WINDOW};
+pub use config::{
+    FilterConfig, IcrBand, MeasurementConfig, SlipHold, SlipStd, Variant, MAX_WINDOW,
+};
 pub use gyro::{GyroNoise, GYRO_WINDOW};
 
 use nalgebra::SMatrix;
@@ -279,8 +281,7 @@ impl Filter {
         P[(LAW, LAW)] = prior.turn_law_std * prior.turn_law_std;
         P[(GYRO_BIAS, GYRO_BIAS)] = meas.gyro_bias_std * meas.gyro_bias_std;
         let q_slip = cfg
-            .slip_walk
-            .chart_cov(chart, &icr0)
+            .slip_walk_cov(&icr0)
             .ok_or(FilterError::BadInput("prior ICR parameters are singular"))?;
         let learn = cfg.noise_memory > 0.0;
         let fit = |model: f64| {

@@ -2,7 +2,7 @@
 
 use nalgebra::SMatrix;
 
-use super::{finite_mat, Filter, FilterError};
+use super::{finite_mat, Filter, FilterError, SlipHold};
 use crate::model::{self, BIAS_E, BIAS_N, CLOCK, EAST, GYRO_BIAS, LAW, N, NORTH, SLIP, YAW};
 use crate::slip::TreadInput;
 
@@ -100,7 +100,7 @@ impl Filter {
             if cfg.learn_clock {
                 P[(CLOCK, CLOCK)] += dt * cfg.clock_walk * cfg.clock_walk;
             }
-            if P[(LAW, LAW)] > 0.0 {
+            if P[(LAW, LAW)] > 0.0 && cfg.hold != SlipHold::All {
                 P[(LAW, LAW)] += dt * cfg.turn_law_walk * cfg.turn_law_walk;
             }
         }

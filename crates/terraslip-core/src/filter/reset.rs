@@ -16,6 +16,7 @@ impl Filter {
         std.spread *= icr.spread();
         let add = std
             .chart_cov(self.cfg.chart, &icr)
+            .map(|c| self.cfg.unheld(c))
             .ok_or(FilterError::NonFinite)?;
         let mut blk = self.P.fixed_view_mut::<5, 5>(SLIP, SLIP);
         blk += add;
@@ -76,7 +77,7 @@ impl Filter {
         }
         self.P.fixed_view_mut::<5, 5>(SLIP, SLIP).copy_from(&c);
         self.gyro_win.close();
-        if let Some(q) = self.cfg.slip_walk.chart_cov(chart, &icr) {
+        if let Some(q) = self.cfg.slip_walk_cov(&icr) {
             self.q_slip = q;
         }
         for d in &mut self.detector {

@@ -455,7 +455,50 @@ fn covariance_stays_symmetric_positive_definite_through_anything() {
 /// pose fix at all, ends with the gain the gyro shows.
 #[test]
 fn a_gyro_teaches_its_bias_standing_and_the_turning_gain_driving() {
-    let w = 0.5;
+    let (f, truth) = gyro_drive(FilterConfig::default(), 0.015);
+    let icr = f.icr();
+    assert!(
+        (gain(&icr) / gain(&truth) - 1.0).abs() < 0.03,
+        "gain {} against {}",
+        gain(&icr),
+        gain(&truth)
+    );
+}
+
+/// Turning gain `a / d`, 1/m.
+fn gain(p: &IcrParams) -> f64 {
+    0.5 * (p.alpha_l + p.alpha_r) / p.spread()
+}
+
+/// Without positions the gyro teaches the turning gain; the held speed
+/// factor and ICR centre stay exactly at the prior, their variance too.
+#[test]
+fn a_gyro_alone_learns_the_turning_and_leaves_the_held_speed_factor() {
+    let mut cfg = FilterConfig::default();
+    cfg.hold = SlipHold::PositionTaught;
+    let before = Filter::new(&prior_gyro(), cfg, MeasurementConfig::default(), band(0.5)).unwrap();
+    let (f, truth) = gyro_drive(cfg, 0.015);
+    let (s0, s) = (before.raw().0, f.raw().0);
+    let (p0, p) = (before.raw().1, f.raw().1);
+    for k in Chart::Gain.position_slots() {
+        let i = crate::model::SLIP + k;
+        assert_eq!(s[i], s0[i], "slot {k} moved");
+        assert_eq!(p[(i, i)], p0[(i, i)], "slot {k} variance changed");
+    }
+    assert!((gain(&f.icr()) / gain(&truth) - 1.0).abs() < 0.03);
+    assert_spd(&f);
+}
+
+/// The gyro drive's prior: a spread 40 % wider than the truth's.
+fn prior_gyro() -> Prior {
+    let mut p = prior(0.5);
+    p.icr = IcrParams::no_slip(0.63);
+    p
+}
+
+/// 60 s with a gyro of bias `bias` (rad/s) and no pose fix, standing for
+/// the first 20 s; returns the filter and the truth.
+fn gyro_drive(cfg: FilterConfig, bias: f64) -> (Filter, IcrParams) {
     let truth = IcrParams {
         y_l: 0.45,
         y_r: -0.45,
@@ -463,16 +506,8 @@ fn a_gyro_teaches_its_bias_standing_and_the_turning_gain_driving() {
         alpha_l: 0.9,
         alpha_r: 0.9,
     };
-    let mut p = prior(w);
-    p.icr = IcrParams::no_slip(0.63);
-    let mut f = Filter::new(
-        &p,
-        FilterConfig::default(),
-        MeasurementConfig::default(),
-        band(w),
-    )
-    .unwrap();
-    let (bias, dt) = (0.015, 0.02);
+    let mut f = Filter::new(&prior_gyro(), cfg, MeasurementConfig::default(), band(0.5)).unwrap();
+    let dt = 0.02;
     let mut rng = SplitMix64::new(11);
     for k in 0..3000 {
         let t = k as f64 * dt;
@@ -487,12 +522,5 @@ fn a_gyro_teaches_its_bias_standing_and_the_turning_gain_driving() {
             assert!(g.fused > 30, "{g:?}");
         }
     }
-    let icr = f.icr();
-    let gain = |p: &IcrParams| 0.5 * (p.alpha_l + p.alpha_r) / p.spread();
-    assert!(
-        (gain(&icr) / gain(&truth) - 1.0).abs() < 0.03,
-        "gain {} against {}",
-        gain(&icr),
-        gain(&truth)
-    );
+    (f, truth)
 }

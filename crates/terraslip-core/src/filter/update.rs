@@ -20,7 +20,8 @@
 use nalgebra::{Matrix2, Matrix3, SMatrix, Vector2, Vector3};
 
 use super::{
-    finite_mat, isolate, Chord, Fate, Filter, FilterError, Mat3xN, PoseFix, UpdateReport, Variant,
+    finite_mat, isolate, Chord, Fate, Filter, FilterError, Mat3xN, PoseFix, SlipHold, UpdateReport,
+    Variant,
 };
 use crate::angle;
 use crate::model::{MatN, BIAS_E, BIAS_N, CLOCK, EAST, LAW, N, NORTH, SLIP, YAW};
@@ -418,7 +419,7 @@ impl Filter {
     /// Recomputes the slip random walk in the chart at the current state
     /// (the walk is set in ICR terms; the chart's coordinates move).
     fn refresh_walk(&mut self) {
-        if let Some(q) = self.cfg.slip_walk.chart_cov(self.cfg.chart, &self.icr()) {
+        if let Some(q) = self.cfg.slip_walk_cov(&self.icr()) {
             self.q_slip = q;
         }
     }
@@ -490,8 +491,8 @@ impl Filter {
     }
 
     /// The states that must not learn from a measurement now: the slip
-    /// parameters at standstill or when not learned, the speed factors when
-    /// not learned, the clock likewise, and everything but the position
+    /// parameters at standstill, when not learned or held
+    /// ([`super::FilterConfig::hold`]), the speed factors when not learned, the clock likewise, and everything but the position
     /// and its bias from a position fix while the heading is unknown.
     pub(super) fn frozen(&self, yaw_known: bool) -> [bool; N] {
         let cfg = &self.cfg;
@@ -502,8 +503,12 @@ impl Filter {
                 *f = !matches!(i, EAST | NORTH | BIAS_E | BIAS_N);
             }
         }
+        let hold_all = cfg.hold == SlipHold::All;
         for f in &mut frozen[SLIP..=LAW] {
-            *f |= self.still || !cfg.learn_icr;
+            *f |= self.still || !cfg.learn_icr || hold_all;
+        }
+        for (k, held) in cfg.held_slots().iter().enumerate() {
+            frozen[SLIP + k] |= *held;
         }
         if !cfg.learn_alpha {
             for k in cfg.chart.factor_slots() {

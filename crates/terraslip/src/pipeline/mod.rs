@@ -12,7 +12,7 @@ mod terrain_feed;
 
 use terraslip_calib::prediction::PredictionScore;
 use terraslip_core::estimator::{Estimator, FixCounts};
-use terraslip_core::filter::{IcrBand, PoseFix};
+use terraslip_core::filter::{IcrBand, PoseFix, SlipHold};
 use terraslip_core::schedule::ChangeAction;
 use terraslip_core::IcrParams;
 use terraslip_io::{DriveLog, LogError, ParamsFile, PoseObs, TerrainLabel};
@@ -179,6 +179,10 @@ pub struct EstimateRun {
     pub final_icr: IcrParams,
     /// Final turn law slope and its std, s/m.
     pub turn_law: (f64, f64),
+    /// The slip parameters the log's sensors could not teach, held at
+    /// their starting values (decided from the log: positions, headings,
+    /// gyro).
+    pub hold: SlipHold,
     /// Where the starting slip parameters came from (`prior`, `init:<set>`).
     pub init_source: String,
     /// Final clock offset of the pose stream and its std, s.
@@ -325,16 +329,25 @@ pub fn run_streams(
     if wheels.peek().is_none() {
         return Err(PipelineError::NoWheels { dir });
     }
-    let setup::Setup {
-        mut estimator,
-        terrains,
-        track_width,
-        init_source,
-        mut warnings,
-    } = setup::setup(log, cfg, evidence, init)?;
-    let mut pose = streams.pose.peekable();
+    // What the log can teach: its first pose rows tell whether it has
+    // positions and headings (they are handed on to the run unchanged).
+    let mut ahead = Vec::new();
+    for row in &mut *streams.pose {
+        let stop = row.is_err() || ahead.len() + 1 >= POSE_LOOKAHEAD;
+        ahead.push(row);
+        if stop {
+            break;
+        }
+    }
+    let seen = |f: fn(&PoseObs) -> bool| ahead.iter().flatten().any(f);
+    let positions = seen(|p| p.east.is_some() && p.north.is_some());
+    let headings = seen(|p| p.yaw.is_some());
+    let mut chained = ahead.into_iter().chain(streams.pose);
+    let pose: &mut dyn Iterator<Item = _> = &mut chained;
+    let mut pose = pose.peekable();
     // The gyro is fused when configured and when it is the body's yaw
     // rate; its samples are moved onto the wheels' clock.
+    let mut warnings = Vec::new();
     let mut no_gyro = std::iter::empty();
     let (gyro, delay): (&mut dyn Iterator<Item = _>, f64) = match streams.gyro_clock {
         _ if cfg.measurement.std_gyro == 0.0 => (&mut no_gyro, 0.0),
@@ -348,10 +361,26 @@ pub fn run_streams(
         GyroClock::Unknown => (streams.gyro, 0.0),
     };
     let mut gyro = gyro.peekable();
-    if pose.peek().is_none() {
-        warnings.push(format!(
-            "{dir}: no pose observations: dead reckoning from the origin with the initial ICRs"
-        ));
+    let gyro_fused = gyro.peek().is_some();
+    let hold = if positions {
+        SlipHold::Nothing
+    } else if headings || gyro_fused {
+        SlipHold::PositionTaught
+    } else {
+        SlipHold::All
+    };
+    let mut cfg_held = cfg.clone();
+    cfg_held.filter.hold = hold;
+    let setup::Setup {
+        mut estimator,
+        terrains,
+        track_width,
+        init_source,
+        warnings: setup_warnings,
+    } = setup::setup(log, &cfg_held, evidence, init)?;
+    warnings.splice(0..0, setup_warnings);
+    if let Some(w) = hold_warning(&dir, hold, pose.peek().is_some(), &init_source) {
+        warnings.push(w);
     }
     let cx = Context {
         dir: &dir,
@@ -379,6 +408,30 @@ pub fn run_streams(
             gyro_delay: delay,
         },
     ))
+}
+
+/// Pose rows read ahead to tell whether a log has positions and headings
+/// (a few minutes of 10 Hz fixes).
+const POSE_LOOKAHEAD: usize = 2000;
+
+/// The warning that says which slip parameters a log without positions
+/// cannot teach and holds (`None` when positions are present).
+fn hold_warning(dir: &str, hold: SlipHold, has_pose: bool, start: &str) -> Option<String> {
+    let what = if has_pose {
+        "the pose reference has headings but no positions"
+    } else {
+        "no pose observations: dead reckoning from the origin"
+    };
+    match hold {
+        SlipHold::Nothing => None,
+        SlipHold::PositionTaught => Some(format!(
+            "{dir}: {what}; only positions show the common speed factor (alpha_l + alpha_r)/2 and the ICR centre offsets, so they stay at their starting values ({start}) and are not learned; the turning (spread, speed factor difference) is learned from the {}",
+            if has_pose { "headings" } else { "gyro" }
+        )),
+        SlipHold::All => Some(format!(
+            "{dir}: {what} and no yaw-rate gyro: nothing measures the motion, so every slip parameter stays at its starting value ({start}) and none is learned"
+        )),
+    }
 }
 
 /// What the set-up decided, carried into the result.
@@ -465,6 +518,7 @@ fn finish(
         band,
         final_icr: f.icr(),
         turn_law: f.turn_law(),
+        hold: f.config().hold,
         init_source,
         clock_offset: f.clock_offset(),
         gyro: f.gyro_noise(),

@@ -24,6 +24,10 @@
 //! 6. One set per terrain of `terrain.csv`; steering efficiency, eccentricity,
 //!    uncertainties, and Pioneer Ticksmm/Revcount in the output.
 //!
+//! A position-only reference (GNSS fixes, no heading on any row of any
+//! log) is fitted instead on windows of fixes, each window's start heading
+//! and position profiled out ([`track`]).
+//!
 //! [`validate()`] scores a parameter file on other drives against the no-slip
 //! model, per segment (Mandow Table III), with the turn-rate model where the
 //! file selected one and the constant model alongside.
@@ -40,6 +44,7 @@ pub mod sandwich;
 pub mod segment;
 pub mod symmetric;
 pub mod synthetic;
+pub mod track;
 pub mod validate;
 
 use std::path::PathBuf;

@@ -4,6 +4,7 @@
 use crate::ga::GaConfig;
 use crate::lm::LmConfig;
 use crate::segment::SegmentConfig;
+use crate::track::TrackConfig;
 
 /// Identification method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
@@ -65,6 +66,10 @@ impl Default for GaSettings {
 #[derive(Debug, Clone, PartialEq)]
 pub struct CalibConfig {
     pub segment: SegmentConfig,
+    /// Windows of fixes for a position-only reference (every log's pose
+    /// rows without a heading, [`crate::track`]); its `t_min`/`t_max` are
+    /// `segment`'s.
+    pub track: TrackConfig,
     /// Weight between metres and radians in eq. 13, m/rad: a heading error
     /// of 1 rad costs as much as a position error of `yaw_weight` m.
     /// Mandow et al. use 1. The default 0.5 is about the sideways shift a
@@ -132,6 +137,7 @@ impl Default for CalibConfig {
                 overlap: Some(0.0),
                 ..SegmentConfig::default()
             },
+            track: TrackConfig::default(),
             yaw_weight: 0.5,
             method: None,
             lm: LmConfig::default(),

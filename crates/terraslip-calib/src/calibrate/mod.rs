@@ -19,6 +19,7 @@ use crate::CalibError;
 
 mod config;
 mod offset_profile;
+mod position_only;
 mod rate;
 mod result;
 
@@ -67,6 +68,9 @@ pub fn calibrate(
         }
         warnings.extend(log.warnings.iter().cloned());
     }
+    if logs.iter().all(crate::track::position_only) {
+        return position_only::calibrate(logs, cfg, progress, warnings);
+    }
     let scfg = cfg.segment.for_logs(logs);
     // The offset search compares candidates; chained segments suffice and
     // keep it fast.
@@ -96,12 +100,7 @@ pub fn calibrate(
             TimeOffset::Auto { max, step } => {
                 let o = refine_offset(log, &ocfg, o, max, cfg.yaw_weight);
                 if o.abs() >= max - 0.5 * step {
-                    warnings.push(format!(
-                        "{}: the time offset {o:+.3} s is at the edge of its search range \
-                         (±{max} s), so the true offset may lie beyond it; check the two \
-                         clocks, or give it with --time-offset SECONDS",
-                        log.dir.display()
-                    ));
+                    warnings.push(offset_at_edge(log, o, max));
                 }
                 o
             }
@@ -111,24 +110,12 @@ pub fn calibrate(
     }
     let refs: Vec<&DriveLog> = logs.iter().collect();
     let all = Segments::build(&refs, &offsets, &scfg);
-    // Group by terrain; logs without labels go to the pooled set.
-    let mut names: Vec<Option<String>> = Vec::new();
-    for s in &all.segments {
-        if !names.contains(&s.terrain) {
-            names.push(s.terrain.clone());
-        }
-    }
-    if names.is_empty() {
-        names.push(None);
-    }
-    let track_width = logs.iter().find_map(|l| l.meta.track_width);
-    let wheel_radius = logs.iter().find_map(|l| l.meta.wheel_radius);
-    let pioneer = logs.iter().any(|l| {
-        l.meta.robot.as_deref().is_some_and(|r| {
-            let r = r.to_ascii_lowercase();
-            r.contains("p3at") || r.contains("p3-at") || r.contains("pioneer")
-        })
-    });
+    let names = terrain_sets(all.segments.iter().map(|s| &s.terrain));
+    let RobotFacts {
+        track_width,
+        wheel_radius,
+        pioneer,
+    } = RobotFacts::of(logs);
     let mut sets = Vec::new();
     let n_sets = names.len();
     let mut first_err: Option<CalibError> = None;
@@ -192,6 +179,56 @@ pub fn calibrate(
     Ok(Calibration { sets, warnings })
 }
 
+/// The parameter sets, one per terrain label in order of appearance
+/// (`None`, the pooled set, for unlabelled data; just that when there is
+/// nothing).
+fn terrain_sets<'a>(labels: impl Iterator<Item = &'a Option<String>>) -> Vec<Option<String>> {
+    let mut names: Vec<Option<String>> = Vec::new();
+    for l in labels {
+        if !names.contains(l) {
+            names.push(l.clone());
+        }
+    }
+    if names.is_empty() {
+        names.push(None);
+    }
+    names
+}
+
+/// The warning for a time offset `o` (s) found at the edge of `±max`.
+fn offset_at_edge(log: &DriveLog, o: f64, max: f64) -> String {
+    format!(
+        "{}: the time offset {o:+.3} s is at the edge of its search range \
+         (±{max} s), so the true offset may lie beyond it; check the two \
+         clocks, or give it with --time-offset SECONDS",
+        log.dir.display()
+    )
+}
+
+/// What the logs' `meta.toml` tell about the robot.
+struct RobotFacts {
+    /// m, of the first log that gives one.
+    track_width: Option<f64>,
+    wheel_radius: Option<f64>,
+    /// A Pioneer P3-AT (its server settings are written).
+    pioneer: bool,
+}
+
+impl RobotFacts {
+    fn of(logs: &[DriveLog]) -> Self {
+        Self {
+            track_width: logs.iter().find_map(|l| l.meta.track_width),
+            wheel_radius: logs.iter().find_map(|l| l.meta.wheel_radius),
+            pioneer: logs.iter().any(|l| {
+                l.meta.robot.as_deref().is_some_and(|r| {
+                    let r = r.to_ascii_lowercase();
+                    r.contains("p3at") || r.contains("p3-at") || r.contains("pioneer")
+                })
+            }),
+        }
+    }
+}
+
 /// Identifiability thresholds on the Jacobian uncertainties: a parameter
 /// whose 1-sigma exceeds this is reported as not identified.
 fn unidentified_by_std(std: &[f64; 5], spread: f64, free: &[bool; 5]) -> Vec<&'static str> {
@@ -200,6 +237,59 @@ fn unidentified_by_std(std: &[f64; 5], spread: f64, free: &[bool; 5]) -> Vec<&'s
         .filter(|&k| free[k] && (std[k].is_nan() || std[k] > limits[k]))
         .map(|k| PARAM_NAMES[k])
         .collect()
+}
+
+/// The data never turn enough: fails, or with `allow_partial` lists
+/// y_l, y_r and x_c as held at their no-slip values, for `reason`.
+fn hold_tread_icrs(
+    reason: String,
+    (label, allow_partial): (&str, bool),
+    unidentified: &mut Vec<&'static str>,
+    notes: &mut Vec<String>,
+) -> Result<(), CalibError> {
+    let names = vec!["y_l", "y_r", "x_c"];
+    if !allow_partial {
+        return Err(CalibError::Unobservable {
+            set: label.into(),
+            params: names,
+            reason,
+        });
+    }
+    notes.push(format!(
+        "{} kept at the no-slip values: {reason}",
+        names.join(", ")
+    ));
+    unidentified.extend(names);
+    Ok(())
+}
+
+/// Fails on the first free parameter [`unidentified_by_std`] names, or with
+/// `allow_partial` lists each in `unidentified` and `notes`.
+fn check_identified(
+    std: &[f64; 5],
+    spread: f64,
+    free: &[bool; 5],
+    (label, allow_partial): (&str, bool),
+    unidentified: &mut Vec<&'static str>,
+    notes: &mut Vec<String>,
+) -> Result<(), CalibError> {
+    for name in unidentified_by_std(std, spread, free) {
+        if !allow_partial {
+            return Err(CalibError::Unobservable {
+                set: label.into(),
+                params: vec![name],
+                reason: format!(
+                    "its 1-sigma uncertainty ({:.3}) is too large for the data to pin it down",
+                    std[PARAM_NAMES.iter().position(|n| *n == name).unwrap_or(0)]
+                ),
+            });
+        }
+        if !unidentified.contains(&name) {
+            unidentified.push(name);
+            notes.push(format!("{name} is poorly identified (large uncertainty)"));
+        }
+    }
+    Ok(())
 }
 
 /// A warning for each gene of the GA's answer `p` that sits on a bound of
@@ -261,23 +351,16 @@ fn calibrate_set(
     );
     let mut lm_cfg = cfg.lm.clone();
     if turning < cfg.min_turning_segments {
-        let names = vec!["y_l", "y_r", "x_c"];
         let reason = format!(
             "only {turning} of {n} moving segments turn more than 0.1 rad (need {}): the reference never turns enough to separate the tread ICRs",
             cfg.min_turning_segments
         );
-        if !cfg.allow_partial {
-            return Err(CalibError::Unobservable {
-                set: label.into(),
-                params: names,
-                reason,
-            });
-        }
-        notes.push(format!(
-            "{} kept at the no-slip values: {reason}",
-            names.join(", ")
-        ));
-        unidentified.extend(names);
+        hold_tread_icrs(
+            reason,
+            (label, cfg.allow_partial),
+            &mut unidentified,
+            &mut notes,
+        )?;
         lm_cfg.free = [false, false, false, true, true];
     }
     let width = match track_width.or_else(|| spread_from_yaw(segs)) {
@@ -409,22 +492,14 @@ fn calibrate_set(
         .min_by(|a, b| a.robust_cost.total_cmp(&b.robust_cost))
         .cloned()
         .ok_or(CalibError::NoLogs)?;
-    for name in unidentified_by_std(&best.std, best.params.spread(), &lm_cfg.free) {
-        if !cfg.allow_partial {
-            return Err(CalibError::Unobservable {
-                set: label.into(),
-                params: vec![name],
-                reason: format!(
-                    "its 1-sigma uncertainty ({:.3}) is too large for the data to pin it down",
-                    best.std[PARAM_NAMES.iter().position(|n| *n == name).unwrap_or(0)]
-                ),
-            });
-        }
-        if !unidentified.contains(&name) {
-            unidentified.push(name);
-            notes.push(format!("{name} is poorly identified (large uncertainty)"));
-        }
-    }
+    check_identified(
+        &best.std,
+        best.params.spread(),
+        &lm_cfg.free,
+        (label, cfg.allow_partial),
+        &mut unidentified,
+        &mut notes,
+    )?;
     let rate = match cfg.rate_model {
         RateModel::Off => None,
         m => choose_rate(

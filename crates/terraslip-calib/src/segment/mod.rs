@@ -156,7 +156,7 @@ impl SegmentStats {
     pub fn hint(&self, segments: usize) -> String {
         if segments == 0 && self.incomplete_poses > 0 {
             format!(
-                "{} pose rows have no position or no heading: segments need both; a position-only reference (GNSS without a heading) cannot calibrate, add a heading (an IMU orientation that agrees with the GNSS course, `[heading]` of the topics file for a bag) or a pose with yaw",
+                "{} pose rows have no position or no heading: segments need both; a position-only reference (GNSS without a heading) is calibrated on windows of fixes only when no log has a heading: calibrate such logs on their own, or add a heading (an IMU orientation that agrees with the GNSS course, `[heading]` of the topics file for a bag)",
                 self.incomplete_poses
             )
         } else {
@@ -207,9 +207,38 @@ fn merge_sorted(a: impl Iterator<Item = f64>, b: &[f64]) -> Vec<f64> {
     out
 }
 
+/// Total duration of time spans `(log, start, end)` (s) over the length of
+/// their union per log, at least 1: how many of them cover an instant on
+/// average.
+pub(crate) fn coverage(spans: impl Iterator<Item = (usize, f64, f64)>) -> f64 {
+    let mut spans: Vec<(usize, f64, f64)> = spans.collect();
+    spans.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    let total: f64 = spans.iter().map(|s| s.2 - s.1).sum();
+    let mut union = 0.0;
+    let mut cur: Option<(usize, f64, f64)> = None;
+    for (log, a, b) in spans {
+        cur = match cur {
+            Some((l, ca, cb)) if l == log && a <= cb => Some((l, ca, cb.max(b))),
+            Some((_, ca, cb)) => {
+                union += cb - ca;
+                Some((log, a, b))
+            }
+            None => Some((log, a, b)),
+        };
+    }
+    if let Some((_, a, b)) = cur {
+        union += b - a;
+    }
+    if union > 0.0 {
+        (total / union).max(1.0)
+    } else {
+        1.0
+    }
+}
+
 /// Linear interpolation of wheel speeds at `t` (clamped at the ends).
 /// `hint` is an index at or before `t`, advanced as the caller walks forward.
-fn wheel_at(w: &[WheelSample], t: f64, hint: &mut usize) -> (f64, f64) {
+pub(crate) fn wheel_at(w: &[WheelSample], t: f64, hint: &mut usize) -> (f64, f64) {
     while *hint + 1 < w.len() && w[*hint + 1].t <= t {
         *hint += 1;
     }
@@ -433,30 +462,7 @@ impl Segments {
     /// pose noise, so counts of them overstate the evidence by about this
     /// (the uncertainties model the sharing itself, [`crate::sandwich`]).
     pub fn coverage(&self) -> f64 {
-        let mut spans: Vec<(usize, f64, f64)> =
-            self.segments.iter().map(|s| (s.log, s.t0, s.t1)).collect();
-        spans.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
-        let total: f64 = spans.iter().map(|s| s.2 - s.1).sum();
-        let mut union = 0.0;
-        let mut cur: Option<(usize, f64, f64)> = None;
-        for (log, a, b) in spans {
-            cur = match cur {
-                Some((l, ca, cb)) if l == log && a <= cb => Some((l, ca, cb.max(b))),
-                Some((_, ca, cb)) => {
-                    union += cb - ca;
-                    Some((log, a, b))
-                }
-                None => Some((log, a, b)),
-            };
-        }
-        if let Some((_, a, b)) = cur {
-            union += b - a;
-        }
-        if union > 0.0 {
-            (total / union).max(1.0)
-        } else {
-            1.0
-        }
+        coverage(self.segments.iter().map(|s| (s.log, s.t0, s.t1)))
     }
 
     /// A chained subset of (possibly overlapping) segments: in time order per

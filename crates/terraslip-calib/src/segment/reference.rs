@@ -4,9 +4,8 @@
 //! Segments need a position and a heading at both ends. Positions without
 //! a heading take the heading rows' (interpolated, when one lies within
 //! [`HEADING_GAP_S`] on each side). A position-only reference (no heading
-//! anywhere) is not completed: a heading from the course of the fixes on
-//! straight stretches left the tread ICRs unidentified on the Husky
-//! recording (docs/benchmarks.md, "ROS 2").
+//! anywhere) is not completed here: it is fitted on windows of fixes
+//! ([`crate::track`]).
 
 use terraslip_io::PoseObs;
 

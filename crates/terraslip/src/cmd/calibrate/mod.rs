@@ -26,6 +26,13 @@ weighted by --yaw-weight m/rad). The wheel/pose time offset is estimated per
 log; held, mistimed and jumping poses are dropped; outlier segments are
 dropped and listed in the output. With terrain.csv: one set per terrain.
 
+Position-only references (GNSS fixes and no heading, as in most ROS 2 bags):
+the model's path over --window s of fixes is placed on them by the rotation
+and translation that fit best (the start heading and position of each window
+are left free), and the ICRs are fitted to what remains: the path's length
+(speed factors) and bend (spread). Only lm applies; x_c and the ICRs' centre
+are held at 0 when the fixes do not pin them down.
+
 Methods: lm (robust Levenberg-Marquardt from the no-slip model, with 1-sigma
 uncertainties), ga (Mandow's genetic algorithm; --seed, --population,
 --generations, --gene-bits, --bound), symmetric (eqs. 11-12 from spins in
@@ -124,6 +131,11 @@ pub struct Args {
     /// Fewest usable moving segments per set.
     #[arg(long, default_value_t = 10)]
     min_segments: usize,
+    /// Position-only references (GNSS fixes without a heading): length of
+    /// the windows of fixes the model's path is fitted on, s (a new window
+    /// every half of it).
+    #[arg(long, default_value_t = 20.0, value_name = "S")]
+    window: f64,
     /// When the data cannot identify some parameters (e.g. the robot never
     /// turns), keep those at their no-slip values and list them under
     /// `unidentified` instead of failing.
@@ -318,6 +330,11 @@ fn config(a: &Args) -> anyhow::Result<CalibConfig> {
         bail!("--stride must be a non-negative number of seconds");
     }
     c.segment.overlap = (!a.chained).then_some(a.stride);
+    if !(a.window.is_finite() && a.window > 0.0) {
+        bail!("--window must be a positive number of seconds");
+    }
+    c.track.window = a.window;
+    c.track.stride = 0.5 * a.window;
     if !(a.yaw_weight.is_finite() && a.yaw_weight > 0.0) {
         bail!("--yaw-weight must be a positive number (m/rad)");
     }

@@ -1,0 +1,313 @@
+//! Calibration from a position-only reference (GNSS fixes without a
+//! heading): the model's path over windows of fixes, compared up to a rigid
+//! motion ([`crate::track`]). Only the LM applies; the turn-rate model is
+//! not fitted (windows of 20 s average over turn rates).
+
+use terraslip_core::IcrParams;
+use terraslip_io::DriveLog;
+
+use super::{
+    check_identified, hold_tread_icrs, offset_at_edge, terrain_sets, unidentified_by_std,
+    Calibration, DroppedSegment, Method, MethodFit, Progress, RateModel, RobotFacts,
+    SetCalibration, TimeOffset,
+};
+use crate::segment::SegmentStats;
+use crate::track::{self, TrackConfig, TrackFit, Tracks};
+use crate::{CalibConfig, CalibError};
+
+/// Fewest windows (counted as non-overlapping ones) a set needs.
+pub const MIN_WINDOWS: usize = 6;
+
+/// Fewest windows (non-overlapping count) turning more than
+/// [`TURNING_RAD`] under the no-slip model for the spread and `x_c` to be
+/// identifiable.
+pub const MIN_TURNING_WINDOWS: usize = 3;
+
+/// A window turns when its no-slip heading change exceeds this, rad.
+pub const TURNING_RAD: f64 = 0.5;
+
+/// Grid step of the time-offset search, s: a 20 s window's fit hardly
+/// changes over less.
+const OFFSET_STEP: f64 = 0.05;
+
+/// Calibrates logs whose reference is position-only.
+pub(super) fn calibrate(
+    logs: &[DriveLog],
+    cfg: &CalibConfig,
+    progress: &dyn Fn(Progress),
+    mut warnings: Vec<String>,
+) -> Result<Calibration, CalibError> {
+    let tcfg = TrackConfig {
+        t_min: cfg.segment.t_min,
+        t_max: cfg.segment.t_max,
+        ..cfg.track.clone()
+    };
+    let facts = RobotFacts::of(logs);
+    // The tread speeds' own scale: the separation they were made with
+    // (nominal or the controller's), else the track width.
+    let width = logs
+        .iter()
+        .find_map(|l| l.meta.separation)
+        .or(facts.track_width)
+        .filter(|w| w.is_finite() && *w > 0.0)
+        .unwrap_or(1.0);
+    let start = IcrParams::no_slip(width);
+    if let Some(m) = cfg.method.filter(|&m| m != Method::Lm) {
+        warnings.push(format!(
+            "position-only reference: method `{}` needs headings; the LM fit on windows of fixes is used",
+            m.name()
+        ));
+    }
+    progress(Progress::Stage("aligning wheel and pose streams"));
+    let mut offsets = Vec::with_capacity(logs.len());
+    for log in logs {
+        let o = match cfg.time_offset {
+            TimeOffset::Fixed(o) => o,
+            TimeOffset::Auto { max, step } => {
+                match search_offset(log, &tcfg, &start, max, step.max(OFFSET_STEP)) {
+                    Some(o) => {
+                        if o.abs() >= max - 0.5 * step.max(OFFSET_STEP) {
+                            warnings.push(offset_at_edge(log, o, max));
+                        }
+                        o
+                    }
+                    None => {
+                        warnings.push(format!(
+                            "{}: too few moving windows of fixes to estimate the time offset; using 0 s",
+                            log.dir.display()
+                        ));
+                        0.0
+                    }
+                }
+            }
+        };
+        offsets.push(o);
+    }
+    let refs: Vec<&DriveLog> = logs.iter().collect();
+    let all = Tracks::build(&refs, &offsets, &tcfg);
+    let names = terrain_sets(all.windows.iter().map(|w| &w.terrain));
+    let n_sets = names.len();
+    let mut sets = Vec::new();
+    let mut first_err = None;
+    for name in names {
+        let mut t = all.clone();
+        t.retain(|w| w.terrain == name);
+        let label = name.clone().unwrap_or_else(|| "all".into());
+        progress(Progress::Stage(&label));
+        match calibrate_set(&t, &label, &start, cfg, &tcfg) {
+            Ok(mut set) => {
+                set.terrain = name;
+                let mut used: Vec<usize> = t.windows.iter().map(|w| w.log).collect();
+                used.sort_unstable();
+                used.dedup();
+                set.time_offsets = used.iter().map(|&i| (logs[i].name(), offsets[i])).collect();
+                for d in &mut set.dropped {
+                    if let Ok(i) = d.log.parse::<usize>() {
+                        d.log = logs.get(i).map(|l| l.name()).unwrap_or_default();
+                    }
+                }
+                set.track_width = facts.track_width;
+                set.wheel_radius = facts.wheel_radius;
+                set.pioneer = facts.pioneer;
+                set.stats = SegmentStats {
+                    stale_poses: all.stats.held_fixes,
+                    gaps: all.stats.gaps,
+                    stationary: all.stats.stationary,
+                    terrain_change: all.stats.terrain_change,
+                    ..SegmentStats::default()
+                };
+                sets.push(set);
+            }
+            Err(e) if n_sets > 1 => {
+                warnings.push(format!("terrain `{label}` not calibrated: {e}"));
+                first_err.get_or_insert(e);
+            }
+            Err(e) => return Err(e),
+        }
+    }
+    if sets.is_empty() {
+        if let Some(e) = first_err {
+            return Err(e);
+        }
+    }
+    Ok(Calibration { sets, warnings })
+}
+
+/// The wheel/pose time offset of one log (s) on a `step` grid within
+/// `±max`: the parameters fitted at offset 0, then the offset whose windows
+/// they fit best (mean squared residual), then the same once more around
+/// the parameters refitted there.
+fn search_offset(
+    log: &DriveLog,
+    tcfg: &TrackConfig,
+    start: &IcrParams,
+    max: f64,
+    step: f64,
+) -> Option<f64> {
+    let free = track::DIFF_DRIVE;
+    let fit_at = |o: f64, p: &IcrParams| -> Option<TrackFit> {
+        let t = Tracks::build(&[log], &[o], tcfg);
+        track::fit(&t, p, &free, &vec![true; t.windows.len()])
+    };
+    let mut p = fit_at(0.0, start)?.params;
+    let k = (max / step).floor() as i64;
+    let mut best = 0.0;
+    for _ in 0..2 {
+        let mut lowest = f64::INFINITY;
+        for i in -k..=k {
+            let o = i as f64 * step;
+            let t = Tracks::build(&[log], &[o], tcfg);
+            let all = vec![true; t.windows.len()];
+            let m: usize = t.windows.iter().map(|w| 2 * w.fixes.len()).sum();
+            if m == 0 {
+                continue;
+            }
+            let c = track::cost(&p, &t, &all) / m as f64;
+            if c < lowest {
+                (lowest, best) = (c, o);
+            }
+        }
+        p = fit_at(best, &p)?.params;
+    }
+    Some(best)
+}
+
+fn calibrate_set(
+    t: &Tracks,
+    label: &str,
+    start: &IcrParams,
+    cfg: &CalibConfig,
+    tcfg: &TrackConfig,
+) -> Result<SetCalibration, CalibError> {
+    let n = t.windows.len();
+    let coverage = t.coverage();
+    let independent = |k: usize| (k as f64 / coverage).round() as usize;
+    let hint = || {
+        format!(
+            "a position-only reference is fitted on windows of {} s with at least {} fixes \
+             and no gap over {} s in the fixes or {} s in the wheels, in which the treads \
+             travel {} m: is the robot moving while the fixes are valid?",
+            tcfg.window, tcfg.min_fixes, tcfg.max_fix_gap, tcfg.max_wheel_gap, tcfg.min_travel
+        )
+    };
+    let too_few = |k: usize| CalibError::TooFewSegments {
+        set: label.into(),
+        moving: independent(k),
+        needed: MIN_WINDOWS,
+        hint: hint(),
+    };
+    let enough = |k: usize| match independent(k) < MIN_WINDOWS {
+        true => Err(too_few(k)),
+        false => Ok(()),
+    };
+    enough(n)?;
+    let width = start.spread();
+    let turning = independent(
+        t.windows
+            .iter()
+            .filter(|w| (w.int_diff / width).abs() > TURNING_RAD)
+            .count(),
+    );
+    let mut notes = vec![format!(
+        "position-only reference (no heading): fitted on windows of {} s of fixes (each \
+         fix in about {coverage:.1}), the model's path of each placed on its fixes by the \
+         rotation and translation that fit best (the start heading and position are not \
+         estimated with the ICRs)",
+        tcfg.window
+    )];
+    let mut unidentified: Vec<&'static str> = Vec::new();
+    let mut free = track::ALL;
+    if turning < MIN_TURNING_WINDOWS {
+        let reason = format!(
+            "only {turning} of {} windows turn more than {TURNING_RAD} rad (need \
+             {MIN_TURNING_WINDOWS}): the fixes never bend enough to separate the tread ICRs",
+            independent(n)
+        );
+        hold_tread_icrs(
+            reason,
+            (label, cfg.allow_partial),
+            &mut unidentified,
+            &mut notes,
+        )?;
+        free = track::SPEED_ONLY;
+    }
+    if cfg.rate_model != RateModel::Off {
+        notes.push(
+            "turn-rate model not fitted: windows of fixes average over turn rates".to_string(),
+        );
+    }
+    let fit =
+        |free: &track::Free| track::fit(t, start, free, &vec![true; n]).ok_or_else(|| too_few(0));
+    let mut f = fit(&free)?;
+    let weak = unidentified_by_std(&f.std, f.params.spread(), &track::moved(&free));
+    if free == track::ALL && weak.iter().any(|w| ["y_l", "y_r", "x_c"].contains(w)) {
+        // The fixes tell the spread but not where the ICRs sit: the
+        // differential-drive model, which is what a controller holds.
+        notes.push(format!(
+            "x_c and the ICRs' centre (y_l + y_r)/2 held at 0: the fixes do not pin them \
+             down (1-sigma of y_l, y_r, x_c with them free: {:.3}, {:.3}, {:.3} m); the \
+             spread and the speed factors are fitted",
+            f.std[0], f.std[1], f.std[2]
+        ));
+        free = track::DIFF_DRIVE;
+        f = fit(&free)?;
+    }
+    notes.push(format!(
+        "spread y_l - y_r = {:.4} ± {:.4} m (1-sigma)",
+        f.params.spread(),
+        f.spread_std
+    ));
+    let used = f.inliers.iter().filter(|&&b| b).count();
+    enough(used)?;
+    check_identified(
+        &f.std,
+        f.params.spread(),
+        &track::moved(&free),
+        (label, cfg.allow_partial),
+        &mut unidentified,
+        &mut notes,
+    )?;
+    let rms = track::window_rms(&f.params, t);
+    let dropped = t
+        .windows
+        .iter()
+        .zip(&f.inliers)
+        .zip(&rms)
+        .filter(|((_, &k), _)| !k)
+        .map(|((w, _), &r)| DroppedSegment {
+            log: w.log.to_string(),
+            t0: w.t0,
+            t1: w.t1,
+            residual: r,
+        })
+        .collect();
+    let best = MethodFit {
+        method: Method::Lm,
+        params: f.params,
+        cost: f.cost,
+        robust_cost: f.cost,
+        std: f.std,
+    };
+    Ok(SetCalibration {
+        terrain: None,
+        fits: vec![best.clone()],
+        best,
+        segments_used: used,
+        dropped,
+        stats: SegmentStats::default(),
+        sigma: f.sigma,
+        noise: crate::sandwich::ResidualNoise {
+            pose_xy: f.sigma,
+            ..Default::default()
+        },
+        time_offsets: Vec::new(),
+        unidentified,
+        notes,
+        yaw_weight: cfg.yaw_weight,
+        track_width: None,
+        wheel_radius: None,
+        pioneer: false,
+        rate: None,
+        coverage,
+    })
+}

@@ -1,0 +1,614 @@
+//! Position-only references (GNSS fixes without a heading): the model's path
+//! over a window of fixes, compared with the fixes up to a rigid motion.
+//!
+//! A fix carries no heading, so the increment between two fixes cannot be
+//! put in the frame of the segment start, and over one second a fix's
+//! metre-level noise swamps the motion. A [`Window`] instead takes every
+//! fix over [`TrackConfig::window`] s (20 s by default). The model's path,
+//! integrated from the tread speeds, is fitted onto the fixes by the rigid
+//! motion (rotation and translation) that brings it closest: the unknown
+//! start heading and the noisy start position are nuisance parameters,
+//! profiled out in closed form (2D Procrustes: the rotation angle is the
+//! argument of the summed dot and cross products of the centred point sets).
+//! What remains to compare is the path's shape: its length (the speed
+//! factors), its curvature against the tread speed difference (the spread)
+//! and its sideways drift in turns (`x_c`). Only windows that turn tell the
+//! spread; a straight window tells the speed factors.
+//!
+//! Frames: fixes east/north (ENU, m); the model's path in the frame of the
+//! window start (REP-103: x forward, y left). Times on the pose clock, s.
+
+use std::ops::Range;
+
+use nalgebra::{SMatrix, SVector};
+use terraslip_core::kinematics::MIN_SPREAD;
+use terraslip_core::IcrParams;
+use terraslip_io::DriveLog;
+
+use crate::model::{trajectory_rate, RateSlopes};
+use crate::segment::{wheel_at, Step};
+
+/// How a drive with a position-only reference is cut into windows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrackConfig {
+    /// Length of a window, s. Long enough that the path (metres) stands
+    /// out of the fixes' noise (about 1 m) and bends in turns.
+    pub window: f64,
+    /// Time between window starts, s (half a window: each fix is in two).
+    pub stride: f64,
+    /// Fewest fixes in a window.
+    pub min_fixes: usize,
+    /// Largest gap between fixes inside a window, s.
+    pub max_fix_gap: f64,
+    /// Largest gap between wheel samples inside a window, s.
+    pub max_wheel_gap: f64,
+    /// A window whose treads travel less than this (m) is stationary.
+    pub min_travel: f64,
+    /// Only fixes with `t_min <= t <= t_max` (pose clock, s) are used.
+    pub t_min: f64,
+    pub t_max: f64,
+}
+
+impl Default for TrackConfig {
+    fn default() -> Self {
+        Self {
+            window: 20.0,
+            stride: 10.0,
+            min_fixes: 8,
+            max_fix_gap: 2.0,
+            max_wheel_gap: 0.5,
+            min_travel: 2.0,
+            t_min: f64::NEG_INFINITY,
+            t_max: f64::INFINITY,
+        }
+    }
+}
+
+/// The fixes of one window and the wheel steps between them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Window {
+    /// Index of the log (order given to [`Tracks::build`]).
+    pub log: usize,
+    /// First and last fix, s (pose clock).
+    pub t0: f64,
+    pub t1: f64,
+    /// Terrain label in force over the whole window, if the log has labels.
+    pub terrain: Option<String>,
+    /// This window's steps in [`Tracks::steps`].
+    pub steps: Range<usize>,
+    /// Each fix: the number of steps from the window start to it, and its
+    /// east and north (m) relative to the first fix.
+    pub fixes: Vec<(usize, f64, f64)>,
+    /// `int (v_r - v_l) dt` over the window, m: the no-slip turn times the
+    /// spread.
+    pub int_diff: f64,
+}
+
+/// Why fixes or windows were not used, counted.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct TrackStats {
+    /// Fixes that repeat the previous one exactly (a held fix).
+    pub held_fixes: usize,
+    /// Windows with too few fixes, a gap in the fixes or the wheels, or
+    /// outside the wheels' time span.
+    pub gaps: usize,
+    /// Windows with (almost) no tread motion.
+    pub stationary: usize,
+    /// Windows during which the terrain label changes.
+    pub terrain_change: usize,
+}
+
+/// All usable windows of one or more logs, their steps in one buffer.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Tracks {
+    pub windows: Vec<Window>,
+    pub steps: Vec<Step>,
+    pub stats: TrackStats,
+}
+
+/// Whether a log's reference is position-only: it has positions and no
+/// heading on any row.
+pub fn position_only(log: &DriveLog) -> bool {
+    log.pose.iter().all(|p| p.yaw.is_none())
+        && log
+            .pose
+            .iter()
+            .any(|p| p.east.is_some() && p.north.is_some())
+}
+
+impl Tracks {
+    /// The windows of `logs`, each log's wheel clock shifted by its offset
+    /// (s): the wheel sample stamped `t` describes pose-clock time
+    /// `t + offset`.
+    pub fn build(logs: &[&DriveLog], offsets: &[f64], cfg: &TrackConfig) -> Self {
+        let mut out = Tracks::default();
+        for (i, log) in logs.iter().enumerate() {
+            out.push_log(i, log, offsets.get(i).copied().unwrap_or(0.0), cfg);
+        }
+        out
+    }
+
+    fn push_log(&mut self, li: usize, log: &DriveLog, offset: f64, cfg: &TrackConfig) {
+        let mut fixes: Vec<(f64, f64, f64)> = Vec::with_capacity(log.pose.len());
+        for p in &log.pose {
+            let (Some(e), Some(n)) = (p.east, p.north) else {
+                continue;
+            };
+            if !(p.t.is_finite() && e.is_finite() && n.is_finite()) {
+                continue;
+            }
+            if fixes.last().is_some_and(|f| f.1 == e && f.2 == n) {
+                self.stats.held_fixes += 1;
+                continue;
+            }
+            fixes.push((p.t, e, n));
+        }
+        fixes.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let w = &log.wheels;
+        if w.len() < 2 || fixes.len() < 2 {
+            return;
+        }
+        let mut i0 = fixes.partition_point(|f| f.0 < cfg.t_min);
+        while i0 < fixes.len() {
+            let t0 = fixes[i0].0;
+            let end = (t0 + cfg.window).min(cfg.t_max);
+            let i1 = fixes.partition_point(|f| f.0 <= end);
+            let last_window = i1 >= fixes.len() || fixes[i1].0 > cfg.t_max;
+            self.push_window(li, log, &fixes[i0..i1], offset, cfg);
+            if last_window {
+                break;
+            }
+            let next = fixes.partition_point(|f| f.0 < t0 + cfg.stride);
+            i0 = next.max(i0 + 1);
+        }
+    }
+
+    fn push_window(
+        &mut self,
+        li: usize,
+        log: &DriveLog,
+        fixes: &[(f64, f64, f64)],
+        offset: f64,
+        cfg: &TrackConfig,
+    ) {
+        let w = &log.wheels;
+        if fixes.len() < cfg.min_fixes.max(2) || gap_in(fixes.iter().map(|f| f.0), cfg.max_fix_gap)
+        {
+            self.stats.gaps += 1;
+            return;
+        }
+        let (t0, t1) = (fixes[0].0, fixes[fixes.len() - 1].0);
+        let (wa, wb) = (t0 - offset, t1 - offset);
+        if wa < w[0].t || wb > w[w.len() - 1].t {
+            self.stats.gaps += 1;
+            return;
+        }
+        let k0 = w.partition_point(|s| s.t <= wa);
+        let k1 = w.partition_point(|s| s.t < wb);
+        let inner = || w[k0..k1.max(k0)].iter().map(|s| s.t);
+        let span = std::iter::once(wa)
+            .chain(inner())
+            .chain(std::iter::once(wb));
+        if gap_in(span, cfg.max_wheel_gap) {
+            self.stats.gaps += 1;
+            return;
+        }
+        let terrain = if log.terrain.is_empty() {
+            None
+        } else {
+            let la = log.terrain_at(t0);
+            if la != log.terrain_at(t1) || log.terrain.iter().any(|l| l.t > t0 && l.t < t1) {
+                self.stats.terrain_change += 1;
+                return;
+            }
+            la.map(str::to_string)
+        };
+        // Knots on the wheel clock: every fix and every wheel sample between.
+        let mut knots: Vec<f64> = fixes.iter().map(|f| f.0 - offset).chain(inner()).collect();
+        knots.sort_by(f64::total_cmp);
+        knots.dedup();
+        let base = self.steps.len();
+        let (mut hint, mut travel, mut int_diff) = (0usize, 0.0, 0.0);
+        let mut prev = wheel_at(w, knots[0], &mut hint);
+        for p in knots.windows(2) {
+            let next = wheel_at(w, p[1], &mut hint);
+            let dt = p[1] - p[0];
+            let (v_left, v_right) = (0.5 * (prev.0 + next.0), 0.5 * (prev.1 + next.1));
+            travel += 0.5 * (v_left.abs() + v_right.abs()) * dt;
+            int_diff += (v_right - v_left) * dt;
+            self.steps.push(Step {
+                dt,
+                v_left,
+                v_right,
+                acc: 0.0,
+            });
+            prev = next;
+        }
+        if travel < cfg.min_travel {
+            self.steps.truncate(base);
+            self.stats.stationary += 1;
+            return;
+        }
+        let (e0, n0) = (fixes[0].1, fixes[0].2);
+        let fixes = fixes
+            .iter()
+            .map(|f| {
+                let k = knots.partition_point(|&x| x < f.0 - offset);
+                (k, f.1 - e0, f.2 - n0)
+            })
+            .collect();
+        self.windows.push(Window {
+            log: li,
+            t0,
+            t1,
+            terrain,
+            steps: base..self.steps.len(),
+            fixes,
+            int_diff,
+        });
+    }
+
+    /// Keeps only the windows for which `keep` is true (steps stay).
+    pub fn retain(&mut self, keep: impl FnMut(&Window) -> bool) {
+        self.windows.retain(keep);
+    }
+
+    /// How many windows cover an instant on average (2 with the default
+    /// half-window stride): the count of independent windows is the count
+    /// over this.
+    pub fn coverage(&self) -> f64 {
+        crate::segment::coverage(self.windows.iter().map(|w| (w.log, w.t0, w.t1)))
+    }
+}
+
+/// Whether consecutive times of `t` are ever more than `max` apart.
+fn gap_in(t: impl Iterator<Item = f64>, max: f64) -> bool {
+    let mut prev: Option<f64> = None;
+    for x in t {
+        if prev.is_some_and(|p| x - p > max) {
+            return true;
+        }
+        prev = Some(x);
+    }
+    false
+}
+
+/// The residuals of one window (fix minus the fitted path, east and north
+/// alternating, m) appended to `out`, the path of `p` placed on the fixes
+/// by the best rigid motion. Returns the rotation (rad): the start heading
+/// the fixes imply.
+pub fn window_residuals(p: &IcrParams, tracks: &Tracks, win: &Window, out: &mut Vec<f64>) -> f64 {
+    let path = trajectory_rate(p, &RateSlopes::NONE, &tracks.steps[win.steps.clone()]);
+    let n = win.fixes.len() as f64;
+    let q: Vec<(f64, f64)> = win
+        .fixes
+        .iter()
+        .map(|&(k, ..)| path.get(k).map_or((f64::NAN, f64::NAN), |s| (s.x, s.y)))
+        .collect();
+    let (qx, qy) = q
+        .iter()
+        .fold((0.0, 0.0), |a, s| (a.0 + s.0 / n, a.1 + s.1 / n));
+    let (rx, ry) = win
+        .fixes
+        .iter()
+        .fold((0.0, 0.0), |a, f| (a.0 + f.1 / n, a.1 + f.2 / n));
+    let (mut dot, mut cross) = (0.0, 0.0);
+    for (s, f) in q.iter().zip(&win.fixes) {
+        let (ax, ay) = (s.0 - qx, s.1 - qy);
+        let (bx, by) = (f.1 - rx, f.2 - ry);
+        dot += ax * bx + ay * by;
+        cross += ax * by - ay * bx;
+    }
+    let th = cross.atan2(dot);
+    let (sn, cs) = th.sin_cos();
+    for (s, f) in q.iter().zip(&win.fixes) {
+        let (ax, ay) = (s.0 - qx, s.1 - qy);
+        out.push(f.1 - rx - (cs * ax - sn * ay));
+        out.push(f.2 - ry - (sn * ax + cs * ay));
+    }
+    th
+}
+
+/// Residuals of the windows with `active[i]`, in order, and where each
+/// window's run of them starts (one more entry: the end).
+fn residuals(p: &IcrParams, tracks: &Tracks, active: &[bool]) -> (Vec<f64>, Vec<usize>) {
+    let mut r = Vec::new();
+    let mut at = Vec::with_capacity(tracks.windows.len() + 1);
+    for (w, _) in tracks.windows.iter().zip(active).filter(|(_, &a)| a) {
+        at.push(r.len());
+        window_residuals(p, tracks, w, &mut r);
+    }
+    at.push(r.len());
+    (r, at)
+}
+
+/// Sum of squared residuals (m^2) of the windows with `active[i]`.
+pub fn cost(p: &IcrParams, tracks: &Tracks, active: &[bool]) -> f64 {
+    residuals(p, tracks, active).0.iter().map(|x| x * x).sum()
+}
+
+/// Root mean square residual per axis of each window (m).
+pub fn window_rms(p: &IcrParams, tracks: &Tracks) -> Vec<f64> {
+    let mut r = Vec::new();
+    tracks
+        .windows
+        .iter()
+        .map(|w| {
+            r.clear();
+            window_residuals(p, tracks, w, &mut r);
+            (r.iter().map(|x| x * x).sum::<f64>() / r.len().max(1) as f64).sqrt()
+        })
+        .collect()
+}
+
+/// A fit on windows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrackFit {
+    pub params: IcrParams,
+    /// 1-sigma of (y_l, y_r, x_c, alpha_l, alpha_r); NaN for fixed ones,
+    /// infinite for ones the windows do not identify.
+    pub std: [f64; 5],
+    /// 1-sigma of the spread `y_l - y_r`, m.
+    pub spread_std: f64,
+    /// Windows kept (false: dropped as outliers).
+    pub inliers: Vec<bool>,
+    /// Robust residual scale per axis, m (the fixes' noise as seen).
+    pub sigma: f64,
+    /// Sum of squared residuals over the inliers, m^2.
+    pub cost: f64,
+    pub iterations: usize,
+}
+
+/// Windows whose RMS residual exceeds this many times the median's are
+/// dropped (a reference that wanders, a wheel that spins).
+pub const OUTLIER_RATIO: f64 = 3.0;
+
+type Mat5 = SMatrix<f64, 5, 5>;
+type Vec5 = SVector<f64, 5>;
+
+/// The Jacobian of the residuals (one row per residual, free columns only
+/// non-zero) by central differences.
+fn jacobian(v: &[f64; 5], free: &[bool; 5], tracks: &Tracks, active: &[bool]) -> Vec<[f64; 5]> {
+    let m = residuals(&from_u(v), tracks, active).0.len();
+    let mut j = vec![[0.0; 5]; m];
+    for k in (0..5).filter(|&k| free[k]) {
+        let h = 1e-6 * v[k].abs().max(1.0);
+        let (mut a, mut b) = (*v, *v);
+        a[k] += h;
+        b[k] -= h;
+        let (ra, rb) = (
+            residuals(&from_u(&a), tracks, active).0,
+            residuals(&from_u(&b), tracks, active).0,
+        );
+        for (row, (x, y)) in j.iter_mut().zip(ra.iter().zip(&rb)) {
+            row[k] = (x - y) / (2.0 * h);
+        }
+    }
+    j
+}
+
+/// Which parameters a fit frees, in the order (spread `y_l - y_r`, centre
+/// `(y_l + y_r) / 2`, `x_c`, `alpha_l`, `alpha_r`).
+pub type Free = [bool; 5];
+
+/// Every ICR parameter.
+pub const ALL: Free = [true; 5];
+
+/// The differential-drive model: spread and speed factors, the ICRs
+/// centred and `x_c` held at 0 (what a controller file can hold).
+pub const DIFF_DRIVE: Free = [true, false, false, true, true];
+
+/// The speed factors only (the spread and the rest held).
+pub const SPEED_ONLY: Free = [false, false, false, true, true];
+
+/// Which of (y_l, y_r, x_c, alpha_l, alpha_r) a fit that frees `free`
+/// moves.
+pub fn moved(free: &Free) -> [bool; 5] {
+    let y = free[0] || free[1];
+    [y, y, free[2], free[3], free[4]]
+}
+
+fn to_u(p: &IcrParams) -> [f64; 5] {
+    [
+        p.y_l - p.y_r,
+        0.5 * (p.y_l + p.y_r),
+        p.x_c,
+        p.alpha_l,
+        p.alpha_r,
+    ]
+}
+
+fn from_u(u: &[f64; 5]) -> IcrParams {
+    IcrParams {
+        y_l: u[1] + 0.5 * u[0],
+        y_r: u[1] - 0.5 * u[0],
+        x_c: u[2],
+        alpha_l: u[3],
+        alpha_r: u[4],
+    }
+}
+
+fn usable(u: &[f64; 5]) -> bool {
+    u.iter().all(|x| x.is_finite()) && u[0] > MIN_SPREAD && u[3] > 0.0 && u[4] > 0.0
+}
+
+/// Levenberg-Marquardt on the active windows from `v`; returns the
+/// iterations used.
+fn solve(v: &mut [f64; 5], free: &[bool; 5], tracks: &Tracks, active: &[bool]) -> usize {
+    let mut lambda = 1e-3;
+    let mut c = cost(&from_u(v), tracks, active);
+    for it in 0..100 {
+        let r = residuals(&from_u(v), tracks, active).0;
+        let j = jacobian(v, free, tracks, active);
+        let (mut a, mut g) = (Mat5::zeros(), Vec5::zeros());
+        for (row, &x) in j.iter().zip(&r) {
+            let jr = Vec5::from_row_slice(row);
+            a += jr * jr.transpose();
+            g += jr * x;
+        }
+        for k in (0..5).filter(|&k| !free[k]) {
+            a[(k, k)] = 1.0;
+        }
+        let mut improved = false;
+        while lambda < 1e12 {
+            let mut d = a;
+            for k in 0..5 {
+                d[(k, k)] += lambda * a[(k, k)].max(1e-12);
+            }
+            // J is the residuals' own: the Gauss-Newton step is -(J'J)^-1 J'r.
+            let Some(step) = d.cholesky().map(|ch| ch.solve(&g)) else {
+                lambda *= 10.0;
+                continue;
+            };
+            let mut t = *v;
+            for k in (0..5).filter(|&k| free[k]) {
+                t[k] -= step[k];
+            }
+            let ct = if usable(&t) {
+                cost(&from_u(&t), tracks, active)
+            } else {
+                f64::INFINITY
+            };
+            if ct < c {
+                let done = (c - ct) <= 1e-12 * c.max(1e-12);
+                *v = t;
+                c = ct;
+                lambda = (lambda * 0.3).max(1e-9);
+                improved = !done;
+                break;
+            }
+            lambda *= 10.0;
+        }
+        if !improved {
+            return it + 1;
+        }
+    }
+    100
+}
+
+/// 1-sigma of the free parameters at `v`: the sandwich `A^-1 B A^-1` with
+/// `A = J'J` and `B` the outer products of the windows' gradients `J_w' r_w`,
+/// overlapping windows' cross terms included, so noise shared by the fixes
+/// of a window (a GNSS error that wanders) and by overlapping windows is
+/// counted.
+/// Infinite where `A` is singular. Returns the 1-sigma of (y_l, y_r, x_c,
+/// alpha_l, alpha_r) and of the spread.
+fn uncertainties(v: &[f64; 5], free: &Free, tracks: &Tracks, active: &[bool]) -> ([f64; 5], f64) {
+    let (r, at) = residuals(&from_u(v), tracks, active);
+    let j = jacobian(v, free, tracks, active);
+    let mut a = Mat5::zeros();
+    for row in &j {
+        let jr = Vec5::from_row_slice(row);
+        a += jr * jr.transpose();
+    }
+    let wins: Vec<&Window> = tracks
+        .windows
+        .iter()
+        .zip(active)
+        .filter(|(_, &a)| a)
+        .map(|(w, _)| w)
+        .collect();
+    let grads: Vec<Vec5> = at
+        .windows(2)
+        .map(|s| (s[0]..s[1]).fold(Vec5::zeros(), |g, m| g + Vec5::from_row_slice(&j[m]) * r[m]))
+        .collect();
+    let mut b = Mat5::zeros();
+    for (x, gx) in grads.iter().enumerate() {
+        b += gx * gx.transpose();
+        for (y, gy) in grads.iter().enumerate().skip(x + 1) {
+            if wins[x].log == wins[y].log && wins[y].t0 < wins[x].t1 && wins[x].t0 < wins[y].t1 {
+                b += gx * gy.transpose() + gy * gx.transpose();
+            }
+        }
+    }
+    // Fixed parameters: a unit diagonal in A and nothing in B, so the
+    // inverse of A is that of the free block.
+    for k in (0..5).filter(|&k| !free[k]) {
+        for i in 0..5 {
+            a[(k, i)] = 0.0;
+            a[(i, k)] = 0.0;
+            b[(k, i)] = 0.0;
+            b[(i, k)] = 0.0;
+        }
+        a[(k, k)] = 1.0;
+    }
+    let mut std = [f64::NAN; 5];
+    let Some(ai) = a.try_inverse() else {
+        return ([f64::INFINITY; 5], f64::INFINITY);
+    };
+    // From (spread, centre, ...) to (y_l, y_r, ...).
+    let mut t = Mat5::identity();
+    t[(0, 0)] = 0.5;
+    t[(0, 1)] = 1.0;
+    t[(1, 0)] = -0.5;
+    t[(1, 1)] = 1.0;
+    let cov_u = ai * b * ai;
+    let cov = t * cov_u * t.transpose();
+    let moves = moved(free);
+    for k in (0..5).filter(|&k| moves[k]) {
+        let s = cov[(k, k)];
+        std[k] = if s.is_finite() && s >= 0.0 {
+            s.sqrt()
+        } else {
+            f64::INFINITY
+        };
+    }
+    let s = cov_u[(0, 0)];
+    let spread_std = if !free[0] {
+        f64::NAN
+    } else if s.is_finite() && s >= 0.0 {
+        s.sqrt()
+    } else {
+        f64::INFINITY
+    };
+    (std, spread_std)
+}
+
+/// Fits the parameters marked `free` ([`Free`]) from `start` on the windows with
+/// `active[i]`, dropping windows whose RMS residual is over
+/// [`OUTLIER_RATIO`] times the median's and refitting until the inliers
+/// stop changing. `None` with no active window.
+pub fn fit(tracks: &Tracks, start: &IcrParams, free: &Free, active: &[bool]) -> Option<TrackFit> {
+    if !active.iter().any(|&a| a) {
+        return None;
+    }
+    let mut v = to_u(start);
+    let mut inliers = active.to_vec();
+    let mut iterations = 0;
+    let mut sigma = f64::NAN;
+    for _ in 0..6 {
+        iterations += solve(&mut v, free, tracks, &inliers);
+        let rms = window_rms(&from_u(&v), tracks);
+        let mut act: Vec<f64> = rms
+            .iter()
+            .zip(active)
+            .filter(|(x, &a)| a && x.is_finite())
+            .map(|(x, _)| *x)
+            .collect();
+        if act.is_empty() {
+            return None;
+        }
+        act.sort_by(f64::total_cmp);
+        sigma = act[act.len() / 2];
+        let next: Vec<bool> = rms
+            .iter()
+            .zip(active)
+            .map(|(x, &a)| a && x.is_finite() && *x <= OUTLIER_RATIO * sigma)
+            .collect();
+        if next == inliers {
+            break;
+        }
+        inliers = next;
+    }
+    let (std, spread_std) = uncertainties(&v, free, tracks, &inliers);
+    let params = from_u(&v);
+    Some(TrackFit {
+        cost: cost(&params, tracks, &inliers),
+        params,
+        std,
+        spread_std,
+        inliers,
+        sigma,
+        iterations,
+    })
+}

@@ -1,0 +1,78 @@
+//! `calibrate` on the Husky recording in ../shared/data/ros2: GNSS fixes
+//! and no usable heading (a position-only reference), with and without the
+//! user guide's topics file (a missing recording fails the test unless
+//! TERRASLIP_ALLOW_NO_SHARED=1).
+#![cfg(feature = "ros2")]
+
+use std::path::Path;
+
+use assert_cmd::Command;
+
+/// The factor on the controller's `wheel_separation_multiplier` the YAML
+/// states, and the radius multipliers it sets.
+fn factors(yaml: &str) -> (f64, f64, f64) {
+    let after = |key: &str| -> f64 {
+        let i = yaml.find(key).unwrap_or_else(|| panic!("{key} in {yaml}")) + key.len();
+        yaml[i..]
+            .split_whitespace()
+            .next()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or_else(|| panic!("a number after {key} in {yaml}"))
+    };
+    (
+        after("factor on the recording's wheel_separation_multiplier:"),
+        after("left_wheel_radius_multiplier:"),
+        after("right_wheel_radius_multiplier:"),
+    )
+}
+
+fn calibrate(bag: &Path, topics: Option<&Path>, out: &Path) -> String {
+    let yaml = out.join("dd.yaml");
+    let mut cmd = Command::cargo_bin("terraslip").unwrap();
+    cmd.arg("calibrate")
+        .arg(bag)
+        .arg("--ros2-params")
+        .arg(&yaml)
+        .arg("--out")
+        .arg(out.join("params.json"));
+    if let Some(t) = topics {
+        cmd.arg("--topics").arg(t);
+    }
+    let o = cmd.output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    std::fs::read_to_string(yaml).unwrap()
+}
+
+#[test]
+fn the_husky_bag_yields_a_controller_file_with_no_topics_file() {
+    let Some(bag) = terraslip_io::shared::shared_data("ros2/husky_test1_mcap") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    std::fs::create_dir_all(&a).unwrap();
+    std::fs::create_dir_all(&b).unwrap();
+    let plain = calibrate(&bag, None, &a);
+    let topics = dir.path().join("husky.toml");
+    std::fs::write(
+        &topics,
+        "[wheels]\nseparation = 1.040625\n[imu]\nmount_rpy_deg = [90, 0, -90]\n\
+         [heading]\ntopic = \"\"\n[meta]\ntrack_width = 0.555\n",
+    )
+    .unwrap();
+    let guided = calibrate(&bag, Some(&topics), &b);
+    let (f, l, r) = factors(&plain);
+    let (fg, lg, rg) = factors(&guided);
+    // The scale S drops out: the same factors with or without the file.
+    assert!((f / fg - 1.0).abs() < 0.02, "{f} vs {fg}");
+    assert!((l / lg - 1.0).abs() < 0.02 && (r / rg - 1.0).abs() < 0.02);
+    // The odometry's turn over the fixes' (what the course check,
+    // scripts/ros2-course-check.py, measures as 0.980): spread / (mean
+    // speed factor x S), within the 1-sigma the calibration states (0.1).
+    let turn = f / (0.5 * (l + r));
+    assert!((turn - 0.98).abs() < 0.1, "turn factor {turn}");
+    let pf: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(a.join("params.json")).unwrap()).unwrap();
+    let notes = pf["notes"].to_string();
+    assert!(notes.contains("position-only reference"), "{notes}");
+}

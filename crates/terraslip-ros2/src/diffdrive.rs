@@ -77,7 +77,10 @@ pub struct ParamsBlock {
     pub cost: Option<(f64, f64)>,
     /// For tread speeds made from the controller's odometry twist with a
     /// separation S: spread / S, the factor by which the recording's
-    /// `wheel_separation_multiplier` is off.
+    /// `wheel_separation_multiplier` is off when the radius multipliers
+    /// of `params` are set too. The file also gives it divided by their
+    /// mean: the factor with the radius multipliers left at 1 (the
+    /// summary's `turn_factor`).
     pub separation_factor: Option<f64>,
 }
 
@@ -127,9 +130,11 @@ pub fn params_yaml(
             );
         }
         if let Some(f) = b.separation_factor {
+            let alpha = 0.5 * (p.left_wheel_radius_multiplier + p.right_wheel_radius_multiplier);
             let _ = writeln!(
                 s,
-                "# factor on the recording's wheel_separation_multiplier: {f:.4} (spread / the separation the tread speeds were made with)"
+                "# factor on the recording's wheel_separation_multiplier: {f:.4} (spread / the separation the tread speeds were made with), with the radius multipliers below;\n# {:.4} with the radius multipliers left at 1 (spread / (mean speed factor x S): the odometry's turn over the true one, what a course check measures)",
+                f / alpha
             );
         }
         if nominal.is_some() {
@@ -240,6 +245,13 @@ mod tests {
         let y = params_yaml("c", std::slice::from_ref(&block), Some((1.0, "default")));
         assert!(y.contains("nominal S = 1 m (default)"), "{y}");
         assert!(y.contains("wheel_separation_multiplier: 0.9000"), "{y}");
+        // The factor with the radius multipliers left at 1, spread / (mean
+        // speed factor x S) = 0.9 / 0.91: the odometry's turn over the
+        // true one, what a course check measures.
+        assert!(
+            y.contains("0.9890 with the radius multipliers left at 1"),
+            "{y}"
+        );
         assert!(!y.contains("    wheel_separation:"), "{y}");
         assert!(
             y.contains("    left_wheel_radius_multiplier: 0.900000"),

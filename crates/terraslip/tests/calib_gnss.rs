@@ -71,6 +71,12 @@ fn the_husky_bag_yields_a_controller_file_with_no_topics_file() {
     // speed factor x S), within the 1-sigma the calibration states (0.1).
     let turn = f / (0.5 * (l + r));
     assert!((turn - 0.98).abs() < 0.1, "turn factor {turn}");
+    assert!(
+        plain.contains(&format!(
+            "# {turn:.4} with the radius multipliers left at 1"
+        )),
+        "{plain}"
+    );
     let pf: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(a.join("params.json")).unwrap()).unwrap();
     let notes = pf["notes"].to_string();

@@ -19,9 +19,9 @@ fn truth() -> IcrParams {
     }
 }
 
-/// `duration` s of driving seen by 1 Hz fixes with 1 m noise per axis and
-/// no heading; no terrain labels.
-fn gnss_drive(duration: f64, seed: u64) -> DriveLog {
+/// `duration` s of `manoeuvres` seen by 1 Hz fixes with 1 m noise per
+/// axis and no heading; no terrain labels.
+fn gnss_drive_of(duration: f64, seed: u64, manoeuvres: Manoeuvres) -> DriveLog {
     let cfg = SynthConfig {
         duration,
         wheel_rate: 20.0,
@@ -32,7 +32,7 @@ fn gnss_drive(duration: f64, seed: u64) -> DriveLog {
         max_speed: 1.0,
         max_yaw_rate: 1.0,
         hold: (3.0, 10.0),
-        manoeuvres: Manoeuvres::Mixed,
+        manoeuvres,
         track_width: 0.555,
         rate: RateSlopes::NONE,
         robot: None,
@@ -45,6 +45,11 @@ fn gnss_drive(duration: f64, seed: u64) -> DriveLog {
         p.yaw = None;
     }
     log
+}
+
+/// Mixed manoeuvres: spins, straight runs and turns.
+fn gnss_drive(duration: f64, seed: u64) -> DriveLog {
+    gnss_drive_of(duration, seed, Manoeuvres::Mixed)
 }
 
 #[test]
@@ -95,4 +100,33 @@ fn gnss_fixes_without_heading_give_the_spread_and_speed_factors() {
     }
     let rms_z = (z2.iter().sum::<f64>() / z2.len() as f64).sqrt();
     assert!(rms_z < 2.0, "RMS normalised error {rms_z}");
+}
+
+#[test]
+fn fixes_that_never_bend_say_the_spread_is_unidentified() {
+    let log = gnss_drive_of(600.0, 5, Manoeuvres::StraightOnly);
+    match calibrate(std::slice::from_ref(&log), &CalibConfig::default(), &|_| {}) {
+        Err(CalibError::Unobservable { params, reason, .. }) => {
+            assert_eq!(params, vec!["y_l", "y_r", "x_c"]);
+            assert!(reason.contains("windows turn"), "{reason}");
+        }
+        other => panic!("expected the spread unidentified, got {other:?}"),
+    }
+    // --allow-partial: the speed factors alone, the rest at no-slip.
+    let cal = calibrate(
+        &[log],
+        &CalibConfig {
+            allow_partial: true,
+            ..Default::default()
+        },
+        &|_| {},
+    )
+    .expect("speed factors");
+    let s = &cal.sets[0];
+    assert_eq!(s.unidentified, vec!["y_l", "y_r", "x_c"]);
+    let p = s.best.params;
+    assert!(
+        (p.alpha_l - 0.95).abs() < 0.04 && (p.alpha_r - 0.93).abs() < 0.04,
+        "{p:?}"
+    );
 }

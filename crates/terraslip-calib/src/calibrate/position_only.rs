@@ -12,7 +12,7 @@ use super::{
     SetCalibration, TimeOffset,
 };
 use crate::segment::SegmentStats;
-use crate::track::{self, TrackConfig, TrackFit, Tracks};
+use crate::track::{self, TrackConfig, Tracks};
 use crate::{CalibConfig, CalibError};
 
 /// Fewest windows (counted as non-overlapping ones) a set needs.
@@ -134,9 +134,10 @@ pub(super) fn calibrate(
 }
 
 /// The wheel/pose time offset of one log (s) on a `step` grid within
-/// `±max`: the parameters fitted at offset 0, then the offset whose windows
-/// they fit best (mean squared residual), then the same once more around
-/// the parameters refitted there.
+/// `±max`: the profile of the fit, the parameters refitted at every
+/// offset (a shift in time bends the path as a spread does, so the two
+/// are found together), the offset with the lowest mean squared residual
+/// over all its windows.
 fn search_offset(
     log: &DriveLog,
     tcfg: &TrackConfig,
@@ -144,32 +145,22 @@ fn search_offset(
     max: f64,
     step: f64,
 ) -> Option<f64> {
-    let free = track::DIFF_DRIVE;
-    let fit_at = |o: f64, p: &IcrParams| -> Option<TrackFit> {
-        let t = Tracks::build(&[log], &[o], tcfg);
-        track::fit(&t, p, &free, &vec![true; t.windows.len()])
-    };
-    let mut p = fit_at(0.0, start)?.params;
     let k = (max / step).floor() as i64;
-    let mut best = 0.0;
-    for _ in 0..2 {
-        let mut lowest = f64::INFINITY;
-        for i in -k..=k {
-            let o = i as f64 * step;
-            let t = Tracks::build(&[log], &[o], tcfg);
-            let all = vec![true; t.windows.len()];
-            let m: usize = t.windows.iter().map(|w| 2 * w.fixes.len()).sum();
-            if m == 0 {
-                continue;
-            }
-            let c = track::cost(&p, &t, &all) / m as f64;
-            if c < lowest {
-                (lowest, best) = (c, o);
-            }
+    let mut best: Option<(f64, f64)> = None;
+    for i in -k..=k {
+        let o = i as f64 * step;
+        let t = Tracks::build(&[log], &[o], tcfg);
+        let all = vec![true; t.windows.len()];
+        let Some(f) = track::fit(&t, start, &track::DIFF_DRIVE, &all) else {
+            continue;
+        };
+        let m: usize = t.windows.iter().map(|w| 2 * w.fixes.len()).sum();
+        let c = track::cost(&f.params, &t, &all) / m.max(1) as f64;
+        if best.is_none_or(|(lowest, _)| c < lowest) {
+            best = Some((c, o));
         }
-        p = fit_at(best, &p)?.params;
     }
-    Some(best)
+    best.map(|b| b.1)
 }
 
 fn calibrate_set(

@@ -612,3 +612,74 @@ pub fn fit(tracks: &Tracks, start: &IcrParams, free: &Free, active: &[bool]) -> 
         iterations,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A window of 20 fixes along the path of `p` over a left turn, the
+    /// path rotated by `th` and moved by `(e, n)`.
+    fn window_on(p: &IcrParams, th: f64, e: f64, n: f64) -> Tracks {
+        let steps: Vec<Step> = (0..200)
+            .map(|k| Step {
+                dt: 0.1,
+                v_left: 0.8,
+                v_right: if k < 100 { 0.8 } else { 1.2 },
+                acc: 0.0,
+            })
+            .collect();
+        let path = trajectory_rate(p, &RateSlopes::NONE, &steps);
+        let (s, c) = th.sin_cos();
+        let fixes: Vec<(usize, f64, f64)> = (0..=200)
+            .step_by(10)
+            .map(|k| {
+                let (x, y) = (path[k].x, path[k].y);
+                (k, c * x - s * y + e, s * x + c * y + n)
+            })
+            .collect();
+        let (e0, n0) = (fixes[0].1, fixes[0].2);
+        Tracks {
+            windows: vec![Window {
+                log: 0,
+                t0: 0.0,
+                t1: 20.0,
+                terrain: None,
+                steps: 0..steps.len(),
+                fixes: fixes.iter().map(|f| (f.0, f.1 - e0, f.2 - n0)).collect(),
+                int_diff: 4.0,
+            }],
+            steps,
+            stats: TrackStats::default(),
+        }
+    }
+
+    #[test]
+    fn the_start_heading_and_position_are_profiled_out() {
+        let p = IcrParams::no_slip(0.6);
+        let t = window_on(&p, 0.7, 3.0, -2.0);
+        let mut r = Vec::new();
+        let th = window_residuals(&p, &t, &t.windows[0], &mut r);
+        assert!((th - 0.7).abs() < 1e-9, "{th}");
+        assert!(r.iter().all(|x| x.abs() < 1e-9), "{r:?}");
+        // Another spread bends the path otherwise: no rigid motion fits.
+        let q = IcrParams::no_slip(0.5);
+        r.clear();
+        window_residuals(&q, &t, &t.windows[0], &mut r);
+        assert!(r.iter().map(|x| x * x).sum::<f64>().sqrt() > 0.1, "{r:?}");
+    }
+
+    #[test]
+    fn the_fit_finds_the_spread_of_a_turning_window() {
+        let truth = IcrParams {
+            y_l: 0.35,
+            y_r: -0.35,
+            x_c: 0.0,
+            alpha_l: 0.9,
+            alpha_r: 0.9,
+        };
+        let t = window_on(&truth, -1.2, 10.0, 5.0);
+        let f = fit(&t, &IcrParams::no_slip(0.555), &DIFF_DRIVE, &[true]).unwrap();
+        assert!((f.params.spread() - 0.7).abs() < 1e-4, "{:?}", f.params);
+        assert!((f.params.alpha_l - 0.9).abs() < 1e-4, "{:?}", f.params);
+    }
+}

@@ -14,6 +14,25 @@ fn lm_only() -> CalibConfig {
     }
 }
 
+/// A 120 s drive of the same robot (`cfg` with seed `seed`) and `pf`
+/// validated on it.
+fn validate_on_another_drive(
+    truth: IcrParams,
+    cfg: &SynthConfig,
+    seed: u64,
+    pf: &ParamsFile,
+) -> (terraslip_io::DriveLog, Validation) {
+    let other = drive(&[("asphalt", truth)], &{
+        let mut c = cfg.clone();
+        c.seed = seed;
+        c.duration = 120.0;
+        c
+    });
+    let v =
+        validate(std::slice::from_ref(&other), pf, &ValidateConfig::default()).expect("validation");
+    (other, v)
+}
+
 fn assert_close(p: &IcrParams, t: &IcrParams, tol_y: f64, tol_xc: f64, tol_alpha_rel: f64) {
     assert!((p.y_l - t.y_l).abs() < tol_y, "y_l {} vs {}", p.y_l, t.y_l);
     assert!((p.y_r - t.y_r).abs() < tol_y, "y_r {} vs {}", p.y_r, t.y_r);
@@ -351,18 +370,7 @@ fn a_turn_rate_dependent_robot_gets_its_slopes_and_a_constant_one_gets_none() {
     let e = &pf.terrains["asphalt"];
     assert_eq!(e.params, cal.sets[0].best.params);
     assert_eq!(e.extra["rate_model"]["selected"], serde_json::json!(true));
-    let other = drive(&[("asphalt", truth)], &{
-        let mut c = cfg.clone();
-        c.seed = 6;
-        c.duration = 120.0;
-        c
-    });
-    let v = validate(
-        std::slice::from_ref(&other),
-        &pf,
-        &ValidateConfig::default(),
-    )
-    .expect("validation");
+    let (other, v) = validate_on_another_drive(truth, &cfg, 6, &pf);
     assert_eq!(v.rate_segments, v.segments.len());
     // Headings show it most: the 1 cm reference noise floors positions.
     assert!(
@@ -433,18 +441,7 @@ fn a_robot_that_slips_when_accelerating_gets_its_traction_term() {
     let rm = &pf.terrains["asphalt"].extra["rate_model"];
     assert_eq!(rm["k_acc"].as_f64(), Some(k.k_acc));
     assert_eq!(rm["traction"]["selected"], serde_json::json!(true));
-    let other = drive(&[("asphalt", truth)], &{
-        let mut c = cfg.clone();
-        c.seed = 9;
-        c.duration = 120.0;
-        c
-    });
-    let v = validate(
-        std::slice::from_ref(&other),
-        &pf,
-        &ValidateConfig::default(),
-    )
-    .expect("validation");
+    let (other, v) = validate_on_another_drive(truth, &cfg, 9, &pf);
     assert_eq!(v.rate_segments, v.segments.len());
     // Headings show it most: the 1 cm reference noise floors positions.
     assert!(
@@ -881,18 +878,7 @@ fn a_robot_that_slides_out_in_fast_turns_gets_its_centripetal_terms() {
         (back.k_spread_speed - k.k_spread_speed).abs() < 1e-12,
         "{back:?}"
     );
-    let other = drive(&[("asphalt", truth)], &{
-        let mut c = cfg.clone();
-        c.seed = 12;
-        c.duration = 120.0;
-        c
-    });
-    let v = validate(
-        std::slice::from_ref(&other),
-        &pf,
-        &ValidateConfig::default(),
-    )
-    .expect("validation");
+    let (_, v) = validate_on_another_drive(truth, &cfg, 12, &pf);
     assert!(
         v.mse.position() * 3.0 < v.constant_mse.position(),
         "centripetal {:?} vs constant {:?}",

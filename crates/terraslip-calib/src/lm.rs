@@ -428,17 +428,32 @@ pub fn uncertainties(
 }
 
 /// Parameter order of the turn-rate dependent fit (and its traction term).
-pub const RATE_PARAM_NAMES: [&str; 9] = [
-    "y_l", "y_r", "x_c", "alpha_l", "alpha_r", "k_spread", "k_alpha", "k_acc", "k_dir",
+pub const RATE_PARAM_NAMES: [&str; 11] = [
+    "y_l",
+    "y_r",
+    "x_c",
+    "alpha_l",
+    "alpha_r",
+    "k_spread",
+    "k_alpha",
+    "k_acc",
+    "k_dir",
+    "k_x_speed",
+    "k_spread_speed",
 ];
 
+/// Number of slopes of [`RateSlopes`].
+pub const N_SLOPES: usize = 6;
+
 /// Which slopes of [`RateSlopes`] a variable-ICR fit frees, in the order
-/// (k_spread, k_alpha, k_acc, k_dir).
-pub const TURN_RATE: [bool; 4] = [true, true, false, false];
+/// (k_spread, k_alpha, k_acc, k_dir, k_x_speed, k_spread_speed).
+pub const TURN_RATE: [bool; N_SLOPES] = [true, true, false, false, false, false];
 /// The turn-rate model with the symmetric traction term `k_acc`.
-pub const TURN_RATE_TRACTION: [bool; 4] = [true, true, true, false];
+pub const TURN_RATE_TRACTION: [bool; N_SLOPES] = [true, true, true, false, false, false];
 /// The turn-rate model with traction differing when accelerating and braking.
-pub const TURN_RATE_TRACTION_SIGNED: [bool; 4] = [true, true, true, true];
+pub const TURN_RATE_TRACTION_SIGNED: [bool; N_SLOPES] = [true, true, true, true, false, false];
+/// The centripetal terms alone.
+pub const CENTRIPETAL: [bool; N_SLOPES] = [false, false, false, false, true, true];
 
 /// A variable-ICR model ([`RateSlopes`]) fitted jointly with the five ICR
 /// parameters.
@@ -447,11 +462,11 @@ pub struct RateFit {
     pub params: IcrParams,
     pub slopes: RateSlopes,
     /// 1-sigma of [`RATE_PARAM_NAMES`]; NaN for fixed parameters.
-    pub std: [f64; 9],
+    pub std: [f64; 5 + N_SLOPES],
     /// Weighted eq. 13 sum at the fit.
     pub sse: f64,
     /// Which slopes were fitted (order of [`TURN_RATE`]).
-    pub free_slopes: [bool; 4],
+    pub free_slopes: [bool; N_SLOPES],
 }
 
 impl RateFit {
@@ -475,13 +490,13 @@ pub fn fit_rate(
     w: &[f64],
     yaw_weight: f64,
     free: &[bool; 5],
-    free_slopes: &[bool; 4],
+    free_slopes: &[bool; N_SLOPES],
     max_iterations: usize,
 ) -> Option<RateFit> {
     if !w.iter().any(|&x| x > 0.0) {
         return None;
     }
-    let split = |v: &[f64; 9]| {
+    let split = |v: &[f64; 5 + N_SLOPES]| {
         (
             from_vec(&[v[0], v[1], v[2], v[3], v[4]]),
             RateSlopes {
@@ -489,17 +504,19 @@ pub fn fit_rate(
                 k_alpha: v[6],
                 k_acc: v[7],
                 k_dir: v[8],
+                k_x_speed: v[9],
+                k_spread_speed: v[10],
             },
         )
     };
-    let res = |v: &[f64; 9]| {
+    let res = |v: &[f64; 5 + N_SLOPES]| {
         let (p, k) = split(v);
         residuals_rate(&p, &k, segs, yaw_weight)
     };
-    let ok = |v: &[f64; 9]| {
+    let ok = |v: &[f64; 5 + N_SLOPES]| {
         usable(&[v[0], v[1], v[2], v[3], v[4]]) && v[5..].iter().all(|x| x.is_finite())
     };
-    let mut f = [false; 9];
+    let mut f = [false; 5 + N_SLOPES];
     f[..5].copy_from_slice(free);
     f[5..].copy_from_slice(free_slopes);
     let problem = Problem {
@@ -521,6 +538,8 @@ pub fn fit_rate(
         k0.k_alpha,
         k0.k_acc,
         k0.k_dir,
+        k0.k_x_speed,
+        k0.k_spread_speed,
     ];
     problem.solve(&mut v, w, max_iterations);
     let (params, slopes) = split(&v);

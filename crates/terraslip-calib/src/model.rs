@@ -1,6 +1,6 @@
 //! Predicted increments and the fitness of a parameter set (Mandow eq. 13).
 
-use terraslip_core::kinematics::{TurnRateSlopes, RATE_GAIN_MAX, RATE_GAIN_MIN};
+use terraslip_core::kinematics::{CentripetalSlopes, TurnRateSlopes, RATE_GAIN_MAX, RATE_GAIN_MIN};
 use terraslip_core::{angle, IcrParams, Twist};
 
 use crate::segment::{Increment, Segment, Segments, Step};
@@ -29,6 +29,12 @@ pub struct RateSlopes {
     /// turn-rate model.
     pub k_acc: f64,
     pub k_dir: f64,
+    /// Centripetal terms ([`CentripetalSlopes`]): `x_c` moves by
+    /// `k_x_speed` (s) per m/s of mean tread speed `v` (a lateral slip
+    /// `-k_x_speed v omega`) and the spread scales by
+    /// `1 + k_spread_speed |v|` (s/m). Zero in the other models.
+    pub k_x_speed: f64,
+    pub k_spread_speed: f64,
 }
 
 impl RateSlopes {
@@ -38,6 +44,8 @@ impl RateSlopes {
         k_alpha: 0.0,
         k_acc: 0.0,
         k_dir: 0.0,
+        k_x_speed: 0.0,
+        k_spread_speed: 0.0,
     };
 
     pub fn is_constant(&self) -> bool {
@@ -47,6 +55,19 @@ impl RateSlopes {
     /// Whether the traction term is on.
     pub fn has_traction(&self) -> bool {
         self.k_acc != 0.0 || self.k_dir != 0.0
+    }
+
+    /// Whether the centripetal terms are on.
+    pub fn has_centripetal(&self) -> bool {
+        !self.centripetal().is_constant()
+    }
+
+    /// The centripetal part alone.
+    pub fn centripetal(&self) -> CentripetalSlopes {
+        CentripetalSlopes {
+            k_x_speed: self.k_x_speed,
+            k_spread_speed: self.k_spread_speed,
+        }
     }
 
     /// The turn-rate part alone: the law the online filter uses too.
@@ -74,12 +95,20 @@ impl RateSlopes {
     /// slopes from measured tread speeds (m/s) and the tread acceleration
     /// `acc` (m/s^2, [`Step::acc`]).
     pub fn twist(&self, p: &IcrParams, v_left: f64, v_right: f64, acc: f64) -> Twist {
-        let t = p.twist(v_left, v_right);
+        self.applied(p.twist(v_left, v_right), v_left, v_right, acc)
+    }
+
+    /// The constant model's twist `t` at measured tread speeds (m/s) and
+    /// tread acceleration (m/s^2) turned into this model's.
+    #[inline(always)]
+    fn applied(&self, t: Twist, v_left: f64, v_right: f64, acc: f64) -> Twist {
         let (turn, fwd) = self.gains(v_left, v_right, acc);
+        let (gs, dx) = self.centripetal().terms(v_left, v_right);
+        let omega = turn / gs * t.omega;
         Twist {
             v_x: fwd * t.v_x,
-            v_y: turn * t.v_y,
-            omega: turn * t.omega,
+            v_y: turn / gs * t.v_y - dx * omega,
+            omega,
         }
     }
 }
@@ -169,15 +198,7 @@ fn walk(p: &IcrParams, k: &RateSlopes, steps: &[Step], visit: impl FnMut(Pose)) 
     }
     integrate_twists(
         steps,
-        |st| {
-            let t = linear(st);
-            let (turn, fwd) = k.gains(st.v_left, st.v_right, st.acc);
-            Twist {
-                v_x: fwd * t.v_x,
-                v_y: turn * t.v_y,
-                omega: turn * t.omega,
-            }
-        },
+        |st| k.applied(linear(st), st.v_left, st.v_right, st.acc),
         visit,
     )
 }
@@ -461,6 +482,47 @@ mod tests {
     }
 
     #[test]
+    fn centripetal_terms_are_the_core_law_on_top_of_the_turn_rate_law() {
+        let p = IcrParams {
+            y_l: 0.3,
+            y_r: -0.25,
+            x_c: 0.04,
+            alpha_l: 0.93,
+            alpha_r: 0.95,
+        };
+        let k = RateSlopes {
+            k_spread: -0.1,
+            k_alpha: -0.05,
+            k_x_speed: 0.2,
+            k_spread_speed: 0.1,
+            ..Default::default()
+        };
+        for (vl, vr) in [(0.4, 1.2), (-1.0, -0.3), (-0.5, 0.5), (0.8, 0.8)] {
+            let t = k.twist(&p, vl, vr, 0.0);
+            let want = k
+                .centripetal()
+                .at(&k.turn_rate().at(&p, vl, vr), vl, vr)
+                .twist(vl, vr);
+            for (a, b) in [(t.v_x, want.v_x), (t.v_y, want.v_y), (t.omega, want.omega)] {
+                assert!((a - b).abs() < 1e-12, "{vl} {vr}: {t:?} vs {want:?}");
+            }
+        }
+        assert!(k.has_centripetal() && !RateSlopes::NONE.has_centripetal());
+        // The integrator agrees with the twist.
+        let steps = vec![
+            Step {
+                dt: 0.1,
+                v_left: 0.4,
+                v_right: 1.2,
+                acc: 0.0,
+            };
+            10
+        ];
+        let a = integrate_rate(&p, &k, &steps);
+        assert!((a.dyaw - k.twist(&p, 0.4, 1.2, 0.0).omega).abs() < 1e-12);
+    }
+
+    #[test]
     fn trajectory_increments_equal_per_segment_integration() {
         use crate::segment::SegmentConfig;
         use crate::synthetic::{drive, mandow_table1, SynthConfig};
@@ -489,6 +551,8 @@ mod tests {
                 k_alpha: -0.05,
                 k_acc: 0.1,
                 k_dir: 0.02,
+                k_x_speed: 0.1,
+                k_spread_speed: 0.05,
             },
         ] {
             let all = residuals_rate(&p, &k, &segs, 0.5);

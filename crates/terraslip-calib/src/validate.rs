@@ -110,6 +110,8 @@ pub fn model_for(
         k_alpha: r.k_alpha,
         k_acc: r.k_acc,
         k_dir: r.k_dir,
+        k_x_speed: r.k_x_speed,
+        k_spread_speed: r.k_spread_speed,
     };
     Ok(Some((r.params, slopes)))
 }

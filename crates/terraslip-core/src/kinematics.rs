@@ -283,6 +283,71 @@ impl TurnRateSlopes {
     }
 }
 
+/// Centripetal dependence of the ICRs: how they move with the forward
+/// speed in a turn, which the constant model and the turn-rate law
+/// ([`TurnRateSlopes`]) cannot express.
+///
+/// With `v = (V_l + V_r) / 2` the mean measured tread speed (m/s, before
+/// the speed factors, signed: > 0 forward):
+///
+/// * `x_c` becomes `x_c + k_x_speed v` (`k_x_speed` in s). Since
+///   `v_y = -x_c omega`, the body gains a lateral slip speed
+///   `-k_x_speed v omega`: proportional to the centripetal acceleration
+///   `a_y = v omega` (m/s^2, body y), as a tread whose lateral resistance
+///   grows linearly with its lateral slip speed makes it (the robot slides
+///   outward, by `k_x_speed` m/s per m/s^2, when `k_x_speed > 0`). This is
+///   the lateral slip on `v omega` of DRIVE's learned model.
+/// * the spread `y_l - y_r` scales by `1 + k_spread_speed |v|` about the
+///   centre line (`k_spread_speed` in s/m, the factor clamped to
+///   [[`RATE_GAIN_MIN`], [`RATE_GAIN_MAX`]]): the yaw rate becomes
+///   `omega / (1 + k_spread_speed |v|)`, a yaw slip `~ k_spread_speed |v| omega`
+///   that grows with the centripetal acceleration, DRIVE's yaw slip on `v omega`.
+///
+/// The [`IcrParams`] the terms are applied to are those at rest (`v = 0`);
+/// zero slopes are the constant model. [`Self::at`] composes with
+/// [`TurnRateSlopes::at`] (either order: they scale the spread by
+/// independent factors and only this one moves `x_c`).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct CentripetalSlopes {
+    /// Longitudinal ICR shift per m/s of mean tread speed, s.
+    pub k_x_speed: f64,
+    /// Relative change of the spread per m/s of mean tread speed, s/m.
+    pub k_spread_speed: f64,
+}
+
+impl CentripetalSlopes {
+    /// The constant-ICR model.
+    pub const NONE: CentripetalSlopes = CentripetalSlopes {
+        k_x_speed: 0.0,
+        k_spread_speed: 0.0,
+    };
+
+    /// True for the constant model (both slopes zero).
+    pub fn is_constant(&self) -> bool {
+        self.k_x_speed == 0.0 && self.k_spread_speed == 0.0
+    }
+
+    /// `(spread factor, x_c shift in m)` at measured tread speeds (m/s).
+    #[inline]
+    pub fn terms(&self, v_left: f64, v_right: f64) -> (f64, f64) {
+        let v = 0.5 * (v_left + v_right);
+        (
+            (1.0 + self.k_spread_speed * v.abs()).clamp(RATE_GAIN_MIN, RATE_GAIN_MAX),
+            self.k_x_speed * v,
+        )
+    }
+
+    /// The ICRs in effect at measured tread speeds `v_left`, `v_right`
+    /// (m/s) when `p` are the values at rest.
+    pub fn at(&self, p: &IcrParams, v_left: f64, v_right: f64) -> IcrParams {
+        let (gs, dx) = self.terms(v_left, v_right);
+        let mut q = scaled(p, gs, 1.0);
+        q.x_c += dx;
+        q
+    }
+}
+
 /// `p` with the spread scaled by `gs` about the centre line and the speed
 /// factors by `ga`.
 #[inline]
@@ -407,6 +472,58 @@ mod tests {
         };
         assert_eq!(steep.gains(-1.0, 1.0), (RATE_GAIN_MIN, RATE_GAIN_MAX));
         assert!(steep.at(&p, -1.0, 1.0).validate().is_ok());
+    }
+
+    #[test]
+    fn centripetal_terms_are_drives_lateral_and_yaw_slip_on_v_omega() {
+        let p = IcrParams {
+            y_l: 0.31,
+            y_r: -0.27,
+            x_c: 0.04,
+            alpha_l: 0.97,
+            alpha_r: 1.02,
+        };
+        let c = CentripetalSlopes {
+            k_x_speed: 0.05,
+            k_spread_speed: 0.1,
+        };
+        let (vl, vr) = (0.6, 1.2);
+        let v = 0.9;
+        let t0 = p.twist(vl, vr);
+        let t = c.at(&p, vl, vr).twist(vl, vr);
+        // Yaw slip: the spread grows by 1 + k |v|, the yaw rate shrinks.
+        assert_abs_diff_eq!(t.omega, t0.omega / (1.0 + 0.1 * v), epsilon = 1e-12);
+        // Lateral slip -k_x v omega on top of the ICR's -x_c omega.
+        assert_abs_diff_eq!(t.v_y, -(p.x_c + 0.05 * v) * t.omega, epsilon = 1e-12);
+        assert_abs_diff_eq!(t.v_x, t0.v_x, epsilon = 1e-12);
+        // Reversing flips the lateral slip with v omega, not the yaw slip.
+        let back = c.at(&p, -vr, -vl);
+        assert_abs_diff_eq!(back.x_c, p.x_c - 0.05 * v, epsilon = 1e-12);
+        assert_abs_diff_eq!(back.spread(), (1.0 + 0.1 * v) * p.spread(), epsilon = 1e-12);
+        // At rest and for zero slopes: the constant model.
+        assert_eq!(c.at(&p, 0.0, 0.0), p);
+        assert_eq!(CentripetalSlopes::NONE.at(&p, vl, vr), p);
+        // It composes with the turn-rate law in either order.
+        let k = TurnRateSlopes {
+            k_spread: -0.2,
+            k_alpha: 0.05,
+        };
+        let a = c.at(&k.at(&p, vl, vr), vl, vr);
+        let b = k.at(&c.at(&p, vl, vr), vl, vr);
+        for (x, y) in [
+            (a.y_l, b.y_l),
+            (a.y_r, b.y_r),
+            (a.x_c, b.x_c),
+            (a.alpha_l, b.alpha_l),
+        ] {
+            assert_abs_diff_eq!(x, y, epsilon = 1e-12);
+        }
+        // A steep slope stays non-singular.
+        let steep = CentripetalSlopes {
+            k_x_speed: 0.0,
+            k_spread_speed: -10.0,
+        };
+        assert!(steep.at(&p, 3.0, 3.0).validate().is_ok());
     }
 
     proptest! {

@@ -45,7 +45,9 @@ impl ParamEntry {
 /// ICRs under the key `rate_model` (see `docs/calibration.md`): the
 /// straight-line ICRs (body frame, m) and the slopes of the law
 /// `terraslip_core::kinematics::TurnRateSlopes` (s/m), plus the optional
-/// traction slopes (s^2/m; 0 in files written before they existed).
+/// traction slopes (s^2/m) and centripetal slopes
+/// (`terraslip_core::kinematics::CentripetalSlopes`: `k_x_speed` in s,
+/// `k_spread_speed` in s/m), each 0 when absent.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RateModelEntry {
     pub params: IcrParams,
@@ -53,6 +55,8 @@ pub struct RateModelEntry {
     pub k_alpha: f64,
     pub k_acc: f64,
     pub k_dir: f64,
+    pub k_x_speed: f64,
+    pub k_spread_speed: f64,
 }
 
 impl RateModelEntry {
@@ -92,6 +96,8 @@ impl RateModelEntry {
             k_alpha: num(r, "k_alpha")?,
             k_acc: optional("k_acc")?,
             k_dir: optional("k_dir")?,
+            k_x_speed: optional("k_x_speed")?,
+            k_spread_speed: optional("k_spread_speed")?,
         }))
     }
 }
@@ -247,6 +253,18 @@ mod tests {
         assert!(RateModelEntry::selected(&extra(bad_acc))
             .expect_err("malformed")
             .contains("k_acc"));
+        // The centripetal slopes, read back as written.
+        let centripetal = json!({"selected": true, "params": q, "k_spread": 0.0, "k_alpha": 0.0,
+            "k_x_speed": 0.12, "k_spread_speed": -0.04});
+        let r = RateModelEntry::selected(&extra(centripetal))
+            .expect("well formed")
+            .expect("selected");
+        assert_eq!((r.k_x_speed, r.k_spread_speed), (0.12, -0.04));
+        let bad_speed = json!({"selected": true, "params": q, "k_spread": 0.0, "k_alpha": 0.0,
+            "k_x_speed": "x"});
+        assert!(RateModelEntry::selected(&extra(bad_speed))
+            .expect_err("malformed")
+            .contains("k_x_speed"));
         let crossed = json!({"selected": true, "k_spread": 0.0, "k_alpha": 0.0,
             "params": {"y_l": -0.3, "y_r": 0.3, "x_c": 0.0, "alpha_l": 1.0, "alpha_r": 1.0}});
         assert!(RateModelEntry::selected(&extra(crossed))

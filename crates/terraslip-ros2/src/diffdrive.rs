@@ -12,7 +12,10 @@
 //! They agree exactly when y_l = −y_r and x_c = 0 with the radius
 //! multipliers α_l, α_r and S = y_l − y_r; the controller cannot represent
 //! x_c (it has no lateral velocity) nor y_l ≠ −y_r (its forward speed is
-//! always the mean of the treads').
+//! always the mean of the treads'), nor ICRs that move with the motion
+//! (the calibration's `rate_model`: turn-rate, traction and centripetal
+//! terms, the last a lateral slip on v·ω and a yaw slip growing with the
+//! speed): its multipliers are constants, so the blocks hold the constant ICRs.
 
 use std::fmt::Write as _;
 
@@ -82,6 +85,9 @@ pub struct ParamsBlock {
     /// mean: the factor with the radius multipliers left at 1 (the
     /// summary's `turn_factor`).
     pub separation_factor: Option<f64>,
+    /// The terms of the set's selected variable model the controller
+    /// leaves out (e.g. `k_x_speed = 0.12 s`), when there is one.
+    pub left_out: Option<String>,
 }
 
 /// A ROS 2 parameter YAML, one controller block per terrain, named
@@ -102,6 +108,10 @@ pub fn params_yaml(
     s.push_str("# ICR x_c (a lateral velocity -x_c*omega in turns) nor unequal ICRs y_l != -y_r\n");
     s.push_str("# (forward speed weighted towards one tread): it keeps the spread y_l - y_r as\n");
     s.push_str("# the effective separation and the speed factors as radius multipliers.\n");
+    s.push_str("# Nor can it make them move with the turn rate, the acceleration or the speed\n");
+    s.push_str("# (the calibration's rate_model; its centripetal terms are a lateral slip\n");
+    s.push_str("# -k_x_speed*v*omega and a spread growing by k_spread_speed*|v|): each block\n");
+    s.push_str("# holds the constant ICRs and names what its set's selected model adds.\n");
     s.push_str("# wheel_separation and wheel_radius are the nominal values; the multipliers\n");
     s.push_str("# assume the recording's controller ran with radius multipliers of 1.\n");
     if let Some((sep, source)) = nominal {
@@ -127,6 +137,12 @@ pub fn params_yaml(
                 s,
                 "# 2 s prediction error on the calibration drive (RMS, this set in its two forms): {full:.3} m as ICRs, {dd:.3} m as diff-drive (+{:.3} m)",
                 dd - full
+            );
+        }
+        if let Some(t) = &b.left_out {
+            let _ = writeln!(
+                s,
+                "# not representable here, from the selected variable model: {t}"
             );
         }
         if let Some(f) = b.separation_factor {
@@ -218,6 +234,7 @@ mod tests {
             x_c: 0.0,
             cost: Some((0.1, 0.12)),
             separation_factor: None,
+            left_out: (t == "grass").then(|| "k_x_speed = 0.1200 s".to_string()),
         };
         let y = params_yaml(
             "diff_drive_base_controller",
@@ -228,6 +245,13 @@ mod tests {
         assert!(y.contains("diff_drive_base_controller_asphalt:"));
         assert!(y.contains("wheel_separation_multiplier: 1.873874"));
         assert!(y.contains("cannot represent"));
+        // The grass set's variable model is named in its block only.
+        let grass = y.find("# terrain grass").unwrap();
+        let asphalt = y.find("# terrain asphalt").unwrap();
+        let named = y
+            .find("selected variable model: k_x_speed = 0.1200 s")
+            .unwrap();
+        assert!(grass < named && named < asphalt, "{y}");
     }
 
     #[test]
@@ -241,6 +265,7 @@ mod tests {
             x_c: 0.0,
             cost: None,
             separation_factor: Some(0.9),
+            left_out: None,
         };
         let y = params_yaml("c", std::slice::from_ref(&block), Some((1.0, "default")));
         assert!(y.contains("nominal S = 1 m (default)"), "{y}");

@@ -100,6 +100,10 @@ pub struct CalibConfig {
     pub traction: RateModel,
     /// Let the traction term differ between accelerating and braking.
     pub traction_signed: bool,
+    /// Whether to fit the centripetal terms (`k_x_speed`, `k_spread_speed`
+    /// of [`RateSlopes`](crate::model::RateSlopes)) on top of the selected
+    /// model. `Auto` selects them by the same information criterion.
+    pub centripetal: RateModel,
 }
 
 /// Whether the turn-rate dependent ICR model ([`RateSlopes`](crate::model::RateSlopes)) is fitted.
@@ -152,6 +156,7 @@ impl Default for CalibConfig {
             rate_model: RateModel::Auto,
             traction: RateModel::Auto,
             traction_signed: false,
+            centripetal: RateModel::Auto,
         }
     }
 }

@@ -510,6 +510,7 @@ fn calibrate_set(
             &lm_cfg,
             m,
             (cfg.traction, cfg.traction_signed),
+            cfg.centripetal,
             coverage,
         ),
     };

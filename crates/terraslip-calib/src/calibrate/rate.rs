@@ -26,6 +26,13 @@ pub struct RateChoice {
     pub traction_selected: bool,
     /// Why the traction model was not selected, when it was fitted.
     pub traction_reason: Option<String>,
+    /// The centripetal terms fitted on top of whichever of the constant,
+    /// turn-rate and traction models was selected, and its criterion.
+    pub centripetal: Option<(RateFit, f64)>,
+    /// Whether the centripetal model is the one written (implies `selected`).
+    pub centripetal_selected: bool,
+    /// Why the centripetal model was not selected, when it was fitted.
+    pub centripetal_reason: Option<String>,
     /// Whether `validate` and the file use a variable model.
     pub selected: bool,
     /// Why it was not selected.
@@ -41,7 +48,6 @@ impl RateChoice {
         let std: serde_json::Map<String, Value> = RATE_PARAM_NAMES
             .iter()
             .zip(f.std)
-            .take(5 + if f.slopes.has_traction() { 4 } else { 2 })
             .filter(|(_, s)| !s.is_nan())
             .map(|(n, s)| (n.to_string(), finite_or_null(s)))
             .collect();
@@ -55,9 +61,13 @@ impl RateChoice {
             "bic_constant": self.bic_constant,
             "bic_rate": self.bic_rate,
         });
-        if self.traction_selected {
+        if f.slopes.has_traction() {
             v["k_acc"] = json!(f.slopes.k_acc);
             v["k_dir"] = json!(f.slopes.k_dir);
+        }
+        if f.slopes.has_centripetal() {
+            v["k_x_speed"] = json!(f.slopes.k_x_speed);
+            v["k_spread_speed"] = json!(f.slopes.k_spread_speed);
         }
         if let Some((t, b)) = &self.traction {
             v["traction"] = json!({
@@ -72,17 +82,32 @@ impl RateChoice {
                 v["traction"]["reason"] = json!(r);
             }
         }
+        if let Some((c, b)) = &self.centripetal {
+            v["centripetal"] = json!({
+                "selected": self.centripetal_selected,
+                "k_x_speed": c.slopes.k_x_speed,
+                "k_spread_speed": c.slopes.k_spread_speed,
+                "std_k_x_speed": finite_or_null(c.std[9]),
+                "std_k_spread_speed": finite_or_null(c.std[10]),
+                "bic": b,
+            });
+            if let Some(r) = &self.centripetal_reason {
+                v["centripetal"]["reason"] = json!(r);
+            }
+        }
         if let Some(r) = &self.reason {
             v["reason"] = json!(r);
         }
         v
     }
 
-    /// The variable model the file holds: the traction model when it was
-    /// selected, else the turn-rate model.
+    /// The variable model the file holds: the centripetal model when it
+    /// was selected, else the traction model when it was, else the
+    /// turn-rate model.
     pub fn written(&self) -> &RateFit {
-        match &self.traction {
-            Some((t, _)) if self.traction_selected => t,
+        match (&self.centripetal, &self.traction) {
+            (Some((c, _)), _) if self.centripetal_selected => c,
+            (_, Some((t, _))) if self.traction_selected => t,
             _ => &self.fit,
         }
     }
@@ -99,6 +124,7 @@ pub(super) fn choose_rate(
     lm_cfg: &LmConfig,
     mode: RateModel,
     traction: (RateModel, bool),
+    centripetal: RateModel,
     coverage: f64,
 ) -> Option<RateChoice> {
     let fit = lm::fit_rate(
@@ -179,7 +205,60 @@ pub(super) fn choose_rate(
             t_fit = Some((t, b));
         }
     }
-    let selected = reason.is_none() || t_selected;
+    // The centripetal terms go on top of whichever model is selected so
+    // far, from it, over the same weights, and must beat it.
+    let (floor, base_params, base_slopes, base_free) = match &t_fit {
+        Some((t, b)) if t_selected => (*b, t.params, t.slopes, t.free_slopes),
+        _ if reason.is_none() => (bic_rate, fit.params, fit.slopes, fit.free_slopes),
+        _ => (
+            bic_constant,
+            best.params,
+            model::RateSlopes::NONE,
+            [false; lm::N_SLOPES],
+        ),
+    };
+    let (mut c_fit, mut c_selected, mut c_reason) = (None, false, None);
+    if centripetal != RateModel::Off {
+        let mut free_slopes = base_free;
+        for (f, c) in free_slopes.iter_mut().zip(lm::CENTRIPETAL) {
+            *f |= c;
+        }
+        // The longitudinal shift needs x_c itself to be identified.
+        free_slopes[4] &= lm_cfg.free[2];
+        if let Some(c) = lm::fit_rate(
+            segs,
+            &base_params,
+            &base_slopes,
+            weights,
+            yaw_weight,
+            &lm_cfg.free,
+            &free_slopes,
+            lm_cfg.max_iterations,
+        ) {
+            let b = bic(c.sse / coverage, k + c.n_slopes() as f64);
+            // Identified: 1-sigma under 0.05 s for the shift (5 cm of x_c
+            // per m/s) and under 0.1 s/m for the spread (10 % per m/s).
+            let sd = [c.std[9], c.std[10]];
+            let limits = [0.05, 0.1];
+            c_reason = if free_slopes[4..]
+                .iter()
+                .zip(sd.iter().zip(limits))
+                .any(|(&f, (s, l))| f && !(s.is_finite() && *s < l))
+            {
+                Some(
+                    "the centripetal slopes are not identified (1-sigma over 0.05 s / 0.1 s/m)"
+                        .to_string(),
+                )
+            } else if centripetal == RateModel::Auto && b >= floor {
+                Some("it does not lower the information criterion".to_string())
+            } else {
+                None
+            };
+            c_selected = c_reason.is_none();
+            c_fit = Some((c, b));
+        }
+    }
+    let selected = reason.is_none() || t_selected || c_selected;
     Some(RateChoice {
         fit,
         bic_constant,
@@ -187,6 +266,9 @@ pub(super) fn choose_rate(
         traction: t_fit,
         traction_selected: t_selected,
         traction_reason: t_reason,
+        centripetal: c_fit,
+        centripetal_selected: c_selected,
+        centripetal_reason: c_reason,
         selected,
         reason: if selected { None } else { reason },
     })

@@ -33,14 +33,8 @@ pub struct Args {
     /// appear there only when complete.
     #[arg(long, required_unless_present = "print_config")]
     pub out: Option<PathBuf>,
-    /// TOML configuration (see --print-config for every key and its default).
-    #[arg(long, value_name = "FILE")]
-    pub config: Option<PathBuf>,
-    /// Start from a named variant instead of the default: no-slip, ekf-qmin,
-    /// ekf-qmax, ta-ekf-boost, ta-iekf, ekf-reset, terraslip (each explained
-    /// below). Applied before --config.
-    #[arg(long, value_name = "NAME")]
-    pub preset: Option<String>,
+    #[command(flatten)]
+    pub estimator: EstimatorArgs,
     /// Starting ICRs from `terraslip calibrate` (pooled set and/or one set per
     /// terrain; per-terrain sets are recalled when the robot enters that terrain).
     #[arg(long, value_name = "PARAMS")]
@@ -102,8 +96,34 @@ fn parse_window(s: &str) -> Result<(f64, f64), String> {
     Ok((a, b))
 }
 
+/// The estimator's configuration, as `estimate` and `node` take it.
+#[derive(clap::Args, Debug)]
+pub struct EstimatorArgs {
+    /// TOML configuration (see `terraslip estimate --print-config` for every
+    /// key and its default).
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Start from a named variant instead of the default: no-slip, ekf-qmin,
+    /// ekf-qmax, ta-ekf-boost, ta-iekf, ekf-reset, terraslip (each explained
+    /// at the end of `terraslip estimate --help`). Applied before --config.
+    #[arg(long, value_name = "NAME")]
+    pub preset: Option<String>,
+}
+
+impl EstimatorArgs {
+    /// The preset, then the configuration file over it.
+    pub fn load(&self) -> Result<terraslip::config::EstimatorConfig> {
+        terraslip::estimate::load_config(self.preset.as_deref(), self.config.as_deref())
+    }
+
+    /// The configuration file as an input no output may overwrite.
+    pub fn input(&self) -> (&'static str, Option<&std::path::Path>) {
+        ("--config", self.config.as_deref())
+    }
+}
+
 pub fn run(args: Args) -> Result<()> {
-    let load = || terraslip::estimate::load_config(args.preset.as_deref(), args.config.as_deref());
+    let load = || args.estimator.load();
     if args.print_config {
         print!("{}", load()?.to_commented_toml());
         return Ok(());
@@ -115,7 +135,7 @@ pub fn run(args: Args) -> Result<()> {
         std::slice::from_ref(log_dir),
         &[
             ("--init", args.init.as_deref()),
-            ("--config", args.config.as_deref()),
+            args.estimator.input(),
             ("--terrain-model", args.terrain_model.as_deref()),
         ],
     );

@@ -34,12 +34,8 @@ use terraslip_ros2::out::{diagnostics_message, estimate_messages, DiagnosticLeve
 #[derive(clap::Args, Debug)]
 #[command(after_help = AFTER_HELP)]
 pub struct Args {
-    /// TOML estimator configuration (`terraslip estimate --print-config`).
-    #[arg(long, value_name = "FILE")]
-    pub config: Option<PathBuf>,
-    /// Start from a named variant (see `terraslip estimate --help`).
-    #[arg(long, value_name = "NAME")]
-    pub preset: Option<String>,
+    #[command(flatten)]
+    pub estimator: super::estimate::EstimatorArgs,
     /// Starting ICRs from `terraslip calibrate` or a node's --params (read only).
     #[arg(long, value_name = "PARAMS")]
     pub init: Option<PathBuf>,
@@ -110,7 +106,7 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
     let namespace = ros.namespace.clone().unwrap_or_else(|| "/".into());
     let mut table = ros.params_table();
     apply_node_params(&mut args, &mut table)?;
-    let mut cfg = terraslip::estimate::load_config(args.preset.as_deref(), args.config.as_deref())?;
+    let mut cfg = args.estimator.load()?;
     if !table.is_empty() {
         let text = toml::to_string(&table).context("--ros-args parameters")?;
         cfg = terraslip::estimate::overlay(cfg, &text, "--ros-args parameters")?;
@@ -118,10 +114,7 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
     }
     super::inputs_with(
         &[],
-        &[
-            ("--init", args.init.as_deref()),
-            ("--config", args.config.as_deref()),
-        ],
+        &[("--init", args.init.as_deref()), args.estimator.input()],
     )
     .check("--params", &args.params)?;
     let start = match (&args.init, args.params.is_file()) {

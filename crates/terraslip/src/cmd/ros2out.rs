@@ -84,12 +84,12 @@ pub fn write_params(
         ),
     };
     let radius = meta.wheel_radius.filter(|r| *r > 0.0).unwrap_or(1.0);
-    let mut sets: Vec<(String, terraslip_core::IcrParams)> = Vec::new();
+    let mut sets: Vec<(String, terraslip_core::IcrParams, Option<String>)> = Vec::new();
     if let Some(p) = pf.params {
-        sets.push(("all".into(), p));
+        sets.push(("all".into(), p, left_out(&pf.extra)));
     }
     for (name, e) in &pf.terrains {
-        sets.push((name.clone(), e.params));
+        sets.push((name.clone(), e.params, left_out(&e.extra)));
     }
     let diff_drive = |p: &terraslip_core::IcrParams| terraslip_core::IcrParams {
         y_l: p.spread() / 2.0,
@@ -98,7 +98,7 @@ pub fn write_params(
         ..*p
     };
     let mut blocks = Vec::new();
-    for (name, p) in &sets {
+    for (name, p, left_out) in &sets {
         let only = |q: terraslip_core::IcrParams| {
             let mut f = pf.clone();
             if name == "all" {
@@ -120,6 +120,7 @@ pub fn write_params(
             y_r: p.y_r,
             x_c: p.x_c,
             cost,
+            left_out: left_out.clone(),
         });
     }
     let text = params_yaml(
@@ -130,4 +131,47 @@ pub fn write_params(
     terraslip_io::write_atomic(path, text.as_bytes())?;
     eprintln!("wrote {}", path.display());
     Ok(())
+}
+
+/// The non-zero terms of a set's selected variable model (`rate_model`),
+/// which the controller cannot hold; `None` without one (or a malformed
+/// one: `calibrate` only writes well-formed ones, `validate` names it).
+fn left_out(extra: &std::collections::BTreeMap<String, serde_json::Value>) -> Option<String> {
+    let r = terraslip_io::RateModelEntry::selected(extra).ok()??;
+    let terms: Vec<String> = [
+        ("k_spread", r.k_spread, "s/m"),
+        ("k_alpha", r.k_alpha, "s/m"),
+        ("k_acc", r.k_acc, "s^2/m"),
+        ("k_dir", r.k_dir, "s^2/m"),
+        ("k_x_speed", r.k_x_speed, "s"),
+        ("k_spread_speed", r.k_spread_speed, "s/m"),
+    ]
+    .iter()
+    .filter(|(_, v, _)| *v != 0.0)
+    .map(|(n, v, u)| format!("{n} = {v:.4} {u}"))
+    .collect();
+    (!terms.is_empty()).then(|| terms.join(", "))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_selected_centripetal_model_is_named_as_left_out() {
+        let extra = |v: serde_json::Value| {
+            serde_json::from_value(serde_json::json!({"rate_model": v})).unwrap()
+        };
+        let q = serde_json::json!({"y_l": 0.6, "y_r": -0.6, "x_c": 0.0, "alpha_l": 0.9, "alpha_r": 0.9});
+        let on = serde_json::json!({"selected": true, "params": q, "k_spread": 0.0, "k_alpha": 0.0,
+            "k_x_speed": 0.12, "k_spread_speed": 0.05});
+        assert_eq!(
+            left_out(&extra(on)).as_deref(),
+            Some("k_x_speed = 0.1200 s, k_spread_speed = 0.0500 s/m")
+        );
+        let off =
+            serde_json::json!({"selected": false, "params": q, "k_spread": 0.1, "k_alpha": 0.0});
+        assert_eq!(left_out(&extra(off)), None);
+        assert_eq!(left_out(&Default::default()), None);
+    }
 }

@@ -184,10 +184,12 @@ fn init_prior(
     };
     prior.std = stated(extra.get("std"));
     // A turn law the calibration selected comes with its own
-    // straight-line parameters.
+    // straight-line parameters. One with centripetal terms, which the
+    // filter does not hold, starts it from the constant set instead: its
+    // ICRs at rest are off by `k_x_speed * v` at speed.
     let law = terraslip_io::RateModelEntry::selected(extra)
         .map_err(|e| PipelineError::Init(format!("set `{name}`: rate_model {e}")))?;
-    if let Some(r) = law {
+    if let Some(r) = law.filter(|r| r.k_x_speed == 0.0 && r.k_spread_speed == 0.0) {
         r.params
             .validate()
             .map_err(|e| PipelineError::Init(format!("set `{name}`: rate_model params: {e}")))?;
@@ -280,6 +282,19 @@ mod tests {
             "{:?}",
             prior.std
         );
+    }
+
+    #[test]
+    fn a_model_with_centripetal_terms_starts_the_filter_from_the_constant_set() {
+        // The filter holds x_c and the spread constant: the law's ICRs at
+        // rest would be off by k_x_speed * v at speed.
+        let cfg = EstimatorConfig::default();
+        let (p, mut extra) = calibrated_set();
+        extra.get_mut("rate_model").unwrap()["k_x_speed"] = serde_json::json!(0.23);
+        let prior = init_prior(&cfg, "gravel", p, &extra, cfg.prior(1.1)).unwrap();
+        assert_eq!(prior.icr, p);
+        assert_eq!(prior.turn_law, cfg.prior(1.1).turn_law);
+        assert!((prior.std.spread - 0.04f64.hypot(0.04)).abs() < 1e-12);
     }
 
     #[test]

@@ -43,9 +43,13 @@ whose ICR spread and speed factors change with the tread speed difference
 is fitted next to the constant one and kept under `rate_model` when it
 lowers the information criterion; on top of it a traction term
 (--traction, default auto) lowers both speed factors by k_acc per m/s^2 of
-tread acceleration, kept by the same criterion. `estimate --init` reads the constant
-`params`, `calibrate validate` scores the rate model where it was selected
-(--model constant scores the constant one) and reports both.
+tread acceleration, kept by the same criterion; on top of the selected
+model the centripetal terms (--centripetal, default auto) move x_c by
+k_x_speed per m/s of speed (a lateral slip on v*omega, as DRIVE's learned
+model has) and scale the spread by 1 + k_spread_speed |v| (a yaw slip on
+v*omega), kept by the same criterion. `calibrate validate` scores the
+variable model where it was selected (--model constant scores the constant
+one) and reports both.
 
 The output (JSON) is what `terraslip estimate --init` reads; it also holds
 chi, e, uncertainties, the time offset, dropped segments and, for a Pioneer,
@@ -156,6 +160,12 @@ pub struct Args {
     /// (adds `k_dir`: the factors scale by `1 - k_acc |a| - k_dir a`).
     #[arg(long)]
     traction_signed: bool,
+    /// Centripetal terms on top of the selected model (x_c moves by
+    /// `k_x_speed` s per m/s of mean tread speed `v`, the spread scales by
+    /// `1 + k_spread_speed |v|`): `auto` (kept when they lower the
+    /// information criterion further), `on` (kept when identified) or `off`.
+    #[arg(long, value_enum, default_value = "auto")]
+    centripetal: RateArg,
     /// Fit segments overlap, each lasting --min-segment: one starts at every
     /// pose where an earlier one ended, and at the first pose at least this
     /// many seconds after the previous start (0: at every pose, the
@@ -180,6 +190,16 @@ enum RateArg {
     Off,
     Auto,
     On,
+}
+
+impl From<RateArg> for RateModel {
+    fn from(a: RateArg) -> Self {
+        match a {
+            RateArg::Off => RateModel::Off,
+            RateArg::Auto => RateModel::Auto,
+            RateArg::On => RateModel::On,
+        }
+    }
 }
 
 /// Segment selection shared by calibrate and validate.
@@ -313,17 +333,10 @@ fn config(a: &Args) -> anyhow::Result<CalibConfig> {
         }),
         min_segments: a.min_segments.max(3),
         allow_partial: a.allow_partial,
-        rate_model: match a.rate_model {
-            RateArg::Off => RateModel::Off,
-            RateArg::Auto => RateModel::Auto,
-            RateArg::On => RateModel::On,
-        },
-        traction: match a.traction {
-            RateArg::Off => RateModel::Off,
-            RateArg::Auto => RateModel::Auto,
-            RateArg::On => RateModel::On,
-        },
+        rate_model: a.rate_model.into(),
+        traction: a.traction.into(),
         traction_signed: a.traction_signed,
+        centripetal: a.centripetal.into(),
         ..Default::default()
     };
     if !(a.stride.is_finite() && a.stride >= 0.0) {

@@ -95,8 +95,8 @@ pub(super) fn print_set(s: &SetCalibration) {
             fmt_std(f.std[6]),
             r.bic_rate,
             r.bic_constant,
-            if r.reason.is_none() && r.traction_selected {
-                "superseded by the traction model".to_string()
+            if r.reason.is_none() && (r.traction_selected || r.centripetal_selected) {
+                "superseded by a model on top of it".to_string()
             } else {
                 verdict(&r.reason)
             }
@@ -110,6 +110,17 @@ pub(super) fn print_set(s: &SetCalibration) {
                 fmt_std(t.std[8]),
                 bic,
                 verdict(&r.traction_reason)
+            );
+        }
+        if let Some((c, bic)) = &r.centripetal {
+            eprintln!(
+                "  centripetal terms: k_x_speed {:.4} +- {} s, k_spread_speed {:.4} +- {} s/m, BIC {:.1}: {}",
+                c.slopes.k_x_speed,
+                fmt_std(c.std[9]),
+                c.slopes.k_spread_speed,
+                fmt_std(c.std[10]),
+                bic,
+                verdict(&r.centripetal_reason)
             );
         }
     }

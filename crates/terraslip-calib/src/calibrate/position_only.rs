@@ -1,7 +1,8 @@
 //! Calibration from a position-only reference (GNSS fixes without a
 //! heading): the model's path over windows of fixes, compared up to a rigid
-//! motion ([`crate::track`]). Only the LM applies; the turn-rate model is
-//! not fitted (windows of 20 s average over turn rates).
+//! motion ([`crate::track`]). Only the LM applies; the turn-rate model and
+//! the centripetal terms are not fitted (windows of 20 s average over turn
+//! rates and speeds).
 
 use terraslip_core::IcrParams;
 use terraslip_io::DriveLog;
@@ -222,9 +223,11 @@ fn calibrate_set(
         )?;
         free = track::SPEED_ONLY;
     }
-    if cfg.rate_model != RateModel::Off {
+    if cfg.rate_model != RateModel::Off || cfg.centripetal != RateModel::Off {
         notes.push(
-            "turn-rate model not fitted: windows of fixes average over turn rates".to_string(),
+            "turn-rate and centripetal terms not fitted: windows of fixes average over turn \
+             rates and speeds"
+                .to_string(),
         );
     }
     let fit =

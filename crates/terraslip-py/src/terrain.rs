@@ -40,7 +40,12 @@ impl PyTerrainModel {
     /// directory, a bag (`topics` as `--topics`) or a mapping of arrays:
     /// `t` (s), `probabilities` (windows x classes), `label` (most probable
     /// class), `terrain` (the filtered, voted terrain; "" before any),
-    /// `changes` (s, camera change detections).
+    /// `changes` (s, camera change detections), `outside_envelope` (bool
+    /// per window: driven at a tread speed and tread speed difference no
+    /// training run of the terrain it is read as had; its probabilities are
+    /// mixed half and half with uniform; `None` for a model without an
+    /// envelope: camera or `paper` features) and `outside_envelope_share`
+    /// (their share, 0..1; `None` likewise or without windows).
     #[pyo3(signature = (log, *, topics=None))]
     fn classify<'py>(
         &self,
@@ -74,6 +79,14 @@ impl PyTerrainModel {
             out.set_item("label", str_array(py, label)?)?;
             out.set_item("terrain", str_array(py, voted)?)?;
             out.set_item("changes", PyArray1::from_vec(py, tl.changes.clone()))?;
+            match model.envelope {
+                Some(_) => out.set_item(
+                    "outside_envelope",
+                    PyArray1::from_vec(py, tl.outside_envelope.clone()),
+                )?,
+                None => out.set_item("outside_envelope", py.None())?,
+            }
+            out.set_item("outside_envelope_share", tl.outside_envelope_share())?;
             Ok(out)
         })
     }

@@ -1,5 +1,6 @@
 """`terraslip.estimate` and `terraslip.Estimator` against the command line."""
 
+import csv
 import json
 
 import numpy as np
@@ -83,6 +84,36 @@ def test_terrain_model_classifies_and_feeds_the_estimator(cli, tmp_path):
     got = terraslip.estimate(BOREAL, terrain_model=model)
     assert_matches_csv(got, out / "estimate.csv")
     assert got["summary"] == json.loads((out / "summary.json").read_text())
+
+
+def test_windows_driven_unlike_the_training_runs_are_outside_the_envelope(cli, tmp_path):
+    model = tmp_path / "model.json"
+    cli("terrain", "train", *sorted(REPO.glob("data/*_borealtc_*")), "--out", model)
+    m = terraslip.TerrainModel.load(model)
+    # The same run with its treads three times as fast: no training run of
+    # any terrain drove like that.
+    fast = tmp_path / "fast"
+    fast.mkdir()
+    for name in ("imu.csv", "meta.toml", "terrain.csv"):
+        (fast / name).write_bytes((BOREAL / name).read_bytes())
+    rows = read_csv(BOREAL / "wheels.csv")
+    with open(fast / "wheels.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        for r in rows:
+            w.writerow({**r, "v_left": 3 * float(r["v_left"]), "v_right": 3 * float(r["v_right"])})
+    for log, lo, hi in ((BOREAL, 0.0, 0.2), (fast, 0.9, 1.0)):
+        c = m.classify(log)
+        out = c["outside_envelope"]
+        assert out.dtype == bool and out.shape == c["t"].shape
+        assert lo <= c["outside_envelope_share"] <= hi, (log, c["outside_envelope_share"])
+        assert c["outside_envelope_share"] == pytest.approx(np.mean(out))
+        # Flagged windows are mixed half and half with uniform: no class
+        # above 0.5 + 0.5 / 5.
+        if out.any():
+            assert np.all(c["probabilities"][out].max(axis=1) <= 0.6 + 1e-9)
+        report = json.loads(cli("terrain", "eval", log, "--model", model, "--json").stdout)
+        assert c["outside_envelope_share"] == pytest.approx(report["logs"][0]["outside_envelope_share"])
 
 
 def test_a_mapping_of_arrays_is_the_same_log():

@@ -23,7 +23,17 @@
 //!
 //! Samples in `[t0, t1]` are used; the nearest earlier one when the window
 //! holds none (at 6.5 Hz a 1 s window holds about six).
+//!
+//! The current also depends on how the robot is driven: a skid-steer
+//! robot's turning resistance grows with the turn, and its treads pull
+//! harder spinning in place than driving straight. [`CurrentBaseline`] is
+//! what the robot draws at a tread speed and turn on an average ground,
+//! fitted once per robot over the training windows of *every* terrain;
+//! the feature [`EXCESS_FEATURE`] is a window's ln mean current minus that
+//! baseline: the ground's share of the current, comparable between a
+//! gentle and a hard spin, or a slow and a fast drive.
 
+use serde::{Deserialize, Serialize};
 use terraslip_io::{MotorCurrent, WheelSample};
 
 /// Names of the current features, in order.
@@ -34,6 +44,99 @@ pub const FEATURE_NAMES: [&str; 5] = [
     "current_hf_share",
     "current_turn_share",
 ];
+
+/// Name of the current in excess of the robot's baseline at the window's
+/// speed and turn (ln A − ln A; see [`CurrentBaseline`]).
+pub const EXCESS_FEATURE: &str = "current_excess";
+
+/// The ln mean motor current the robot draws at a tread speed and turn,
+/// over all grounds: `c0 + c1·ln(max(v, v_min) / v_ref) + c2·s + c3·e`,
+/// v the mean tread speed (m/s), s the spin share (0 straight, 1 spinning
+/// in place), e the RMS commanded yaw rate (rad/s), least squares over
+/// the training windows of every terrain (one intercept for the robot,
+/// not one per terrain, unlike the speed slopes of
+/// [`crate::speed_norm`]). Applied by the speed normalisation, which
+/// holds it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CurrentBaseline {
+    /// Index of [`EXCESS_FEATURE`] in the feature vector.
+    pub index: usize,
+    /// Index of the spin share feature.
+    pub spin_index: usize,
+    /// Index of the turning excitation feature (RMS commanded yaw rate).
+    pub turn_index: usize,
+    /// `[c0 (ln A), c1 (per unit ln v), c2 (per unit spin share), c3 (per rad/s)]`.
+    pub coefficients: [f64; 4],
+}
+
+impl CurrentBaseline {
+    /// The feature names the baseline reads: [`EXCESS_FEATURE`], the spin
+    /// share and the turning excitation.
+    const INPUTS: [&'static str; 3] = [EXCESS_FEATURE, "spin_share", "yaw_excitation"];
+
+    /// Fits the baseline on the training windows `x` (features `names`;
+    /// speed at `speed_index`, m/s); `None` when the features lack one of
+    /// [`Self::INPUTS`] or the windows do not determine the four
+    /// coefficients. Windows with a non-finite feature are left out.
+    pub fn fit(
+        x: &[Vec<f64>],
+        names: &[String],
+        speed_index: usize,
+        v_ref: f64,
+        v_min: f64,
+    ) -> Option<Self> {
+        let at = |n: &str| names.iter().position(|m| m == n);
+        let [index, spin_index, turn_index] = Self::INPUTS.map(at);
+        let (index, spin_index, turn_index) = (index?, spin_index?, turn_index?);
+        let mut zz = nalgebra::Matrix4::<f64>::zeros();
+        let mut zy = nalgebra::Vector4::<f64>::zeros();
+        for row in x {
+            if row.len() != names.len() || !row.iter().all(|f| f.is_finite()) {
+                continue;
+            }
+            let u = (row[speed_index].max(v_min) / v_ref).ln();
+            let z = nalgebra::Vector4::new(1.0, u, row[spin_index], row[turn_index]);
+            zz += z * z.transpose();
+            zy += z * row[index];
+        }
+        // A small ridge: a training set that never turns (or never spins)
+        // leaves that coefficient at 0 rather than undetermined.
+        zz += nalgebra::Matrix4::identity() * 1e-6;
+        let c = zz.cholesky()?.solve(&zy);
+        let coefficients = [c[0], c[1], c[2], c[3]];
+        coefficients.iter().all(|c| c.is_finite()).then_some(Self {
+            index,
+            spin_index,
+            turn_index,
+            coefficients,
+        })
+    }
+
+    /// Subtracts the baseline from [`EXCESS_FEATURE`] in place; `u` is
+    /// ln(max(v, v_min) / v_ref) of the window.
+    pub fn apply(&self, x: &mut [f64], u: f64) {
+        let c = &self.coefficients;
+        let (Some(&s), Some(&e)) = (x.get(self.spin_index), x.get(self.turn_index)) else {
+            return;
+        };
+        if let Some(f) = x.get_mut(self.index) {
+            *f -= c[0] + c[1] * u + c[2] * s + c[3] * e;
+        }
+    }
+
+    /// Consistency with a model's feature list (for loading).
+    pub fn check(&self, names: &[String]) -> std::result::Result<(), String> {
+        let name = |i: usize| names.get(i).map(String::as_str);
+        if [self.index, self.spin_index, self.turn_index].map(name) != Self::INPUTS.map(Some) {
+            return Err("the current baseline does not match the feature list".into());
+        }
+        if self.coefficients.iter().any(|c| !c.is_finite()) {
+            return Err("the current baseline has a non-finite coefficient".into());
+        }
+        Ok(())
+    }
+}
 
 /// Added to currents (A) and rates (A/s) before their logarithm, so that a
 /// motor at rest gives a finite feature.
@@ -175,5 +278,50 @@ mod tests {
         assert!(features(&[], &w, 0.0, 6.0).is_none());
         // A window between samples takes the last one before it.
         assert!(features(&alt, &w, 0.16, 0.20).is_some());
+    }
+
+    #[test]
+    fn the_baseline_is_the_robot_not_the_ground() {
+        let names: Vec<String> = [
+            "tread_speed",
+            "spin_share",
+            "yaw_excitation",
+            EXCESS_FEATURE,
+        ]
+        .map(String::from)
+        .to_vec();
+        let (v_ref, v_min) = (0.5, 0.1);
+        // Two grounds, 0.3 apart in ln current, each driven at every speed
+        // and turn: the robot draws 1 + 0.4 ln(v / v_ref) + 0.8 s + 0.5 e.
+        let law = |v: f64, s: f64, e: f64| 1.0 + 0.4 * (v / v_ref).ln() + 0.8 * s + 0.5 * e;
+        let mut x = Vec::new();
+        for ground in [-0.15, 0.15] {
+            for v in [0.1, 0.2, 0.4, 0.8] {
+                for s in [0.0, 0.5, 1.0] {
+                    for e in [0.0, 0.3, 0.9] {
+                        x.push(vec![v, s, e, law(v, s, e) + ground]);
+                    }
+                }
+            }
+        }
+        // A broken window is left out of the fit, not allowed to spoil it.
+        x.push(vec![0.3, 0.0, 0.0, f64::NAN]);
+        let b = CurrentBaseline::fit(&x, &names, 0, v_ref, v_min).unwrap();
+        for (got, want) in b.coefficients.iter().zip([1.0, 0.4, 0.8, 0.5]) {
+            assert!((got - want).abs() < 1e-4, "{:?}", b.coefficients);
+        }
+        // What is left is the ground: the same for a gentle spin and a
+        // fast straight drive on it.
+        let mut spin = vec![0.1, 1.0, 0.4, law(0.1, 1.0, 0.4) + 0.15];
+        let mut fast = vec![0.8, 0.0, 0.0, law(0.8, 0.0, 0.0) + 0.15];
+        b.apply(&mut spin, (0.1f64 / v_ref).ln());
+        b.apply(&mut fast, (0.8f64 / v_ref).ln());
+        assert!((spin[3] - 0.15).abs() < 1e-3 && (fast[3] - 0.15).abs() < 1e-3);
+        assert!(b.check(&names).is_ok());
+        let mut other = names.clone();
+        other.swap(1, 2);
+        assert!(b.check(&other).is_err());
+        // Without the turning features there is no baseline to fit.
+        assert!(CurrentBaseline::fit(&x, &names[..1], 0, v_ref, v_min).is_none());
     }
 }

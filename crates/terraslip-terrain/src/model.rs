@@ -21,8 +21,10 @@ use crate::vision::VisionConfig;
 /// (`spatial_bands`, grid, scaling). 4: the learnt speed normalisation
 /// (`speed_norm` settings, `speed_normalisation` slopes). 5: the vibration
 /// settings record the motor-current channels (`currents`); the spatial
-/// bands are gone. 6: the manoeuvre envelope (`envelope`).
-pub const MODEL_FORMAT_VERSION: u32 = 6;
+/// bands are gone. 6: the manoeuvre envelope (`envelope`). 7: the current
+/// in excess of the robot's baseline at the window's speed and turn
+/// (`current_excess`, `speed_normalisation.current_baseline`).
+pub const MODEL_FORMAT_VERSION: u32 = 7;
 
 /// The sensor a model reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

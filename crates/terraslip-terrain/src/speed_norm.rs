@@ -14,6 +14,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::current::CurrentBaseline;
 use crate::error::{Result, TerrainError};
 
 /// Name of the feature holding the window's mean tread speed, m/s.
@@ -53,6 +54,11 @@ pub struct SpeedNormalisation {
     /// d feature / d ln v per feature (for log powers: the speed elasticity);
     /// 0 for features that are not normalised.
     pub slopes: Vec<f64>,
+    /// The robot's current at a speed and turn, subtracted from
+    /// `current_excess` (models with currents and slip terms; `null`
+    /// otherwise).
+    #[serde(default)]
+    pub current_baseline: Option<CurrentBaseline>,
 }
 
 impl SpeedNormalisation {
@@ -133,6 +139,7 @@ impl SpeedNormalisation {
             v_min,
             speed_index,
             slopes,
+            current_baseline: CurrentBaseline::fit(x, names, speed_index, v_ref, v_min),
         })
     }
 
@@ -146,6 +153,9 @@ impl SpeedNormalisation {
             return;
         }
         let u = (v.max(self.v_min) / self.v_ref).ln();
+        if let Some(c) = &self.current_baseline {
+            c.apply(x, u);
+        }
         for (f, b) in x.iter_mut().zip(&self.slopes) {
             *f -= b * u;
         }
@@ -167,6 +177,16 @@ impl SpeedNormalisation {
         }
         if self.slopes.iter().any(|b| !b.is_finite()) {
             return Err("speed normalisation has a non-finite slope".into());
+        }
+        let wants_baseline = names.iter().any(|n| n == crate::current::EXCESS_FEATURE);
+        match &self.current_baseline {
+            Some(c) => c.check(names)?,
+            None if wants_baseline => {
+                return Err(
+                    "the features hold current_excess but the model has no current baseline".into(),
+                )
+            }
+            None => {}
         }
         Ok(())
     }
@@ -242,6 +262,7 @@ mod tests {
             v_min: 0.1,
             speed_index: 5,
             slopes: vec![1.0, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0],
+            current_baseline: None,
         };
         for v in [0.0, -0.3, 1e-300] {
             let mut x = vec![1.0, 1.0, 1.0, 1.0, 1.0, v, 1.0];

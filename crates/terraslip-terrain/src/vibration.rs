@@ -142,6 +142,13 @@ impl VibrationConfig {
         }
     }
 
+    /// Whether the `full` set holds [`crate::current::EXCESS_FEATURE`]: with
+    /// currents, the slip terms (spin share, turning excitation) and the
+    /// speed normalisation (which holds the robot's current baseline).
+    fn current_excess(&self) -> bool {
+        self.currents && self.slip && self.speed_norm
+    }
+
     pub(crate) fn channel_indices(&self) -> &'static [usize] {
         match (self.feature_set, self.channels) {
             (VibrationFeatureSet::Paper, _) | (_, ChannelSet::AccelZ) => &[2],
@@ -189,6 +196,9 @@ impl VibrationConfig {
                 }
                 if self.currents {
                     names.extend(crate::current::FEATURE_NAMES.map(String::from));
+                    if self.current_excess() {
+                        names.push(crate::current::EXCESS_FEATURE.into());
+                    }
                 }
                 names
             }
@@ -375,6 +385,11 @@ impl VibrationExtractor {
                     ]);
                 }
                 out.extend_from_slice(current);
+                // ln mean current; the speed normalisation subtracts the
+                // robot's baseline at this speed and turn.
+                if self.cfg.current_excess() {
+                    out.push(current[0]);
+                }
             }
         }
         Ok(())

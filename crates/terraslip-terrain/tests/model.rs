@@ -322,6 +322,12 @@ fn current_model_records_its_channels_and_refuses_logs_without_currents() {
     };
     assert!(config.currents && config.channels == ChannelSet::All);
     assert!(m.feature_names.iter().any(|n| n == "current_log_mean"));
+    // The current beyond the robot's baseline, whose fit the model holds.
+    assert!(m.feature_names.iter().any(|n| n == "current_excess"));
+    assert!(m
+        .speed_normalisation
+        .as_ref()
+        .is_some_and(|s| s.current_baseline.is_some()));
     assert!(vibration::SPEED_FLOOR_CANDIDATES.contains(&config.speed_norm_min));
     let path = dir.path().join("currents.json");
     m.save(&path).unwrap();
@@ -467,14 +473,19 @@ fn speed_normalised_model_learns_the_slopes_from_training_runs_only() {
     no_flag["features"]["config"]["speed_norm"] = false.into();
     let mut no_slopes = json.clone();
     no_slopes["speed_normalisation"] = serde_json::Value::Null;
+    let mut no_baseline = json.clone();
+    no_baseline["speed_normalisation"]["current_baseline"] = serde_json::Value::Null;
     let mut short = json;
     short["speed_normalisation"]["slopes"]
         .as_array_mut()
         .unwrap()
         .pop();
+    // The runs have motor currents: `current_excess`, which only the
+    // speed normalisation gives, leaves the feature list without the flag.
     for (edited, why) in [
-        (no_flag, "without"),
+        (no_flag, "feature list"),
         (no_slopes, "no speed slopes"),
+        (no_baseline, "no current baseline"),
         (short, "feature list"),
     ] {
         let p1 = dir.path().join("edited.json");

@@ -210,12 +210,12 @@ fn bad_input_is_one_line_and_non_zero() {
                 "\"format_version\": {}",
                 terraslip_terrain::MODEL_FORMAT_VERSION
             ),
-            "\"format_version\": 7",
+            "\"format_version\": 99",
             1,
         ),
     )
     .unwrap();
-    eval_fails(Path::new(&runs[0]), &old, &plots, "version 7");
+    eval_fails(Path::new(&runs[0]), &old, &plots, "version 99");
     // A log with a terrain the model does not know.
     let other = dir.path().join("other");
     vibration_log(&["ice"], &[(0, 10.0)], 5, 0.0)

@@ -201,4 +201,11 @@ class TerrainModel:
         ``probabilities`` (windows x classes), ``label`` (the most probable
         class of each window), ``terrain`` (the terrain the Bayesian filter
         and the lambda-vote declare, what the estimator's schedule would
-        use; "" before any) and ``changes`` (s, camera change detections)."""
+        use; "" before any), ``changes`` (s, camera change detections),
+        ``outside_envelope`` (bool per window: driven at a tread speed and
+        tread speed difference that no training run of the terrain it is
+        read as had, so its probabilities are mixed half and half with a
+        uniform distribution; None for a model without an envelope: camera
+        or ``paper`` features) and ``outside_envelope_share`` (their share,
+        0..1; None likewise or without windows). A high share says: record
+        that kind of driving on every terrain and retrain."""

@@ -370,7 +370,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 .filter_map(|&(seed, d)| oracle_drift(seed).map(|o| (seed, d / o)))
                 .collect();
             if !ratio.is_empty() {
-                let over = ratio.iter().filter(|r| !(r.1 <= 1.5)).count();
+                let over = ratio.iter().filter(|r| r.1.is_nan() || r.1 > 1.5).count();
                 println!("    x the oracle's           {}", summary(&ratio));
                 println!("    worlds over 1.5x         {over} of {}", ratio.len());
             }

@@ -29,14 +29,6 @@ pub struct ScheduleConfig {
     pub boost_updates: u32,
     /// Covariance reset `P_B` at a change to an unlearned terrain.
     pub reset: Option<SlipStd>,
-    /// The reset leaves the tread speed factor difference `alpha_l -
-    /// alpha_r` as learned (its estimate and variance; `P_B`'s entry is
-    /// unused): it belongs to the robot (tyre pressure, wear, gearing), not
-    /// to the ground, which acts on both treads alike. Re-inflating it makes a
-    /// steady turn after a change ambiguous: there the heading rate sees
-    /// `(alpha (v_r - v_l) - (alpha_l - alpha_r)(v_r + v_l)/2) / d`, and with
-    /// both speeds constant the difference and `d` trade off freely.
-    pub reset_keeps_alpha_diff: bool,
     /// Recall learned ICRs when a terrain is revisited.
     pub memory: bool,
     /// Seconds on a terrain (while moving) before what was learned there is
@@ -55,7 +47,9 @@ pub struct ScheduleConfig {
 }
 
 /// The slip uncertainty a declared change to an unlearned terrain resets
-/// to (chen2023's `P_B`).
+/// to (chen2023's `P_B`). Every parameter is reset, the speed factor
+/// difference included: the ground changes it too (the Warthog's
+/// calibrations: -0.03 on sand, +0.04 on ice).
 pub const RESET_STD: SlipStd = SlipStd {
     spread: 0.1,
     centre: 0.01,
@@ -64,16 +58,14 @@ pub const RESET_STD: SlipStd = SlipStd {
     alpha_diff: 0.01,
 };
 
-/// The shipped schedule: reset at a change to an unlearned terrain
-/// (keeping the robot's speed factor difference), recall on a revisit, no
-/// boost.
+/// The shipped schedule: reset at a change to an unlearned terrain, recall
+/// on a revisit (the remembered set as it was learned), no boost.
 impl Default for ScheduleConfig {
     fn default() -> Self {
         Self {
             boost_factor: 1.0,
             boost_updates: 0,
             reset: Some(RESET_STD),
-            reset_keeps_alpha_diff: true,
             memory: true,
             memory_min_dwell: 20.0,
             memory_average: 40.0,
@@ -220,14 +212,7 @@ impl NoiseSchedule {
         self.averaged = 0.0;
         if self.cfg.memory {
             if let Some(Some(m)) = self.memory.get(terrain) {
-                let mut icr = m.icr;
-                let mut cov = m.cov;
-                if self.cfg.reset_keeps_alpha_diff {
-                    // The robot's factor difference as learned now, on the
-                    // remembered common factor of this ground.
-                    keep_factor_difference(filter, &mut icr, &mut cov);
-                }
-                filter.set_slip(&icr, &cov)?;
+                filter.set_slip(&m.icr, &m.cov)?;
                 self.boost_left = 0;
                 filter.set_schedule_scale(1.0);
                 return Ok(ChangeAction::Recalled);
@@ -239,7 +224,7 @@ impl NoiseSchedule {
             return Ok(ChangeAction::Learning);
         }
         if let Some(pb) = self.cfg.reset {
-            filter.reset_slip(None, &pb, self.cfg.reset_keeps_alpha_diff)?;
+            filter.reset_slip(None, &pb)?;
         }
         if self.cfg.boost_factor > 1.0 && self.cfg.boost_updates > 0 {
             self.boost_left = self.cfg.boost_updates;
@@ -264,33 +249,6 @@ fn floor_cov(cov: &SlipMat, floor: &SlipStd) -> SlipMat {
         SlipMat::zeros()
     };
     0.5 * (psd + psd.transpose()) + floor.icr_cov()
-}
-
-/// Replaces the factor difference of `icr` / `cov` by the filter's current
-/// one (value and variance), keeping the common factor.
-fn keep_factor_difference(filter: &Filter, icr: &mut IcrParams, cov: &mut SlipMat) {
-    let now = filter.icr();
-    let c = filter.icr_covariance();
-    let e = now.alpha_l - now.alpha_r;
-    let var_e = (c[(3, 3)] + c[(4, 4)] - 2.0 * c[(3, 4)]).max(0.0);
-    let a = 0.5 * (icr.alpha_l + icr.alpha_r);
-    icr.alpha_l = a + 0.5 * e;
-    icr.alpha_r = a - 0.5 * e;
-    // Common factor a and difference e as coordinates of (alpha_l, alpha_r):
-    // keep a's variance, put in e's and drop their correlation.
-    let var_a = 0.25 * (cov[(3, 3)] + cov[(4, 4)] + 2.0 * cov[(3, 4)]);
-    cov[(3, 3)] = var_a + 0.25 * var_e;
-    cov[(4, 4)] = var_a + 0.25 * var_e;
-    cov[(3, 4)] = var_a - 0.25 * var_e;
-    cov[(4, 3)] = var_a - 0.25 * var_e;
-    for j in 0..3 {
-        // Correlations of the ICRs with the factors go with the old difference.
-        let with_a = 0.5 * (cov[(j, 3)] + cov[(j, 4)]);
-        cov[(j, 3)] = with_a;
-        cov[(j, 4)] = with_a;
-        cov[(3, j)] = with_a;
-        cov[(4, j)] = with_a;
-    }
 }
 
 #[cfg(test)]
@@ -404,43 +362,35 @@ mod tests {
     }
 
     #[test]
-    fn reset_can_keep_the_learned_factor_difference() {
-        for keep in [false, true] {
-            let mut f = filter(Chart::Gain);
-            f.set_slip(&learned(0.25, 0.95, 0.01), &SlipStd::ZERO.icr_cov())
-                .unwrap();
-            let before = f.icr();
-            let mut s = NoiseSchedule::new(ScheduleConfig {
-                reset: Some(PB),
-                reset_keeps_alpha_diff: keep,
-                ..Default::default()
-            });
-            s.on_terrain(&mut f, 0).unwrap();
-            s.on_terrain(&mut f, 1).unwrap();
-            let e = f.icr().alpha_l - f.icr().alpha_r;
-            assert!((e - 0.01).abs() < 1e-9, "the estimate stays");
-            assert!(
-                (var_spread(&f) - 0.01).abs() < 1e-9,
-                "d is reset either way"
-            );
-            let want = if keep { 0.0 } else { 1e-4 };
-            assert!(
-                (var_factor_difference(&f) - want).abs() < 1e-9,
-                "keep {keep}: {}",
-                var_factor_difference(&f)
-            );
-            assert!((f.icr().spread() - before.spread()).abs() < 1e-9);
-        }
+    fn reset_reinflates_the_factor_difference_like_the_other_parameters() {
+        let mut f = filter(Chart::Gain);
+        f.set_slip(&learned(0.25, 0.95, 0.01), &SlipStd::ZERO.icr_cov())
+            .unwrap();
+        let before = f.icr();
+        let mut s = NoiseSchedule::new(ScheduleConfig {
+            reset: Some(PB),
+            ..Default::default()
+        });
+        s.on_terrain(&mut f, 0).unwrap();
+        s.on_terrain(&mut f, 1).unwrap();
+        let e = f.icr().alpha_l - f.icr().alpha_r;
+        assert!((e - 0.01).abs() < 1e-9, "the estimate stays");
+        assert!((var_spread(&f) - 0.01).abs() < 1e-9);
+        assert!(
+            (var_factor_difference(&f) - 1e-4).abs() < 1e-9,
+            "{}",
+            var_factor_difference(&f)
+        );
+        assert!((f.icr().spread() - before.spread()).abs() < 1e-9);
     }
 
     #[test]
-    fn memory_recalls_a_revisited_terrain_keeping_the_robots_factor_difference() {
+    fn memory_recalls_a_revisited_terrain_as_it_was_learned() {
         let mut f = filter(Chart::Gain);
         let mut s = NoiseSchedule::new(ScheduleConfig {
             memory: true,
             memory_min_dwell: 1.0,
             reset: Some(PB),
-            reset_keeps_alpha_diff: true,
             ..Default::default()
         });
         f.predict(0.0, 0.0, 0.0).unwrap();
@@ -452,15 +402,16 @@ mod tests {
             alpha: 1e-3,
             alpha_diff: 1e-3,
         };
-        f.set_slip(&learned(0.4, 0.95, 0.0), &tiny.icr_cov())
+        // Terrain 2's own factor difference: -0.03.
+        f.set_slip(&learned(0.4, 0.95, -0.03), &tiny.icr_cov())
             .unwrap();
         for _ in 0..100 {
             f.predict(0.5, 0.5, 0.02).unwrap();
             s.on_predict(&f, 0.02);
         }
         assert_eq!(s.on_terrain(&mut f, 0).unwrap(), ChangeAction::Learning);
-        // Meanwhile the robot's factor difference is learned as 0.01.
-        f.set_slip(&learned(0.3, 1.0, 0.01), &tiny.icr_cov())
+        // Terrain 0 has a difference of +0.02.
+        f.set_slip(&learned(0.3, 1.0, 0.02), &tiny.icr_cov())
             .unwrap();
         assert!(s.remembers(2) && !s.remembers(0));
         assert_eq!(s.on_terrain(&mut f, 2).unwrap(), ChangeAction::Recalled);
@@ -470,7 +421,10 @@ mod tests {
             "{p:?}"
         );
         assert!((0.5 * (p.alpha_l + p.alpha_r) - 0.95).abs() < 1e-6, "{p:?}");
-        assert!((p.alpha_l - p.alpha_r - 0.01).abs() < 1e-6, "{p:?}");
+        assert!(
+            (p.alpha_l - p.alpha_r + 0.03).abs() < 1e-6,
+            "terrain 2's difference, not terrain 0's: {p:?}"
+        );
         // Recalled spread std is at least the floor.
         assert!(var_spread(&f) >= 0.004f64.powi(2) - 1e-12);
     }

@@ -1,5 +1,6 @@
 //! `terraslip-lab family`: each estimator over the family of worlds
-//! (`terraslip_sim::family`), without terrain labels and without `--init`.
+//! (`terraslip_sim::family`), without `--init`, and without terrain labels
+//! unless `--labels` gives them.
 //!
 //! Figures per world (rows at least 20 s after the start and after every
 //! terrain change, sampled every second for the NEES):
@@ -35,9 +36,10 @@ pub struct Args {
     /// Seed of the first world.
     #[arg(long, default_value_t = 1)]
     first_seed: u64,
-    /// `all`; `gnss2m` (2 m GNSS at 1 Hz, 1 degree compass); `papers`
-    /// (gnss2m's sensors, constant ICRs per terrain and speed factors of 1:
-    /// the papers' world).
+    /// `all`; `gnss2m` (2 m GNSS at 1 Hz, 1 degree compass); `ground`
+    /// (gnss2m's worlds with a speed factor difference of its own on every
+    /// ground and a mild turn law); `papers` (gnss2m's sensors, constant
+    /// ICRs per terrain and speed factors of 1: the papers' world).
     #[arg(long, default_value = "all")]
     subset: String,
     /// Estimators to compare (repeatable): a preset, `config:FILE.toml`,
@@ -55,6 +57,12 @@ pub struct Args {
     /// Put a yaw-rate gyro on every world's robot (`World::with_gyro`).
     #[arg(long)]
     gyro: bool,
+    /// Give every estimator the terrain labels (when the ground changes
+    /// and to what), as `estimate --terrain-labels` does; the oracle has
+    /// them anyway. With `oracle` among the estimators, each one's outage
+    /// drift is also shown as a multiple of the oracle's in the same world.
+    #[arg(long)]
+    labels: bool,
     /// Write world --first-seed as a log directory (as the family runs it)
     /// and exit.
     #[arg(long, value_name = "DIR")]
@@ -211,8 +219,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let subset = match a.subset.as_str() {
         "all" => Subset::All,
         "gnss2m" => Subset::Gnss2m,
+        "ground" => Subset::Ground,
         "papers" => Subset::Papers,
-        other => anyhow::bail!("--subset {other}: expected `all`, `gnss2m` or `papers`"),
+        other => anyhow::bail!("--subset {other}: expected `all`, `gnss2m`, `ground` or `papers`"),
     };
     if let Some(dir) = &a.write {
         let w = draw(a.first_seed, subset, a.gyro);
@@ -270,6 +279,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                         };
                         let (evidence, init) = if name == "oracle" {
                             oracle(&w, &sim)
+                        } else if a.labels {
+                            (TerrainEvidence::Labels(sim.log.terrain.clone()), None)
                         } else {
                             (TerrainEvidence::None, None)
                         };
@@ -316,9 +327,18 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     );
     let results = results.into_inner().unwrap_or_else(|e| e.into_inner());
     println!(
-        "{} worlds ({}), without terrain labels or --init: median / p90 / worst",
-        a.worlds, a.subset
+        "{} worlds ({}), {} terrain labels, without --init: median / p90 / worst",
+        a.worlds,
+        a.subset,
+        if a.labels { "with" } else { "without" }
     );
+    let oracle_drift = |seed: u64| {
+        let k = cfgs.iter().position(|c| c.0 == "oracle")?;
+        results
+            .iter()
+            .find(|r| r.0 == seed && r.1 == k)
+            .map(|r| r.2.drift_pct)
+    };
     for (i, (name, _)) in cfgs.iter().enumerate() {
         let of = |f: &dyn Fn(&Figures) -> f64| {
             let v: Vec<(u64, f64)> = results
@@ -337,6 +357,24 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             of(&|f| f.reconvergence_s)
         );
         println!("  30 s outage drift, %       {}", of(&|f| f.drift_pct));
+        let drifts: Vec<(u64, f64)> = results
+            .iter()
+            .filter(|r| r.1 == i)
+            .map(|r| (r.0, r.2.drift_pct))
+            .collect();
+        let over = drifts.iter().filter(|d| d.1 > 3.0).count();
+        println!("    worlds over 3 %          {over} of {}", drifts.len());
+        if cfgs[i].0 != "oracle" {
+            let ratio: Vec<(u64, f64)> = drifts
+                .iter()
+                .filter_map(|&(seed, d)| oracle_drift(seed).map(|o| (seed, d / o)))
+                .collect();
+            if !ratio.is_empty() {
+                let over = ratio.iter().filter(|r| r.1.is_nan() || r.1 > 1.5).count();
+                println!("    x the oracle's           {}", summary(&ratio));
+                println!("    worlds over 1.5x         {over} of {}", ratio.len());
+            }
+        }
         println!("  2 s prediction, m          {}", of(&|f| f.prediction_m));
         for (k, part) in ["east", "north", "yaw", "d", "speed factor", "x_c"]
             .iter()

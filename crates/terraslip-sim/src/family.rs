@@ -62,6 +62,12 @@ pub enum Subset {
     /// GNSS of 2 m per axis (0.8 m white + 1.8 m correlated over 30 s) at
     /// 1 Hz with a 1 degree compass; everything else drawn as usual.
     Gnss2m,
+    /// [`Subset::Gnss2m`]'s worlds with a speed factor difference
+    /// `alpha_l - alpha_r` of its own on every ground (within +-0.04, the
+    /// Warthog's calibrations span -0.03 to +0.04) and a mild turn law (the
+    /// spread moves 1.5 % with the turn rate, or not at all). Everything
+    /// else is drawn as in world `seed` of [`Subset::Gnss2m`].
+    Ground,
     /// The papers' world under [`Subset::Gnss2m`]'s sensors: constant ICRs
     /// per terrain (no turn law, no speed dependence, no lag), tread speed
     /// factors of exactly 1, spreads of 1.5-2.2 track widths. The class in
@@ -114,9 +120,17 @@ pub fn world(seed: u64, subset: Subset) -> World {
     let mut names: Vec<String> = Vec::new();
     let mut terrains = BTreeMap::new();
     let lr_diff = r.uniform(-0.01, 0.01);
+    // Per-ground differences come from a generator of their own, so that
+    // every other draw is the same as in the other subsets.
+    let mut ground = Draw(seed ^ 0x6772_6F75_6E64);
     for k in 0..n_terrains {
         let name = CATALOGUE[(seed as usize + 3 * k) % CATALOGUE.len()].to_string();
         let alpha = if alpha_one { 1.0 } else { r.uniform(0.6, 1.0) };
+        let lr_diff = if subset == Subset::Ground {
+            ground.uniform(-0.04, 0.04)
+        } else {
+            lr_diff
+        };
         let spread = track * r.uniform(1.0, 2.2);
         let ecc = r.uniform(-0.1, 0.1);
         terrains.insert(
@@ -173,7 +187,7 @@ pub fn world(seed: u64, subset: Subset) -> World {
                 r.uniform(5.0, 60.0)
             },
         ),
-        Subset::Gnss2m | Subset::Papers => (2.0, 1.0, 30.0),
+        Subset::Gnss2m | Subset::Ground | Subset::Papers => (2.0, 1.0, 30.0),
     };
     let (white, markov) = if tau > 0.0 {
         (0.4 * gnss_std, 0.9165 * gnss_std)
@@ -196,7 +210,7 @@ pub fn world(seed: u64, subset: Subset) -> World {
         }],
     };
     let compass = match subset {
-        Subset::Gnss2m | Subset::Papers => Compass {
+        Subset::Gnss2m | Subset::Ground | Subset::Papers => Compass {
             rate: 1.0,
             std_deg: 1.0,
             bias_deg: r.uniform(-1.0, 1.0),
@@ -228,6 +242,9 @@ pub fn world(seed: u64, subset: Subset) -> World {
         lag: r.uniform(0.1, 0.5),
         transition: 1.0,
     };
+    if subset == Subset::Ground {
+        slip.turn_sensitivity = 0.015 * turn_law.signum();
+    }
     if subset == Subset::Papers {
         slip.turn_sensitivity = 0.0;
         slip.speed_sensitivity = 0.0;
@@ -288,6 +305,31 @@ pub fn world(seed: u64, subset: Subset) -> World {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ground_worlds_differ_from_gnss2m_only_in_the_differences_and_the_law() {
+        for seed in 1..=20 {
+            let (g, m) = (world(seed, Subset::Ground), world(seed, Subset::Gnss2m));
+            g.scenario.validate().unwrap();
+            assert_eq!(g.outage, m.outage);
+            assert_eq!(g.scenario.segments, m.scenario.segments);
+            assert_eq!(g.scenario.gnss, m.scenario.gnss);
+            assert!(g.scenario.slip.turn_sensitivity.abs() <= 0.015);
+            let diffs: Vec<f64> = g
+                .scenario
+                .terrains
+                .values()
+                .map(|t| {
+                    let (l, r) = (t.alpha_l.unwrap(), t.alpha_r.unwrap());
+                    2.0 * (l - r) / (l + r)
+                })
+                .collect();
+            assert!(diffs.iter().all(|d| d.abs() <= 0.04 + 1e-12), "{diffs:?}");
+            if diffs.len() > 1 {
+                assert!(diffs.windows(2).any(|w| w[0] != w[1]), "{diffs:?}");
+            }
+        }
+    }
 
     #[test]
     fn worlds_are_valid_deterministic_and_span_the_ranges() {

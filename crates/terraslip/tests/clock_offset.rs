@@ -54,3 +54,31 @@ fn the_learned_clock_offset_does_not_depend_on_its_start_and_the_prediction_uses
         as_stamped.stats
     );
 }
+
+/// `--init` from `calibrate` carries the clock offset it found
+/// (`time_offset_s`): the filter's clock starts there.
+#[test]
+fn init_carries_the_calibrated_clock_offset() {
+    let log = sand();
+    let mut pf = terraslip_io::ParamsFile::default();
+    let mut entry = terraslip_io::ParamEntry::new(terraslip_core::IcrParams {
+        y_l: 1.1,
+        y_r: -1.1,
+        x_c: 0.02,
+        alpha_l: 0.82,
+        alpha_r: 0.83,
+    });
+    entry
+        .extra
+        .insert("time_offset_s".into(), serde_json::json!(0.4));
+    pf.terrains.insert("sand".into(), entry);
+    let r = pipeline::run(
+        &log,
+        &EstimatorConfig::default(),
+        &TerrainEvidence::None,
+        Some(&pf),
+    )
+    .unwrap();
+    let first = r.first_row.unwrap().clock_offset;
+    assert!((first - 0.4).abs() < 0.02, "started at {first:.3} s");
+}

@@ -28,27 +28,13 @@ impl Filter {
 
     /// Resets the slip parameters to `icr` (or keeps the current values if
     /// `None`) with standard deviations `std`, uncorrelated with the rest of
-    /// the state. With `keep_factor_difference`, the tread speed factor
-    /// difference `alpha_l - alpha_r` keeps its current value and variance:
-    /// it belongs to the robot (tyres, gearing), not to the ground.
+    /// the state.
     pub fn reset_slip(
         &mut self,
         icr: Option<&IcrParams>,
         std: &SlipStd,
-        keep_factor_difference: bool,
     ) -> Result<(), FilterError> {
-        let now = self.icr();
-        let cov_now = self.icr_covariance();
-        let mut target = icr.copied().unwrap_or(now);
-        let mut std = *std;
-        if keep_factor_difference {
-            let a = 0.5 * (target.alpha_l + target.alpha_r);
-            let e = now.alpha_l - now.alpha_r;
-            target.alpha_l = a + 0.5 * e;
-            target.alpha_r = a - 0.5 * e;
-            let var_e = cov_now[(3, 3)] + cov_now[(4, 4)] - 2.0 * cov_now[(3, 4)];
-            std.alpha_diff = libm::sqrt(var_e.max(0.0));
-        }
+        let target = icr.copied().unwrap_or_else(|| self.icr());
         self.set_slip(&target, &std.icr_cov())
     }
 

@@ -99,10 +99,6 @@ pub struct ScheduleSection {
     pub reset: bool,
     /// Reset std (chen2023's P_B).
     pub reset_std: SlipStd,
-    /// The reset keeps the learned tread speed factor difference
-    /// alpha_l - alpha_r (a property of the robot, not of the ground);
-    /// `reset_std.alpha_diff` is then unused.
-    pub reset_keeps_alpha_diff: bool,
     /// Recall learned slip parameters when a terrain is revisited.
     pub memory: bool,
     /// Seconds of driving on a terrain before its parameters are remembered.
@@ -159,7 +155,6 @@ impl Default for ScheduleSection {
             boost_updates: c.boost_updates,
             reset: c.reset.is_some(),
             reset_std: c.reset.unwrap_or(terraslip_core::schedule::RESET_STD),
-            reset_keeps_alpha_diff: c.reset_keeps_alpha_diff,
             memory: c.memory,
             memory_min_dwell: c.memory_min_dwell,
             memory_average: c.memory_average,
@@ -348,7 +343,6 @@ impl EstimatorConfig {
             boost_factor: s.boost_factor,
             boost_updates: s.boost_updates,
             reset: s.reset.then_some(s.reset_std),
-            reset_keeps_alpha_diff: s.reset_keeps_alpha_diff,
             memory: s.memory,
             memory_min_dwell: s.memory_min_dwell,
             memory_average: s.memory_average,

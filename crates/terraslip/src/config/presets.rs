@@ -78,7 +78,6 @@ impl EstimatorConfig {
         let mut reset = papers(Q_MIN);
         reset.schedule.reset = true;
         // P_B: 0.1 m on each of y_l, y_r, x_c, independent.
-        reset.schedule.reset_keeps_alpha_diff = false;
         reset.schedule.reset_std = SlipStd {
             spread: 0.1 * 2f64.sqrt(),
             centre: 0.1 / 2f64.sqrt(),

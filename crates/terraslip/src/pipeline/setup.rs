@@ -75,6 +75,13 @@ pub(super) fn setup(
             ),
         }
     }
+    if let Some(o) = init.and_then(terraslip_calib::validate::stored_offset) {
+        // The calibration's clock offset between wheels and pose: where
+        // the filter's clock starts (it goes on learning it).
+        if o.is_finite() && o.abs() <= terraslip_core::filter::MAX_CLOCK_OFFSET {
+            meas.clock_offset = o;
+        }
+    }
     if meas.encoder_tick == 0.0 {
         if let (Some(r), Some(n)) = (log.meta.wheel_radius, log.meta.ticks_per_rev) {
             if r.is_finite() && r > 0.0 && n.is_finite() && n >= 1.0 {

@@ -30,6 +30,9 @@ use std::collections::VecDeque;
 use terraslip_core::IcrParams;
 use terraslip_io::{PoseObs, WheelSample};
 
+use crate::model::RateSlopes;
+use crate::segment::accelerations;
+
 /// Settings of the score.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PredictionSpec {
@@ -169,15 +172,25 @@ fn lerp<T, const N: usize>(
 pub struct Timed {
     pub params: IcrParams,
     pub clock_offset: f64,
+    /// How the ICRs move with turn rate, acceleration and speed over the
+    /// 2 s (a calibration's selected model; [`RateSlopes::NONE`] holds
+    /// `params` constant).
+    pub slopes: RateSlopes,
 }
 
 impl Timed {
-    /// `params` read against the pose stamps as they are.
-    pub fn on_time(params: IcrParams) -> Self {
+    /// Constant `params`, the pose read `clock_offset` s later.
+    pub fn new(params: IcrParams, clock_offset: f64) -> Self {
         Self {
             params,
-            clock_offset: 0.0,
+            clock_offset,
+            slopes: RateSlopes::NONE,
         }
+    }
+
+    /// `params` read against the pose stamps as they are.
+    pub fn on_time(params: IcrParams) -> Self {
+        Self::new(params, 0.0)
     }
 }
 
@@ -463,6 +476,7 @@ impl PredictionStream {
         let Some(Timed {
             params: p,
             clock_offset: c,
+            slopes,
         }) = timed
         else {
             return;
@@ -483,7 +497,18 @@ impl PredictionStream {
         self.estimate_headings += usize::from(reference.is_none());
         let wheels = self.wheels.make_contiguous();
         let t1 = t + self.spec.horizon;
-        let (e, n) = predict(wheels, &p, t, t1, a);
+        let (e, n) = if slopes == RateSlopes::NONE {
+            predict(wheels, &p, t, t1, a)
+        } else {
+            // The tread accelerations of the kept rows (those near the
+            // window's ends from the rows kept on each side).
+            let acc = accelerations(wheels);
+            let at = |w: &WheelSample| {
+                let i = wheels.partition_point(|s| s.t < w.t).min(acc.len() - 1);
+                slopes.twist(&p, w.v_left, w.v_right, acc[i])
+            };
+            predict_with(wheels, &at, t, t1, a)
+        };
         let (en, nn) = predict(wheels, &self.no_slip, t, t1, a);
         self.segments.push(PredictionSegment {
             t,
@@ -632,19 +657,7 @@ mod tests {
             }
         }
         let spec = PredictionSpec::default();
-        let late = score_timed(
-            &w,
-            &p,
-            0.5,
-            &|_| {
-                Some(Timed {
-                    params: truth,
-                    clock_offset: 0.3,
-                })
-            },
-            spec,
-        )
-        .unwrap();
+        let late = score_timed(&w, &p, 0.5, &|_| Some(Timed::new(truth, 0.3)), spec).unwrap();
         let as_stamped = score(&w, &p, 0.5, &|_| Some(truth), spec).unwrap();
         assert!(late.stats.mean_m < 1e-3, "{:?}", late.stats);
         assert!(as_stamped.stats.mean_m > 0.05, "{:?}", as_stamped.stats);

@@ -9,7 +9,6 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use terraslip::pipeline::{self, TerrainEvidence};
-use terraslip_calib::prediction::Timed;
 use terraslip_calib::{calibrate, CalibConfig, Method};
 use terraslip_io::DriveLog;
 
@@ -85,18 +84,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             match calibrate(std::slice::from_ref(&log), &cc, &|_| {}) {
                 Ok(cal) => {
                     let pf = cal.params_file();
-                    let params_at = |t: f64| {
-                        let k = log.terrain.partition_point(|l| l.t <= t);
-                        pf.for_terrain(k.checked_sub(1).map(|k| log.terrain[k].terrain.as_str()))
-                    };
                     let w = log.meta.track_width.unwrap_or(0.5);
-                    // Read with the calibration's own clock offset.
+                    // The selected model, read with the calibration's own
+                    // clock offset.
                     let clock_offset = terraslip_calib::validate::stored_offset(&pf).unwrap_or(0.0);
                     let timed_at = |t: f64| {
-                        params_at(t).map(|params| Timed {
-                            params,
-                            clock_offset,
-                        })
+                        let k = log.terrain.partition_point(|l| l.t <= t);
+                        let name = k.checked_sub(1).map(|k| log.terrain[k].terrain.as_str());
+                        terraslip::validation::timed(&pf, name, clock_offset)
                     };
                     if let Some(p) = terraslip_calib::prediction::score_timed(
                         &log.wheels,

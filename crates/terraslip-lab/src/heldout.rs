@@ -21,7 +21,7 @@ use anyhow::Context;
 use terraslip::pipeline::{self, TerrainEvidence};
 use terraslip::EstimatorConfig;
 use terraslip_calib::prediction::{references, segment_error, PredictionSpec};
-use terraslip_calib::segment::ACC_HALF_WINDOW;
+use terraslip_calib::segment::accelerations;
 use terraslip_calib::validate::{model_for, stored_offset};
 use terraslip_calib::{calibrate, CalibConfig, ModelChoice, RateSlopes};
 use terraslip_core::{IcrParams, Twist};
@@ -57,22 +57,6 @@ struct Model<'a> {
     name: String,
     twist: TwistFn<'a>,
     clock_at: Box<dyn Fn(f64) -> f64 + 'a>,
-}
-
-/// The tread acceleration of each wheels row as `calibrate` reads it
-/// (central difference over [`ACC_HALF_WINDOW`], signed by the direction
-/// of travel), m/s^2.
-fn accelerations(w: &[WheelSample]) -> Vec<f64> {
-    let at = |t: f64| {
-        let k = w.partition_point(|s| s.t <= t).clamp(1, w.len()) - 1;
-        0.5 * (w[k].v_left + w[k].v_right)
-    };
-    w.iter()
-        .map(|s| {
-            (at(s.t + ACC_HALF_WINDOW) - at(s.t - ACC_HALF_WINDOW)) / (2.0 * ACC_HALF_WINDOW)
-                * (s.v_left + s.v_right).signum()
-        })
-        .collect()
 }
 
 fn terrain_at(log: &DriveLog, t: f64) -> Option<&str> {

@@ -84,7 +84,7 @@ pub fn validate<'py>(
         let v = detached(py, move || {
             let cfg = terraslip_calib::ValidateConfig::default();
             let v = terraslip_calib::validate(&logs, &params, &cfg).context("validation failed")?;
-            let prediction = terraslip::validation::prediction(&logs, &params);
+            let prediction = terraslip::validation::prediction_at(&logs, &params, &v.offsets);
             Ok(terraslip::validation::to_json(&v, prediction.as_ref()))
         })?;
         from_json(py, &v)

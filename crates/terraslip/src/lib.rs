@@ -39,15 +39,7 @@ pub fn prediction_score(
     let timeline: Vec<_> = run
         .rows
         .iter()
-        .map(|r| {
-            (
-                r.t,
-                Timed {
-                    params: r.icr(),
-                    clock_offset: r.clock_offset,
-                },
-            )
-        })
+        .map(|r| (r.t, Timed::new(r.icr(), r.clock_offset)))
         .collect();
     prediction_of(log, run.track_width, &timeline)
 }

@@ -179,13 +179,7 @@ pub fn write(
                     r.clock_offset
                 };
                 let params = r.icr();
-                (
-                    r.t,
-                    crate::Timed {
-                        params,
-                        clock_offset,
-                    },
-                )
+                (r.t, crate::Timed::new(params, clock_offset))
             })
             .collect();
         let scored = crate::prediction_of(reference.as_ref().unwrap_or(log), w, &timeline);

@@ -1,23 +1,39 @@
 //! `terraslip calibrate validate` as values: the 2 s prediction score of a
 //! parameters file and the JSON object `--json` prints.
 
-use terraslip_calib::prediction::{score, PredictionScore};
-use terraslip_calib::{Mse, Validation};
+use terraslip_calib::prediction::{score_timed, PredictionScore, Timed};
+use terraslip_calib::validate::{model_for, stored_offset};
+use terraslip_calib::{ModelChoice, Mse, Validation};
 use terraslip_io::{DriveLog, ParamsFile};
 
-/// The 2 s prediction score of `params` over all `logs` together: the
-/// parameters of the terrain in effect (or the pooled set) held over each
-/// 2 s; `None` when a log lacks a track width or a pose reference.
+/// The 2 s prediction score of `params` over all `logs` together, each log
+/// read with the file's `time_offset_s` (0 without one); `None` when a log
+/// lacks a track width or a pose reference. See [`prediction_at`].
 pub fn prediction(logs: &[DriveLog], params: &ParamsFile) -> Option<PredictionScore> {
+    let offset = stored_offset(params).unwrap_or(0.0);
+    prediction_at(logs, params, &vec![offset; logs.len()])
+}
+
+/// The 2 s prediction score of `params` over all `logs` together: the
+/// model of the terrain in effect (or of the pooled set) over each 2 s,
+/// the selected turn-rate and centripetal model where calibration
+/// selected one, else the constant ICRs, the pose of log `i` read
+/// `offsets[i]` s later than its stamps (the pose stamped late by that
+/// much); `None` when a log lacks a track width or a pose reference.
+pub fn prediction_at(
+    logs: &[DriveLog],
+    params: &ParamsFile,
+    offsets: &[f64],
+) -> Option<PredictionScore> {
     let mut all: Option<PredictionScore> = None;
-    for log in logs {
+    for (log, &offset) in logs.iter().zip(offsets) {
         let w = log.meta.track_width.filter(|w| w.is_finite() && *w > 0.0)?;
         let set_at = |t: f64| {
             let k = log.terrain.partition_point(|l| l.t <= t);
             let name = k.checked_sub(1).map(|k| log.terrain[k].terrain.as_str());
-            params.for_terrain(name)
+            timed(params, name, offset)
         };
-        if let Some(s) = score(&log.wheels, &log.pose, w, &set_at, Default::default()) {
+        if let Some(s) = score_timed(&log.wheels, &log.pose, w, &set_at, Default::default()) {
             match all.as_mut() {
                 Some(a) => a.segments.extend(s.segments),
                 None => all = Some(s),
@@ -25,6 +41,20 @@ pub fn prediction(logs: &[DriveLog], params: &ParamsFile) -> Option<PredictionSc
         }
     }
     all.map(|a| PredictionScore::from_segments(a.spec, a.segments))
+}
+
+/// The model of `terrain`'s set (or the pooled set) of `params` as the 2 s
+/// prediction scores it: the selected turn-rate and centripetal model, else
+/// the constant ICRs, the pose read `offset` s later. A malformed
+/// `rate_model` counts as absent here (`validate` names it).
+pub fn timed(params: &ParamsFile, terrain: Option<&str>, offset: f64) -> Option<Timed> {
+    let (p, slopes) = model_for(params, terrain, ModelChoice::FromParams)
+        .ok()
+        .flatten()?;
+    Some(Timed {
+        slopes,
+        ..Timed::new(p, offset)
+    })
 }
 
 /// What `calibrate validate --json` prints: mean squared errors (dx, dy in

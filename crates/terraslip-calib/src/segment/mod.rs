@@ -45,6 +45,22 @@ pub struct Step {
 /// shows as one acceleration pulse instead of a spike.
 pub const ACC_HALF_WINDOW: f64 = 0.25;
 
+/// The tread acceleration of each wheels row as `calibrate` reads it
+/// (central difference over [`ACC_HALF_WINDOW`], signed by the direction
+/// of travel), m/s^2.
+pub fn accelerations(w: &[WheelSample]) -> Vec<f64> {
+    let at = |t: f64| {
+        let k = w.partition_point(|s| s.t <= t).clamp(1, w.len()) - 1;
+        0.5 * (w[k].v_left + w[k].v_right)
+    };
+    w.iter()
+        .map(|s| {
+            (at(s.t + ACC_HALF_WINDOW) - at(s.t - ACC_HALF_WINDOW)) / (2.0 * ACC_HALF_WINDOW)
+                * (s.v_left + s.v_right).signum()
+        })
+        .collect()
+}
+
 /// The motion between two pose observations.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Segment {

@@ -117,9 +117,10 @@ pub(super) fn run(a: ValidateArgs) -> anyhow::Result<()> {
             ratio(nm.position(), m.position())
         );
     }
-    // The 2 s prediction error, as `estimate` reports it: the parameters of
-    // the terrain in effect (or the pooled set) held over each 2 s.
-    let prediction = terraslip::validation::prediction(&logs, &params);
+    // The 2 s prediction error, as `estimate` reports it: the model of the
+    // terrain in effect (or the pooled set) over each 2 s, with the time
+    // offsets the scores above used.
+    let prediction = terraslip::validation::prediction_at(&logs, &params, &v.offsets);
     if let Some(p) = &prediction {
         eprintln!(
             "  2 s prediction: {} segments, mean {:.3} m (no-slip {:.3} m), p90 {:.3} m",

@@ -55,6 +55,11 @@ pub struct Args {
     /// Put a yaw-rate gyro on every world's robot (`World::with_gyro`).
     #[arg(long)]
     gyro: bool,
+    /// Give every world's gyro a scale error drawn uniformly in +-E (a
+    /// fraction: 0.03 = +-3 %; implies --gyro; the worlds' other draws
+    /// stay as they are).
+    #[arg(long, value_name = "E", default_value_t = 0.0)]
+    gyro_scale: f64,
     /// Write world --first-seed as a log directory (as the family runs it)
     /// and exit.
     #[arg(long, value_name = "DIR")]
@@ -93,10 +98,13 @@ fn simulate_world(w: &World, seed: u64) -> anyhow::Result<SimRun> {
     Ok(sim)
 }
 
-/// World `seed` of `subset`, with a gyro if asked.
-fn draw(seed: u64, subset: Subset, gyro: bool) -> World {
+/// World `seed` of `subset`, with a gyro if asked (`gyro_scale` > 0:
+/// one whose scale is off by up to that fraction).
+fn draw(seed: u64, subset: Subset, gyro: bool, gyro_scale: f64) -> World {
     let w = world(seed, subset);
-    if gyro {
+    if gyro_scale > 0.0 {
+        w.with_gyro(seed).with_gyro_scale(seed, gyro_scale)
+    } else if gyro {
         w.with_gyro(seed)
     } else {
         w
@@ -214,8 +222,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         "papers" => Subset::Papers,
         other => anyhow::bail!("--subset {other}: expected `all`, `gnss2m` or `papers`"),
     };
+    if !(0.0..0.5).contains(&a.gyro_scale) {
+        anyhow::bail!(
+            "--gyro-scale {}: expected a fraction in [0, 0.5) (0.03 = +-3 %)",
+            a.gyro_scale
+        );
+    }
     if let Some(dir) = &a.write {
-        let w = draw(a.first_seed, subset, a.gyro);
+        let w = draw(a.first_seed, subset, a.gyro, a.gyro_scale);
         let sim = simulate_world(&w, a.first_seed)?;
         sim.write(dir)?;
         eprintln!(
@@ -260,7 +274,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                     let Some(&seed) = seeds.get(k) else {
                         return Ok(());
                     };
-                    let w = draw(seed, subset, a.gyro);
+                    let w = draw(seed, subset, a.gyro, a.gyro_scale);
                     let sim = simulate_world(&w, seed)?;
                     // The outage on the pose stream's clock.
                     let outage = (w.outage.0 + w.clock_offset, w.outage.1 + w.clock_offset);

@@ -13,7 +13,9 @@
 //!   dropped, compass included), % of the distance driven;
 //! * the 2 s prediction error against the true pose, m;
 //! * the NEES (normalised estimation error squared, 1 per dof for an
-//!   honest filter) of east, north, yaw, `d`, the speed factor and `x_c`.
+//!   honest filter) of east, north, yaw, `d`, the speed factor and `x_c`;
+//! * with a gyro, the error of the gyro scale the run ended with (%, its
+//!   absolute value) and its NEES (NaN where the run fused no gyro).
 
 use std::sync::Mutex;
 
@@ -82,6 +84,10 @@ struct Figures {
     stated_std: bool,
     /// Std of the slow GNSS error the run ended with, m.
     correlated_std_m: f64,
+    /// |gyro scale - true| at the end, % (NaN without a gyro fused).
+    gyro_scale_err_pct: f64,
+    /// Its NEES (NaN where the scale was held: std 0).
+    nees_gyro_scale: f64,
 }
 
 /// The world's log as the family runs it: the pose stream on its own
@@ -189,6 +195,7 @@ fn figures(run: &EstimateRun, sim: &SimRun, w: &World) -> Figures {
         n += 1;
     }
     let n = n.max(1) as f64;
+    let gyro_err = (run.gyro.fused > 0).then(|| run.gyro.scale - w.scenario.imu.gyro_scale);
     Figures {
         rms_d_cm: 100.0 * rms.d,
         rms_y_cm: 100.0 * rms.y_l.max(rms.y_r),
@@ -199,6 +206,10 @@ fn figures(run: &EstimateRun, sim: &SimRun, w: &World) -> Figures {
         nees: nees.map(|v| v / n),
         stated_std: w.stated_std,
         correlated_std_m: run.noise.correlated_std,
+        gyro_scale_err_pct: gyro_err.map_or(f64::NAN, |e| 100.0 * e.abs()),
+        nees_gyro_scale: gyro_err
+            .filter(|_| run.gyro.scale_std > 0.0)
+            .map_or(f64::NAN, |e| (e / run.gyro.scale_std).powi(2)),
     }
 }
 
@@ -357,6 +368,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             .enumerate()
         {
             println!("  NEES {part:12} (1 dof)   {}", of(&|f| f.nees[k]));
+        }
+        if a.gyro || a.gyro_scale > 0.0 {
+            println!(
+                "  gyro scale error, %        {}",
+                of(&|f| f.gyro_scale_err_pct)
+            );
+            println!("  NEES gyro scale   (1 dof)   {}", of(&|f| f.nees_gyro_scale));
         }
     }
     if let Some(path) = &a.json {

@@ -238,7 +238,7 @@ impl Filter {
         let mut k = a / s;
         let frozen = self.frozen(true);
         for (i, f) in frozen.iter().enumerate() {
-            if *f || (i == YAW && !self.anchored[1]) {
+            if *f || ((i == YAW || i == GYRO_SCALE) && !self.anchored[1]) {
                 k[i] = 0.0;
             }
         }

@@ -374,7 +374,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 "  gyro scale error, %        {}",
                 of(&|f| f.gyro_scale_err_pct)
             );
-            println!("  NEES gyro scale   (1 dof)   {}", of(&|f| f.nees_gyro_scale));
+            println!(
+                "  NEES gyro scale   (1 dof)   {}",
+                of(&|f| f.nees_gyro_scale)
+            );
         }
     }
     if let Some(path) = &a.json {

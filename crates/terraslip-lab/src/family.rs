@@ -195,7 +195,7 @@ fn figures(run: &EstimateRun, sim: &SimRun, w: &World) -> Figures {
         n += 1;
     }
     let n = n.max(1) as f64;
-    let gyro_err = (run.gyro.fused > 0).then(|| run.gyro.scale - w.scenario.imu.gyro_scale);
+    let gyro_err = (run.gyro.fused > 0).then_some(run.gyro.scale - w.scenario.imu.gyro_scale);
     Figures {
         rms_d_cm: 100.0 * rms.d,
         rms_y_cm: 100.0 * rms.y_l.max(rms.y_r),

@@ -28,9 +28,9 @@
 //! yaw'   = yaw   + dt omega
 //! ```
 //!
-//! The slip parameters, the law, the clock offset and the gyro bias are
-//! random walks, the gyro scale is constant, the position bias decays ([`crate::filter`] adds the
-//! noise). [`step`] returns the new state and the rows of the Jacobian that
+//! The slip parameters, the law, the clock offset, the gyro bias and the
+//! gyro scale are random walks, the position bias decays
+//! ([`crate::filter`] adds the noise). [`step`] returns the new state and the rows of the Jacobian that
 //! differ from the identity's.
 
 use nalgebra::{SMatrix, SVector};

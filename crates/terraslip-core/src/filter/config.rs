@@ -495,6 +495,11 @@ pub struct MeasurementConfig {
     /// %); learned where positions or headings show the true turn, held
     /// otherwise ([`FilterConfig::hold_gyro_scale`]). 0 = held everywhere.
     pub gyro_scale_std: f64,
+    /// Random walk of the gyro's scale error, per square-root second (3e-4:
+    /// 0.5 % over 5 minutes), so that a scale learned off through a model
+    /// heading error that persisted can come back; only where the scale is
+    /// learned.
+    pub gyro_scale_walk: f64,
 }
 
 impl Default for MeasurementConfig {
@@ -512,6 +517,7 @@ impl Default for MeasurementConfig {
             gyro_bias_walk: 1e-4,
             gyro_scale: 0.0,
             gyro_scale_std: 0.02,
+            gyro_scale_walk: 3e-4,
         }
     }
 }
@@ -520,7 +526,7 @@ impl MeasurementConfig {
     /// Checks every setting; the error names the key.
     pub fn validate(&self) -> Result<(), FilterError> {
         let pos = |v: f64| v.is_finite() && v > 0.0;
-        let checks: [(&'static str, bool); 12] = [
+        let checks: [(&'static str, bool); 13] = [
             (
                 "measurement.std_xy must be finite and > 0",
                 pos(self.std_xy),
@@ -568,6 +574,10 @@ impl MeasurementConfig {
             (
                 "measurement.gyro_scale_std must be in 0..=0.2",
                 (0.0..=super::MAX_GYRO_SCALE).contains(&self.gyro_scale_std),
+            ),
+            (
+                "measurement.gyro_scale_walk must be in 0..=0.01 per sqrt(s)",
+                (0.0..=0.01).contains(&self.gyro_scale_walk),
             ),
         ];
         for (what, ok) in checks {

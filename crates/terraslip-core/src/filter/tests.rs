@@ -580,6 +580,31 @@ fn headings_teach_the_gyro_scale_and_the_true_turning_gain() {
     assert_spd(&f);
 }
 
+/// Where the scale is learned its variance walks between fixes
+/// (`gyro_scale_walk`^2 per second), so that a scale learned off can come
+/// back; a walk of 0 leaves it where the fixes left it.
+#[test]
+fn a_learned_gyro_scale_walks_between_fixes() {
+    let mut cfg = FilterConfig::default();
+    cfg.hold = SlipHold::PositionTaught;
+    for walk in [MeasurementConfig::default().gyro_scale_walk, 0.0] {
+        assert!(walk >= 0.0);
+        let mut f = scaled_gyro_drive(cfg, 1.03, true);
+        f.meas.gyro_scale_walk = walk;
+        let i = crate::model::GYRO_SCALE;
+        let before = f.raw().1[(i, i)];
+        for _ in 0..5_000 {
+            f.predict(1.0, 1.0, 0.02).unwrap();
+        }
+        let grown = f.raw().1[(i, i)] - before;
+        assert!(
+            (grown - walk * walk * 100.0).abs() <= 1e-12,
+            "walk {walk}: variance grew by {grown} over 100 s"
+        );
+    }
+    assert!(MeasurementConfig::default().gyro_scale_walk > 0.0);
+}
+
 /// Held (the gyro the only turn sensor): the scale and its row of the
 /// covariance stay exactly at their start, and the gain absorbs the scale.
 #[test]

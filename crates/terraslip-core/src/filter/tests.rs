@@ -605,6 +605,23 @@ fn a_learned_gyro_scale_walks_between_fixes() {
     assert!(MeasurementConfig::default().gyro_scale_walk > 0.0);
 }
 
+/// A walk below 0, above 0.01 or not a number is refused, naming the key.
+#[test]
+fn a_gyro_scale_walk_out_of_range_is_refused() {
+    for walk in [-1e-4, 0.02, f64::NAN] {
+        let meas = MeasurementConfig {
+            gyro_scale_walk: walk,
+            ..MeasurementConfig::default()
+        };
+        match meas.validate() {
+            Err(FilterError::BadConfig(what)) => {
+                assert!(what.contains("gyro_scale_walk"), "{what}")
+            }
+            other => panic!("walk {walk}: {other:?}"),
+        }
+    }
+}
+
 /// Held (the gyro the only turn sensor): the scale and its row of the
 /// covariance stay exactly at their start, and the gain absorbs the scale.
 #[test]

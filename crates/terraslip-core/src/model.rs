@@ -1,6 +1,6 @@
 //! The filter's state and its process model.
 //!
-//! State `x = [east, north, yaw, s0..s4, law, clock, bias_e, bias_n, gyro_bias]`:
+//! State `x = [east, north, yaw, s0..s4, law, clock, bias_e, bias_n, gyro_bias, gyro_scale]`:
 //!
 //! * world ENU position (m) and yaw (rad, counter-clockwise from east) of
 //!   the body frame, on the wheels' clock;
@@ -15,7 +15,9 @@
 //!   fixes' error (first-order Gauss-Markov), so that GNSS errors
 //!   correlated over tens of seconds are not read as motion;
 //! * `gyro_bias` (rad/s): the yaw-rate gyro's bias (a random walk), where
-//!   the log has a gyro.
+//!   the log has a gyro;
+//! * `gyro_scale` (dimensionless): the gyro's scale error `k_g`, the gyro
+//!   reading `1 + k_g` times the true yaw rate (a constant: no random walk).
 //!
 //! One Euler step of length `dt` with the body twist `(v_x, v_y, omega)` of
 //! [`Chart::twist_with_law`]:
@@ -26,9 +28,9 @@
 //! yaw'   = yaw   + dt omega
 //! ```
 //!
-//! The slip parameters, the law, the clock offset and the gyro bias are
-//! random walks, the position bias decays ([`crate::filter`] adds the
-//! noise). [`step`] returns the new state and the rows of the Jacobian that
+//! The slip parameters, the law, the clock offset, the gyro bias and the
+//! gyro scale are random walks, the position bias decays
+//! ([`crate::filter`] adds the noise). [`step`] returns the new state and the rows of the Jacobian that
 //! differ from the identity's.
 
 use nalgebra::{SMatrix, SVector};
@@ -38,7 +40,7 @@ use crate::kinematics::Twist;
 use crate::slip::{Chart, Slip, TreadInput};
 
 /// Dimension of the state.
-pub const N: usize = 13;
+pub const N: usize = 14;
 /// Index of east, m.
 pub const EAST: usize = 0;
 /// Index of north, m.
@@ -57,6 +59,9 @@ pub const BIAS_E: usize = 10;
 pub const BIAS_N: usize = 11;
 /// Index of the yaw-rate gyro's bias, rad/s.
 pub const GYRO_BIAS: usize = 12;
+/// Index of the yaw-rate gyro's scale error `k_g` (it reads `1 + k_g`
+/// times the true yaw rate).
+pub const GYRO_SCALE: usize = GYRO_BIAS + 1;
 
 /// The state vector.
 pub type State = SVector<f64, N>;

@@ -14,7 +14,9 @@
 //!   dropped, compass included), % of the distance driven;
 //! * the 2 s prediction error against the true pose, m;
 //! * the NEES (normalised estimation error squared, 1 per dof for an
-//!   honest filter) of east, north, yaw, `d`, the speed factor and `x_c`.
+//!   honest filter) of east, north, yaw, `d`, the speed factor and `x_c`;
+//! * with a gyro, the error of the gyro scale the run ended with (%, its
+//!   absolute value) and its NEES (NaN where the run fused no gyro).
 
 use std::sync::Mutex;
 
@@ -63,6 +65,11 @@ pub struct Args {
     /// drift is also shown as a multiple of the oracle's in the same world.
     #[arg(long)]
     labels: bool,
+    /// Give every world's gyro a scale error drawn uniformly in +-E (a
+    /// fraction: 0.03 = +-3 %; implies --gyro; the worlds' other draws
+    /// stay as they are).
+    #[arg(long, value_name = "E", default_value_t = 0.0)]
+    gyro_scale: f64,
     /// Write world --first-seed as a log directory (as the family runs it)
     /// and exit.
     #[arg(long, value_name = "DIR")]
@@ -85,6 +92,10 @@ struct Figures {
     stated_std: bool,
     /// Std of the slow GNSS error the run ended with, m.
     correlated_std_m: f64,
+    /// |gyro scale - true| at the end, % (NaN without a gyro fused).
+    gyro_scale_err_pct: f64,
+    /// Its NEES (NaN where the scale was held: std 0).
+    nees_gyro_scale: f64,
 }
 
 /// The world's log as the family runs it: the pose stream on its own
@@ -101,10 +112,13 @@ fn simulate_world(w: &World, seed: u64) -> anyhow::Result<SimRun> {
     Ok(sim)
 }
 
-/// World `seed` of `subset`, with a gyro if asked.
-fn draw(seed: u64, subset: Subset, gyro: bool) -> World {
+/// World `seed` of `subset`, with a gyro if asked (`gyro_scale` > 0:
+/// one whose scale is off by up to that fraction).
+fn draw(seed: u64, subset: Subset, gyro: bool, gyro_scale: f64) -> World {
     let w = world(seed, subset);
-    if gyro {
+    if gyro_scale > 0.0 {
+        w.with_gyro(seed).with_gyro_scale(seed, gyro_scale)
+    } else if gyro {
         w.with_gyro(seed)
     } else {
         w
@@ -189,6 +203,7 @@ fn figures(run: &EstimateRun, sim: &SimRun, w: &World) -> Figures {
         n += 1;
     }
     let n = n.max(1) as f64;
+    let gyro_err = (run.gyro.fused > 0).then_some(run.gyro.scale - w.scenario.imu.gyro_scale);
     Figures {
         rms_d_cm: 100.0 * rms.d,
         rms_y_cm: 100.0 * rms.y_l.max(rms.y_r),
@@ -199,6 +214,10 @@ fn figures(run: &EstimateRun, sim: &SimRun, w: &World) -> Figures {
         nees: nees.map(|v| v / n),
         stated_std: w.stated_std,
         correlated_std_m: run.noise.correlated_std,
+        gyro_scale_err_pct: gyro_err.map_or(f64::NAN, |e| 100.0 * e.abs()),
+        nees_gyro_scale: gyro_err
+            .filter(|_| run.gyro.scale_std > 0.0)
+            .map_or(f64::NAN, |e| (e / run.gyro.scale_std).powi(2)),
     }
 }
 
@@ -223,8 +242,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         "papers" => Subset::Papers,
         other => anyhow::bail!("--subset {other}: expected `all`, `gnss2m`, `ground` or `papers`"),
     };
+    if !(0.0..0.5).contains(&a.gyro_scale) {
+        anyhow::bail!(
+            "--gyro-scale {}: expected a fraction in [0, 0.5) (0.03 = +-3 %)",
+            a.gyro_scale
+        );
+    }
     if let Some(dir) = &a.write {
-        let w = draw(a.first_seed, subset, a.gyro);
+        let w = draw(a.first_seed, subset, a.gyro, a.gyro_scale);
         let sim = simulate_world(&w, a.first_seed)?;
         sim.write(dir)?;
         eprintln!(
@@ -269,7 +294,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                     let Some(&seed) = seeds.get(k) else {
                         return Ok(());
                     };
-                    let w = draw(seed, subset, a.gyro);
+                    let w = draw(seed, subset, a.gyro, a.gyro_scale);
                     let sim = simulate_world(&w, seed)?;
                     // The outage on the pose stream's clock.
                     let outage = (w.outage.0 + w.clock_offset, w.outage.1 + w.clock_offset);
@@ -381,6 +406,16 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             .enumerate()
         {
             println!("  NEES {part:12} (1 dof)   {}", of(&|f| f.nees[k]));
+        }
+        if a.gyro || a.gyro_scale > 0.0 {
+            println!(
+                "  gyro scale error, %        {}",
+                of(&|f| f.gyro_scale_err_pct)
+            );
+            println!(
+                "  NEES gyro scale   (1 dof)   {}",
+                of(&|f| f.nees_gyro_scale)
+            );
         }
     }
     if let Some(path) = &a.json {

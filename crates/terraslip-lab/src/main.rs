@@ -4,6 +4,7 @@
 //!     cargo run -p terraslip-lab --release -- family --worlds 50
 //!     cargo run -p terraslip-lab --release -- family --worlds 50 --subset gnss2m
 //!     cargo run -p terraslip-lab --release -- family --worlds 50 --subset papers
+//!     cargo run -p terraslip-lab --release -- family --worlds 50 --gyro [--gyro-scale 0.03]
 //!     cargo run -p terraslip-lab --release -- drives
 //!
 //! Estimators are named presets (`terraslip`, `ekf-qmin`, `no-slip`, ...)

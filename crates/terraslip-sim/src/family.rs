@@ -52,6 +52,15 @@ impl World {
         };
         self
     }
+
+    /// The world's gyro reading `1 + e` times the true yaw rate, `e` drawn
+    /// uniformly in `+-max` from `seed` apart from every other draw (call
+    /// after [`World::with_gyro`]).
+    pub fn with_gyro_scale(mut self, seed: u64, max: f64) -> Self {
+        let mut r = Draw(seed ^ 0x7363_616C);
+        self.scenario.imu.gyro_scale = 1.0 + r.uniform(-max, max);
+        self
+    }
 }
 
 /// Which worlds to draw.

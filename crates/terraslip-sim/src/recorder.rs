@@ -235,7 +235,7 @@ impl<'a> Recorder<'a> {
     }
 
     /// Accelerations from the change of twist, the terrain's vibration,
-    /// gyro rates with bias and noise.
+    /// gyro rates with scale, bias and noise.
     fn imu_sample(&mut self, t: f64, m: &Motion, timeline: &Timeline) -> ImuSample {
         let imu = &self.sc.imu;
         let twist = m.twist;
@@ -272,7 +272,7 @@ impl<'a> Recorder<'a> {
             accel_y: Some(ay + an * gauss(rng)),
             gyro_x: Some((gn + shake) * gauss(rng)),
             gyro_y: Some((gn + shake) * gauss(rng)),
-            gyro_z: Some(twist.omega + imu.gyro_bias + gn * gauss(rng)),
+            gyro_z: Some(imu.gyro_scale * twist.omega + imu.gyro_bias + gn * gauss(rng)),
         }
     }
 

@@ -433,6 +433,14 @@ pub fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) ->
             "std_rad_s": est.gyro.std,
             "bias_rad_s": est.gyro.bias,
             "bias_std_rad_s": est.gyro.bias_std,
+            // It reads `scale` times the true yaw rate.
+            "scale": est.gyro.scale,
+            "scale_std": est.gyro.scale_std,
+            "scale_learning": if est.gyro.scale_learned {
+                "learned"
+            } else {
+                "held (no position or heading reference: only they show the true turn; its starting value)"
+            },
             "windows_fused": est.gyro.fused,
             "windows_widened": est.gyro.widened,
             "wheels_late_by_s": est.gyro_delay,

@@ -271,6 +271,13 @@ pub struct FilterConfig {
     /// log, not read from a settings file).
     #[cfg_attr(feature = "serde", serde(skip))]
     pub hold: SlipHold,
+    /// Hold the gyro's scale error at its starting value
+    /// (`measurement.gyro_scale`), as a known constant: set by the pipeline
+    /// when the log has neither positions nor headings, where the gyro's
+    /// scale and the spread make the same turn and only one can be learned
+    /// (the spread is, in the gyro's scale).
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub hold_gyro_scale: bool,
 }
 
 impl Default for FilterConfig {
@@ -313,6 +320,7 @@ impl Default for FilterConfig {
             },
             noise_memory: 60.0,
             hold: SlipHold::Nothing,
+            hold_gyro_scale: false,
         }
     }
 }
@@ -479,6 +487,19 @@ pub struct MeasurementConfig {
     pub gyro_bias_std: f64,
     /// Random walk of the gyro's bias, rad/s per square-root second.
     pub gyro_bias_walk: f64,
+    /// Starting value of the gyro's scale error `k_g`: the gyro reads
+    /// `1 + k_g` times the true yaw rate (`--init` files carry the
+    /// multiplier `gyro_scale` = `1 + k_g`).
+    pub gyro_scale: f64,
+    /// Prior std of the gyro's scale error (a MEMS gyro's is up to a few
+    /// %); learned where positions or headings show the true turn, held
+    /// otherwise ([`FilterConfig::hold_gyro_scale`]). 0 = held everywhere.
+    pub gyro_scale_std: f64,
+    /// Random walk of the gyro's scale error, per square-root second (3e-4:
+    /// 0.5 % over 5 minutes), so that a scale learned off through a model
+    /// heading error that persisted can come back; only where the scale is
+    /// learned.
+    pub gyro_scale_walk: f64,
 }
 
 impl Default for MeasurementConfig {
@@ -494,6 +515,9 @@ impl Default for MeasurementConfig {
             std_gyro: 0.01,
             gyro_bias_std: 0.02,
             gyro_bias_walk: 1e-4,
+            gyro_scale: 0.0,
+            gyro_scale_std: 0.02,
+            gyro_scale_walk: 3e-4,
         }
     }
 }
@@ -502,7 +526,7 @@ impl MeasurementConfig {
     /// Checks every setting; the error names the key.
     pub fn validate(&self) -> Result<(), FilterError> {
         let pos = |v: f64| v.is_finite() && v > 0.0;
-        let checks: [(&'static str, bool); 10] = [
+        let checks: [(&'static str, bool); 13] = [
             (
                 "measurement.std_xy must be finite and > 0",
                 pos(self.std_xy),
@@ -542,6 +566,18 @@ impl MeasurementConfig {
             (
                 "measurement.gyro_bias_walk must be in 0..=0.01 rad/s/sqrt(s)",
                 (0.0..=0.01).contains(&self.gyro_bias_walk),
+            ),
+            (
+                "measurement.gyro_scale must be within +-0.2",
+                self.gyro_scale.abs() <= super::MAX_GYRO_SCALE,
+            ),
+            (
+                "measurement.gyro_scale_std must be in 0..=0.2",
+                (0.0..=super::MAX_GYRO_SCALE).contains(&self.gyro_scale_std),
+            ),
+            (
+                "measurement.gyro_scale_walk must be in 0..=0.01 per sqrt(s)",
+                (0.0..=0.01).contains(&self.gyro_scale_walk),
             ),
         ];
         for (what, ok) in checks {

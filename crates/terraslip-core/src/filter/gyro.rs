@@ -2,19 +2,23 @@
 //! against the model's.
 //!
 //! ```text
-//! z = integral of gyro_z over the window = Psi(x) + b_g T + E + n
+//! z = integral of gyro_z over the window = g (Psi(x) + E) + b_g T + n,   g = 1 + k_g
 //! ```
 //!
 //! `Psi` is the heading change the ICR model makes of the window's tread
-//! speeds (`history.rs`, with its slip Jacobian), `b_g` the gyro's bias (a
-//! state), `T` the window's length, `n` the gyro's white noise integrated,
-//! and `E` the model's own heading error over the window: the very error
-//! the predictions added to the yaw's variance. The measurement noise and
-//! the state therefore share `E`; the filter carries that cross-covariance
-//! `C = cov(x, E)` through the window's predictions and fixes, and the
-//! update uses it (`K = (P H' + C) / S`), so the yaw follows the gyro
-//! through a turn the model gets wrong while the slip parameters learn only
-//! what persists.
+//! speeds (`history.rs`, with its slip Jacobian), `k_g` the gyro's scale
+//! error and `b_g` its bias (states), `T` the window's length, `n` the
+//! gyro's white noise integrated, and `E` the model's own heading error
+//! over the window: the very error the predictions added to the yaw's
+//! variance. The measurement noise and the state therefore share `E`; the
+//! filter carries that cross-covariance `C = cov(x, E)` through the
+//! window's predictions and fixes, and the update uses it
+//! (`K = (P H' + g C) / S`), so the yaw follows the gyro through a turn the
+//! model gets wrong while the slip parameters learn only what persists.
+//!
+//! The scale error is learned only where positions or headings show the
+//! true turn ([`super::FilterConfig::hold_gyro_scale`]): against the gyro
+//! alone, `g` and the spread make the same turn.
 //!
 //! A window rather than each wheels step: over one step, encoder
 //! quantisation makes the tread speed difference jump by a tick per step,
@@ -30,7 +34,7 @@ use nalgebra::SVector;
 
 use super::history::CAPACITY;
 use super::{finite_mat, Filter, FilterError};
-use crate::model::{slip_of, State, GYRO_BIAS, N, SLIP, YAW};
+use crate::model::{slip_of, State, GYRO_BIAS, GYRO_SCALE, N, SLIP, YAW};
 
 /// Length of a gyro window, s.
 pub const GYRO_WINDOW: f64 = 0.5;
@@ -51,6 +55,14 @@ pub struct GyroNoise {
     pub bias: f64,
     /// Its std, rad/s.
     pub bias_std: f64,
+    /// The scale: the gyro reads `scale` times the true yaw rate (1 + the
+    /// scale error `k_g`).
+    pub scale: f64,
+    /// Its std.
+    pub scale_std: f64,
+    /// Whether the scale was learned (false: held at its starting value,
+    /// [`super::FilterConfig::hold_gyro_scale`]).
+    pub scale_learned: bool,
     /// Windows fused.
     pub fused: u64,
     /// Of those, windows whose turn the model missed by more than the gate
@@ -172,13 +184,16 @@ impl Filter {
             self.x[crate::model::LAW],
             self.x[YAW],
         );
+        // The gyro reads g times the true turn.
+        let g = 1.0 + self.x[GYRO_SCALE];
         let mut H = SVector::<f64, N>::zeros();
         for k in 0..5 {
-            H[SLIP + k] = m.d_slip[(2, k)];
+            H[SLIP + k] = g * m.d_slip[(2, k)];
         }
-        H[crate::model::LAW] = m.d_yaw_law;
+        H[crate::model::LAW] = g * m.d_yaw_law;
         H[GYRO_BIAS] = w.span;
-        let nu = w.angle - (m.d_yaw + self.x[GYRO_BIAS] * w.span);
+        H[GYRO_SCALE] = m.d_yaw;
+        let nu = w.angle - (g * m.d_yaw + self.x[GYRO_BIAS] * w.span);
 
         // The gyro's white noise integrated, the model's heading error
         // (shared with the state: `C`), the encoder's quantisation.
@@ -187,8 +202,8 @@ impl Filter {
         let tick = self.meas.encoder_tick;
         let d = self.icr().guarded_spread();
         let r_tick = tick * tick / (3.0 * d * d);
-        let r = r_nom * self.gyro_noise.sensor() + w.model_var + r_tick;
-        let mut C = w.cross;
+        let r = r_nom * self.gyro_noise.sensor() + g * g * w.model_var + r_tick;
+        let mut C = g * w.cross;
         let ph = self.P * H;
         let mut s = H.dot(&ph) + r + 2.0 * H.dot(&C);
         if !(s > 0.0 && s.is_finite()) {
@@ -223,7 +238,7 @@ impl Filter {
         let mut k = a / s;
         let frozen = self.frozen(true);
         for (i, f) in frozen.iter().enumerate() {
-            if *f || (i == YAW && !self.anchored[1]) {
+            if *f || ((i == YAW || i == GYRO_SCALE) && !self.anchored[1]) {
                 k[i] = 0.0;
             }
         }
@@ -274,6 +289,9 @@ impl Filter {
             std: std0 * libm::sqrt(self.gyro_noise.sensor()),
             bias: self.x[GYRO_BIAS],
             bias_std: libm::sqrt(self.P[(GYRO_BIAS, GYRO_BIAS)].max(0.0)),
+            scale: 1.0 + self.x[GYRO_SCALE],
+            scale_std: libm::sqrt(self.P[(GYRO_SCALE, GYRO_SCALE)].max(0.0)),
+            scale_learned: !self.cfg.hold_gyro_scale && self.meas.gyro_scale_std > 0.0,
             fused: self.gyro_counts[0],
             widened: self.gyro_counts[1],
         }

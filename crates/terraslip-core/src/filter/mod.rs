@@ -37,7 +37,7 @@ use nalgebra::SMatrix;
 
 use crate::kinematics::{IcrParams, Twist};
 use crate::model::{
-    self, MatN, State, BIAS_E, BIAS_N, CLOCK, EAST, GYRO_BIAS, LAW, N, NORTH, SLIP, YAW,
+    self, MatN, State, BIAS_E, BIAS_N, CLOCK, EAST, GYRO_BIAS, GYRO_SCALE, LAW, N, NORTH, SLIP, YAW,
 };
 use crate::slip::{Slip, SlipMat, TreadInput};
 
@@ -220,6 +220,8 @@ type Mat3xN = SMatrix<f64, 3, N>;
 pub const MAX_CLOCK_OFFSET: f64 = 1.0;
 /// Largest turn law slope, s/m.
 pub const MAX_TURN_LAW: f64 = 1.0;
+/// Largest gyro scale error `|k_g|` the filter accepts.
+pub const MAX_GYRO_SCALE: f64 = 0.2;
 
 /// Prior weight (fixes' dimensions) of a stated fix std.
 const STATED_WEIGHT: f64 = 2.0;
@@ -280,6 +282,10 @@ impl Filter {
         }
         P[(LAW, LAW)] = prior.turn_law_std * prior.turn_law_std;
         P[(GYRO_BIAS, GYRO_BIAS)] = meas.gyro_bias_std * meas.gyro_bias_std;
+        x[GYRO_SCALE] = meas.gyro_scale;
+        if !cfg.hold_gyro_scale {
+            P[(GYRO_SCALE, GYRO_SCALE)] = meas.gyro_scale_std * meas.gyro_scale_std;
+        }
         let q_slip = cfg
             .slip_walk_cov(&icr0)
             .ok_or(FilterError::BadInput("prior ICR parameters are singular"))?;
@@ -475,6 +481,7 @@ impl Filter {
         // physical limits too.
         x[LAW] = x[LAW].clamp(-MAX_TURN_LAW, MAX_TURN_LAW);
         x[CLOCK] = x[CLOCK].clamp(-MAX_CLOCK_OFFSET, MAX_CLOCK_OFFSET);
+        x[GYRO_SCALE] = x[GYRO_SCALE].clamp(-MAX_GYRO_SCALE, MAX_GYRO_SCALE);
         moved
     }
 

@@ -3,7 +3,9 @@
 use nalgebra::SMatrix;
 
 use super::{finite_mat, Filter, FilterError, SlipHold};
-use crate::model::{self, BIAS_E, BIAS_N, CLOCK, EAST, GYRO_BIAS, LAW, N, NORTH, SLIP, YAW};
+use crate::model::{
+    self, BIAS_E, BIAS_N, CLOCK, EAST, GYRO_BIAS, GYRO_SCALE, LAW, N, NORTH, SLIP, YAW,
+};
 use crate::slip::TreadInput;
 
 impl Filter {
@@ -82,6 +84,10 @@ impl Filter {
         }
         if self.gyro_seen {
             P[(GYRO_BIAS, GYRO_BIAS)] += dt * self.meas.gyro_bias_walk * self.meas.gyro_bias_walk;
+            if !self.cfg.hold_gyro_scale && self.meas.gyro_scale_std > 0.0 {
+                P[(GYRO_SCALE, GYRO_SCALE)] +=
+                    dt * self.meas.gyro_scale_walk * self.meas.gyro_scale_walk;
+            }
         }
         if self.meas.encoder_tick > 0.0 {
             // Each step's tread increments are off by up to a tick.

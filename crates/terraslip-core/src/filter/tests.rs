@@ -496,16 +496,21 @@ fn prior_gyro() -> Prior {
     p
 }
 
-/// 60 s with a gyro of bias `bias` (rad/s) and no pose fix, standing for
-/// the first 20 s; returns the filter and the truth.
-fn gyro_drive(cfg: FilterConfig, bias: f64) -> (Filter, IcrParams) {
-    let truth = IcrParams {
+/// The gyro drives' truth: a spread of 0.9 m, speed factors 0.9.
+fn gyro_truth() -> IcrParams {
+    IcrParams {
         y_l: 0.45,
         y_r: -0.45,
         x_c: 0.0,
         alpha_l: 0.9,
         alpha_r: 0.9,
-    };
+    }
+}
+
+/// 60 s with a gyro of bias `bias` (rad/s) and no pose fix, standing for
+/// the first 20 s; returns the filter and the truth.
+fn gyro_drive(cfg: FilterConfig, bias: f64) -> (Filter, IcrParams) {
+    let truth = gyro_truth();
     let mut f = Filter::new(&prior_gyro(), cfg, MeasurementConfig::default(), band(0.5)).unwrap();
     let dt = 0.02;
     let mut rng = SplitMix64::new(11);
@@ -523,4 +528,118 @@ fn gyro_drive(cfg: FilterConfig, bias: f64) -> (Filter, IcrParams) {
         }
     }
     (f, truth)
+}
+
+/// 200 s weaving with a gyro reading `scale` times the true yaw rate and
+/// heading fixes (0.3 degrees at 5 Hz) when `headings`; returns the filter.
+fn scaled_gyro_drive(cfg: FilterConfig, scale: f64, headings: bool) -> Filter {
+    let truth = gyro_truth();
+    let mut f = Filter::new(&prior_gyro(), cfg, MeasurementConfig::default(), band(0.5)).unwrap();
+    let dt = 0.02;
+    let mut rng = SplitMix64::new(5);
+    let mut yaw = 0.0;
+    for k in 1..=10_000 {
+        let t = k as f64 * dt;
+        let (vl, vr) = treads(t);
+        f.predict(vl, vr, dt).unwrap();
+        let omega = truth.twist(vl, vr).omega;
+        yaw = angle::wrap(yaw + omega * dt);
+        let rate = scale * omega + 0.003 * rng.normal();
+        f.add_gyro(rate * dt, 2.0).unwrap();
+        if headings && k % 10 == 0 {
+            let fix = PoseFix {
+                position: None,
+                yaw: Some(angle::wrap(yaw + 0.005 * rng.normal())),
+                std_xy: 1.0,
+                std_yaw: 0.005,
+                stated: true,
+            };
+            f.update(t, 0.0, &fix).unwrap();
+        }
+    }
+    f
+}
+
+/// Headings show the true turn: a gyro reading 3 % high is learned, and
+/// the turning gain is the truth's, not the gyro's.
+#[test]
+fn headings_teach_the_gyro_scale_and_the_true_turning_gain() {
+    let mut cfg = FilterConfig::default();
+    cfg.hold = SlipHold::PositionTaught;
+    let f = scaled_gyro_drive(cfg, 1.03, true);
+    let g = f.gyro_noise();
+    assert!(
+        (g.scale - 1.03).abs() < 0.005 && (g.scale - 1.03).abs() < 3.0 * g.scale_std,
+        "{g:?}"
+    );
+    assert!(
+        (gain(&f.icr()) / gain(&gyro_truth()) - 1.0).abs() < 0.01,
+        "gain {}",
+        gain(&f.icr())
+    );
+    assert_spd(&f);
+}
+
+/// Where the scale is learned its variance walks between fixes
+/// (`gyro_scale_walk`^2 per second), so that a scale learned off can come
+/// back; a walk of 0 leaves it where the fixes left it.
+#[test]
+fn a_learned_gyro_scale_walks_between_fixes() {
+    let mut cfg = FilterConfig::default();
+    cfg.hold = SlipHold::PositionTaught;
+    for walk in [MeasurementConfig::default().gyro_scale_walk, 0.0] {
+        assert!(walk >= 0.0);
+        let mut f = scaled_gyro_drive(cfg, 1.03, true);
+        f.meas.gyro_scale_walk = walk;
+        let i = crate::model::GYRO_SCALE;
+        let before = f.raw().1[(i, i)];
+        for _ in 0..5_000 {
+            f.predict(1.0, 1.0, 0.02).unwrap();
+        }
+        let grown = f.raw().1[(i, i)] - before;
+        assert!(
+            (grown - walk * walk * 100.0).abs() <= 1e-12,
+            "walk {walk}: variance grew by {grown} over 100 s"
+        );
+    }
+    assert!(MeasurementConfig::default().gyro_scale_walk > 0.0);
+}
+
+/// A walk below 0, above 0.01 or not a number is refused, naming the key.
+#[test]
+fn a_gyro_scale_walk_out_of_range_is_refused() {
+    for walk in [-1e-4, 0.02, f64::NAN] {
+        let meas = MeasurementConfig {
+            gyro_scale_walk: walk,
+            ..MeasurementConfig::default()
+        };
+        match meas.validate() {
+            Err(FilterError::BadConfig(what)) => {
+                assert!(what.contains("gyro_scale_walk"), "{what}")
+            }
+            other => panic!("walk {walk}: {other:?}"),
+        }
+    }
+}
+
+/// Held (the gyro the only turn sensor): the scale and its row of the
+/// covariance stay exactly at their start, and the gain absorbs the scale.
+#[test]
+fn a_held_gyro_scale_stays_exactly_put() {
+    let mut cfg = FilterConfig::default();
+    cfg.hold = SlipHold::PositionTaught;
+    cfg.hold_gyro_scale = true;
+    let f = scaled_gyro_drive(cfg, 1.03, false);
+    let (x, P) = f.raw();
+    let i = crate::model::GYRO_SCALE;
+    assert_eq!(x[i], 0.0);
+    assert!((0..crate::model::N).all(|j| P[(i, j)] == 0.0 && P[(j, i)] == 0.0));
+    let g = f.gyro_noise();
+    assert_eq!((g.scale, g.scale_std, g.scale_learned), (1.0, 0.0, false));
+    assert!(
+        (gain(&f.icr()) / 1.03 - 1.0).abs() < 0.02,
+        "{}",
+        gain(&f.icr())
+    );
+    assert_spd(&f);
 }

@@ -24,7 +24,7 @@ use super::{
     Variant,
 };
 use crate::angle;
-use crate::model::{MatN, BIAS_E, BIAS_N, CLOCK, EAST, LAW, N, NORTH, SLIP, YAW};
+use crate::model::{MatN, BIAS_E, BIAS_N, CLOCK, EAST, GYRO_SCALE, LAW, N, NORTH, SLIP, YAW};
 
 type MatNx3 = SMatrix<f64, N, 3>;
 
@@ -516,6 +516,7 @@ impl Filter {
             }
         }
         frozen[CLOCK] |= self.still || !cfg.learn_clock;
+        frozen[GYRO_SCALE] |= cfg.hold_gyro_scale;
         frozen
     }
 

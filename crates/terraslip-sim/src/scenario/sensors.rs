@@ -149,6 +149,9 @@ pub struct Imu {
     pub gyro_noise: f64,
     /// Gyro z bias, rad/s.
     pub gyro_bias: f64,
+    /// Gyro z scale: it reads `gyro_scale` times the true yaw rate (1 =
+    /// exact; a MEMS gyro is off by up to a few %).
+    pub gyro_scale: f64,
     /// Scales every terrain's vibration (1 = catalogue values).
     pub vibration_gain: f64,
 }
@@ -160,6 +163,7 @@ impl Default for Imu {
             accel_noise: 0.02,
             gyro_noise: 0.004,
             gyro_bias: 0.003,
+            gyro_scale: 1.0,
             vibration_gain: 1.0,
         }
     }

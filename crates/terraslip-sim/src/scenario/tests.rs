@@ -63,6 +63,8 @@ fn bad_values_are_named() {
         ("[[segment]]\nterrain = \"lava\"\nduration = 5\n", "lava"),
         ("[gnss]\nwhite_std = nan\n", "gnss.white_std"),
         ("[imu]\nrate = 1e9\n", "imu.rate"),
+        ("[imu]\ngyro_scale = 0.0\n", "imu.gyro_scale"),
+        ("[imu]\ngyro_scale = nan\n", "imu.gyro_scale"),
         ("[integration]\ndt = 1e-9\n", "integration.dt"),
         ("[gnss]\nmultipath_rate = 50.0\n", "gnss.multipath_rate"),
         ("[drive]\nspeed = [1.0, 0.5]\n", "drive.speed"),

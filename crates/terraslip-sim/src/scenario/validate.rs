@@ -153,6 +153,12 @@ impl Scenario {
         if !m.gyro_bias.is_finite() {
             return Err("`imu.gyro_bias` is not a number".into());
         }
+        if !(m.gyro_scale > 0.5 && m.gyro_scale < 2.0) {
+            return Err(format!(
+                "`imu.gyro_scale` = {}: expected within (0.5, 2)",
+                m.gyro_scale
+            ));
+        }
         nonneg("imu.vibration_gain", m.vibration_gain)?;
         let c = &self.camera;
         nonneg("camera.rate", c.rate)?;

@@ -324,8 +324,9 @@ impl<'a> Live<'a> {
 impl EstimateRun {
     /// The parameters the run learned as a parameters file (the format
     /// `calibrate` writes and `--init` reads): the straight-line ICRs with
-    /// their stds, the turn law when it is not flat, the gyro's delay and
-    /// the pose stream's clock offset. One pooled set: without terrain
+    /// their stds, the turn law when it is not flat, the gyro's delay (and
+    /// its scale where the run learned one) and the pose stream's clock
+    /// offset. One pooled set: without terrain
     /// evidence the run cannot tell grounds apart.
     pub fn params_file(&self) -> ParamsFile {
         let p = self.final_icr;
@@ -353,6 +354,9 @@ impl EstimateRun {
                     "params": p,
                 }),
             );
+        }
+        if self.gyro.fused > 0 && self.gyro.scale_learned {
+            pf.extra.insert("gyro_scale".into(), json(self.gyro.scale));
         }
         pf.extra
             .insert("gyro_delay_s".into(), json(self.gyro_delay));

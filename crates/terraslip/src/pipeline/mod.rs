@@ -371,6 +371,9 @@ pub fn run_streams(
     };
     let mut cfg_held = cfg.clone();
     cfg_held.filter.hold = hold;
+    // Only positions or headings show the true turn the gyro's scale is
+    // measured against.
+    cfg_held.filter.hold_gyro_scale = !(positions || headings);
     let setup::Setup {
         mut estimator,
         terrains,

@@ -82,6 +82,9 @@ pub(super) fn setup(
             meas.clock_offset = o;
         }
     }
+    if let Some(g) = init.and_then(|pf| pf.extra.get("gyro_scale")) {
+        meas.gyro_scale = init_gyro_scale(g)?;
+    }
     if meas.encoder_tick == 0.0 {
         if let (Some(r), Some(n)) = (log.meta.wheel_radius, log.meta.ticks_per_rev) {
             if r.is_finite() && r > 0.0 && n.is_finite() && n >= 1.0 {
@@ -167,6 +170,21 @@ fn starting_set<'a>(
 }
 
 type Extra = std::collections::BTreeMap<String, serde_json::Value>;
+
+/// The gyro's scale error `k_g` from an `--init` file's `gyro_scale` (the
+/// multiplier `1 + k_g` a run learned: the gyro reads it times the true
+/// yaw rate).
+fn init_gyro_scale(v: &serde_json::Value) -> Result<f64, PipelineError> {
+    let max = terraslip_core::filter::MAX_GYRO_SCALE;
+    match v.as_f64() {
+        Some(g) if (g - 1.0).abs() <= max => Ok(g - 1.0),
+        _ => Err(PipelineError::Init(format!(
+            "gyro_scale = {v}: expected the gyro's scale as a multiplier within {}..{} (1 = exact)",
+            1.0 - max,
+            1.0 + max
+        ))),
+    }
+}
 
 /// `prior` started from the `--init` set `name`: its parameters (those of
 /// its turn law when calibration selected one) with their stated stds,

@@ -197,6 +197,13 @@ fn a_restart_from_the_written_parameters_starts_where_the_run_ended() {
     let text = serde_json::to_string_pretty(&pf).unwrap();
     let back = ParamsFile::parse(&text, std::path::Path::new("params.json")).unwrap();
     assert_eq!(back.extra["gyro_delay_s"], serde_json::json!(delay));
+    // The gyro's learned scale, which `--init` starts from.
+    assert!(
+        run.gyro.scale_learned && run.gyro.scale != 1.0,
+        "{:?}",
+        run.gyro
+    );
+    assert_eq!(back.extra["gyro_scale"], serde_json::json!(run.gyro.scale));
     let again = Live::new("live", &cfg, 0.5, Some(&back), 0.3, delay).unwrap();
     let s = again.summary();
     assert_eq!(s.init_source, "init:params");

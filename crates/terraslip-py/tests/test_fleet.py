@@ -73,12 +73,12 @@ def fleet_run(tmp_path_factory):
     out = tmp / "out"
     est = _in_netns(["estimate", SHARED, "--topics", topics, "--out", out, "--scheduler", "local:2", "--rows", "--report"], CLUSTER_TIMEOUT_S)
     assert est.returncode == 0, est.stderr
-    # Calibration groups: the Warthog's drives (lidar pose) per terrain;
-    # the BorealTC Husky's, without a pose, and the Husky bags, whose GNSS
-    # gives no heading, fail: as rows.
+    # Calibration groups: the Warthog's drives (lidar pose) per terrain and
+    # the Husky bags (GNSS fixes, a position-only reference) calibrate; the
+    # BorealTC Husky's, without a pose, fail: as rows.
     cal = _in_netns(["calibrate", SHARED, "--topics", topics, "--out", out], CLUSTER_TIMEOUT_S, by_address=True)
     assert cal.returncode == 0, cal.stderr
-    assert "2 Dask worker(s)" in cal.stderr and "5 of 11 robot and terrain groups" in cal.stderr, cal.stderr
+    assert "2 Dask worker(s)" in cal.stderr and "6 of 11 robot and terrain groups" in cal.stderr, cal.stderr
     return {"out": out, "topics": topics, "estimate": est, "calibrate": cal}
 
 
@@ -189,7 +189,8 @@ def test_the_fleet_calibrations_equal_terraslip_calibrate_per_robot_and_terrain(
             assert proc.returncode != 0, (robot, terrain)
             msg = [l for l in proc.stderr.splitlines() if l.startswith("error: ")][-1][len("error: "):]
             assert msg.split(": ", 1)[-1] in c["error"], (c["error"], msg)
-    assert sum(c["error"] is None for c in cal) == 5
+    assert sum(c["error"] is None for c in cal) == 6
+    assert groups[("ros2", "")]["error"] is None
 
 
 def _copy_to(fs, src, dest):

@@ -108,6 +108,23 @@ impl Meta {
     pub fn separation_is_absolute(&self) -> bool {
         self.separation.is_none() || self.separation_source.as_deref() == Some("given")
     }
+
+    /// The `separation` object of a parameters file calibrated on this
+    /// log, when its tread speeds were made from a twist with a separation
+    /// S: S in m, where it came from, and whether the ICRs are absolute or
+    /// in the scale of a nominal S.
+    pub fn separation_note(&self) -> Option<serde_json::Value> {
+        let s = self.separation?;
+        Some(serde_json::json!({
+            "separation_m": s,
+            "source": self.separation_source.as_deref().unwrap_or("given"),
+            "icr_scale": if self.separation_is_absolute() {
+                "absolute"
+            } else {
+                "nominal: the ICRs are in the scale of this separation; spread / separation_m is the factor on the controller's wheel_separation_multiplier"
+            },
+        }))
+    }
 }
 
 /// A whole drive log in memory. Every vector is sorted by `t`.

@@ -54,7 +54,12 @@ pub fn calibrate<'py>(
             };
             let cal =
                 terraslip_calib::calibrate(&logs, &cfg, &|_| {}).context("calibration failed")?;
-            Ok(serde_json::to_value(cal.params_file())?)
+            let mut pf = cal.params_file();
+            // As `terraslip calibrate` writes it.
+            if let Some(scale) = logs.first().and_then(|l| l.meta.separation_note()) {
+                pf.extra.insert("separation".into(), scale);
+            }
+            Ok(serde_json::to_value(pf)?)
         })?;
         from_json(py, &pf)
     })

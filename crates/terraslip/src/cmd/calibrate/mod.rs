@@ -383,23 +383,6 @@ fn config(a: &Args) -> anyhow::Result<CalibConfig> {
     Ok(c)
 }
 
-/// The scale the ICRs are in, for the parameters file: the separation the
-/// tread speeds were made with from an odometry twist, its source, and
-/// whether the ICRs are absolute (`meta.toml`'s `separation`); `None` for
-/// measured tread speeds.
-fn separation_note(meta: &terraslip_io::Meta) -> Option<serde_json::Value> {
-    let s = meta.separation?;
-    Some(serde_json::json!({
-        "separation_m": s,
-        "source": meta.separation_source.as_deref().unwrap_or("given"),
-        "icr_scale": if meta.separation_is_absolute() {
-            "absolute"
-        } else {
-            "nominal: the ICRs are in the scale of this separation; spread / separation_m is the factor on the controller's wheel_separation_multiplier"
-        },
-    }))
-}
-
 pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(Sub::Validate(v)) = args.command {
         return validate::run(v);
@@ -437,7 +420,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         summary::print_set(s);
     }
     let mut pf = cal.params_file();
-    if let Some(scale) = logs.first().and_then(|l| separation_note(&l.meta)) {
+    if let Some(scale) = logs.first().and_then(|l| l.meta.separation_note()) {
         pf.extra.insert("separation".into(), scale);
     }
     pf.write(&out)

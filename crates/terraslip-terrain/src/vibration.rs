@@ -224,6 +224,9 @@ pub struct VibrationExtractor {
     centred: Vec<f64>,
 }
 
+/// Longest window and hop a vibration model may state, s.
+pub const MAX_WINDOW_S: f64 = 3600.0;
+
 impl VibrationExtractor {
     /// An extractor for IMU data sampled at `rate_hz`.
     pub fn new(cfg: &VibrationConfig, rate_hz: f64) -> Result<Self> {
@@ -232,10 +235,12 @@ impl VibrationExtractor {
                 "IMU rate {rate_hz} Hz is not positive"
             )));
         }
-        if !(cfg.window_s.is_finite() && cfg.hop_s.is_finite() && cfg.hop_s > 0.0) {
-            return Err(TerrainError::Config(
-                "window_s and hop_s must be positive".into(),
-            ));
+        let seconds = 0.0..=MAX_WINDOW_S;
+        if !(seconds.contains(&cfg.window_s) && seconds.contains(&cfg.hop_s) && cfg.hop_s > 0.0) {
+            return Err(TerrainError::Config(format!(
+                "window_s {} and hop_s {} must be positive and at most {MAX_WINDOW_S} s",
+                cfg.window_s, cfg.hop_s
+            )));
         }
         let n_window = (cfg.window_s * rate_hz).round() as usize;
         if n_window < 8 {
@@ -545,5 +550,18 @@ mod tests {
                 &mut f
             )
             .is_err());
+        // A window or hop no IMU log could hold (a corrupt model file) is
+        // refused, not turned into an index past the end of the samples.
+        for (window_s, hop_s) in [(1e308, 0.5), (1.0, 1e308), (1.0, -1.0)] {
+            let cfg = VibrationConfig {
+                window_s,
+                hop_s,
+                ..VibrationConfig::paper()
+            };
+            assert!(
+                VibrationExtractor::new(&cfg, 100.0).is_err(),
+                "{window_s} {hop_s}"
+            );
+        }
     }
 }

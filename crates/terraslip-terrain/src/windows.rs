@@ -149,7 +149,7 @@ pub fn log_windows(log: &DriveLog, cfg: &VibrationConfig) -> Result<(f64, Vec<Wi
                     Some(c) => c.to_vec(),
                     // Before the first current sample: no window.
                     None => {
-                        end += hop;
+                        end = end.saturating_add(hop);
                         continue;
                     }
                 }
@@ -162,7 +162,7 @@ pub fn log_windows(log: &DriveLog, cfg: &VibrationConfig) -> Result<(f64, Vec<Wi
                 out.push((imu.t[end - 1], f));
             }
         }
-        end += hop;
+        end = end.saturating_add(hop);
     }
     Ok((imu.rate_hz, out))
 }

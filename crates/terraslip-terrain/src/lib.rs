@@ -24,6 +24,8 @@
 
 pub mod boost;
 pub mod classify;
+#[cfg(feature = "cnn")]
+pub mod cnn;
 pub mod crossval;
 pub mod current;
 pub mod envelope;

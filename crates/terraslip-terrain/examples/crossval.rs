@@ -80,8 +80,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     opts.classifier.kind = match args.get(2).map(String::as_str) {
         Some("tree") => ClassifierKind::Tree,
         Some("knn") => ClassifierKind::Knn,
-        #[cfg(feature = "cnn")]
-        Some("cnn") => ClassifierKind::Cnn,
         _ => ClassifierKind::Boost,
     };
     if args.get(3).map(String::as_str) == Some("paper") {
@@ -115,32 +113,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(v) = env("TS_COLS") {
         opts.classifier.boost.colsample = v;
     }
-    // The cnn: TS_EPOCHS, TS_FILTERS, TS_HIDDEN, TS_CNN_LR, TS_WD (TS_SEED seeds it).
-    #[cfg(feature = "cnn")]
-    {
-        let c = &mut opts.classifier.cnn;
-        c.seed = opts.classifier.boost.seed;
-        if let Some(v) = env("TS_EPOCHS") {
-            c.epochs = v as usize;
-        }
-        if let Some(v) = env("TS_FILTERS") {
-            c.filters = v as usize;
-        }
-        if let Some(v) = env("TS_HIDDEN") {
-            c.hidden = v as usize;
-        }
-        if let Some(v) = env("TS_CNN_LR") {
-            c.learning_rate = v;
-        }
-        if let Some(v) = env("TS_WD") {
-            c.weight_decay = v;
-        }
-        c.dense = match std::env::var("TS_DENSE").as_deref() {
-            Ok("manoeuvre") => terraslip_terrain::cnn::DenseInputs::Manoeuvre,
-            Ok("none") => terraslip_terrain::cnn::DenseInputs::None,
-            _ => terraslip_terrain::cnn::DenseInputs::All,
-        };
-    }
     // Learnt speed normalisation (default on): TS_SPEEDNORM=0 turns it off;
     // TS_VREF / TS_VMIN (m/s).
     if let Some(v) = env("TS_SPEEDNORM") {
@@ -154,12 +126,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if std::env::var("TS_CHANNELS").as_deref() == Ok("z") {
         opts.imu_channels = Some(ChannelSet::AccelZ);
-    }
-    if env("TS_LOG_BANDS") == Some(1.0) {
-        opts.vibration.log_bands = true;
-    }
-    if env("TS_PSD_SLOPE") == Some(1.0) {
-        opts.vibration.psd_slope = true;
     }
     if env("TS_CURRENTS") == Some(0.0) {
         opts.currents = Some(false);

@@ -6,8 +6,6 @@
 use serde::{Deserialize, Serialize};
 
 pub use crate::boost::{BoostParams, BoostedTrees};
-#[cfg(feature = "cnn")]
-pub use crate::cnn::{Cnn, CnnParams};
 use crate::error::{Result, TerrainError};
 pub use crate::tree::{Criterion, DecisionTree, Node, TreeParams};
 
@@ -95,9 +93,6 @@ pub enum ClassifierKind {
     Knn,
     /// Gradient-boosted trees (softmax loss).
     Boost,
-    /// A 1D convolutional network over the spectra (feature `cnn`).
-    #[cfg(feature = "cnn")]
-    Cnn,
 }
 
 /// Training settings for every kind.
@@ -108,9 +103,6 @@ pub struct ClassifierParams {
     pub tree: TreeParams,
     pub knn_k: usize,
     pub boost: BoostParams,
-    #[cfg(feature = "cnn")]
-    #[serde(default)]
-    pub cnn: CnnParams,
 }
 
 impl Default for ClassifierParams {
@@ -120,8 +112,6 @@ impl Default for ClassifierParams {
             tree: TreeParams::default(),
             knn_k: 5,
             boost: BoostParams::default(),
-            #[cfg(feature = "cnn")]
-            cnn: CnnParams::default(),
         }
     }
 }
@@ -133,25 +123,15 @@ pub enum Classifier {
     Tree(DecisionTree),
     Knn(Knn),
     Boost(BoostedTrees),
-    #[cfg(feature = "cnn")]
-    Cnn(Cnn),
 }
 
 /// Fewest training samples a class must have.
 pub const MIN_SAMPLES_PER_CLASS: usize = 3;
 
 impl Classifier {
-    /// Trains on standardised rows `x` (feature `names`), labels `y` in `0..k`.
-    pub fn fit(
-        x: &[Vec<f64>],
-        y: &[usize],
-        k: usize,
-        names: &[String],
-        p: &ClassifierParams,
-    ) -> Result<Self> {
+    /// Trains on standardised rows `x`, labels `y` in `0..k`.
+    pub fn fit(x: &[Vec<f64>], y: &[usize], k: usize, p: &ClassifierParams) -> Result<Self> {
         check_training_set(x, y, k)?;
-        #[cfg(not(feature = "cnn"))]
-        let _ = names;
         Ok(match p.kind {
             ClassifierKind::Tree => Self::Tree(DecisionTree::fit(x, y, k, &p.tree, 1)),
             ClassifierKind::Knn => {
@@ -179,8 +159,6 @@ impl Classifier {
                 }
                 Self::Boost(BoostedTrees::fit(x, y, k, b))
             }
-            #[cfg(feature = "cnn")]
-            ClassifierKind::Cnn => Self::Cnn(Cnn::fit(x, y, k, names, &p.cnn)?),
         })
     }
 
@@ -197,8 +175,6 @@ impl Classifier {
             }
             Self::Knn(knn) => knn.proba(x, out),
             Self::Boost(b) => b.proba(x, out),
-            #[cfg(feature = "cnn")]
-            Self::Cnn(c) => c.proba(x, out),
         }
     }
 }
@@ -298,7 +274,7 @@ mod tests {
                 kind,
                 ..Default::default()
             };
-            let c = Classifier::fit(&x, &y, 3, &[], &p).unwrap();
+            let c = Classifier::fit(&x, &y, 3, &p).unwrap();
             let acc = accuracy(&c, &xt, &yt);
             assert!(acc > least, "{kind:?}: {acc}");
         }
@@ -308,17 +284,15 @@ mod tests {
     fn too_few_samples_and_bad_rows_are_training_errors() {
         let x = vec![vec![0.0], vec![1.0], vec![2.0], vec![3.0]];
         let y = vec![0, 0, 0, 1];
-        let e = Classifier::fit(&x, &y, 2, &[], &ClassifierParams::default()).unwrap_err();
+        let e = Classifier::fit(&x, &y, 2, &ClassifierParams::default()).unwrap_err();
         assert!(
             matches!(e, TerrainError::Training(ref m) if m.contains("class #1")),
             "{e}"
         );
         let bad = vec![vec![0.0], vec![f64::NAN], vec![2.0], vec![3.0]];
-        assert!(
-            Classifier::fit(&bad, &[0, 0, 1, 1], 2, &[], &ClassifierParams::default()).is_err()
-        );
-        assert!(Classifier::fit(&x, &[0, 0, 1], 2, &[], &ClassifierParams::default()).is_err());
-        assert!(Classifier::fit(&x, &[0, 0, 0, 0], 1, &[], &ClassifierParams::default()).is_err());
+        assert!(Classifier::fit(&bad, &[0, 0, 1, 1], 2, &ClassifierParams::default()).is_err());
+        assert!(Classifier::fit(&x, &[0, 0, 1], 2, &ClassifierParams::default()).is_err());
+        assert!(Classifier::fit(&x, &[0, 0, 0, 0], 1, &ClassifierParams::default()).is_err());
     }
 
     #[test]

@@ -24,8 +24,6 @@
 
 pub mod boost;
 pub mod classify;
-#[cfg(feature = "cnn")]
-pub mod cnn;
 pub mod crossval;
 pub mod current;
 pub mod envelope;

@@ -463,11 +463,11 @@ impl TerrainModel {
         });
         let normalisation = Standardizer::fit(&x);
         let xs: Vec<Vec<f64>> = x.iter().map(|r| normalisation.apply(r)).collect();
+        let classifier = Classifier::fit(&xs, &y, classes.len(), &opts.classifier)?;
         let feature_names = match &features {
             Features::Vibration { config, .. } => config.feature_names(),
             Features::Vision { config, .. } => config.feature_names(),
         };
-        let classifier = Classifier::fit(&xs, &y, classes.len(), &feature_names, &opts.classifier)?;
         Ok(Self {
             format_version: MODEL_FORMAT_VERSION,
             source: opts.source,

@@ -216,14 +216,5 @@ fn check_classifier(c: &Classifier, k: usize, d: usize) -> std::result::Result<(
             }
             Ok(())
         }
-        #[cfg(feature = "cnn")]
-        Classifier::Cnn(c) => {
-            if !c.is_consistent(k, d) {
-                return Err(
-                    "classifier: the cnn's weights do not match the classes or features".into(),
-                );
-            }
-            Ok(())
-        }
     }
 }

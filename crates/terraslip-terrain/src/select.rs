@@ -83,10 +83,6 @@ pub const INNER_FOLDS: usize = 3;
 /// final accuracy), other kinds as given.
 fn inner_params(p: &ClassifierParams) -> ClassifierParams {
     let mut q = p.clone();
-    #[cfg(feature = "cnn")]
-    if q.kind == ClassifierKind::Cnn {
-        q.kind = ClassifierKind::Boost;
-    }
     if q.kind == ClassifierKind::Boost {
         q.boost.rounds = q.boost.rounds.min(50);
     }
@@ -142,7 +138,7 @@ pub fn choose_speed_floor(
             xt.iter_mut().for_each(|r| sn.apply(r));
             let st = Standardizer::fit(&xt);
             let xs: Vec<Vec<f64>> = xt.iter().map(|r| st.apply(r)).collect();
-            let Ok(model) = Classifier::fit(&xs, &yt, n_classes, &names, &params) else {
+            let Ok(model) = Classifier::fit(&xs, &yt, n_classes, &params) else {
                 continue;
             };
             let mut p = vec![0.0; n_classes];

@@ -88,15 +88,6 @@ pub struct VibrationConfig {
     /// ([`crate::current`]); every log must then have `current_left,current_right`.
     #[serde(default)]
     pub currents: bool,
-    /// `full` set with bands only: per channel, the slope of the log PSD on
-    /// log frequency (1 Hz to Nyquist). A ground profile whose spectrum is
-    /// a power law of the spatial frequency gives the same slope at every
-    /// speed (ISO 8608 waviness); only the level moves.
-    #[serde(default)]
-    pub psd_slope: bool,
-    /// Bands spaced evenly in log frequency from the first Welch bin to Nyquist.
-    #[serde(default)]
-    pub log_bands: bool,
 }
 
 /// The speed floors (m/s) the inner cross-validation of `train` chooses
@@ -129,8 +120,6 @@ impl Default for VibrationConfig {
             speed_norm_ref: default_speed_norm_ref(),
             speed_norm_min: default_speed_norm_min(),
             currents: false,
-            psd_slope: false,
-            log_bands: false,
         }
     }
 }
@@ -150,8 +139,6 @@ impl VibrationConfig {
             speed_norm_ref: default_speed_norm_ref(),
             speed_norm_min: default_speed_norm_min(),
             currents: false,
-            psd_slope: false,
-            log_bands: false,
         }
     }
 
@@ -189,9 +176,6 @@ impl VibrationConfig {
                     }
                     for b in 0..self.bands {
                         names.push(format!("{ch}_band{b}_share"));
-                    }
-                    if self.psd_slope && self.bands > 0 {
-                        names.push(format!("{ch}_psd_slope"));
                     }
                 }
                 names.extend(
@@ -380,9 +364,6 @@ impl VibrationExtractor {
                     if self.cfg.bands > 0 {
                         self.welch_psd()?;
                         self.band_powers(out);
-                        if self.cfg.psd_slope {
-                            out.push(self.psd_log_slope());
-                        }
                     }
                 }
                 out.push(speed.speed);
@@ -458,41 +439,10 @@ impl VibrationExtractor {
         let mut acc = [0.0f64; MAX_BANDS];
         for (k, p) in self.psd.iter().enumerate().skip(1) {
             let f = k as f64 * df;
-            let b = if self.cfg.log_bands {
-                ((((f / df).ln() / (nyquist / df).ln()) * bands as f64).floor() as usize)
-                    .min(bands - 1)
-            } else {
-                (((f / nyquist) * bands as f64).ceil() as usize).clamp(1, bands) - 1
-            };
+            let b = (((f / nyquist) * bands as f64).ceil() as usize).clamp(1, bands) - 1;
             acc[b] += p * df;
         }
         push_log_and_shares(&acc[..bands], out);
-    }
-}
-
-impl VibrationExtractor {
-    /// Least-squares slope of ln PSD on ln f over the bins from 1 Hz to
-    /// Nyquist (0 when fewer than 3 bins or a flat axis).
-    fn psd_log_slope(&self) -> f64 {
-        let df = self.rate_hz / self.n_seg as f64;
-        let (mut n, mut sx, mut sy, mut sxx, mut sxy) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        for (k, p) in self.psd.iter().enumerate().skip(1) {
-            let f = k as f64 * df;
-            if f < 1.0 {
-                continue;
-            }
-            let (x, y) = (f.ln(), (p + 1e-12).ln());
-            n += 1.0;
-            sx += x;
-            sy += y;
-            sxx += x * x;
-            sxy += x * y;
-        }
-        let den = n * sxx - sx * sx;
-        if n < 3.0 || den.abs() < 1e-12 {
-            return 0.0;
-        }
-        (n * sxy - sx * sy) / den
     }
 }
 

@@ -35,6 +35,7 @@
 //! Frames: REP-103 (body x forward, y left; world ENU). Units: SI.
 
 pub mod calibrate;
+pub mod course;
 pub mod ga;
 pub mod lm;
 pub mod model;

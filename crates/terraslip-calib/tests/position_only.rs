@@ -2,6 +2,7 @@
 //! noise and no heading (what a ROS 2 bag with `/fix` and no usable
 //! orientation gives).
 
+use terraslip_calib::course;
 use terraslip_calib::synthetic::{drive, Manoeuvres, SynthConfig};
 use terraslip_calib::*;
 use terraslip_core::IcrParams;
@@ -128,5 +129,105 @@ fn fixes_that_never_bend_say_the_spread_is_unidentified() {
     assert!(
         (p.alpha_l - 0.95).abs() < 0.04 && (p.alpha_r - 0.93).abs() < 0.04,
         "{p:?}"
+    );
+}
+
+/// A field drive seen by an antenna at `lever` (m, base_link: x forward,
+/// y left): long runs (8-20 s holds, up to 1.5 m/s), 2.5 Hz fixes with
+/// 0.6 m noise stamped `latency` s late.
+fn antenna_drive(seed: u64, lever: (f64, f64), latency: f64) -> DriveLog {
+    let cfg = SynthConfig {
+        duration: 900.0,
+        wheel_rate: 20.0,
+        pose_rate: 2.5,
+        pose_noise_xy: 0.6,
+        pose_noise_yaw: 0.0,
+        pose_latency: latency,
+        max_speed: 1.5,
+        max_yaw_rate: 1.0,
+        hold: (8.0, 20.0),
+        manoeuvres: Manoeuvres::Survey,
+        track_width: 0.555,
+        rate: RateSlopes::NONE,
+        robot: None,
+        wheel_radius: None,
+        seed,
+    };
+    let mut log = drive(&[("", truth())], &cfg);
+    log.terrain.clear();
+    for p in &mut log.pose {
+        let th = p.yaw.take().expect("synthetic heading");
+        let (s, c) = th.sin_cos();
+        *p.east.as_mut().unwrap() += c * lever.0 - s * lever.1;
+        *p.north.as_mut().unwrap() += s * lever.0 + c * lever.1;
+    }
+    log
+}
+
+/// The turn factor `spread / (mean speed factor * S)` of the truth on the
+/// 0.555 m odometry.
+fn true_turn_factor() -> f64 {
+    let t = truth();
+    t.spread() / (0.5 * (t.alpha_l + t.alpha_r) * 0.555)
+}
+
+#[test]
+fn the_course_check_finds_the_turn_factor_whatever_the_antenna_and_clock() {
+    // Treads rolling 2 % apart (0.95 / 0.93): a course check that assumes
+    // equal treads reads their straight-line drift as turning.
+    let k_true = true_turn_factor();
+    for (seed, lever, latency) in [
+        (1, (0.0, 0.0), 0.0),
+        (2, (0.4, 0.0), 0.2),
+        (3, (0.3, 0.2), -0.3),
+    ] {
+        let log = antenna_drive(seed, lever, latency);
+        // The stretches are chosen on the odometry with the speed factors'
+        // ratio (calibrate gives the windows'); the check fits what is left.
+        let odo = course::Odometry {
+            separation: 0.555,
+            alpha: (0.95, 0.93),
+        };
+        let c = course::check(&[&log], &[latency], &odo, &course::CourseConfig::default())
+            .expect("straight stretches");
+        eprintln!(
+            "seed {seed} lever {lever:?}: {:.4} ± {:.4}, asymmetry {:.4} ({} stretches, {} pairs), truth {k_true:.4}",
+            c.turn_factor, c.std, c.asymmetry, c.stretches.len(), c.pairs.len()
+        );
+        assert!(c.stretches.len() >= 20 && c.pairs.len() >= 100, "{c:?}");
+        assert!(
+            (c.turn_factor / k_true - 1.0).abs() < 0.005,
+            "{}",
+            c.turn_factor
+        );
+        // (0.93 - 0.95) / (0.93 + 0.95)
+        assert!((c.asymmetry + 0.0106).abs() < 0.002, "{}", c.asymmetry);
+    }
+}
+
+#[test]
+fn calibrate_carries_the_windows_and_the_course_check_combined() {
+    let k_true = true_turn_factor();
+    let log = antenna_drive(4, (0.3, 0.2), 0.2);
+    let cal = calibrate(&[log], &CalibConfig::default(), &|_| {}).unwrap();
+    let s = &cal.sets[0];
+    let c = s.course.as_ref().expect("the course check is reported");
+    assert!((c.course.0 / k_true - 1.0).abs() < 0.005, "{c:?}");
+    // The combination leans on the more precise figure and sits between.
+    assert!(c.combined.1 <= c.windows.1.min(c.course.1) + 1e-12, "{c:?}");
+    let (lo, hi) = (c.windows.0.min(c.course.0), c.windows.0.max(c.course.0));
+    assert!(
+        c.combined.0 >= lo - 1e-12 && c.combined.0 <= hi + 1e-12,
+        "{c:?}"
+    );
+    let p = s.best.params;
+    let k = p.spread() / (0.5 * (p.alpha_l + p.alpha_r) * 0.555);
+    assert!((k - c.combined.0).abs() < 1e-9, "params carry {k}, {c:?}");
+    assert!((k / k_true - 1.0).abs() < 0.01, "{k}");
+    let entry = s.entry();
+    let tf = &entry.extra["turn_factor"];
+    assert!(
+        tf["course_check"].as_f64().is_some() && tf["combined"].as_f64().is_some(),
+        "{tf}"
     );
 }

@@ -33,6 +33,10 @@ use std::f64::consts::PI;
 
 use terraslip_io::DriveLog;
 
+/// The treads' asymmetry is fitted when it is at least this many 1-sigma
+/// from 0, else held at 0.
+pub const ASYMMETRY_SIGMAS: f64 = 2.0;
+
 /// How straight stretches and their pairs are chosen.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CourseConfig {
@@ -102,9 +106,13 @@ pub struct CourseCheck {
     pub turn_factor: f64,
     /// Its 1-sigma (jackknife over stretches).
     pub std: f64,
-    /// The treads' speed factor asymmetry the course shows,
-    /// `(alpha_r - alpha_l) / (alpha_r + alpha_l)` (the pairs weigh the treads alike).
-    pub asymmetry: f64,
+    /// The treads' speed factor asymmetry
+    /// `(alpha_r - alpha_l) / (alpha_r + alpha_l)` with its 1-sigma, when
+    /// the pairs tell it from 0 (at least [`ASYMMETRY_SIGMAS`] sigma);
+    /// `None`: held at 0 (equal treads).
+    pub asymmetry: Option<(f64, f64)>,
+    /// The asymmetry and its 1-sigma as fitted, held or not.
+    pub asymmetry_free: (f64, f64),
     pub stretches: Vec<Stretch>,
     pub pairs: Vec<Pair>,
 }
@@ -295,8 +303,9 @@ pub fn pairs(
 /// within one no-slip turn (2 pi) and the shorter half of their travels
 /// (at least 50 rad) at `a = 1, b = 0`,
 /// unambiguous for factors within [0.67, 2]; the next ones unwrap longer
-/// baselines with the fit so far.
-fn turn_factor(pairs: &[&Pair]) -> Option<(f64, f64)> {
+/// baselines with the fit so far. With `free` false the asymmetry is held
+/// at 0 (`b = 0`). Returns the factor and the asymmetry.
+fn turn_factor(pairs: &[&Pair], free: bool) -> Option<(f64, f64)> {
     let pass = |a: f64, b: f64, max: f64, max_travel: f64| {
         let (mut xx, mut xy, mut yy, mut xc, mut yc) = (0.0, 0.0, 0.0, 0.0, 0.0);
         let near = |p: &&&Pair| p.treads.abs() <= max && p.travel.abs() <= max_travel;
@@ -307,6 +316,11 @@ fn turn_factor(pairs: &[&Pair]) -> Option<(f64, f64)> {
             yy += p.travel * p.travel;
             xc += p.treads * c;
             yc += p.travel * c;
+        }
+        if !free {
+            return (xx > 0.0)
+                .then(|| (xc / xx, 0.0))
+                .filter(|(a, _)| a.is_finite() && *a > 0.0);
         }
         let det = xx * yy - xy * xy;
         (det > 1e-12 * xx * yy && xx > 0.0)
@@ -344,31 +358,43 @@ pub fn check(
         .flat_map(|(i, l)| stretches(i, l, offsets.get(i).copied().unwrap_or(0.0), odo, cfg))
         .collect();
     let pr = pairs(logs, offsets, &st, odo, cfg.min_baseline);
-    let (k, asymmetry) = turn_factor(&pr.iter().collect::<Vec<_>>())?;
     let used: Vec<usize> = (0..st.len())
         .filter(|&i| pr.iter().any(|p| p.a == i || p.b == i))
         .collect();
     if used.len() < 3 {
         return None;
     }
-    let loo: Vec<f64> = used
-        .iter()
-        .filter_map(|&i| {
-            turn_factor(
-                &pr.iter()
-                    .filter(|p| p.a != i && p.b != i)
-                    .collect::<Vec<_>>(),
-            )
-            .map(|x| x.0)
-        })
-        .collect();
-    let n = loo.len() as f64;
-    let mean = loo.iter().sum::<f64>() / n;
-    let var = (n - 1.0) / n * loo.iter().map(|x| (x - mean).powi(2)).sum::<f64>();
+    // The fit on all pairs and its jackknife over stretches.
+    let fit = |free: bool| -> Option<((f64, f64), (f64, f64))> {
+        let all = turn_factor(&pr.iter().collect::<Vec<_>>(), free)?;
+        let loo: Vec<(f64, f64)> = used
+            .iter()
+            .filter_map(|&i| {
+                let rest: Vec<&Pair> = pr.iter().filter(|p| p.a != i && p.b != i).collect();
+                turn_factor(&rest, free)
+            })
+            .collect();
+        let n = loo.len() as f64;
+        let sd = |f: fn(&(f64, f64)) -> f64| {
+            let m = loo.iter().map(f).sum::<f64>() / n;
+            ((n - 1.0) / n * loo.iter().map(|x| (f(x) - m).powi(2)).sum::<f64>()).sqrt()
+        };
+        Some((all, (sd(|x| x.0), sd(|x| x.1))))
+    };
+    let ((k, asym), (sk, sa)) = fit(true)?;
+    // An asymmetry the pairs do not tell apart from 0 is held there: it
+    // trades off against the factor (loops drive and turn together).
+    let (k, std, asymmetry) = if asym.abs() >= ASYMMETRY_SIGMAS * sa {
+        (k, sk, Some((asym, sa)))
+    } else {
+        let ((k0, _), (sk0, _)) = fit(false)?;
+        (k0, sk0, None)
+    };
     Some(CourseCheck {
         turn_factor: k,
+        std,
         asymmetry,
-        std: var.sqrt(),
+        asymmetry_free: (asym, sa),
         stretches: st,
         pairs: pr,
     })

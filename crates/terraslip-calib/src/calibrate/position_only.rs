@@ -394,12 +394,20 @@ fn course_check(
         course: (c.turn_factor, c.std),
         stretches: c.stretches.len(),
         pairs: c.pairs.len(),
+        asymmetry: c.asymmetry,
         combined: (k, sk),
+    };
+    let asym = match c.asymmetry {
+        Some((a, sa)) => format!("the treads' asymmetry (alpha_r - alpha_l) / (alpha_r + alpha_l) fitted: {a:.5} ± {sa:.5}"),
+        None => format!(
+            "the treads taken as equal (their asymmetry, {:.5} ± {:.5}, is within {} sigma of 0)",
+            c.asymmetry_free.0, c.asymmetry_free.1, course::ASYMMETRY_SIGMAS
+        ),
     };
     notes.push(format!(
         "turn factor spread / (mean speed factor × S), S = {s} m: windows {kw:.3} ± {sw:.3}, \
          course check {:.3} ± {:.3} ({} straight stretches, {} pairs over {} rad of turning \
-         apart); the parameters carry their inverse-variance combination {k:.3} ± {sk:.3} \
+         apart; {asym}); the parameters carry their inverse-variance combination {k:.3} ± {sk:.3} \
          (spread {spread:.4} ± {spread_std:.4} m at the windows' speed factors)",
         c.turn_factor, c.std, figures.stretches, figures.pairs, ccfg.min_baseline
     ));

@@ -82,6 +82,9 @@ pub struct TurnFigures {
     pub course: (f64, f64),
     pub stretches: usize,
     pub pairs: usize,
+    /// The treads' asymmetry the course check fitted, with its 1-sigma
+    /// (`None`: held at 0).
+    pub asymmetry: Option<(f64, f64)>,
     /// The two combined by their inverse variances, with its 1-sigma: what
     /// the set's spread carries.
     pub combined: (f64, f64),
@@ -178,6 +181,8 @@ impl SetCalibration {
                     "windows": c.windows.0, "windows_std": finite_or_null(c.windows.1),
                     "course_check": c.course.0, "course_check_std": c.course.1,
                     "stretches": c.stretches, "pairs": c.pairs,
+                    "course_check_asymmetry": c.asymmetry.map(|a| a.0),
+                    "course_check_asymmetry_std": c.asymmetry.map(|a| a.1),
                     "combined": c.combined.0, "combined_std": c.combined.1,
                 }),
             );

@@ -85,5 +85,8 @@ fn the_husky_bag_yields_a_controller_file_with_no_topics_file() {
     let tf = &pf["turn_factor"];
     let (w, c) = (&tf["windows_std"], &tf["course_check_std"]);
     assert!(c.as_f64().unwrap() < w.as_f64().unwrap(), "{tf}");
-    assert!((tf["combined"].as_f64().unwrap() - turn).abs() < 1e-3, "{tf}");
+    assert!(
+        (tf["combined"].as_f64().unwrap() - turn).abs() < 1e-3,
+        "{tf}"
+    );
 }

@@ -149,13 +149,7 @@ pub fn stretches(
     odo: &Odometry,
     cfg: &CourseConfig,
 ) -> Vec<Stretch> {
-    let fixes: Vec<(f64, f64, f64)> = log
-        .pose
-        .iter()
-        .filter_map(|p| Some((p.t, p.east?, p.north?)))
-        .filter(|f| f.0.is_finite() && f.1.is_finite() && f.2.is_finite())
-        .filter(|f| f.0 >= cfg.t_min && f.0 <= cfg.t_max)
-        .collect();
+    let fixes = crate::track::fixes(log, cfg.t_min, cfg.t_max);
     let mut out = Vec::new();
     let (Some(first), Some(last)) = (fixes.first(), fixes.last()) else {
         return out;

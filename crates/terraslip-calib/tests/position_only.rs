@@ -259,3 +259,29 @@ fn equal_treads_are_held_equal_by_the_course_check() {
         c.turn_factor
     );
 }
+
+#[test]
+fn the_2s_prediction_on_fixes_alone_tells_the_true_model_from_the_no_slip_one() {
+    use terraslip_calib::position_prediction::{score, PositionOnlySpec};
+    let log = antenna_drive_of(truth(), 6, (0.0, 0.0), 0.0);
+    let s = score(&log, &truth(), 0.555, 0.0, &PositionOnlySpec::default())
+        .expect("starts with 20 s of fixes before them");
+    eprintln!(
+        "{} segments: truth {:?}, no-slip {:?}",
+        s.segments.len(),
+        s.stats,
+        s.no_slip
+    );
+    assert!(s.segments.len() > 800, "{}", s.segments.len());
+    // 0.6 m fixes at both ends: about 0.85 m of noise in any error.
+    assert!(s.stats.mean_m < 1.1, "{:?}", s.stats);
+    assert!(
+        s.no_slip.mean_m > 1.2 * s.stats.mean_m,
+        "{:?} vs {:?}",
+        s.no_slip,
+        s.stats
+    );
+    assert!(s.to_json()["start_heading"]
+        .as_str()
+        .is_some_and(|h| h.starts_with("profiled")));
+}

@@ -89,4 +89,28 @@ fn the_husky_bag_yields_a_controller_file_with_no_topics_file() {
         (tf["combined"].as_f64().unwrap() - turn).abs() < 1e-3,
         "{tf}"
     );
+    // `calibrate validate` on the position-only bag: the 2 s prediction,
+    // start headings profiled out, stated in the output.
+    let o = Command::cargo_bin("terraslip")
+        .unwrap()
+        .args(["calibrate", "validate"])
+        .arg(&bag)
+        .arg("--params")
+        .arg(a.join("params.json"))
+        .arg("--json")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let p = &v["prediction"];
+    assert!(p["segments"].as_u64().unwrap() > 300, "{v}");
+    assert!(
+        p["start_heading"].as_str().unwrap().starts_with("profiled"),
+        "{v}"
+    );
+    let (m, n) = (
+        p["mean_m"].as_f64().unwrap(),
+        p["no_slip"]["mean_m"].as_f64().unwrap(),
+    );
+    assert!(m > 0.0 && m <= n * 1.01, "{v}");
 }

@@ -35,10 +35,12 @@
 //! Frames: REP-103 (body x forward, y left; world ENU). Units: SI.
 
 pub mod calibrate;
+pub mod course;
 pub mod ga;
 pub mod lm;
 pub mod model;
 pub mod offset;
+pub mod position_prediction;
 pub mod prediction;
 pub mod sandwich;
 pub mod segment;

@@ -107,6 +107,10 @@ pub struct PredictionScore {
     pub stats: ErrorStats,
     /// Of the no-slip model on the same segments.
     pub no_slip: ErrorStats,
+    /// A position-only reference: each model's start heading and position
+    /// profiled out over the span of fixes (s) before each start
+    /// ([`crate::position_prediction`]).
+    pub profiled_window_s: Option<f64>,
 }
 
 impl PredictionScore {
@@ -115,6 +119,7 @@ impl PredictionScore {
         Self {
             spec,
             estimate_headings: 0,
+            profiled_window_s: None,
             stats: ErrorStats::of(segments.iter().map(|s| s.error)),
             no_slip: ErrorStats::of(segments.iter().map(|s| s.no_slip)),
             segments,
@@ -130,10 +135,14 @@ impl PredictionScore {
             "rmse_m": self.stats.rmse_m,
             "p90_m": self.stats.p90_m,
             "no_slip": self.no_slip,
-            "start_heading": match self.estimate_headings {
-                0 => "reference".to_string(),
-                n if n == self.segments.len() => "estimate".to_string(),
-                n => format!("reference, the estimate's on {n} segments"),
+            "start_heading": match (self.estimate_headings, self.profiled_window_s) {
+                (_, Some(w)) => format!(
+                    "profiled: each model's path over the {w} s of fixes before the start, \
+                     placed on them by the best rotation and translation"
+                ),
+                (0, _) => "reference".to_string(),
+                (n, _) if n == self.segments.len() => "estimate".to_string(),
+                (n, _) => format!("reference, the estimate's on {n} segments"),
             },
         })
     }

@@ -18,6 +18,9 @@ pub enum Manoeuvres {
     Mixed,
     /// Straight runs only, forward and back: the spread is unobservable.
     StraightOnly,
+    /// A field robot's survey: half the holds straight runs at 50-100 %
+    /// of the top speed, the rest turns and spins.
+    Survey,
 }
 
 /// Synthetic drive settings (SI units).
@@ -114,6 +117,11 @@ pub fn drive(patches: &[(&str, IcrParams)], cfg: &SynthConfig) -> DriveLog {
                 Manoeuvres::Mixed if kind < 0.3 => (0.0, w),
                 Manoeuvres::Mixed if kind < 0.5 => (v, 0.0),
                 Manoeuvres::Mixed => (v, 0.7 * w),
+                Manoeuvres::Survey if kind < 0.5 => {
+                    (v.signum() * (0.5 * cfg.max_speed + 0.5 * v.abs()), 0.0)
+                }
+                Manoeuvres::Survey if kind < 0.6 => (0.0, w),
+                Manoeuvres::Survey => (v, 0.7 * w),
             };
         }
         let (vl, vr) = p.1.tread_speeds(v_cmd, w_cmd);

@@ -23,7 +23,7 @@ use std::ops::Range;
 use nalgebra::{SMatrix, SVector};
 use terraslip_core::kinematics::MIN_SPREAD;
 use terraslip_core::IcrParams;
-use terraslip_io::DriveLog;
+use terraslip_io::{DriveLog, WheelSample};
 
 use crate::model::{trajectory_rate, RateSlopes};
 use crate::segment::{wheel_at, Step};
@@ -114,6 +114,17 @@ pub fn position_only(log: &DriveLog) -> bool {
             .pose
             .iter()
             .any(|p| p.east.is_some() && p.north.is_some())
+}
+
+/// The fixes `(t, east, north)` (s, m) of `log`'s pose rows with a finite
+/// position and `t_min <= t <= t_max`, in the log's order.
+pub fn fixes(log: &DriveLog, t_min: f64, t_max: f64) -> Vec<(f64, f64, f64)> {
+    log.pose
+        .iter()
+        .filter_map(|p| Some((p.t, p.east?, p.north?)))
+        .filter(|f| f.0.is_finite() && f.1.is_finite() && f.2.is_finite())
+        .filter(|f| f.0 >= t_min && f.0 <= t_max)
+        .collect()
 }
 
 impl Tracks {
@@ -208,22 +219,7 @@ impl Tracks {
         knots.sort_by(f64::total_cmp);
         knots.dedup();
         let base = self.steps.len();
-        let (mut hint, mut travel, mut int_diff) = (0usize, 0.0, 0.0);
-        let mut prev = wheel_at(w, knots[0], &mut hint);
-        for p in knots.windows(2) {
-            let next = wheel_at(w, p[1], &mut hint);
-            let dt = p[1] - p[0];
-            let (v_left, v_right) = (0.5 * (prev.0 + next.0), 0.5 * (prev.1 + next.1));
-            travel += 0.5 * (v_left.abs() + v_right.abs()) * dt;
-            int_diff += (v_right - v_left) * dt;
-            self.steps.push(Step {
-                dt,
-                v_left,
-                v_right,
-                acc: 0.0,
-            });
-            prev = next;
-        }
+        let (travel, int_diff) = push_steps(w, &knots, &mut self.steps);
         if travel < cfg.min_travel {
             self.steps.truncate(base);
             self.stats.stationary += 1;
@@ -261,8 +257,35 @@ impl Tracks {
     }
 }
 
+/// One step per interval between `knots` (wheel clock, sorted), the tread
+/// speeds the trapezoid means of the wheels interpolated at its ends,
+/// appended to `steps`. Returns the treads' travel `int (|v_l| + |v_r|)/2 dt`
+/// and `int (v_r - v_l) dt`, m.
+pub fn push_steps(w: &[WheelSample], knots: &[f64], steps: &mut Vec<Step>) -> (f64, f64) {
+    let (mut hint, mut travel, mut int_diff) = (0usize, 0.0, 0.0);
+    let Some(&first) = knots.first() else {
+        return (0.0, 0.0);
+    };
+    let mut prev = wheel_at(w, first, &mut hint);
+    for p in knots.windows(2) {
+        let next = wheel_at(w, p[1], &mut hint);
+        let dt = p[1] - p[0];
+        let (v_left, v_right) = (0.5 * (prev.0 + next.0), 0.5 * (prev.1 + next.1));
+        travel += 0.5 * (v_left.abs() + v_right.abs()) * dt;
+        int_diff += (v_right - v_left) * dt;
+        steps.push(Step {
+            dt,
+            v_left,
+            v_right,
+            acc: 0.0,
+        });
+        prev = next;
+    }
+    (travel, int_diff)
+}
+
 /// Whether consecutive times of `t` are ever more than `max` apart.
-fn gap_in(t: impl Iterator<Item = f64>, max: f64) -> bool {
+pub fn gap_in(t: impl Iterator<Item = f64>, max: f64) -> bool {
     let mut prev: Option<f64> = None;
     for x in t {
         if prev.is_some_and(|p| x - p > max) {
@@ -279,34 +302,64 @@ fn gap_in(t: impl Iterator<Item = f64>, max: f64) -> bool {
 /// the fixes imply.
 pub fn window_residuals(p: &IcrParams, tracks: &Tracks, win: &Window, out: &mut Vec<f64>) -> f64 {
     let path = trajectory_rate(p, &RateSlopes::NONE, &tracks.steps[win.steps.clone()]);
-    let n = win.fixes.len() as f64;
     let q: Vec<(f64, f64)> = win
         .fixes
         .iter()
         .map(|&(k, ..)| path.get(k).map_or((f64::NAN, f64::NAN), |s| (s.x, s.y)))
         .collect();
-    let (qx, qy) = q
-        .iter()
-        .fold((0.0, 0.0), |a, s| (a.0 + s.0 / n, a.1 + s.1 / n));
-    let (rx, ry) = win
-        .fixes
-        .iter()
-        .fold((0.0, 0.0), |a, f| (a.0 + f.1 / n, a.1 + f.2 / n));
-    let (mut dot, mut cross) = (0.0, 0.0);
-    for (s, f) in q.iter().zip(&win.fixes) {
-        let (ax, ay) = (s.0 - qx, s.1 - qy);
-        let (bx, by) = (f.1 - rx, f.2 - ry);
-        dot += ax * bx + ay * by;
-        cross += ax * by - ay * bx;
+    let fixes: Vec<(f64, f64)> = win.fixes.iter().map(|f| (f.1, f.2)).collect();
+    let place = Placement::fit(&q, &fixes);
+    for (s, f) in q.iter().zip(&fixes) {
+        let (x, y) = place.apply(*s);
+        out.push(f.0 - x);
+        out.push(f.1 - y);
     }
-    let th = cross.atan2(dot);
-    let (sn, cs) = th.sin_cos();
-    for (s, f) in q.iter().zip(&win.fixes) {
-        let (ax, ay) = (s.0 - qx, s.1 - qy);
-        out.push(f.1 - rx - (cs * ax - sn * ay));
-        out.push(f.2 - ry - (sn * ax + cs * ay));
+    place.angle
+}
+
+/// The rotation and translation that bring a path's points closest to
+/// fixes (2D Procrustes, no scale): `fix ≈ R(angle) (point - from) + to`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Placement {
+    /// rad
+    pub angle: f64,
+    /// Centroid of the path's points, m (path frame).
+    pub from: (f64, f64),
+    /// Centroid of the fixes, m (east, north).
+    pub to: (f64, f64),
+}
+
+impl Placement {
+    /// The best placement of `points` on `fixes` (paired, same length):
+    /// the angle is the argument of the summed dot and cross products of
+    /// the centred sets.
+    pub fn fit(points: &[(f64, f64)], fixes: &[(f64, f64)]) -> Self {
+        let n = points.len().max(1) as f64;
+        let centroid = |v: &[(f64, f64)]| {
+            v.iter()
+                .fold((0.0, 0.0), |a, s| (a.0 + s.0 / n, a.1 + s.1 / n))
+        };
+        let (from, to) = (centroid(points), centroid(fixes));
+        let (mut dot, mut cross) = (0.0, 0.0);
+        for (s, f) in points.iter().zip(fixes) {
+            let (ax, ay) = (s.0 - from.0, s.1 - from.1);
+            let (bx, by) = (f.0 - to.0, f.1 - to.1);
+            dot += ax * bx + ay * by;
+            cross += ax * by - ay * bx;
+        }
+        Self {
+            angle: cross.atan2(dot),
+            from,
+            to,
+        }
     }
-    th
+
+    /// A path point placed on the fixes, m (east, north).
+    pub fn apply(&self, p: (f64, f64)) -> (f64, f64) {
+        let (sn, cs) = self.angle.sin_cos();
+        let (ax, ay) = (p.0 - self.from.0, p.1 - self.from.1);
+        (self.to.0 + cs * ax - sn * ay, self.to.1 + sn * ax + cs * ay)
+    }
 }
 
 /// Residuals of the windows with `active[i]`, in order, and where each

@@ -2,6 +2,7 @@
 //! noise and no heading (what a ROS 2 bag with `/fix` and no usable
 //! orientation gives).
 
+use terraslip_calib::course;
 use terraslip_calib::synthetic::{drive, Manoeuvres, SynthConfig};
 use terraslip_calib::*;
 use terraslip_core::IcrParams;
@@ -22,23 +23,7 @@ fn truth() -> IcrParams {
 /// `duration` s of `manoeuvres` seen by 1 Hz fixes with 1 m noise per
 /// axis and no heading; no terrain labels.
 fn gnss_drive_of(duration: f64, seed: u64, manoeuvres: Manoeuvres) -> DriveLog {
-    let cfg = SynthConfig {
-        duration,
-        wheel_rate: 20.0,
-        pose_rate: 1.0,
-        pose_noise_xy: 1.0,
-        pose_noise_yaw: 0.0,
-        pose_latency: 0.0,
-        max_speed: 1.0,
-        max_yaw_rate: 1.0,
-        hold: (3.0, 10.0),
-        manoeuvres,
-        track_width: 0.555,
-        rate: RateSlopes::NONE,
-        robot: None,
-        wheel_radius: None,
-        seed,
-    };
+    let cfg = gnss_config(duration, seed, manoeuvres);
     let mut log = drive(&[("", truth())], &cfg);
     log.terrain.clear();
     for p in &mut log.pose {
@@ -129,4 +114,174 @@ fn fixes_that_never_bend_say_the_spread_is_unidentified() {
         (p.alpha_l - 0.95).abs() < 0.04 && (p.alpha_r - 0.93).abs() < 0.04,
         "{p:?}"
     );
+}
+
+/// The 1 Hz, 1 m, 1 m/s drive of [`gnss_drive_of`].
+fn gnss_config(duration: f64, seed: u64, manoeuvres: Manoeuvres) -> SynthConfig {
+    SynthConfig {
+        duration,
+        wheel_rate: 20.0,
+        pose_rate: 1.0,
+        pose_noise_xy: 1.0,
+        pose_noise_yaw: 0.0,
+        pose_latency: 0.0,
+        max_speed: 1.0,
+        max_yaw_rate: 1.0,
+        hold: (3.0, 10.0),
+        manoeuvres,
+        track_width: 0.555,
+        rate: RateSlopes::NONE,
+        robot: None,
+        wheel_radius: None,
+        seed,
+    }
+}
+
+/// A field drive of `robot` seen by an antenna at `lever` (m, base_link:
+/// x forward, y left): survey lines (8-20 s holds, up to 1.5 m/s), 2.5 Hz
+/// fixes with 0.6 m noise stamped `latency` s late.
+fn antenna_drive_of(robot: IcrParams, seed: u64, lever: (f64, f64), latency: f64) -> DriveLog {
+    let cfg = SynthConfig {
+        duration: 900.0,
+        pose_rate: 2.5,
+        pose_noise_xy: 0.6,
+        pose_latency: latency,
+        max_speed: 1.5,
+        hold: (8.0, 20.0),
+        ..gnss_config(900.0, seed, Manoeuvres::Survey)
+    };
+    let mut log = drive(&[("", robot)], &cfg);
+    log.terrain.clear();
+    for p in &mut log.pose {
+        let th = p.yaw.take().expect("synthetic heading");
+        let (s, c) = th.sin_cos();
+        *p.east.as_mut().unwrap() += c * lever.0 - s * lever.1;
+        *p.north.as_mut().unwrap() += s * lever.0 + c * lever.1;
+    }
+    log
+}
+
+fn antenna_drive(seed: u64, lever: (f64, f64), latency: f64) -> DriveLog {
+    antenna_drive_of(truth(), seed, lever, latency)
+}
+
+/// The turn factor `spread / (mean speed factor * S)` of the truth on the
+/// 0.555 m odometry.
+fn true_turn_factor() -> f64 {
+    let t = truth();
+    t.spread() / (0.5 * (t.alpha_l + t.alpha_r) * 0.555)
+}
+
+#[test]
+fn the_course_check_finds_the_turn_factor_whatever_the_antenna_and_clock() {
+    // Treads rolling 2 % apart (0.95 / 0.93): a course check that assumes
+    // equal treads reads their straight-line drift as turning.
+    let k_true = true_turn_factor();
+    for (seed, lever, latency) in [
+        (1, (0.0, 0.0), 0.0),
+        (2, (0.4, 0.0), 0.2),
+        (3, (0.3, 0.2), -0.3),
+    ] {
+        let log = antenna_drive(seed, lever, latency);
+        // The stretches are chosen on the odometry with the speed factors'
+        // ratio (calibrate gives the windows'); the check fits what is left.
+        let odo = course::Odometry {
+            separation: 0.555,
+            alpha: (0.95, 0.93),
+        };
+        let c = course::check(&[&log], &[latency], &odo, &course::CourseConfig::default())
+            .expect("straight stretches");
+        eprintln!(
+            "seed {seed} lever {lever:?}: {:.4} ± {:.4}, asymmetry {:?} ({} stretches, {} pairs), truth {k_true:.4}",
+            c.turn_factor, c.std, c.asymmetry, c.stretches.len(), c.pairs.len()
+        );
+        assert!(c.stretches.len() >= 20 && c.pairs.len() >= 100, "{c:?}");
+        assert!(
+            (c.turn_factor / k_true - 1.0).abs() < 0.005,
+            "{}",
+            c.turn_factor
+        );
+        // (0.93 - 0.95) / (0.93 + 0.95)
+        let (asym, _) = c.asymmetry.expect("unequal treads are told");
+        assert!((asym + 0.0106).abs() < 0.002, "{asym}");
+    }
+}
+
+#[test]
+fn calibrate_carries_the_windows_and_the_course_check_combined() {
+    let k_true = true_turn_factor();
+    let log = antenna_drive(4, (0.3, 0.2), 0.2);
+    let cal = calibrate(&[log], &CalibConfig::default(), &|_| {}).unwrap();
+    let s = &cal.sets[0];
+    let c = s.course.as_ref().expect("the course check is reported");
+    assert!((c.course.0 / k_true - 1.0).abs() < 0.005, "{c:?}");
+    // The combination leans on the more precise figure and sits between.
+    assert!(c.combined.1 <= c.windows.1.min(c.course.1) + 1e-12, "{c:?}");
+    let (lo, hi) = (c.windows.0.min(c.course.0), c.windows.0.max(c.course.0));
+    assert!(
+        c.combined.0 >= lo - 1e-12 && c.combined.0 <= hi + 1e-12,
+        "{c:?}"
+    );
+    let p = s.best.params;
+    let k = p.spread() / (0.5 * (p.alpha_l + p.alpha_r) * 0.555);
+    assert!((k - c.combined.0).abs() < 1e-9, "params carry {k}, {c:?}");
+    assert!((k / k_true - 1.0).abs() < 0.01, "{k}");
+    let entry = s.entry();
+    let tf = &entry.extra["turn_factor"];
+    assert!(
+        tf["course_check"].as_f64().is_some() && tf["combined"].as_f64().is_some(),
+        "{tf}"
+    );
+}
+
+#[test]
+fn equal_treads_are_held_equal_by_the_course_check() {
+    let robot = IcrParams {
+        alpha_r: 0.95,
+        ..truth()
+    };
+    let k_true = robot.spread() / (0.95 * 0.555);
+    let log = antenna_drive_of(robot, 5, (0.3, -0.1), 0.1);
+    let odo = course::Odometry {
+        separation: 0.555,
+        alpha: (1.0, 1.0),
+    };
+    let c = course::check(&[&log], &[0.1], &odo, &course::CourseConfig::default())
+        .expect("straight stretches");
+    eprintln!(
+        "{:.4} ± {:.4} {:?}, truth {k_true:.4}",
+        c.turn_factor, c.std, c.asymmetry_free
+    );
+    assert_eq!(c.asymmetry, None, "{:?}", c.asymmetry_free);
+    assert!(
+        (c.turn_factor / k_true - 1.0).abs() < 0.005,
+        "{}",
+        c.turn_factor
+    );
+}
+
+#[test]
+fn the_2s_prediction_on_fixes_alone_tells_the_true_model_from_the_no_slip_one() {
+    use terraslip_calib::position_prediction::{score, PositionOnlySpec};
+    let log = antenna_drive_of(truth(), 6, (0.0, 0.0), 0.0);
+    let s = score(&log, &truth(), 0.555, 0.0, &PositionOnlySpec::default())
+        .expect("starts with 20 s of fixes before them");
+    eprintln!(
+        "{} segments: truth {:?}, no-slip {:?}",
+        s.segments.len(),
+        s.stats,
+        s.no_slip
+    );
+    assert!(s.segments.len() > 800, "{}", s.segments.len());
+    // 0.6 m fixes at both ends: about 0.85 m of noise in any error.
+    assert!(s.stats.mean_m < 1.1, "{:?}", s.stats);
+    assert!(
+        s.no_slip.mean_m > 1.2 * s.stats.mean_m,
+        "{:?} vs {:?}",
+        s.no_slip,
+        s.stats
+    );
+    assert!(s.to_json()["start_heading"]
+        .as_str()
+        .is_some_and(|h| h.starts_with("profiled")));
 }

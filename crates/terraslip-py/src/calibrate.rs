@@ -68,8 +68,10 @@ pub fn calibrate<'py>(
 /// Scores parameters on drives, as `terraslip calibrate validate --json`:
 /// mean squared segment errors dx, dy (m^2) and dyaw (rad^2) in the frame
 /// of each segment start, against the no-slip model, and the 2 s
-/// prediction error. `logs`: log directories or bags (`topics` as
-/// `--topics`); `params`: a parameters file or its content.
+/// prediction error (on position-only references, GNSS without a heading,
+/// the 2 s prediction alone, start headings profiled out). `logs`: log
+/// directories or bags (`topics` as `--topics`); `params`: a parameters
+/// file or its content.
 #[pyfunction]
 #[pyo3(signature = (logs, params, *, topics=None))]
 pub fn validate<'py>(
@@ -87,6 +89,12 @@ pub fn validate<'py>(
         };
         let (logs, _bags) = split(read_logs(py, logs, &topics_arg(topics)?)?);
         let v = detached(py, move || {
+            if logs.iter().all(terraslip_calib::track::position_only) {
+                let o = terraslip_calib::validate::stored_offset(&params).unwrap_or(0.0);
+                let s = terraslip::validation::position_only(&logs, &params, &vec![o; logs.len()])
+                    .context("validation failed")?;
+                return Ok(s.to_json());
+            }
             let cfg = terraslip_calib::ValidateConfig::default();
             let v = terraslip_calib::validate(&logs, &params, &cfg).context("validation failed")?;
             let prediction = terraslip::validation::prediction_at(&logs, &params, &v.offsets);

@@ -90,3 +90,90 @@ pub fn to_json(v: &Validation, prediction: Option<&PredictionScore>) -> serde_js
         "prediction": prediction.map(|p| p.to_json()),
     })
 }
+
+/// `calibrate validate` on position-only references (GNSS fixes, no
+/// heading, [`terraslip_calib::track::position_only`]): the segment scores
+/// need headings, so only the 2 s prediction is made, each model's start
+/// heading and position profiled out over the fixes before each start
+/// ([`terraslip_calib::position_prediction`]). The model is the file's
+/// pooled set (a position-only calibration fits constant ICRs); the
+/// no-slip model is that of each log's track width, else of the separation
+/// its tread speeds were made with (`meta.toml`'s `separation`). `offsets`:
+/// the pose read that much later than its stamps, per log.
+pub fn position_only(
+    logs: &[DriveLog],
+    params: &ParamsFile,
+    offsets: &[f64],
+) -> anyhow::Result<PositionOnlyScore> {
+    use anyhow::Context;
+    let p = params.for_terrain(None).context(
+        "a position-only reference is scored with the file's pooled parameter set \
+         (`params`), and this file has only terrain sets",
+    )?;
+    let spec = terraslip_calib::position_prediction::PositionOnlySpec::default();
+    let mut all: Option<PredictionScore> = None;
+    let mut widths = Vec::with_capacity(logs.len());
+    for (log, &offset) in logs.iter().zip(offsets) {
+        let width = log
+            .meta
+            .track_width
+            .or(log.meta.separation)
+            .filter(|w| w.is_finite() && *w > 0.0)
+            .with_context(|| {
+                format!(
+                    "{}: meta.toml has neither track_width nor separation, so the no-slip \
+                     model to compare against is undefined",
+                    log.dir.display()
+                )
+            })?;
+        widths.push(width);
+        let s = terraslip_calib::position_prediction::score(log, &p, width, offset, &spec);
+        if let Some(s) = s {
+            match all.as_mut() {
+                Some(a) => a.segments.extend(s.segments),
+                None => all = Some(s),
+            }
+        }
+    }
+    let prediction = all
+        .map(|a| {
+            let mut s = PredictionScore::from_segments(a.spec, a.segments);
+            s.profiled_window_s = a.profiled_window_s;
+            s
+        })
+        .with_context(|| {
+            format!(
+                "no 2 s prediction could be made: each start needs {} fixes over the {} s \
+                 before it, no gap over {} s between fixes nor over {} s between wheel samples",
+                spec.min_fixes, spec.window, spec.max_fix_gap, spec.prediction.max_gap
+            )
+        })?;
+    Ok(PositionOnlyScore {
+        prediction,
+        offsets: offsets.to_vec(),
+        no_slip_widths: widths,
+    })
+}
+
+/// What [`position_only`] scores.
+#[derive(Debug, Clone)]
+pub struct PositionOnlyScore {
+    pub prediction: PredictionScore,
+    /// Time offset per log, s.
+    pub offsets: Vec<f64>,
+    /// The no-slip model's separation per log, m.
+    pub no_slip_widths: Vec<f64>,
+}
+
+impl PositionOnlyScore {
+    /// What `calibrate validate --json` prints for position-only logs.
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "reference": "position-only",
+            "segments": null,
+            "time_offsets_s": self.offsets,
+            "no_slip_width_m": self.no_slip_widths,
+            "prediction": self.prediction.to_json(),
+        })
+    }
+}

@@ -28,7 +28,7 @@ use rate::choose_rate;
 
 pub use config::{CalibConfig, GaSettings, Method, RateModel, TimeOffset};
 pub use rate::RateChoice;
-pub use result::{Calibration, DroppedSegment, MethodFit, SetCalibration};
+pub use result::{Calibration, DroppedSegment, MethodFit, SetCalibration, TurnFigures};
 
 /// Most chained segments the genetic algorithm scores each individual on;
 /// a longer drive gives it this many, evenly spread over the drive
@@ -547,5 +547,6 @@ fn calibrate_set(
         pioneer: false,
         rate,
         coverage,
+        course: None,
     })
 }

@@ -7,11 +7,13 @@
 use terraslip_core::IcrParams;
 use terraslip_io::DriveLog;
 
+use super::result::TurnFigures;
 use super::{
     check_identified, hold_tread_icrs, offset_at_edge, terrain_sets, unidentified_by_std,
     Calibration, DroppedSegment, Method, MethodFit, Progress, RateModel, RobotFacts,
     SetCalibration, TimeOffset,
 };
+use crate::course::{self, CourseConfig, Odometry};
 use crate::segment::SegmentStats;
 use crate::track::{self, TrackConfig, Tracks};
 use crate::{CalibConfig, CalibError};
@@ -95,7 +97,9 @@ pub(super) fn calibrate(
         t.retain(|w| w.terrain == name);
         let label = name.clone().unwrap_or_else(|| "all".into());
         progress(Progress::Stage(&label));
-        match calibrate_set(&t, &label, &start, cfg, &tcfg) {
+        // The course check needs whole logs: only when one set takes them.
+        let whole = (n_sets == 1).then_some((refs.as_slice(), offsets.as_slice()));
+        match calibrate_set(&t, &label, &start, cfg, &tcfg, whole, &mut warnings) {
             Ok(mut set) => {
                 set.terrain = name;
                 let mut used: Vec<usize> = t.windows.iter().map(|w| w.log).collect();
@@ -170,6 +174,8 @@ fn calibrate_set(
     start: &IcrParams,
     cfg: &CalibConfig,
     tcfg: &TrackConfig,
+    whole: Option<(&[&DriveLog], &[f64])>,
+    warnings: &mut Vec<String>,
 ) -> Result<SetCalibration, CalibError> {
     let n = t.windows.len();
     let coverage = t.coverage();
@@ -247,7 +253,7 @@ fn calibrate_set(
         f = fit(&free)?;
     }
     notes.push(format!(
-        "spread y_l - y_r = {:.4} ± {:.4} m (1-sigma)",
+        "spread y_l - y_r from the windows = {:.4} ± {:.4} m (1-sigma)",
         f.params.spread(),
         f.spread_std
     ));
@@ -261,6 +267,27 @@ fn calibrate_set(
         &mut unidentified,
         &mut notes,
     )?;
+    let course = whole.and_then(|(logs, offsets)| {
+        let c = course_check(&mut f, width, logs, offsets, tcfg, &mut notes)?;
+        let (d, s) = (c.windows.0 - c.course.0, c.windows.1.hypot(c.course.1));
+        if d.abs() > 2.0 * s {
+            warnings.push(format!(
+                "set `{label}`: the windows' turn factor {:.3} ± {:.3} and the course check's \
+                 {:.3} ± {:.3} differ by {:.1} of their joint 1-sigma; the parameters carry \
+                 their combination {:.3} ± {:.3}: look at the fixes (a reference that wanders) \
+                 or the time offset",
+                c.windows.0,
+                c.windows.1,
+                c.course.0,
+                c.course.1,
+                d.abs() / s,
+                c.combined.0,
+                c.combined.1
+            ));
+        }
+        f.cost = track::cost(&f.params, t, &f.inliers);
+        Some(c)
+    });
     let rms = track::window_rms(&f.params, t);
     let dropped = t
         .windows
@@ -303,5 +330,86 @@ fn calibrate_set(
         pioneer: false,
         rate: None,
         coverage,
+        course,
     })
+}
+
+/// The course check of `logs` against the odometry of the windows' fit
+/// `f` (separation `s`, its speed factors), combined with the windows'
+/// turn factor by inverse variances; `f`'s spread and its 1-sigma are set
+/// to the combination (the speed factors and the ICRs' centre kept).
+/// `None`, with a note, when too few straight stretches pair up.
+fn course_check(
+    f: &mut track::TrackFit,
+    s: f64,
+    logs: &[&DriveLog],
+    offsets: &[f64],
+    tcfg: &TrackConfig,
+    notes: &mut Vec<String>,
+) -> Option<TurnFigures> {
+    let p = f.params;
+    let ccfg = CourseConfig {
+        t_min: tcfg.t_min,
+        t_max: tcfg.t_max,
+        ..CourseConfig::default()
+    };
+    let odo = Odometry {
+        separation: s,
+        alpha: (p.alpha_l, p.alpha_r),
+    };
+    let Some(c) = course::check(logs, offsets, &odo, &ccfg) else {
+        notes.push(format!(
+            "no course check: fewer than 3 straight stretches ({} s, treads turning under \
+             {} rad, fixes {} m apart) at least {} rad of turning apart",
+            ccfg.stretch, ccfg.max_turn, ccfg.min_chord, ccfg.min_baseline
+        ));
+        return None;
+    };
+    let am = 0.5 * (p.alpha_l + p.alpha_r);
+    let kw = p.spread() / (am * s);
+    // The speed factors move together: the mean's 1-sigma is about theirs.
+    let sa = 0.5 * (f.std[3] + f.std[4]);
+    let sw = kw * ((f.spread_std / p.spread()).powi(2) + (sa / am).powi(2)).sqrt();
+    let sc = c.std.max(1e-9);
+    let (k, sk) = if sw.is_finite() && sw > 0.0 {
+        let (a, b) = (sw.powi(-2), sc.powi(-2));
+        ((a * kw + b * c.turn_factor) / (a + b), (a + b).powf(-0.5))
+    } else {
+        (c.turn_factor, sc)
+    };
+    let spread = k * am * s;
+    let spread_std = sk * am * s;
+    let centre = 0.5 * (p.y_l + p.y_r);
+    // y_l, y_r: the centre's share of their variance kept, the spread's replaced.
+    for i in 0..2 {
+        let rest = (f.std[i].powi(2) - (0.5 * f.spread_std).powi(2)).max(0.0);
+        f.std[i] = (rest + (0.5 * spread_std).powi(2)).sqrt();
+    }
+    f.params.y_l = centre + 0.5 * spread;
+    f.params.y_r = centre - 0.5 * spread;
+    f.spread_std = spread_std;
+    let figures = TurnFigures {
+        separation: s,
+        windows: (kw, sw),
+        course: (c.turn_factor, c.std),
+        stretches: c.stretches.len(),
+        pairs: c.pairs.len(),
+        asymmetry: c.asymmetry,
+        combined: (k, sk),
+    };
+    let asym = match c.asymmetry {
+        Some((a, sa)) => format!("the treads' asymmetry (alpha_r - alpha_l) / (alpha_r + alpha_l) fitted: {a:.5} ± {sa:.5}"),
+        None => format!(
+            "the treads taken as equal (their asymmetry, {:.5} ± {:.5}, is within {} sigma of 0)",
+            c.asymmetry_free.0, c.asymmetry_free.1, course::ASYMMETRY_SIGMAS
+        ),
+    };
+    notes.push(format!(
+        "turn factor spread / (mean speed factor × S), S = {s} m: windows {kw:.3} ± {sw:.3}, \
+         course check {:.3} ± {:.3} ({} straight stretches, {} pairs over {} rad of turning \
+         apart; {asym}); the parameters carry their inverse-variance combination {k:.3} ± {sk:.3} \
+         (spread {spread:.4} ± {spread_std:.4} m at the windows' speed factors)",
+        c.turn_factor, c.std, figures.stretches, figures.pairs, ccfg.min_baseline
+    ));
+    Some(figures)
 }

@@ -65,6 +65,29 @@ pub struct SetCalibration {
     pub track_width: Option<f64>,
     pub wheel_radius: Option<f64>,
     pub pioneer: bool,
+    /// Position-only references: the turn factor from the windows and from
+    /// the course check, and the combination the parameters carry.
+    pub course: Option<TurnFigures>,
+}
+
+/// The turn factor `spread / (mean speed factor * S)` of a position-only
+/// calibration, measured two ways ([`crate::course`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TurnFigures {
+    /// The separation `S` the tread speeds were made with, m.
+    pub separation: f64,
+    /// From the windows' fit, with its 1-sigma.
+    pub windows: (f64, f64),
+    /// From the course check, with its 1-sigma (jackknife over stretches).
+    pub course: (f64, f64),
+    pub stretches: usize,
+    pub pairs: usize,
+    /// The treads' asymmetry the course check fitted, with its 1-sigma
+    /// (`None`: held at 0).
+    pub asymmetry: Option<(f64, f64)>,
+    /// The two combined by their inverse variances, with its 1-sigma: what
+    /// the set's spread carries.
+    pub combined: (f64, f64),
 }
 
 /// The result for all sets.
@@ -149,6 +172,20 @@ impl SetCalibration {
         }
         if let Some(r) = &self.rate {
             x.insert("rate_model".into(), r.to_json());
+        }
+        if let Some(c) = &self.course {
+            x.insert(
+                "turn_factor".into(),
+                json!({
+                    "separation_m": c.separation,
+                    "windows": c.windows.0, "windows_std": finite_or_null(c.windows.1),
+                    "course_check": c.course.0, "course_check_std": c.course.1,
+                    "stretches": c.stretches, "pairs": c.pairs,
+                    "course_check_asymmetry": c.asymmetry.map(|a| a.0),
+                    "course_check_asymmetry_std": c.asymmetry.map(|a| a.1),
+                    "combined": c.combined.0, "combined_std": c.combined.1,
+                }),
+            );
         }
         x.insert("yaw_weight".into(), json!(self.yaw_weight));
         x.insert("sigma_m".into(), json!(self.sigma));

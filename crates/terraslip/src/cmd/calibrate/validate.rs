@@ -5,7 +5,8 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use terraslip_calib::{validate, ModelChoice, ValidateConfig, Validation};
+use terraslip_calib::validate::stored_offset;
+use terraslip_calib::{validate, ModelChoice, OffsetChoice, ValidateConfig, Validation};
 use terraslip_io::ParamsFile;
 use terraslip_report::{Figure, LinePlot, Series, SeriesStyle};
 
@@ -68,6 +69,9 @@ pub(super) fn run(a: ValidateArgs) -> anyhow::Result<()> {
         },
     };
     let logs = read_logs(&a.logs)?;
+    if logs.iter().all(terraslip_calib::track::position_only) {
+        return position_only(&a, &logs, &params, &cfg);
+    }
     let v = validate(&logs, &params, &cfg).context("validation failed")?;
     let ratio = |n: f64, c: f64| if c > 0.0 { n / c } else { f64::INFINITY };
     eprintln!(
@@ -139,6 +143,53 @@ pub(super) fn run(a: ValidateArgs) -> anyhow::Result<()> {
             "{}",
             terraslip::validation::to_json(&v, prediction.as_ref())
         );
+    }
+    Ok(())
+}
+
+/// Position-only references: the 2 s prediction with the start heading
+/// and position profiled out, nothing per segment.
+fn position_only(
+    a: &ValidateArgs,
+    logs: &[terraslip_io::DriveLog],
+    params: &ParamsFile,
+    cfg: &ValidateConfig,
+) -> anyhow::Result<()> {
+    if a.plot.is_some() {
+        anyhow::bail!(
+            "--plot draws segment scores, which a position-only reference (no heading) does not give"
+        );
+    }
+    let offset = match cfg.time_offset {
+        OffsetChoice::FromParams => stored_offset(params).unwrap_or(0.0),
+        OffsetChoice::Fixed(o) => o,
+        OffsetChoice::Auto { .. } => anyhow::bail!(
+            "--time-offset auto regresses heading changes, which a position-only reference \
+             (no heading) does not have: give `params` (the offset calibrate found) or seconds"
+        ),
+    };
+    let s = terraslip::validation::position_only(logs, params, &vec![offset; logs.len()])
+        .context("validation failed")?;
+    let p = &s.prediction;
+    eprintln!(
+        "position-only reference (no heading): no segment scores (they need headings); time offset {offset:+.3} s"
+    );
+    eprintln!(
+        "  2 s prediction, each model's start heading and position profiled out over the {} s of fixes before each start: {} segments, mean {:.3} m (no-slip {:.3} m at {} m), p90 {:.3} m (no-slip {:.3} m)",
+        p.profiled_window_s.unwrap_or(f64::NAN),
+        p.segments.len(),
+        p.stats.mean_m,
+        p.no_slip.mean_m,
+        s.no_slip_widths
+            .iter()
+            .map(|w| format!("{w}"))
+            .collect::<Vec<_>>()
+            .join(", "),
+        p.stats.p90_m,
+        p.no_slip.p90_m
+    );
+    if a.json {
+        println!("{}", s.to_json());
     }
     Ok(())
 }

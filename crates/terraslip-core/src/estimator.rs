@@ -339,6 +339,9 @@ impl Estimator {
         let r = self.filter.update(p.t, now - p.t, &p.fix);
         if let Ok(rep) = &r {
             self.record(rep);
+            if rep.change {
+                self.schedule.on_detected_change(&mut self.filter)?;
+            }
         }
         self.count_refused(r.map(|_| ()))?;
         self.schedule.on_update(&mut self.filter);

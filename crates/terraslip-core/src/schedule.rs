@@ -8,7 +8,11 @@
 //! * **terrain memory** (terraslip): when the robot leaves a terrain where
 //!   it has learned, the ICRs and their covariance are stored; when it
 //!   returns, they are recalled at once and neither boost nor reset is
-//!   applied, so there is nothing to learn again.
+//!   applied, so there is nothing to learn again;
+//! * **given sets** (`--init`): a set given for a terrain, or the set the
+//!   drive started from, is what a change the slip-change detector finds
+//!   falls back to (with the set's own covariance), rather than the
+//!   current estimate with its uncertainty raised.
 //!
 //! Terrains are indices `0..MAX_TERRAINS` (the pipeline maps names).
 
@@ -106,6 +110,10 @@ pub struct NoiseSchedule {
     dwell: f64,
     boost_left: u32,
     memory: [Option<Memory>; MAX_TERRAINS],
+    /// The sets given per terrain (`--init`), as given.
+    given: [Option<Memory>; MAX_TERRAINS],
+    /// The given set the drive started from, while no terrain is known.
+    start: Option<Memory>,
     /// Running average of the slip parameters on the current terrain and
     /// the seconds it covers.
     average: [f64; K],
@@ -121,6 +129,8 @@ impl NoiseSchedule {
             dwell: 0.0,
             boost_left: 0,
             memory: [None; MAX_TERRAINS],
+            given: [None; MAX_TERRAINS],
+            start: None,
             average: [0.0; K],
             averaged: 0.0,
         }
@@ -139,11 +149,44 @@ impl NoiseSchedule {
     /// Seeds the memory of `terrain` (e.g. calibrated per-terrain ICRs)
     /// with standard deviations `std`. Out-of-range terrains are ignored.
     pub fn seed(&mut self, terrain: usize, icr: &IcrParams, std: SlipStd) {
-        if let Some(slot) = self.memory.get_mut(terrain) {
-            *slot = Some(Memory {
-                icr: *icr,
-                cov: std.icr_cov(),
-            });
+        let m = Memory {
+            icr: *icr,
+            cov: std.icr_cov(),
+        };
+        if let (Some(slot), Some(given)) =
+            (self.memory.get_mut(terrain), self.given.get_mut(terrain))
+        {
+            *slot = Some(m);
+            *given = Some(m);
+        }
+    }
+
+    /// Records the given set (e.g. an `--init` calibration) the drive
+    /// starts from, with standard deviations `std`: what a detected slip
+    /// change falls back to while no terrain is declared.
+    pub fn start_from(&mut self, icr: &IcrParams, std: SlipStd) {
+        self.start = Some(Memory {
+            icr: *icr,
+            cov: std.icr_cov(),
+        });
+    }
+
+    /// The slip-change detector fired. With a set given for the current
+    /// terrain (or, no terrain declared, the set the drive started from),
+    /// the filter's slip parameters fall back to it with its covariance,
+    /// and `true` is returned; otherwise nothing is done (the filter has
+    /// raised its slip uncertainty itself).
+    pub fn on_detected_change(&mut self, filter: &mut Filter) -> Result<bool, FilterError> {
+        let given = match self.current {
+            Some(k) => self.given.get(k).copied().flatten(),
+            None => self.start,
+        };
+        match given {
+            Some(m) => {
+                filter.set_slip(&m.icr, &m.cov)?;
+                Ok(true)
+            }
+            None => Ok(false),
         }
     }
 
@@ -427,6 +470,56 @@ mod tests {
         );
         // Recalled spread std is at least the floor.
         assert!(var_spread(&f) >= 0.004f64.powi(2) - 1e-12);
+    }
+
+    #[test]
+    fn a_detected_change_falls_back_to_the_given_set_not_to_the_estimate() {
+        let given = learned(0.3, 0.85, -0.03);
+        let given_std = SlipStd {
+            spread: 0.01,
+            centre: 0.01,
+            x_c: 0.02,
+            alpha: 0.01,
+            alpha_diff: 0.003,
+        };
+        let wandered = learned(0.6, 1.1, 0.02);
+        let wide = SlipStd {
+            spread: 0.3,
+            ..given_std
+        };
+        // The drive's start (no terrain declared) and a terrain's given set.
+        for declared in [None, Some(1)] {
+            let mut f = filter(Chart::Gain);
+            let mut s = NoiseSchedule::new(ScheduleConfig::default());
+            match declared {
+                None => s.start_from(&given, given_std),
+                Some(k) => {
+                    s.seed(k, &given, given_std);
+                    s.on_terrain(&mut f, k).unwrap();
+                }
+            }
+            f.set_slip(&wandered, &wide.icr_cov()).unwrap();
+            assert!(s.on_detected_change(&mut f).unwrap(), "{declared:?}");
+            let p = f.icr();
+            assert!((p.spread() - given.spread()).abs() < 1e-9, "{p:?}");
+            assert!((p.alpha_l - given.alpha_l).abs() < 1e-9, "{p:?}");
+            assert!((p.alpha_r - given.alpha_r).abs() < 1e-9, "{p:?}");
+            assert!(
+                (var_spread(&f) - 1e-4).abs() < 1e-9,
+                "the given set's own covariance: {}",
+                var_spread(&f)
+            );
+        }
+        // Nothing given: the filter's own raise stands.
+        let mut f = filter(Chart::Gain);
+        let mut s = NoiseSchedule::new(ScheduleConfig::default());
+        f.set_slip(&wandered, &wide.icr_cov()).unwrap();
+        assert!(!s.on_detected_change(&mut f).unwrap());
+        assert!((f.icr().spread() - wandered.spread()).abs() < 1e-9);
+        // A terrain without a given set does not take another's.
+        s.seed(0, &given, given_std);
+        s.on_terrain(&mut f, 1).unwrap();
+        assert!(!s.on_detected_change(&mut f).unwrap());
     }
 
     #[test]

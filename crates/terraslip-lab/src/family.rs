@@ -47,7 +47,10 @@ pub struct Args {
     /// Estimators to compare (repeatable): a preset, `config:FILE.toml`,
     /// or `oracle` (the default told each terrain's nominal ICRs and speed
     /// factors and when the terrain changes: the floor the turn law, the
-    /// sensors' noise and the drive leave).
+    /// sensors' noise and the drive leave). `oracle:PRESET` or
+    /// `oracle:config:FILE.toml` is an oracle with that configuration (e.g.
+    /// `init.calibrated_std` as wide as the prior: started at the truth
+    /// without trusting it, what the data teach).
     #[arg(long = "estimator", default_values_t = ["terraslip".to_string(), "ekf-qmin".to_string(), "no-slip".to_string()])]
     estimators: Vec<String>,
     /// Print one line per world and estimator.
@@ -268,6 +271,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .map(|n| {
             if n == "oracle" {
                 "terraslip".to_string()
+            } else if let Some(rest) = n.strip_prefix("oracle:") {
+                rest.to_string()
             } else {
                 n.clone()
             }
@@ -302,7 +307,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                         let opts = RunOptions {
                             outage: Some(outage),
                         };
-                        let (evidence, init) = if name == "oracle" {
+                        let (evidence, init) = if name.starts_with("oracle") {
                             oracle(&w, &sim)
                         } else if a.labels {
                             (TerrainEvidence::Labels(sim.log.terrain.clone()), None)

@@ -96,6 +96,10 @@ pub(super) fn setup(
     let filter = Filter::new(&prior, cfg.filter, meas, cfg.band(track_width))
         .map_err(|e| PipelineError::Config(e.to_string()))?;
     let mut schedule = NoiseSchedule::new(cfg.schedule_config());
+    if init_source != "prior" {
+        // A detected slip change falls back to the given set.
+        schedule.start_from(&prior.icr, prior.std);
+    }
     if let Some(pf) = init {
         for (name, entry) in &pf.terrains {
             match terrains.iter().position(|n| n == name) {

@@ -177,7 +177,9 @@ fn profile(
         }
         sq.sort_by(f64::total_cmp);
         let keep = (sq.len() * 9).div_ceil(10);
-        used = used.max(keep);
+        // Overlapping segments share their poses: the evidence of the
+        // equivalent chained segments.
+        used = used.max((keep as f64 / segs.coverage()).round() as usize);
         curve.push((t, sq[..keep].iter().sum::<f64>() / keep as f64));
     }
     (curve, used)
@@ -221,12 +223,13 @@ mod tests {
         ] {
             let mut sc = SynthConfig::p3at(200.0, seed);
             sc.pose_latency = latency;
+            sc.wheel_rate = 400.0;
             let log = drive(&[("asphalt", mandow_table1())], &sc);
             let cfg = super::super::CalibConfig::default()
                 .segment
                 .for_logs(std::slice::from_ref(&log));
             let cfg = SegmentConfig {
-                overlap: None,
+                overlap: Some(0.0),
                 ..cfg
             };
             let (first, _) = offset::estimate_offset(&log, &cfg, 0.5, 0.01).expect("first stage");

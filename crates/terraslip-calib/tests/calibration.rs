@@ -194,6 +194,63 @@ fn ga_gene_bits_snap_to_the_grid() {
     );
 }
 
+/// A pose the mistimed-pose filter drops at some candidate offsets must not
+/// cost the search every later segment (chained segments shift their phase
+/// there): this drive's first stage found no segment common to all
+/// candidates and the offset stayed near 0.
+#[test]
+fn time_offset_survives_poses_dropped_at_some_candidates() {
+    let truth = mandow_table1();
+    let mut sc = SynthConfig::p3at(200.0, 5);
+    sc.pose_latency = 0.33;
+    let log = drive(&[("asphalt", truth)], &sc);
+    let cal = calibrate(std::slice::from_ref(&log), &lm_only(), &|_| {}).expect("calibration");
+    let off = cal.sets[0].time_offsets[0].1;
+    assert!((off - 0.33).abs() < 0.03, "offset {off}");
+    assert!(cal.warnings.is_empty(), "{:?}", cal.warnings);
+    // The set states the offset's 1-sigma, and the truth lies within 3 of it.
+    let note = cal.sets[0]
+        .notes
+        .iter()
+        .find(|n| n.starts_with("time offset of"))
+        .expect("a note on the offset");
+    let std: f64 = note
+        .split("1-sigma ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no 1-sigma in {note}"));
+    assert!(
+        std > 0.0 && (off - 0.33).abs() < 3.0 * std.max(0.005),
+        "{note}"
+    );
+}
+
+/// A latency beyond the search range: the profile falls to its edge, the
+/// offset is reported as not bracketed and warned about.
+#[test]
+fn an_offset_the_data_do_not_bracket_is_said_so() {
+    let mut sc = SynthConfig::p3at(200.0, 11);
+    sc.pose_latency = 0.8;
+    let log = drive(&[("asphalt", mandow_table1())], &sc);
+    let cal = calibrate(std::slice::from_ref(&log), &lm_only(), &|_| {}).expect("calibration");
+    assert!(
+        cal.sets[0]
+            .notes
+            .iter()
+            .any(|n| n.contains("not bracketed")),
+        "{:?}",
+        cal.sets[0].notes
+    );
+    assert!(
+        cal.warnings
+            .iter()
+            .any(|w| w.contains("edge of its search range")),
+        "{:?}",
+        cal.warnings
+    );
+}
+
 #[test]
 fn time_offset_between_streams_is_found() {
     let truth = mandow_table1();
@@ -804,7 +861,7 @@ fn a_fit_that_hits_a_limit_is_a_warning_in_the_output_and_the_file() {
         ..Default::default()
     };
     cfg.ga.population = 16;
-    cfg.ga.generations = 10;
+    cfg.ga.generations = 20;
     let w = truth.y_l - truth.y_r;
     cfg.ga.bounds = Some([
         (0.1 * truth.y_l, 0.5 * truth.y_l),

@@ -23,7 +23,7 @@ mod position_only;
 mod rate;
 mod result;
 
-use offset_profile::{refine_offset, spread_from_yaw};
+use offset_profile::{refine_offset, spread_from_yaw, ProfiledOffset};
 use rate::choose_rate;
 
 pub use config::{CalibConfig, GaSettings, Method, RateModel, TimeOffset};
@@ -72,14 +72,19 @@ pub fn calibrate(
         return position_only::calibrate(logs, cfg, progress, warnings);
     }
     let scfg = cfg.segment.for_logs(logs);
-    // The offset search compares candidates; chained segments suffice and
-    // keep it fast.
+    // The offset search compares candidates on the segments usable at
+    // every one ([`crate::offset::common_keys`]): a segment from every
+    // pose, so that a pose dropped at one candidate (mistimed, gated)
+    // removes only the segments that touch it. Chained segments shift
+    // their phase at such a pose and lose every later segment to the
+    // comparison (44 of 190 kept on the first half of the ice drive).
     let ocfg = SegmentConfig {
-        overlap: None,
+        overlap: Some(0.0),
         ..scfg.clone()
     };
     progress(Progress::Stage("aligning wheel and pose streams"));
     let mut offsets = Vec::with_capacity(logs.len());
+    let mut offset_stds = Vec::with_capacity(logs.len());
     for full in logs {
         // A long drive's offset is searched on evenly spread windows of it.
         let log = &*crate::offset::thinned(full, crate::offset::OFFSET_POSES);
@@ -96,17 +101,20 @@ pub fn calibrate(
                 }
             },
         };
-        let o = match cfg.time_offset {
+        let (o, std) = match cfg.time_offset {
             TimeOffset::Auto { max, step } => {
-                let o = refine_offset(log, &ocfg, o, max, cfg.yaw_weight);
-                if o.abs() >= max - 0.5 * step {
-                    warnings.push(offset_at_edge(log, o, max));
+                let p = refine_offset(log, &ocfg, o, max, cfg.yaw_weight);
+                if p.offset.abs() >= max - 0.5 * step {
+                    warnings.push(offset_at_edge(log, p.offset, max));
+                } else if !p.pinned() {
+                    warnings.push(offset_not_pinned(log, &p));
                 }
-                o
+                (p.offset, p.std)
             }
-            TimeOffset::Fixed(_) => o,
+            TimeOffset::Fixed(_) => (o, None),
         };
         offsets.push(o);
+        offset_stds.push(std);
     }
     let refs: Vec<&DriveLog> = logs.iter().collect();
     let all = Segments::build(&refs, &offsets, &scfg);
@@ -161,6 +169,13 @@ pub fn calibrate(
             .iter()
             .map(|&i| (logs[i].name(), offsets[i]))
             .collect();
+        if matches!(cfg.time_offset, TimeOffset::Auto { .. }) {
+            set.notes.extend(
+                used_logs
+                    .iter()
+                    .map(|&i| offset_note(&logs[i], offset_stds[i])),
+            );
+        }
         set.track_width = track_width;
         set.wheel_radius = wheel_radius;
         set.pioneer = pioneer;
@@ -203,6 +218,36 @@ fn offset_at_edge(log: &DriveLog, o: f64, max: f64) -> String {
          clocks, or give it with --time-offset SECONDS",
         log.dir.display()
     )
+}
+
+/// The warning for a profiled offset `p` inside its search range whose
+/// 1-sigma is over [`ProfiledOffset::PINNED_STD`] or unknown.
+fn offset_not_pinned(log: &DriveLog, p: &ProfiledOffset) -> String {
+    let how = match p.std {
+        Some(s) => format!("its 1-sigma is {s:.3} s"),
+        None => "the profile of the fit has no minimum around it".into(),
+    };
+    format!(
+        "{}: the time offset {:+.3} s is not pinned by the data ({how}); the \
+         parameters depend on it, check the two clocks, or give it with \
+         --time-offset SECONDS",
+        log.dir.display(),
+        p.offset
+    )
+}
+
+/// The set's note on a searched offset's 1-sigma (`None`: not bracketed).
+fn offset_note(log: &DriveLog, std: Option<f64>) -> String {
+    match std {
+        Some(s) => format!(
+            "time offset of {}: 1-sigma {s:.3} s (profile of the fit)",
+            log.name()
+        ),
+        None => format!(
+            "time offset of {}: not bracketed by the profile of the fit (no 1-sigma)",
+            log.name()
+        ),
+    }
 }
 
 /// What the logs' `meta.toml` tell about the robot.

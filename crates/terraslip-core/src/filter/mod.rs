@@ -218,10 +218,11 @@ pub struct Filter {
     last_step: (f64, f64, f64),
     /// Gyro windows fused, and of those widened.
     gyro_counts: [u64; 2],
-    /// Whether the centripetal terms are learned: a position reference
-    /// shows them (and the prior gives them room); otherwise they are held
-    /// at their starting values with no uncertainty.
-    learn_centripetal: bool,
+    /// Whether each centripetal term (`k_x_speed`, `k_spread_speed`) is
+    /// learned: a position reference shows them and the prior gives it
+    /// room; otherwise it is held at its starting value with no
+    /// uncertainty.
+    learn_centripetal: [bool; 2],
 }
 
 type Mat3xN = SMatrix<f64, 3, N>;
@@ -316,12 +317,21 @@ impl Filter {
         }
         x[K_X_SPEED] = c.k_x_speed;
         x[K_SPREAD_SPEED] = c.k_spread_speed;
-        let learn_centripetal = cfg.learn_icr
-            && cfg.hold == SlipHold::Nothing
-            && (c_std.k_x_speed > 0.0 || c_std.k_spread_speed > 0.0);
-        if learn_centripetal {
-            P[(K_X_SPEED, K_X_SPEED)] = c_std.k_x_speed * c_std.k_x_speed;
-            P[(K_SPREAD_SPEED, K_SPREAD_SPEED)] = c_std.k_spread_speed * c_std.k_spread_speed;
+        let shown = cfg.learn_icr && cfg.hold == SlipHold::Nothing;
+        let learn_centripetal = [
+            c_std.k_x_speed > 0.0 && shown,
+            c_std.k_spread_speed > 0.0 && shown,
+        ];
+        for ((i, sd), learn) in [
+            (K_X_SPEED, c_std.k_x_speed),
+            (K_SPREAD_SPEED, c_std.k_spread_speed),
+        ]
+        .into_iter()
+        .zip(learn_centripetal)
+        {
+            if learn {
+                P[(i, i)] = sd * sd;
+            }
         }
         let q_slip = cfg
             .slip_walk_cov(&icr0)
@@ -425,9 +435,10 @@ impl Filter {
     }
 
     /// Whether the centripetal terms are learned (a position reference and
-    /// a prior with room for them), not held at their starting values.
+    /// a prior with room for one of them), not held at their starting
+    /// values.
     pub fn learns_centripetal(&self) -> bool {
-        self.learn_centripetal
+        self.learn_centripetal.contains(&true)
     }
 
     /// Covariance of [`Self::icr_now`] (the law's slope taken as known).

@@ -110,8 +110,10 @@ impl Filter {
             if P[(LAW, LAW)] > 0.0 && cfg.hold != SlipHold::All {
                 P[(LAW, LAW)] += dt * cfg.turn_law_walk * cfg.turn_law_walk;
             }
-            if self.learn_centripetal {
+            if self.learn_centripetal[0] {
                 P[(K_X_SPEED, K_X_SPEED)] += dt * cfg.k_x_speed_walk * cfg.k_x_speed_walk;
+            }
+            if self.learn_centripetal[1] {
                 P[(K_SPREAD_SPEED, K_SPREAD_SPEED)] +=
                     dt * cfg.k_spread_speed_walk * cfg.k_spread_speed_walk;
             }

@@ -528,8 +528,11 @@ impl Filter {
         }
         frozen[CLOCK] |= self.still || !cfg.learn_clock;
         frozen[GYRO_SCALE] |= cfg.hold_gyro_scale;
-        for f in &mut frozen[K_X_SPEED..=K_SPREAD_SPEED] {
-            *f |= self.still || !self.learn_centripetal || hold_all;
+        for (f, learn) in frozen[K_X_SPEED..=K_SPREAD_SPEED]
+            .iter_mut()
+            .zip(self.learn_centripetal)
+        {
+            *f |= self.still || !learn || hold_all;
         }
         frozen
     }

@@ -97,6 +97,10 @@ pub struct EstimateRow {
     pub change: bool,
     /// The pose stream's clock offset in effect, s.
     pub clock_offset: f64,
+    /// What a 2 s prediction from this row takes of the estimate: the ICRs
+    /// at this row's turn, the centripetal terms (applied at each later
+    /// row's speed) and the clock offset.
+    pub prediction_model: terraslip_calib::prediction::Timed,
 }
 
 impl EstimateRow {

@@ -285,7 +285,7 @@ impl<'a> Feed<'a> {
         let summary = estimator.take_fix_summary();
         self.terrain.jump |= summary.change;
         let r = row(estimator, w.t, self.terrain.current, &summary);
-        self.params = Some(timed(estimator.filter(), r.clock_offset));
+        self.params = Some(r.prediction_model);
         self.totals.prediction.estimate_heading(r.yaw);
         self.totals.rows += 1;
         self.totals.band.add(&r, &self.band);
@@ -313,15 +313,4 @@ impl<'a> Feed<'a> {
             totals: self.totals.clone(),
         }
     }
-}
-
-/// What the 2 s prediction from a start takes of the filter: the ICRs at
-/// the start's turn, the centripetal terms applied at each row's speed
-/// over the 2 s, and the pose stream's clock offset (s).
-fn timed(f: &terraslip_core::filter::Filter, clock_offset: f64) -> Timed {
-    let (c, _) = f.centripetal();
-    let mut t = Timed::new(f.icr_turn(), clock_offset);
-    t.slopes.k_x_speed = c.k_x_speed;
-    t.slopes.k_spread_speed = c.k_spread_speed;
-    t
 }

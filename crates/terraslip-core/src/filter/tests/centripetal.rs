@@ -162,6 +162,26 @@ fn without_a_position_reference_the_terms_are_held_exactly() {
 }
 
 #[test]
+fn a_term_with_no_prior_std_is_held_and_the_other_learned() {
+    let mut start = prior_terms(0.5);
+    start.centripetal_std.k_spread_speed = 0.0;
+    let mut f = filter(&start);
+    run(
+        &mut f,
+        &drive(
+            CentripetalSlopes {
+                k_x_speed: 0.15,
+                k_spread_speed: 0.2,
+            },
+            1,
+        ),
+    );
+    let (c, sd) = f.centripetal();
+    assert_eq!((c.k_spread_speed, sd.k_spread_speed), (0.0, 0.0));
+    assert!(sd.k_x_speed > 0.0 && c.k_x_speed > 0.05, "{c:?}");
+}
+
+#[test]
 fn terms_out_of_range_are_refused() {
     let mut start = prior_terms(0.5);
     start.centripetal.k_x_speed = 2.0;

@@ -35,8 +35,8 @@
 //! yaw'   = yaw   + dt omega
 //! ```
 //!
-//! The slip parameters, the law, the clock offset, the gyro bias, the
-//! gyro scale and the centripetal terms are random walks, the position bias decays
+//! The slip parameters, the law, the clock offset, the gyro bias and the
+//! gyro scale are random walks, the centripetal terms constants, the position bias decays
 //! ([`crate::filter`] adds the noise). [`step`] returns the new state and the rows of the Jacobian that
 //! differ from the identity's.
 

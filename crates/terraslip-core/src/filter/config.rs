@@ -233,12 +233,6 @@ pub struct FilterConfig {
     pub clock_walk: f64,
     /// Random walk of the turn law's slope, s/m per square-root second.
     pub turn_law_walk: f64,
-    /// Random walk of the centripetal term `k_x_speed` (how far `x_c`
-    /// moves per m/s of speed), s per square-root second, while moving.
-    pub k_x_speed_walk: f64,
-    /// Random walk of the centripetal term `k_spread_speed` (relative
-    /// change of the spread per m/s of speed), s/m per square-root second.
-    pub k_spread_speed_walk: f64,
     /// Time constant with which the ICRs follow a change of turn, s: the
     /// turn law reads `|V_r - V_l|` low-passed with it (0 = at once).
     pub turn_law_lag: f64,
@@ -309,8 +303,6 @@ impl Default for FilterConfig {
             },
             clock_walk: 3e-3,
             turn_law_walk: 1e-3,
-            k_x_speed_walk: 1e-3,
-            k_spread_speed_walk: 1e-3,
             turn_law_lag: 0.25,
             gate_position: 13.8,
             gate_yaw: 10.8,
@@ -373,7 +365,7 @@ impl FilterConfig {
     /// Checks every setting; the error names the key.
     pub fn validate(&self) -> Result<(), FilterError> {
         let finite_nonneg = |v: f64| v.is_finite() && v >= 0.0;
-        let checks: [(&'static str, bool); 19] = [
+        let checks: [(&'static str, bool); 17] = [
             (
                 "filter.innovation_window must be 1..=64",
                 (1..=MAX_WINDOW).contains(&self.innovation_window),
@@ -409,14 +401,6 @@ impl FilterConfig {
             (
                 "filter.turn_law_walk must be finite and >= 0",
                 finite_nonneg(self.turn_law_walk),
-            ),
-            (
-                "filter.k_x_speed_walk must be finite and >= 0",
-                finite_nonneg(self.k_x_speed_walk),
-            ),
-            (
-                "filter.k_spread_speed_walk must be finite and >= 0",
-                finite_nonneg(self.k_spread_speed_walk),
             ),
             (
                 "filter.turn_law_lag must be finite and >= 0",

@@ -4,8 +4,7 @@ use nalgebra::SMatrix;
 
 use super::{finite_mat, Filter, FilterError, SlipHold};
 use crate::model::{
-    self, BIAS_E, BIAS_N, CLOCK, EAST, GYRO_BIAS, GYRO_SCALE, K_SPREAD_SPEED, K_X_SPEED, LAW, N,
-    NORTH, SLIP, YAW,
+    self, BIAS_E, BIAS_N, CLOCK, EAST, GYRO_BIAS, GYRO_SCALE, LAW, N, NORTH, SLIP, YAW,
 };
 use crate::slip::TreadInput;
 
@@ -109,13 +108,6 @@ impl Filter {
             }
             if P[(LAW, LAW)] > 0.0 && cfg.hold != SlipHold::All {
                 P[(LAW, LAW)] += dt * cfg.turn_law_walk * cfg.turn_law_walk;
-            }
-            if self.learn_centripetal[0] {
-                P[(K_X_SPEED, K_X_SPEED)] += dt * cfg.k_x_speed_walk * cfg.k_x_speed_walk;
-            }
-            if self.learn_centripetal[1] {
-                P[(K_SPREAD_SPEED, K_SPREAD_SPEED)] +=
-                    dt * cfg.k_spread_speed_walk * cfg.k_spread_speed_walk;
             }
         }
         let qb = self.bias_std * self.bias_std * (1.0 - phi * phi);

@@ -67,13 +67,15 @@ pub struct InitSection {
     pub turn_law: f64,
     /// Std of the turn law's slope, s/m (0 = held at `turn_law`).
     pub std_turn_law: f64,
-    /// Starting std of the centripetal term `k_x_speed`, s: `x_c` moves by
-    /// `k_x_speed` m per m/s of mean tread speed, a lateral slip
-    /// `-k_x_speed v omega` (0 with `std_k_spread_speed = 0`: the
-    /// constant model, held). Learned only with a position reference.
+    /// Starting std of the centripetal term `k_x_speed` (starting at 0), s:
+    /// `x_c` moves by `k_x_speed` m per m/s of mean tread speed, a lateral
+    /// slip `-k_x_speed v omega`. Learned only with a position reference;
+    /// 0 = held.
     pub std_k_x_speed: f64,
     /// Starting std of the centripetal term `k_spread_speed`, s/m: the
     /// spread scales by `1 + k_spread_speed |v|` at mean tread speed `v`.
+    /// 0 = held at its starting value (0, or an `--init` file's): learning
+    /// it lost on the family of worlds (docs/benchmarks.md).
     pub std_k_spread_speed: f64,
 }
 
@@ -139,8 +141,8 @@ impl Default for InitSection {
             },
             turn_law: 0.0,
             std_turn_law: 0.1,
-            std_k_x_speed: 0.2,
-            std_k_spread_speed: 0.1,
+            std_k_x_speed: 0.1,
+            std_k_spread_speed: 0.0,
         }
     }
 }

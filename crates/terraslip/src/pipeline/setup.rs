@@ -265,9 +265,14 @@ fn init_prior(
                 k_x_speed: r.k_x_speed,
                 k_spread_speed: r.k_spread_speed,
             };
+            // A term the configuration holds (its prior std 0) is held at
+            // the calibration's value.
+            let held = |v: f64| if v > 0.0 { Some(v) } else { None };
+            let sd = prior.centripetal_std;
             prior.centripetal_std = CentripetalSlopes {
-                k_x_speed: std("std_k_x_speed", prior.centripetal_std.k_x_speed),
-                k_spread_speed: std("std_k_spread_speed", prior.centripetal_std.k_spread_speed),
+                k_x_speed: held(sd.k_x_speed).map_or(0.0, |v| std("std_k_x_speed", v)),
+                k_spread_speed: held(sd.k_spread_speed)
+                    .map_or(0.0, |v| std("std_k_spread_speed", v)),
             };
         }
     }
@@ -366,11 +371,16 @@ mod tests {
         assert_eq!(prior.turn_law, -0.06);
         assert_eq!(prior.centripetal.k_x_speed, 0.23);
         assert_eq!(prior.centripetal.k_spread_speed, -0.04);
-        // Their stated stds, never tighter than the floor.
+        // The stated std of a learned term, the held one held.
         assert_eq!(prior.centripetal_std.k_x_speed, 0.09);
+        assert_eq!(prior.centripetal_std.k_spread_speed, 0.0);
+        // Learned, never tighter than the floor.
+        let mut learning = cfg.clone();
+        learning.init.std_k_spread_speed = 0.1;
+        let prior = init_prior(&learning, "gravel", p, &extra, learning.prior(1.1)).unwrap();
         assert_eq!(
             prior.centripetal_std.k_spread_speed,
-            CENTRIPETAL_STD_FLOOR * cfg.init.std_k_spread_speed
+            CENTRIPETAL_STD_FLOOR * 0.1
         );
         // A term beyond the filter's range is refused, naming it.
         extra.get_mut("rate_model").unwrap()["k_x_speed"] = serde_json::json!(3.0);

@@ -350,7 +350,7 @@ impl Chart {
     /// `s` with the turn law's and the centripetal terms' spread factors
     /// and `x_c` shift applied, and what their derivatives need.
     #[inline]
-    fn with_terms(
+    pub(crate) fn with_terms(
         self,
         s: &Slip,
         k: f64,
@@ -379,15 +379,15 @@ impl Chart {
 /// [`Chart::with_terms`]: the parameters in effect, their derivatives by
 /// the straight-line ones and by the spread factor, the mean tread speed
 /// (m/s), and each spread factor with its derivative by its slope.
-struct WithTerms {
-    slip: Slip,
-    d_slip: SlipMat,
-    d_factor: Slip,
-    speed: f64,
-    law: f64,
-    d_law: f64,
-    centripetal: f64,
-    d_centripetal: f64,
+pub(crate) struct WithTerms {
+    pub(crate) slip: Slip,
+    pub(crate) d_slip: SlipMat,
+    pub(crate) d_factor: Slip,
+    pub(crate) speed: f64,
+    pub(crate) law: f64,
+    pub(crate) d_law: f64,
+    pub(crate) centripetal: f64,
+    pub(crate) d_centripetal: f64,
 }
 
 #[cfg(test)]

@@ -441,13 +441,34 @@ impl Filter {
         self.learn_centripetal.contains(&true)
     }
 
-    /// Covariance of [`Self::icr_now`] (the law's slope taken as known).
+    /// Covariance of [`Self::icr_now`]: the slip parameters' and the
+    /// centripetal terms' (the law's slope taken as known).
     pub fn icr_now_covariance(&self) -> SlipMat {
         let chart = self.cfg.chart;
-        let (f, _) = crate::slip::law_factor(self.x[LAW], self.law_input);
-        let (sf, d, _) = chart.scale_spread(&self.slip(), f);
-        let c = self.P.fixed_view::<5, 5>(SLIP, SLIP).into_owned();
-        chart.cov_to_icr(&sf, &(d * c * d.transpose()))
+        let a = chart.with_terms(
+            &self.slip(),
+            self.x[LAW],
+            self.law_input,
+            &self.centripetal().0,
+            self.tread,
+        );
+        // d(parameters in effect) / d(slip parameters, k_x_speed, k_spread_speed).
+        let mut j = SMatrix::<f64, 5, 7>::zeros();
+        j.fixed_view_mut::<5, 5>(0, 0).copy_from(&a.d_slip);
+        j[(chart.x_c_slot(), 5)] = a.speed;
+        j.fixed_view_mut::<5, 1>(0, 6)
+            .copy_from(&(a.d_factor * (a.law * a.d_centripetal)));
+        let idx = [
+            SLIP,
+            SLIP + 1,
+            SLIP + 2,
+            SLIP + 3,
+            SLIP + 4,
+            K_X_SPEED,
+            K_SPREAD_SPEED,
+        ];
+        let c = SMatrix::<f64, 7, 7>::from_fn(|r, k| self.P[(idx[r], idx[k])]);
+        chart.cov_to_icr(&a.slip, &(j * c * j.transpose()))
     }
 
     /// Slope of the turn law and its std, s/m: the spread in effect is

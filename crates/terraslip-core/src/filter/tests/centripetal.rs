@@ -182,6 +182,21 @@ fn a_term_with_no_prior_std_is_held_and_the_other_learned() {
 }
 
 #[test]
+fn the_x_c_in_effect_carries_the_term_s_uncertainty() {
+    let mut f = filter(&prior_terms(0.5));
+    f.predict(0.8, 1.2, 0.02).unwrap();
+    let v = 1.0;
+    // var(x_c) + v^2 var(k_x_speed): the prior's 0.1 m and 0.2 s.
+    let c = f.icr_now_covariance();
+    assert!(
+        (c[(2, 2)] - (0.1f64.powi(2) + v * v * 0.2f64.powi(2))).abs() < 1e-6,
+        "{}",
+        c[(2, 2)]
+    );
+    assert!((f.icr_covariance()[(2, 2)] - 0.1f64.powi(2)).abs() < 1e-6);
+}
+
+#[test]
 fn terms_out_of_range_are_refused() {
     let mut start = prior_terms(0.5);
     start.centripetal.k_x_speed = 2.0;

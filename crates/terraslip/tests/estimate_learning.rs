@@ -64,7 +64,10 @@ fn learns_slip_clock_and_pose_noise() {
         // drive's speed (the rows') is what the positions show.
         let (c, sd, _) = r.centripetal;
         let x_c = r.rows.last().unwrap().x_c;
-        assert!((x_c - t.x_c).abs() < 0.015, "x_c {x_c}, {c:?} +- {sd:?}: {case}");
+        assert!(
+            (x_c - t.x_c).abs() < 0.015,
+            "x_c {x_c}, {c:?} +- {sd:?}: {case}"
+        );
         assert!(
             c.k_x_speed.abs() < 3.0 * sd.k_x_speed,
             "k_x_speed {c:?} +- {sd:?}: {case}"

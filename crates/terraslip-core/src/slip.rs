@@ -334,19 +334,6 @@ impl Chart {
         (t, j * a.d_slip, [dk[0], dk[1], dk[2]], dc)
     }
 
-    /// The ICRs in effect under the turn law and the centripetal terms at
-    /// tread speeds `u` (see [`Self::twist_with_terms`]).
-    pub fn to_icr_with_terms(
-        self,
-        s: &Slip,
-        k: f64,
-        dv: f64,
-        c: &CentripetalSlopes,
-        u: TreadInput,
-    ) -> IcrParams {
-        self.to_icr(&self.with_terms(s, k, dv, c, u).slip)
-    }
-
     /// `s` with the turn law's and the centripetal terms' spread factors
     /// and `x_c` shift applied, and what their derivatives need.
     #[inline]

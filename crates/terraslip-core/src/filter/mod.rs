@@ -404,7 +404,13 @@ impl Filter {
     /// and the centripetal terms applied): what the plain ICR model needs
     /// to give the filter's twist.
     pub fn icr_now(&self) -> IcrParams {
-        self.cfg.chart.to_icr_with_terms(
+        let chart = self.cfg.chart;
+        chart.to_icr(&self.terms_now().slip)
+    }
+
+    /// The slip parameters in effect at the last step's tread speeds.
+    fn terms_now(&self) -> crate::slip::WithTerms {
+        self.cfg.chart.with_terms(
             &self.slip(),
             self.x[LAW],
             self.law_input,
@@ -445,13 +451,7 @@ impl Filter {
     /// centripetal terms' (the law's slope taken as known).
     pub fn icr_now_covariance(&self) -> SlipMat {
         let chart = self.cfg.chart;
-        let a = chart.with_terms(
-            &self.slip(),
-            self.x[LAW],
-            self.law_input,
-            &self.centripetal().0,
-            self.tread,
-        );
+        let a = self.terms_now();
         // d(parameters in effect) / d(slip parameters, k_x_speed, k_spread_speed).
         let mut j = SMatrix::<f64, 5, 7>::zeros();
         j.fixed_view_mut::<5, 5>(0, 0).copy_from(&a.d_slip);

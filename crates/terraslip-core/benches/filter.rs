@@ -21,6 +21,8 @@ fn filter(cfg: FilterConfig) -> Filter {
         },
         turn_law: 0.0,
         turn_law_std: 0.1,
+        centripetal: terraslip_core::kinematics::CentripetalSlopes::NONE,
+        centripetal_std: terraslip_core::kinematics::CentripetalSlopes::NONE,
     };
     let band = IcrBand {
         min_spread: 0.2,

@@ -1,6 +1,7 @@
 //! The filter's state and its process model.
 //!
-//! State `x = [east, north, yaw, s0..s4, law, clock, bias_e, bias_n, gyro_bias, gyro_scale]`:
+//! State `x = [east, north, yaw, s0..s4, law, clock, bias_e, bias_n, gyro_bias, gyro_scale,
+//! k_x_speed, k_spread_speed]`:
 //!
 //! * world ENU position (m) and yaw (rad, counter-clockwise from east) of
 //!   the body frame, on the wheels' clock;
@@ -8,7 +9,7 @@
 //!   values);
 //! * `law` (s/m): the turn law's slope, the spread in effect being
 //!   `1 + law |V_r - V_l|` times the straight-line one
-//!   ([`Chart::twist_with_law`]): the treads' grip saturates in a turn;
+//!   ([`Chart::twist_with_terms`]): the treads' grip saturates in a turn;
 //! * `clock` (s): how late the pose stream is stamped against the wheels
 //!   (a pose stamped `t` describes the robot at wheel time `t - clock`);
 //! * `bias_e`, `bias_n` (m): the slowly wandering part of the position
@@ -17,10 +18,16 @@
 //! * `gyro_bias` (rad/s): the yaw-rate gyro's bias (a random walk), where
 //!   the log has a gyro;
 //! * `gyro_scale` (dimensionless): the gyro's scale error `k_g`, the gyro
-//!   reading `1 + k_g` times the true yaw rate (a constant: no random walk).
+//!   reading `1 + k_g` times the true yaw rate (a slow random walk);
+//! * `k_x_speed` (s) and `k_spread_speed` (s/m): the centripetal terms
+//!   ([`crate::kinematics::CentripetalSlopes`]): with `v = (V_l + V_r) / 2`
+//!   the mean measured tread speed, `x_c` moves by `k_x_speed v` (a lateral
+//!   slip `-k_x_speed v omega`, outward in a turn when positive) and the
+//!   spread scales by `1 + k_spread_speed |v|` about the ICR centre (a yaw
+//!   slip growing with `v omega`), on top of the turn law.
 //!
 //! One Euler step of length `dt` with the body twist `(v_x, v_y, omega)` of
-//! [`Chart::twist_with_law`]:
+//! [`Chart::twist_with_terms`]:
 //!
 //! ```text
 //! east'  = east  + dt (v_x cos(yaw) - v_y sin(yaw))
@@ -29,18 +36,18 @@
 //! ```
 //!
 //! The slip parameters, the law, the clock offset, the gyro bias and the
-//! gyro scale are random walks, the position bias decays
+//! gyro scale are random walks, the centripetal terms constants, the position bias decays
 //! ([`crate::filter`] adds the noise). [`step`] returns the new state and the rows of the Jacobian that
 //! differ from the identity's.
 
 use nalgebra::{SMatrix, SVector};
 
 use crate::angle;
-use crate::kinematics::Twist;
+use crate::kinematics::{CentripetalSlopes, Twist};
 use crate::slip::{Chart, Slip, TreadInput};
 
 /// Dimension of the state.
-pub const N: usize = 14;
+pub const N: usize = K_SPREAD_SPEED + 1;
 /// Index of east, m.
 pub const EAST: usize = 0;
 /// Index of north, m.
@@ -62,6 +69,12 @@ pub const GYRO_BIAS: usize = 12;
 /// Index of the yaw-rate gyro's scale error `k_g` (it reads `1 + k_g`
 /// times the true yaw rate).
 pub const GYRO_SCALE: usize = GYRO_BIAS + 1;
+/// Index of the centripetal term `k_x_speed`, s: `x_c` moves by
+/// `k_x_speed` m per m/s of mean tread speed.
+pub const K_X_SPEED: usize = GYRO_SCALE + 1;
+/// Index of the centripetal term `k_spread_speed`, s/m: the spread scales
+/// by `1 + k_spread_speed |v|` at mean tread speed `v`.
+pub const K_SPREAD_SPEED: usize = K_X_SPEED + 1;
 
 /// The state vector.
 pub type State = SVector<f64, N>;
@@ -76,13 +89,22 @@ pub fn slip_of(x: &State) -> Slip {
     x.fixed_rows::<5>(SLIP).into_owned()
 }
 
+/// The centripetal terms held in `x`.
+#[inline]
+pub fn centripetal_of(x: &State) -> CentripetalSlopes {
+    CentripetalSlopes {
+        k_x_speed: x[K_X_SPEED],
+        k_spread_speed: x[K_SPREAD_SPEED],
+    }
+}
+
 /// One Euler step of `dt` seconds with tread speeds `u` and turn-law
 /// input `dv` (m/s): the new state (yaw wrapped to `(-pi, pi]`), the twist
 /// used, and the pose rows of `F = df/dx` at `x` (the other rows are the
 /// identity's; the bias decay is the filter's).
 #[inline]
 pub fn step(x: &State, chart: Chart, u: TreadInput, dv: f64, dt: f64) -> (State, Twist, PoseRows) {
-    let (t, j, dk) = chart.twist_with_law(&slip_of(x), x[LAW], dv, u);
+    let (t, j, dk, dc) = chart.twist_with_terms(&slip_of(x), x[LAW], dv, &centripetal_of(x), u);
     let (sn, cs) = (libm::sin(x[YAW]), libm::cos(x[YAW]));
     let mut out = *x;
     out[EAST] += dt * (t.v_x * cs - t.v_y * sn);
@@ -104,6 +126,12 @@ pub fn step(x: &State, chart: Chart, u: TreadInput, dv: f64, dt: f64) -> (State,
         rows[(EAST, SLIP + k)] = dt * (dvx * cs - dvy * sn);
         rows[(NORTH, SLIP + k)] = dt * (dvx * sn + dvy * cs);
         rows[(YAW, SLIP + k)] = dt * dw;
+    }
+    for (c, i) in [K_X_SPEED, K_SPREAD_SPEED].into_iter().enumerate() {
+        let (dvx, dvy, dw) = (dc[(0, c)], dc[(1, c)], dc[(2, c)]);
+        rows[(EAST, i)] = dt * (dvx * cs - dvy * sn);
+        rows[(NORTH, i)] = dt * (dvx * sn + dvy * cs);
+        rows[(YAW, i)] = dt * dw;
     }
     (out, t, rows)
 }
@@ -136,6 +164,8 @@ mod tests {
                 x[NORTH] = -2.0;
                 x[YAW] = yaw;
                 x[LAW] = 0.1;
+                x[K_X_SPEED] = 0.07;
+                x[K_SPREAD_SPEED] = -0.05;
                 x.fixed_rows_mut::<5>(SLIP).copy_from(&chart.from_icr(&p));
                 let dv = (vr - vl).abs();
                 let (_, _, rows) = step(&x, chart, u, dv, dt);

@@ -326,6 +326,8 @@ mod tests {
             },
             turn_law: 0.0,
             turn_law_std: 0.1,
+            centripetal: crate::kinematics::CentripetalSlopes::NONE,
+            centripetal_std: crate::kinematics::CentripetalSlopes::NONE,
         };
         let band = IcrBand {
             min_spread: 0.4,

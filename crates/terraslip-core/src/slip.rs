@@ -23,7 +23,7 @@
 
 use nalgebra::{SMatrix, SVector};
 
-use crate::kinematics::{IcrParams, Twist, MIN_SPREAD};
+use crate::kinematics::{CentripetalSlopes, IcrParams, Twist, MIN_SPREAD};
 
 /// Five slip parameters in a chart's coordinates.
 pub type Slip = SVector<f64, 5>;
@@ -292,30 +292,89 @@ impl Chart {
         (out, d, df)
     }
 
-    /// The body twist under the turn law of slope `k` (s/m) with input `dv`
-    /// (m/s): the spread in effect is `1 + k dv` times the straight-line one
-    /// of `s`. Returns the twist, its derivatives by the parameters and by
-    /// `k`.
-    #[inline]
-    pub fn twist_with_law(
-        self,
-        s: &Slip,
-        k: f64,
-        dv: f64,
-        u: TreadInput,
-    ) -> (Twist, TwistJac, [f64; 3]) {
-        let (f, df_dk) = law_factor(k, dv);
-        let (sf, d, dsf) = self.scale_spread(s, f);
-        let (t, j) = self.twist(&sf, u);
-        let dk = j * dsf * df_dk;
-        (t, j * d, [dk[0], dk[1], dk[2]])
-    }
-
     /// The ICRs in effect under the turn law of slope `k` at input `dv`.
     pub fn to_icr_at(self, s: &Slip, k: f64, dv: f64) -> IcrParams {
         let (f, _) = law_factor(k, dv);
         self.to_icr(&self.scale_spread(s, f).0)
     }
+
+    /// Index (in the chart's five) of `x_c`.
+    pub fn x_c_slot(self) -> usize {
+        match self {
+            Chart::Tread => 2,
+            Chart::Gain => 4,
+        }
+    }
+
+    /// The body twist under the turn law (slope `k`, s/m, input `dv`, m/s)
+    /// and the centripetal terms `c` ([`CentripetalSlopes`]) at tread speeds
+    /// `u`: the spread in effect is `(1 + k dv) (1 + c.k_spread_speed |v|)`
+    /// times the one of `s` (each factor clamped as [`law_factor`]), `x_c`
+    /// is moved by `c.k_x_speed v`, `v = (V_l + V_r) / 2`. Returns the
+    /// twist and its derivatives by the parameters, by `k` and by
+    /// `(c.k_x_speed, c.k_spread_speed)` (columns).
+    #[inline]
+    pub fn twist_with_terms(
+        self,
+        s: &Slip,
+        k: f64,
+        dv: f64,
+        c: &CentripetalSlopes,
+        u: TreadInput,
+    ) -> (Twist, TwistJac, [f64; 3], SMatrix<f64, 3, 2>) {
+        let a = self.with_terms(s, k, dv, c, u);
+        let (t, j) = self.twist(&a.slip, u);
+        let jf = j * a.d_factor;
+        let dk = jf * (a.d_law * a.centripetal);
+        let mut dc = SMatrix::<f64, 3, 2>::zeros();
+        for r in 0..3 {
+            dc[(r, 0)] = j[(r, self.x_c_slot())] * a.speed;
+            dc[(r, 1)] = jf[r] * a.law * a.d_centripetal;
+        }
+        (t, j * a.d_slip, [dk[0], dk[1], dk[2]], dc)
+    }
+
+    /// `s` with the turn law's and the centripetal terms' spread factors
+    /// and `x_c` shift applied, and what their derivatives need.
+    #[inline]
+    pub(crate) fn with_terms(
+        self,
+        s: &Slip,
+        k: f64,
+        dv: f64,
+        c: &CentripetalSlopes,
+        u: TreadInput,
+    ) -> WithTerms {
+        let speed = 0.5 * (u.v_left + u.v_right);
+        let (law, d_law) = law_factor(k, dv);
+        let (centripetal, d_centripetal) = law_factor(c.k_spread_speed, libm::fabs(speed));
+        let (mut slip, d_slip, d_factor) = self.scale_spread(s, law * centripetal);
+        slip[self.x_c_slot()] += c.k_x_speed * speed;
+        WithTerms {
+            slip,
+            d_slip,
+            d_factor,
+            speed,
+            law,
+            d_law,
+            centripetal,
+            d_centripetal,
+        }
+    }
+}
+
+/// [`Chart::with_terms`]: the parameters in effect, their derivatives by
+/// the straight-line ones and by the spread factor, the mean tread speed
+/// (m/s), and each spread factor with its derivative by its slope.
+pub(crate) struct WithTerms {
+    pub(crate) slip: Slip,
+    pub(crate) d_slip: SlipMat,
+    pub(crate) d_factor: Slip,
+    pub(crate) speed: f64,
+    pub(crate) law: f64,
+    pub(crate) d_law: f64,
+    pub(crate) centripetal: f64,
+    pub(crate) d_centripetal: f64,
 }
 
 #[cfg(test)]
@@ -405,6 +464,7 @@ mod tests {
         ) {
             let u = TreadInput { v_left: vl, v_right: vr };
             let dv = (vr - vl).abs();
+            let none = CentripetalSlopes::NONE;
             let (f, _) = law_factor(k, dv);
             let a = Chart::Tread.to_icr_at(&Chart::Tread.from_icr(&p), k, dv);
             let b = Chart::Gain.to_icr_at(&Chart::Gain.from_icr(&p), k, dv);
@@ -414,12 +474,12 @@ mod tests {
             prop_assert!(close(b.alpha_l, p.alpha_l, 1e-12));
             for chart in [Chart::Tread, Chart::Gain] {
                 let s = chart.from_icr(&p);
-                let (t, j, dk) = chart.twist_with_law(&s, k, dv, u);
+                let (t, j, dk, _) = chart.twist_with_terms(&s, k, dv, &none, u);
                 let want = chart.to_icr_at(&s, k, dv).twist(vl, vr);
                 prop_assert!(close(t.omega, want.omega, 1e-9) && close(t.v_x, want.v_x, 1e-9));
                 let h = 1e-6;
-                let (tp, _, _) = chart.twist_with_law(&s, k + h, dv, u);
-                let (tm, _, _) = chart.twist_with_law(&s, k - h, dv, u);
+                let (tp, ..) = chart.twist_with_terms(&s, k + h, dv, &none, u);
+                let (tm, ..) = chart.twist_with_terms(&s, k - h, dv, &none, u);
                 let num = [tp.v_x - tm.v_x, tp.v_y - tm.v_y, tp.omega - tm.omega];
                 for r in 0..3 {
                     prop_assert!((num[r] / (2.0 * h) - dk[r]).abs() < 1e-5, "{chart:?} dk {r}");
@@ -429,8 +489,8 @@ mod tests {
                     let (mut sp, mut sm) = (s, s);
                     sp[c] += hc;
                     sm[c] -= hc;
-                    let (tp, _, _) = chart.twist_with_law(&sp, k, dv, u);
-                    let (tm, _, _) = chart.twist_with_law(&sm, k, dv, u);
+                    let (tp, ..) = chart.twist_with_terms(&sp, k, dv, &none, u);
+                    let (tm, ..) = chart.twist_with_terms(&sm, k, dv, &none, u);
                     let num = [tp.v_x - tm.v_x, tp.v_y - tm.v_y, tp.omega - tm.omega];
                     for r in 0..3 {
                         prop_assert!((num[r] / (2.0 * hc) - j[(r, c)]).abs() < 1e-5, "{chart:?} d{r}/d{c}");

@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use terraslip::pipeline::{self, TerrainEvidence};
 use terraslip::EstimatorConfig;
-use terraslip_calib::prediction::{references, segment_error, PredictionSpec};
+use terraslip_calib::prediction::{references, segment_error, PredictionSpec, Timed};
 use terraslip_calib::segment::accelerations;
 use terraslip_calib::validate::{model_for, stored_offset};
 use terraslip_calib::{calibrate, CalibConfig, ModelChoice, RateSlopes};
@@ -141,22 +141,25 @@ fn online<'a>(
         &TerrainEvidence::None,
         init,
     )?;
-    let rows: Vec<(f64, IcrParams, f64)> = run
-        .rows
-        .iter()
-        .map(|r| (r.t, r.icr(), r.clock_offset))
-        .collect();
+    let rows: Vec<(f64, Timed)> = run.rows.iter().map(|r| (r.t, r.prediction_model)).collect();
     let rows = std::rc::Rc::new(rows);
-    let at = move |rows: &[(f64, IcrParams, f64)], t: f64| {
+    let at = move |rows: &[(f64, Timed)], t: f64| {
         let k = rows.partition_point(|r| r.0 <= t).max(1) - 1;
-        rows[k]
+        rows[k].1
     };
     let rows2 = rows.clone();
+    let acc = accelerations(&target.wheels);
+    let wheels: Vec<f64> = target.wheels.iter().map(|w| w.t).collect();
     Ok(Model {
         name: name.to_string(),
-        // The parameters in effect at the segment's start.
-        twist: Box::new(move |t, w: &WheelSample| at(&rows, t).1.twist(w.v_left, w.v_right)),
-        clock_at: Box::new(move |t| at(&rows2, t).2),
+        // The model in effect at the segment's start, as the estimate's
+        // own `prediction` takes it.
+        twist: Box::new(move |t, w: &WheelSample| {
+            let m = at(&rows, t);
+            let i = wheels.partition_point(|s| *s < w.t).min(acc.len() - 1);
+            m.slopes.twist(&m.params, w.v_left, w.v_right, acc[i])
+        }),
+        clock_at: Box::new(move |t| at(&rows2, t).clock_offset),
     })
 }
 

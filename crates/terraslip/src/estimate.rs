@@ -418,6 +418,15 @@ pub fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) ->
         "clock_offset_s": {"value": est.clock_offset.0, "std": est.clock_offset.1},
         // The spread in effect is (1 + slope |v_r - v_l|) times "icr"'s.
         "turn_law_s_per_m": {"slope": est.turn_law.0, "std": est.turn_law.1},
+        // At mean tread speed v (m/s): x_c moves by k_x_speed v, the spread
+        // scales by 1 + k_spread_speed |v| (on top of the turn law).
+        "centripetal": {
+            "k_x_speed": est.centripetal.0.k_x_speed,
+            "k_spread_speed": est.centripetal.0.k_spread_speed,
+            "std_k_x_speed": est.centripetal.1.k_x_speed,
+            "std_k_spread_speed": est.centripetal.1.k_spread_speed,
+            "learned": est.centripetal.2,
+        },
         // The pose noise the filter ended with, and whether pose.csv stated it.
         "pose_noise": {
             "std_xy_m": est.noise.std_xy,

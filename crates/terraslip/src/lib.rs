@@ -28,19 +28,16 @@ pub use terraslip_calib::prediction::{PredictionScore, PredictionSpec, Timed};
 #[doc(hidden)]
 pub mod testkit;
 
-/// How well the ICRs a run reported at each time (those in effect at that
-/// row) predict the next 2 s of motion from the log's pose reference, read
+/// How well the model a run had at each time (each row's
+/// `prediction_model`: the ICRs at that row's turn with the centripetal
+/// terms) predicts the next 2 s of motion from the log's pose reference, read
 /// with the clock offset the run had learned by then
 /// (`terraslip_calib::prediction`); `None` without a pose reference.
 pub fn prediction_score(
     log: &terraslip_io::DriveLog,
     run: &EstimateRun,
 ) -> Option<PredictionScore> {
-    let timeline: Vec<_> = run
-        .rows
-        .iter()
-        .map(|r| (r.t, Timed::new(r.icr(), r.clock_offset)))
-        .collect();
+    let timeline: Vec<_> = run.rows.iter().map(|r| (r.t, r.prediction_model)).collect();
     prediction_of(log, run.track_width, &timeline)
 }
 

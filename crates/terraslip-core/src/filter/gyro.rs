@@ -34,7 +34,9 @@ use nalgebra::SVector;
 
 use super::history::CAPACITY;
 use super::{finite_mat, Filter, FilterError};
-use crate::model::{slip_of, State, GYRO_BIAS, GYRO_SCALE, N, SLIP, YAW};
+use crate::model::{
+    centripetal_of, slip_of, State, GYRO_BIAS, GYRO_SCALE, K_SPREAD_SPEED, K_X_SPEED, N, SLIP, YAW,
+};
 
 /// Length of a gyro window, s.
 pub const GYRO_WINDOW: f64 = 0.5;
@@ -182,6 +184,7 @@ impl Filter {
             self.cfg.chart,
             &slip_of(&self.x),
             self.x[crate::model::LAW],
+            &centripetal_of(&self.x),
             self.x[YAW],
         );
         // The gyro reads g times the true turn.
@@ -191,6 +194,8 @@ impl Filter {
             H[SLIP + k] = g * m.d_slip[(2, k)];
         }
         H[crate::model::LAW] = g * m.d_yaw_law;
+        H[K_X_SPEED] = g * m.d_centripetal[(2, 0)];
+        H[K_SPREAD_SPEED] = g * m.d_centripetal[(2, 1)];
         H[GYRO_BIAS] = w.span;
         H[GYRO_SCALE] = m.d_yaw;
         let nu = w.angle - (g * m.d_yaw + self.x[GYRO_BIAS] * w.span);

@@ -11,6 +11,7 @@
 
 use nalgebra::SMatrix;
 
+use crate::kinematics::CentripetalSlopes;
 use crate::slip::{Chart, Slip, TreadInput};
 
 /// Steps kept (at 100 Hz, 2.5 s).
@@ -38,6 +39,9 @@ pub(super) struct Motion {
     pub d_slip: SMatrix<f64, 3, 5>,
     /// `d(heading change) / d(turn law slope)`.
     pub d_yaw_law: f64,
+    /// `d(displacement east, north, heading change) / d(k_x_speed,
+    /// k_spread_speed)`.
+    pub d_centripetal: SMatrix<f64, 3, 2>,
 }
 
 #[derive(Debug, Clone)]
@@ -77,8 +81,17 @@ impl History {
     }
 
     /// The motion of the last `lag` seconds with slip parameters `s` in
-    /// `chart`, ending at heading `yaw` (negative lag: extrapolated ahead).
-    pub(super) fn over(&self, lag: f64, chart: Chart, s: &Slip, law: f64, yaw: f64) -> Motion {
+    /// `chart`, turn law slope `law` and centripetal terms `c`, ending at
+    /// heading `yaw` (negative lag: extrapolated ahead).
+    pub(super) fn over(
+        &self,
+        lag: f64,
+        chart: Chart,
+        s: &Slip,
+        law: f64,
+        c: &CentripetalSlopes,
+        yaw: f64,
+    ) -> Motion {
         let newest = if self.len > 0 {
             self.steps[(self.next + CAPACITY - 1) % CAPACITY]
         } else {
@@ -88,7 +101,7 @@ impl History {
         let lag = if lag.is_finite() { lag } else { 0.0 };
         if lag <= 0.0 {
             // Ahead of the newest step: the motion to come, negated.
-            let (t, j, _) = chart.twist_with_law(s, law, newest.dv, newest.u);
+            let (t, j, _, dc) = chart.twist_with_terms(s, law, newest.dv, c, newest.u);
             let (sn, cs) = (libm::sin(yaw), libm::cos(yaw));
             m.v_east = t.v_x * cs - t.v_y * sn;
             m.v_north = t.v_x * sn + t.v_y * cs;
@@ -100,6 +113,11 @@ impl History {
                 m.d_slip[(0, k)] = lag * (j[(0, k)] * cs - j[(1, k)] * sn);
                 m.d_slip[(1, k)] = lag * (j[(0, k)] * sn + j[(1, k)] * cs);
                 m.d_slip[(2, k)] = lag * j[(2, k)];
+            }
+            for k in 0..2 {
+                m.d_centripetal[(0, k)] = lag * (dc[(0, k)] * cs - dc[(1, k)] * sn);
+                m.d_centripetal[(1, k)] = lag * (dc[(0, k)] * sn + dc[(1, k)] * cs);
+                m.d_centripetal[(2, k)] = lag * dc[(2, k)];
             }
             return m;
         }
@@ -118,7 +136,7 @@ impl History {
             last = step;
             let dt = step.dt.min(left);
             left -= dt;
-            let (t, j, dk) = chart.twist_with_law(s, law, step.dv, step.u);
+            let (t, j, dk, dc) = chart.twist_with_terms(s, law, step.dv, c, step.u);
             // Integrated backwards: the heading at the start of this step.
             heading -= dt * t.omega;
             let (sn, cs) = (libm::sin(heading), libm::cos(heading));
@@ -131,6 +149,11 @@ impl History {
                 m.d_slip[(0, k)] += dt * (j[(0, k)] * cs - j[(1, k)] * sn);
                 m.d_slip[(1, k)] += dt * (j[(0, k)] * sn + j[(1, k)] * cs);
                 m.d_slip[(2, k)] += dt * j[(2, k)];
+            }
+            for k in 0..2 {
+                m.d_centripetal[(0, k)] += dt * (dc[(0, k)] * cs - dc[(1, k)] * sn);
+                m.d_centripetal[(1, k)] += dt * (dc[(0, k)] * sn + dc[(1, k)] * cs);
+                m.d_centripetal[(2, k)] += dt * dc[(2, k)];
             }
             m.v_east = ve;
             m.v_north = vn;
@@ -168,16 +191,72 @@ mod tests {
             1.0,
         );
         let yaw = 0.1;
-        let m = h.over(0.2, chart, &s, 0.0, yaw);
+        let none = CentripetalSlopes::NONE;
+        let m = h.over(0.2, chart, &s, 0.0, &none, yaw);
         assert!((m.d_yaw - 0.1).abs() < 1e-12);
         // The straight was driven at heading 0.
         assert!((m.d_east - 0.1).abs() < 1e-12 && m.d_north.abs() < 1e-12);
         assert!((m.v_east - 1.0).abs() < 1e-12 && m.omega == 0.0);
-        let half = h.over(0.05, chart, &s, 0.0, yaw);
+        let half = h.over(0.05, chart, &s, 0.0, &none, yaw);
         assert!((half.d_yaw - 0.05).abs() < 1e-12 && (half.omega - 1.0).abs() < 1e-12);
-        let ahead = h.over(-0.5, chart, &s, 0.0, yaw);
+        let ahead = h.over(-0.5, chart, &s, 0.0, &none, yaw);
         assert!((ahead.d_yaw + 0.5).abs() < 1e-12);
-        let beyond = h.over(1.2, chart, &s, 0.0, yaw);
+        let beyond = h.over(1.2, chart, &s, 0.0, &none, yaw);
         assert!((beyond.d_east - 1.1).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_heading_change_s_centripetal_derivatives_match_central_differences() {
+        for chart in [Chart::Tread, Chart::Gain] {
+            let s = chart.from_icr(&IcrParams::new(0.6, -0.55, 0.05));
+            let mut h = History::new();
+            for (k, (vl, vr)) in [(0.8, 1.2), (-0.4, 0.3), (1.1, 0.2), (-0.6, -0.9)]
+                .into_iter()
+                .enumerate()
+            {
+                for _ in 0..10 {
+                    h.push(
+                        0.02,
+                        TreadInput {
+                            v_left: vl,
+                            v_right: vr,
+                        },
+                        0.1 * k as f64,
+                    );
+                }
+            }
+            let c = CentripetalSlopes {
+                k_x_speed: 0.12,
+                k_spread_speed: -0.08,
+            };
+            for lag in [0.7, -0.3] {
+                let m = h.over(lag, chart, &s, -0.05, &c, 0.3);
+                for k in 0..2 {
+                    let eps = 1e-6;
+                    let (mut cp, mut cm) = (c, c);
+                    if k == 0 {
+                        cp.k_x_speed += eps;
+                        cm.k_x_speed -= eps;
+                    } else {
+                        cp.k_spread_speed += eps;
+                        cm.k_spread_speed -= eps;
+                    }
+                    let (p, q) = (
+                        h.over(lag, chart, &s, -0.05, &cp, 0.3),
+                        h.over(lag, chart, &s, -0.05, &cm, 0.3),
+                    );
+                    let num = (p.d_yaw - q.d_yaw) / (2.0 * eps);
+                    // The heading change exactly; the displacement's rows,
+                    // like `d_slip`'s, hold each step's heading (first order
+                    // in the turn over the lag) and are not compared.
+                    assert!(
+                        (num - m.d_centripetal[(2, k)]).abs() < 1e-6 * (1.0 + num.abs()),
+                        "{chart:?} lag {lag} d_yaw/dc{k}: {} vs {}",
+                        num,
+                        m.d_centripetal[(2, k)]
+                    );
+                }
+            }
+        }
     }
 }

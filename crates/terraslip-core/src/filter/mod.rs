@@ -35,9 +35,10 @@ pub use gyro::{GyroNoise, GYRO_WINDOW};
 
 use nalgebra::SMatrix;
 
-use crate::kinematics::{IcrParams, Twist};
+use crate::kinematics::{CentripetalSlopes, IcrParams, Twist};
 use crate::model::{
-    self, MatN, State, BIAS_E, BIAS_N, CLOCK, EAST, GYRO_BIAS, GYRO_SCALE, LAW, N, NORTH, SLIP, YAW,
+    self, MatN, State, BIAS_E, BIAS_N, CLOCK, EAST, GYRO_BIAS, GYRO_SCALE, K_SPREAD_SPEED,
+    K_X_SPEED, LAW, N, NORTH, SLIP, YAW,
 };
 use crate::slip::{Slip, SlipMat, TreadInput};
 
@@ -138,6 +139,11 @@ pub struct Prior {
     pub turn_law: f64,
     /// Its standard deviation, s/m (0 = held at `turn_law`).
     pub turn_law_std: f64,
+    /// Starting centripetal terms (zero = the constant model).
+    pub centripetal: CentripetalSlopes,
+    /// Their standard deviations, s and s/m (both 0 = held at
+    /// `centripetal`).
+    pub centripetal_std: CentripetalSlopes,
 }
 
 /// Chord of the first position fix to now, for finding the heading when no
@@ -212,6 +218,11 @@ pub struct Filter {
     last_step: (f64, f64, f64),
     /// Gyro windows fused, and of those widened.
     gyro_counts: [u64; 2],
+    /// Whether each centripetal term (`k_x_speed`, `k_spread_speed`) is
+    /// learned: a position reference shows them and the prior gives it
+    /// room; otherwise it is held at its starting value with no
+    /// uncertainty.
+    learn_centripetal: [bool; 2],
 }
 
 type Mat3xN = SMatrix<f64, 3, N>;
@@ -222,6 +233,11 @@ pub const MAX_CLOCK_OFFSET: f64 = 1.0;
 pub const MAX_TURN_LAW: f64 = 1.0;
 /// Largest gyro scale error `|k_g|` the filter accepts.
 pub const MAX_GYRO_SCALE: f64 = 0.2;
+/// Largest centripetal term `|k_x_speed|`, s (`x_c` moves by at most a
+/// metre per m/s).
+pub const MAX_K_X_SPEED: f64 = 1.0;
+/// Largest centripetal term `|k_spread_speed|`, s/m.
+pub const MAX_K_SPREAD_SPEED: f64 = 1.0;
 
 /// Prior weight (fixes' dimensions) of a stated fix std.
 const STATED_WEIGHT: f64 = 2.0;
@@ -264,6 +280,19 @@ impl Filter {
                 "turn law slope must be within +-2 s/m with a finite std",
             ));
         }
+        let (c, c_std) = (prior.centripetal, prior.centripetal_std);
+        if !(c.k_x_speed.abs() <= MAX_K_X_SPEED
+            && c.k_spread_speed.abs() <= MAX_K_SPREAD_SPEED
+            && c_std.k_x_speed.is_finite()
+            && c_std.k_x_speed >= 0.0
+            && c_std.k_spread_speed.is_finite()
+            && c_std.k_spread_speed >= 0.0)
+        {
+            return Err(FilterError::BadInput(
+                "centripetal terms must be within +-1 s (k_x_speed) and +-1 s/m \
+                 (k_spread_speed) with finite stds",
+            ));
+        }
         let chart = cfg.chart;
         let (icr0, _) = band.project(&prior.icr);
         let mut x = State::zeros();
@@ -285,6 +314,24 @@ impl Filter {
         x[GYRO_SCALE] = meas.gyro_scale;
         if !cfg.hold_gyro_scale {
             P[(GYRO_SCALE, GYRO_SCALE)] = meas.gyro_scale_std * meas.gyro_scale_std;
+        }
+        x[K_X_SPEED] = c.k_x_speed;
+        x[K_SPREAD_SPEED] = c.k_spread_speed;
+        let shown = cfg.learn_icr && cfg.hold == SlipHold::Nothing;
+        let learn_centripetal = [
+            c_std.k_x_speed > 0.0 && shown,
+            c_std.k_spread_speed > 0.0 && shown,
+        ];
+        for ((i, sd), learn) in [
+            (K_X_SPEED, c_std.k_x_speed),
+            (K_SPREAD_SPEED, c_std.k_spread_speed),
+        ]
+        .into_iter()
+        .zip(learn_centripetal)
+        {
+            if learn {
+                P[(i, i)] = sd * sd;
+            }
         }
         let q_slip = cfg
             .slip_walk_cov(&icr0)
@@ -328,6 +375,7 @@ impl Filter {
             gyro_win: gyro::GyroWindow::new(),
             last_step: (0.0, 0.0, 0.0),
             gyro_counts: [0; 2],
+            learn_centripetal,
         })
     }
 
@@ -353,20 +401,74 @@ impl Filter {
     }
 
     /// The ICRs in effect at the last step's tread speeds (the turn law
-    /// applied): what the plain ICR model needs to give the filter's twist.
+    /// and the centripetal terms applied): what the plain ICR model needs
+    /// to give the filter's twist.
     pub fn icr_now(&self) -> IcrParams {
+        let chart = self.cfg.chart;
+        chart.to_icr(&self.terms_now().slip)
+    }
+
+    /// The slip parameters in effect at the last step's tread speeds.
+    fn terms_now(&self) -> crate::slip::WithTerms {
+        self.cfg.chart.with_terms(
+            &self.slip(),
+            self.x[LAW],
+            self.law_input,
+            &self.centripetal().0,
+            self.tread,
+        )
+    }
+
+    /// The ICRs at the last step's turn, at rest: the turn law applied,
+    /// not the centripetal terms ([`CentripetalSlopes::at`] applies those
+    /// at a speed).
+    pub fn icr_turn(&self) -> IcrParams {
         self.cfg
             .chart
             .to_icr_at(&self.slip(), self.x[LAW], self.law_input)
     }
 
-    /// Covariance of [`Self::icr_now`] (the law's slope taken as known).
+    /// The centripetal terms (s, s/m) and their stds.
+    pub fn centripetal(&self) -> (CentripetalSlopes, CentripetalSlopes) {
+        let sd = |i: usize| libm::sqrt(self.P[(i, i)].max(0.0));
+        (
+            model::centripetal_of(&self.x),
+            CentripetalSlopes {
+                k_x_speed: sd(K_X_SPEED),
+                k_spread_speed: sd(K_SPREAD_SPEED),
+            },
+        )
+    }
+
+    /// Whether the centripetal terms are learned (a position reference and
+    /// a prior with room for one of them), not held at their starting
+    /// values.
+    pub fn learns_centripetal(&self) -> bool {
+        self.learn_centripetal.contains(&true)
+    }
+
+    /// Covariance of [`Self::icr_now`]: the slip parameters' and the
+    /// centripetal terms' (the law's slope taken as known).
     pub fn icr_now_covariance(&self) -> SlipMat {
         let chart = self.cfg.chart;
-        let (f, _) = crate::slip::law_factor(self.x[LAW], self.law_input);
-        let (sf, d, _) = chart.scale_spread(&self.slip(), f);
-        let c = self.P.fixed_view::<5, 5>(SLIP, SLIP).into_owned();
-        chart.cov_to_icr(&sf, &(d * c * d.transpose()))
+        let a = self.terms_now();
+        // d(parameters in effect) / d(slip parameters, k_x_speed, k_spread_speed).
+        let mut j = SMatrix::<f64, 5, 7>::zeros();
+        j.fixed_view_mut::<5, 5>(0, 0).copy_from(&a.d_slip);
+        j[(chart.x_c_slot(), 5)] = a.speed;
+        j.fixed_view_mut::<5, 1>(0, 6)
+            .copy_from(&(a.d_factor * (a.law * a.d_centripetal)));
+        let idx = [
+            SLIP,
+            SLIP + 1,
+            SLIP + 2,
+            SLIP + 3,
+            SLIP + 4,
+            K_X_SPEED,
+            K_SPREAD_SPEED,
+        ];
+        let c = SMatrix::<f64, 7, 7>::from_fn(|r, k| self.P[(idx[r], idx[k])]);
+        chart.cov_to_icr(&a.slip, &(j * c * j.transpose()))
     }
 
     /// Slope of the turn law and its std, s/m: the spread in effect is
@@ -482,6 +584,8 @@ impl Filter {
         x[LAW] = x[LAW].clamp(-MAX_TURN_LAW, MAX_TURN_LAW);
         x[CLOCK] = x[CLOCK].clamp(-MAX_CLOCK_OFFSET, MAX_CLOCK_OFFSET);
         x[GYRO_SCALE] = x[GYRO_SCALE].clamp(-MAX_GYRO_SCALE, MAX_GYRO_SCALE);
+        x[K_X_SPEED] = x[K_X_SPEED].clamp(-MAX_K_X_SPEED, MAX_K_X_SPEED);
+        x[K_SPREAD_SPEED] = x[K_SPREAD_SPEED].clamp(-MAX_K_SPREAD_SPEED, MAX_K_SPREAD_SPEED);
         moved
     }
 

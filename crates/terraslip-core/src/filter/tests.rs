@@ -6,6 +6,8 @@ use crate::angle;
 use crate::rng::SplitMix64;
 use crate::slip::Chart;
 
+mod centripetal;
+
 fn band(w: f64) -> IcrBand {
     IcrBand {
         min_spread: 0.8 * w,
@@ -28,6 +30,8 @@ fn prior(w: f64) -> Prior {
         },
         turn_law: 0.0,
         turn_law_std: 0.15,
+        centripetal: crate::kinematics::CentripetalSlopes::NONE,
+        centripetal_std: crate::kinematics::CentripetalSlopes::NONE,
     }
 }
 
@@ -67,6 +71,8 @@ struct Drive {
     /// Random constant tread speeds held for 2 s each (the DRIVE
     /// protocol) instead of smooth weaving.
     windows: bool,
+    /// How the true ICRs move with the speed.
+    centripetal: crate::kinematics::CentripetalSlopes,
     seed: u64,
 }
 
@@ -88,6 +94,7 @@ impl Default for Drive {
             delay: 0.0,
             heading: true,
             windows: false,
+            centripetal: crate::kinematics::CentripetalSlopes::NONE,
             seed: 1,
         }
     }
@@ -117,7 +124,7 @@ fn run(f: &mut Filter, d: &Drive) -> ((f64, f64, f64), IcrParams) {
             window = (2.0 * rng.uniform() - 0.5, 2.0 * rng.uniform() - 0.5);
         }
         let (vl, vr) = if d.windows { window } else { treads(t) };
-        let tw = truth.twist(vl, vr);
+        let tw = d.centripetal.at(&truth, vl, vr).twist(vl, vr);
         for _ in 0..10 {
             let h = dt / 10.0;
             e += h * (tw.v_x * libm::cos(yaw) - tw.v_y * libm::sin(yaw));

@@ -24,7 +24,10 @@ use super::{
     Variant,
 };
 use crate::angle;
-use crate::model::{MatN, BIAS_E, BIAS_N, CLOCK, EAST, GYRO_SCALE, LAW, N, NORTH, SLIP, YAW};
+use crate::model::{
+    MatN, BIAS_E, BIAS_N, CLOCK, EAST, GYRO_SCALE, K_SPREAD_SPEED, K_X_SPEED, LAW, N, NORTH, SLIP,
+    YAW,
+};
 
 type MatNx3 = SMatrix<f64, N, 3>;
 
@@ -369,6 +372,7 @@ impl Filter {
             self.cfg.chart,
             &crate::model::slip_of(x),
             x[LAW],
+            &crate::model::centripetal_of(x),
             x[YAW],
         )
     }
@@ -403,6 +407,10 @@ impl Filter {
                     H[(0, SLIP + k)] = -m.d_slip[(0, k)];
                     H[(1, SLIP + k)] = -m.d_slip[(1, k)];
                 }
+                for (k, i) in [K_X_SPEED, K_SPREAD_SPEED].into_iter().enumerate() {
+                    H[(0, i)] = -m.d_centripetal[(0, k)];
+                    H[(1, i)] = -m.d_centripetal[(1, k)];
+                }
             }
         }
         if used[2] {
@@ -411,6 +419,9 @@ impl Filter {
             H[(2, CLOCK)] = -m.omega;
             for k in 0..5 {
                 H[(2, SLIP + k)] = -m.d_slip[(2, k)];
+            }
+            for (k, i) in [K_X_SPEED, K_SPREAD_SPEED].into_iter().enumerate() {
+                H[(2, i)] = -m.d_centripetal[(2, k)];
             }
         }
         (h, H)
@@ -517,6 +528,12 @@ impl Filter {
         }
         frozen[CLOCK] |= self.still || !cfg.learn_clock;
         frozen[GYRO_SCALE] |= cfg.hold_gyro_scale;
+        for (f, learn) in frozen[K_X_SPEED..=K_SPREAD_SPEED]
+            .iter_mut()
+            .zip(self.learn_centripetal)
+        {
+            *f |= self.still || !learn || hold_all;
+        }
         frozen
     }
 

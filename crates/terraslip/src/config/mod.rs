@@ -13,6 +13,7 @@ mod presets;
 
 use serde::{Deserialize, Serialize};
 use terraslip_core::filter::{FilterConfig, IcrBand, MeasurementConfig, Prior, SlipStd};
+use terraslip_core::kinematics::CentripetalSlopes;
 use terraslip_core::schedule::ScheduleConfig;
 use terraslip_core::terrain_belief::BeliefConfig;
 use terraslip_core::IcrParams;
@@ -66,6 +67,16 @@ pub struct InitSection {
     pub turn_law: f64,
     /// Std of the turn law's slope, s/m (0 = held at `turn_law`).
     pub std_turn_law: f64,
+    /// Starting std of the centripetal term `k_x_speed` (starting at 0), s:
+    /// `x_c` moves by `k_x_speed` m per m/s of mean tread speed, a lateral
+    /// slip `-k_x_speed v omega`. Learned only with a position reference;
+    /// 0 = held.
+    pub std_k_x_speed: f64,
+    /// Starting std of the centripetal term `k_spread_speed`, s/m: the
+    /// spread scales by `1 + k_spread_speed |v|` at mean tread speed `v`.
+    /// 0 = held at its starting value (0, or an `--init` file's): learning
+    /// it lost on the family of worlds (docs/benchmarks.md).
+    pub std_k_spread_speed: f64,
 }
 
 /// `[band]`: multiples of the track width W.
@@ -130,6 +141,8 @@ impl Default for InitSection {
             },
             turn_law: 0.0,
             std_turn_law: 0.1,
+            std_k_x_speed: 0.1,
+            std_k_spread_speed: 0.0,
         }
     }
 }
@@ -245,6 +258,8 @@ impl EstimatorConfig {
             ("init.std_alpha", i.std_alpha),
             ("init.std_alpha_diff", i.std_alpha_diff),
             ("init.std_turn_law", i.std_turn_law),
+            ("init.std_k_x_speed", i.std_k_x_speed),
+            ("init.std_k_spread_speed", i.std_k_spread_speed),
             ("schedule.boost_factor", self.schedule.boost_factor),
             ("schedule.memory_min_dwell", self.schedule.memory_min_dwell),
             ("schedule.memory_average", self.schedule.memory_average),
@@ -333,6 +348,11 @@ impl EstimatorConfig {
             },
             turn_law: i.turn_law,
             turn_law_std: i.std_turn_law,
+            centripetal: CentripetalSlopes::NONE,
+            centripetal_std: CentripetalSlopes {
+                k_x_speed: i.std_k_x_speed,
+                k_spread_speed: i.std_k_spread_speed,
+            },
         }
     }
 

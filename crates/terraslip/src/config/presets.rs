@@ -57,6 +57,8 @@ fn papers(q: f64) -> EstimatorConfig {
     i.std_alpha_diff = 1e-6;
     // ... and constant ICRs.
     i.std_turn_law = 0.0;
+    i.std_k_x_speed = 0.0;
+    i.std_k_spread_speed = 0.0;
     c.schedule.reset = false;
     c.schedule.memory = false;
     c

@@ -97,6 +97,10 @@ pub struct EstimateRow {
     pub change: bool,
     /// The pose stream's clock offset in effect, s.
     pub clock_offset: f64,
+    /// What a 2 s prediction from this row takes of the estimate: the ICRs
+    /// at this row's turn, the centripetal terms (applied at each later
+    /// row's speed) and the clock offset.
+    pub prediction_model: terraslip_calib::prediction::Timed,
 }
 
 impl EstimateRow {
@@ -179,6 +183,14 @@ pub struct EstimateRun {
     pub final_icr: IcrParams,
     /// Final turn law slope and its std, s/m.
     pub turn_law: (f64, f64),
+    /// Final centripetal terms (`k_x_speed` s, `k_spread_speed` s/m), their
+    /// stds, and whether they were learned (false: held at their starting
+    /// values, without a position reference or with a zero prior std).
+    pub centripetal: (
+        terraslip_core::kinematics::CentripetalSlopes,
+        terraslip_core::kinematics::CentripetalSlopes,
+        bool,
+    ),
     /// The slip parameters the log's sensors could not teach, held at
     /// their starting values (decided from the log: positions, headings,
     /// gyro).
@@ -521,6 +533,10 @@ fn finish(
         band,
         final_icr: f.icr(),
         turn_law: f.turn_law(),
+        centripetal: {
+            let (c, sd) = f.centripetal();
+            (c, sd, f.learns_centripetal())
+        },
         hold: f.config().hold,
         init_source,
         clock_offset: f.clock_offset(),

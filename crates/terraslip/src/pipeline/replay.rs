@@ -285,7 +285,7 @@ impl<'a> Feed<'a> {
         let summary = estimator.take_fix_summary();
         self.terrain.jump |= summary.change;
         let r = row(estimator, w.t, self.terrain.current, &summary);
-        self.params = Some(Timed::new(r.icr(), r.clock_offset));
+        self.params = Some(r.prediction_model);
         self.totals.prediction.estimate_heading(r.yaw);
         self.totals.rows += 1;
         self.totals.band.add(&r, &self.band);

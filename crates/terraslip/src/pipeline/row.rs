@@ -1,6 +1,7 @@
 //! The estimate after each wheels row, and what the rows of a whole run
 //! reveal (parameters stuck at a physical limit).
 
+use terraslip_calib::prediction::Timed;
 use terraslip_core::estimator::{Estimator, FixSummary};
 use terraslip_core::filter::IcrBand;
 
@@ -48,7 +49,19 @@ pub fn row(est: &Estimator, t: f64, terrain: Option<usize>, s: &FixSummary) -> E
         q_scale: f.schedule_scale(),
         change: s.change,
         clock_offset: f.clock_offset().0,
+        prediction_model: prediction_model(f),
     }
+}
+
+/// What the 2 s prediction from a start takes of the filter: the ICRs at
+/// the start's turn, the centripetal terms applied at each row's speed
+/// over the 2 s, and the pose stream's clock offset (s).
+fn prediction_model(f: &terraslip_core::filter::Filter) -> Timed {
+    let (c, _) = f.centripetal();
+    let mut t = Timed::new(f.icr_turn(), f.clock_offset().0);
+    t.slopes.k_x_speed = c.k_x_speed;
+    t.slopes.k_spread_speed = c.k_spread_speed;
+    t
 }
 
 /// How many rows had a slip parameter on an edge of the physical band,

@@ -3,7 +3,8 @@
 //! estimator built from them.
 
 use terraslip_core::estimator::Estimator;
-use terraslip_core::filter::{Filter, SlipStd};
+use terraslip_core::filter::{Filter, SlipStd, MAX_K_SPREAD_SPEED, MAX_K_X_SPEED};
+use terraslip_core::kinematics::CentripetalSlopes;
 use terraslip_core::schedule::NoiseSchedule;
 use terraslip_core::terrain_belief::MAX_TERRAINS;
 use terraslip_core::IcrParams;
@@ -190,9 +191,17 @@ fn init_gyro_scale(v: &serde_json::Value) -> Result<f64, PipelineError> {
     }
 }
 
+/// Fraction of the configured prior std (`init.std_k_x_speed`,
+/// `init.std_k_spread_speed`) below which a calibration's stated std of a
+/// centripetal term is not taken: the terms differ from drive to drive of
+/// the same ground by more than one calibration's own std.
+const CENTRIPETAL_STD_FLOOR: f64 = 0.25;
+
 /// `prior` started from the `--init` set `name`: its parameters (those of
-/// its turn law when calibration selected one) with their stated stds,
-/// never tighter than `init.calibrated_std`.
+/// its selected turn-rate model, with its centripetal terms, when
+/// calibration selected one) with their stated stds, never tighter than
+/// `init.calibrated_std` (the centripetal terms' never tighter than
+/// [`CENTRIPETAL_STD_FLOOR`] of their prior's).
 fn init_prior(
     cfg: &EstimatorConfig,
     name: &str,
@@ -213,12 +222,10 @@ fn init_prior(
     };
     prior.std = stated(extra.get("std"));
     // A turn law the calibration selected comes with its own
-    // straight-line parameters. One with centripetal terms, which the
-    // filter does not hold, starts it from the constant set instead: its
-    // ICRs at rest are off by `k_x_speed * v` at speed.
+    // straight-line parameters, and its centripetal terms with theirs.
     let law = terraslip_io::RateModelEntry::selected(extra)
         .map_err(|e| PipelineError::Init(format!("set `{name}`: rate_model {e}")))?;
-    if let Some(r) = law.filter(|r| r.k_x_speed == 0.0 && r.k_spread_speed == 0.0) {
+    if let Some(r) = law {
         r.params
             .validate()
             .map_err(|e| PipelineError::Init(format!("set `{name}`: rate_model params: {e}")))?;
@@ -228,12 +235,50 @@ fn init_prior(
                 r.k_spread
             )));
         }
+        let limits = [
+            ("k_x_speed", r.k_x_speed, MAX_K_X_SPEED, "s"),
+            (
+                "k_spread_speed",
+                r.k_spread_speed,
+                MAX_K_SPREAD_SPEED,
+                "s/m",
+            ),
+        ];
+        for (key, v, max, unit) in limits {
+            if v.abs() > max {
+                return Err(PipelineError::Init(format!(
+                    "set `{name}`: rate_model {key} = {v} {unit} is beyond +-{max}"
+                )));
+            }
+        }
         prior.icr = r.params;
         prior.turn_law = r.k_spread;
         // Those parameters' own uncertainty, not the constant
         // model's.
-        let law_std = extra.get("rate_model").and_then(|m| m.get("std"));
-        prior.std = stated(law_std);
+        let model = extra.get("rate_model");
+        prior.std = stated(model.and_then(|m| m.get("std")));
+        if r.k_x_speed != 0.0 || r.k_spread_speed != 0.0 {
+            let c = model.and_then(|m| m.get("centripetal"));
+            let std = |key: &str, prior_std: f64| {
+                c.and_then(|c| c.get(key))
+                    .and_then(|v| v.as_f64())
+                    .filter(|v| v.is_finite() && *v >= 0.0)
+                    .map_or(prior_std, |v| v.max(CENTRIPETAL_STD_FLOOR * prior_std))
+            };
+            prior.centripetal = CentripetalSlopes {
+                k_x_speed: r.k_x_speed,
+                k_spread_speed: r.k_spread_speed,
+            };
+            // A term the configuration holds (its prior std 0) is held at
+            // the calibration's value.
+            let held = |v: f64| if v > 0.0 { Some(v) } else { None };
+            let sd = prior.centripetal_std;
+            prior.centripetal_std = CentripetalSlopes {
+                k_x_speed: held(sd.k_x_speed).map_or(0.0, |v| std("std_k_x_speed", v)),
+                k_spread_speed: held(sd.k_spread_speed)
+                    .map_or(0.0, |v| std("std_k_spread_speed", v)),
+            };
+        }
     }
     Ok(prior)
 }
@@ -314,16 +359,37 @@ mod tests {
     }
 
     #[test]
-    fn a_model_with_centripetal_terms_starts_the_filter_from_the_constant_set() {
-        // The filter holds x_c and the spread constant: the law's ICRs at
-        // rest would be off by k_x_speed * v at speed.
+    fn a_model_with_centripetal_terms_starts_the_filter_from_them() {
         let cfg = EstimatorConfig::default();
         let (p, mut extra) = calibrated_set();
-        extra.get_mut("rate_model").unwrap()["k_x_speed"] = serde_json::json!(0.23);
+        let m = extra.get_mut("rate_model").unwrap();
+        m["k_x_speed"] = serde_json::json!(0.23);
+        m["k_spread_speed"] = serde_json::json!(-0.04);
+        m["centripetal"] = serde_json::json!({
+            "selected": true, "k_x_speed": 0.23, "k_spread_speed": -0.04,
+            "std_k_x_speed": 0.09, "std_k_spread_speed": 0.001,
+        });
         let prior = init_prior(&cfg, "gravel", p, &extra, cfg.prior(1.1)).unwrap();
-        assert_eq!(prior.icr, p);
-        assert_eq!(prior.turn_law, cfg.prior(1.1).turn_law);
-        assert!((prior.std.spread - 0.04f64.hypot(0.04)).abs() < 1e-12);
+        // The selected model's own straight-line ICRs, law and terms.
+        assert_eq!(prior.icr.y_l, 1.36);
+        assert_eq!(prior.turn_law, -0.06);
+        assert_eq!(prior.centripetal.k_x_speed, 0.23);
+        assert_eq!(prior.centripetal.k_spread_speed, -0.04);
+        // The stated std of a learned term, the held one held.
+        assert_eq!(prior.centripetal_std.k_x_speed, 0.09);
+        assert_eq!(prior.centripetal_std.k_spread_speed, 0.0);
+        // Learned, never tighter than the floor.
+        let mut learning = cfg.clone();
+        learning.init.std_k_spread_speed = 0.1;
+        let prior = init_prior(&learning, "gravel", p, &extra, learning.prior(1.1)).unwrap();
+        assert_eq!(
+            prior.centripetal_std.k_spread_speed,
+            CENTRIPETAL_STD_FLOOR * 0.1
+        );
+        // A term beyond the filter's range is refused, naming it.
+        extra.get_mut("rate_model").unwrap()["k_x_speed"] = serde_json::json!(3.0);
+        let err = init_prior(&cfg, "gravel", p, &extra, cfg.prior(1.1)).unwrap_err();
+        assert!(err.to_string().contains("k_x_speed"), "{err}");
     }
 
     #[test]

@@ -99,6 +99,10 @@ struct Figures {
     gyro_scale_err_pct: f64,
     /// Its NEES (NaN where the scale was held: std 0).
     nees_gyro_scale: f64,
+    /// |learned clock offset - the world's| at the end, ms.
+    clock_err_ms: f64,
+    /// Its NEES at the end (NaN where the clock was held: std 0).
+    nees_clock: f64,
 }
 
 /// The world's log as the family runs it: the pose stream on its own
@@ -221,6 +225,12 @@ fn figures(run: &EstimateRun, sim: &SimRun, w: &World) -> Figures {
         nees_gyro_scale: gyro_err
             .filter(|_| run.gyro.scale_std > 0.0)
             .map_or(f64::NAN, |e| (e / run.gyro.scale_std).powi(2)),
+        clock_err_ms: 1000.0 * (run.clock_offset.0 - w.clock_offset).abs(),
+        nees_clock: if run.clock_offset.1 > 0.0 {
+            ((run.clock_offset.0 - w.clock_offset) / run.clock_offset.1).powi(2)
+        } else {
+            f64::NAN
+        },
     }
 }
 
@@ -412,6 +422,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         {
             println!("  NEES {part:12} (1 dof)   {}", of(&|f| f.nees[k]));
         }
+        println!("  clock offset error, ms     {}", of(&|f| f.clock_err_ms));
+        println!("  NEES clock        (1 dof)   {}", of(&|f| f.nees_clock));
         if a.gyro || a.gyro_scale > 0.0 {
             println!(
                 "  gyro scale error, %        {}",

@@ -189,9 +189,10 @@ pub struct FilterConfig {
     pub variant: Variant,
     /// Innovations averaged by the innovation-adaptive gain, fixes (1..=64).
     pub innovation_window: usize,
-    /// Gauss-Newton iterations of each update (1 = the plain EKF): an
-    /// iterated update re-linearises the fix's prediction (the motion over
-    /// the clock offset, the heading) at the corrected state.
+    /// Gauss-Newton iterations of each update over the clock offset (1 =
+    /// the plain EKF): an iterated update re-evaluates the motion over the
+    /// fix's lag at the corrected offset; the rest of the prediction stays
+    /// linear about the prior.
     pub update_iterations: usize,
     /// Coordinates of the slip parameters inside the filter: `gain`
     /// (default: turning gain a/d, heading drift per metre, speed factor,

@@ -290,7 +290,15 @@ impl Filter {
             return Ok(report);
         }
 
-        // Iterated update: x_{i+1} = x + K_i (z - h(x_i) - H_i (x - x_i)).
+        // Iterated over the clock offset: x_{i+1} = x + K_i (z - h(x_i) -
+        // H_i (x - x_i)), with x_i the prior but for the iterate's clock.
+        // The motion of the lag is re-evaluated at the offset found (its
+        // turns, its speed changes) and everything else stays linear about
+        // the prior: re-evaluated at the iterate's heading too, the product
+        // (heading step) x (clock step) would explain part of each
+        // cross-track residual, and as the heading step follows that
+        // residual, the product has one sign and the offset drifts negative
+        // fix after fix.
         let used = [use_pos, use_pos, use_yaw];
         let iterations = match self.cfg.variant {
             Variant::Ekf => self.cfg.update_iterations,
@@ -300,10 +308,12 @@ impl Filter {
         let mut xi = self.x;
         let mut last = None;
         for it in 0..iterations {
-            let (hi, Hi) = self.measure(&xi, lag, used);
+            let mut at = self.x;
+            at[CLOCK] = xi[CLOCK];
+            let (hi, Hi) = self.measure(&at, lag, used);
             let (HPi, Si) = self.innovation_cov(&Hi, &r, used);
-            let mut dx = self.x - xi;
-            dx[YAW] = angle::wrap(dx[YAW]);
+            let mut dx = crate::model::State::zeros();
+            dx[CLOCK] = self.x[CLOCK] - at[CLOCK];
             let ri = innovation(&z, &hi, used) - Hi * dx;
             let gain_S = match self.cfg.variant {
                 Variant::InnovationAdaptive => {

@@ -42,6 +42,9 @@ const MIN_STD_YAW: f64 = 0.001;
 
 /// Measured dimensions behind the noise belief before the gates apply.
 const GATE_WARMUP: f64 = 2.0;
+/// Heading 1-sigma (rad, about 11°) below which the iterated fix update holds the
+/// heading at its prior and iterates the clock offset alone.
+const HEADING_KNOWN_RAD: f64 = 0.2;
 
 /// Fixes of each kind before the slip-change detector trusts the learned
 /// noise enough to test (the noise scale must have settled first).
@@ -305,15 +308,24 @@ impl Filter {
             // The papers' gain is not a Gauss-Newton step.
             Variant::InnovationAdaptive => 1,
         };
+        // Until the heading is known to a few degrees its linearisation is
+        // poor and every state is iterated; after, the heading stays at the
+        // prior and only the clock is.
+        let heading_known = self.P[(YAW, YAW)] <= HEADING_KNOWN_RAD * HEADING_KNOWN_RAD;
         let mut xi = self.x;
         let mut last = None;
         for it in 0..iterations {
-            let mut at = self.x;
-            at[CLOCK] = xi[CLOCK];
+            let at = if heading_known {
+                let mut at = self.x;
+                at[CLOCK] = xi[CLOCK];
+                at
+            } else {
+                xi
+            };
             let (hi, Hi) = self.measure(&at, lag, used);
             let (HPi, Si) = self.innovation_cov(&Hi, &r, used);
-            let mut dx = crate::model::State::zeros();
-            dx[CLOCK] = self.x[CLOCK] - at[CLOCK];
+            let mut dx = self.x - at;
+            dx[YAW] = angle::wrap(dx[YAW]);
             let ri = innovation(&z, &hi, used) - Hi * dx;
             let gain_S = match self.cfg.variant {
                 Variant::InnovationAdaptive => {

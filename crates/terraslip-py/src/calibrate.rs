@@ -89,16 +89,8 @@ pub fn validate<'py>(
         };
         let (logs, _bags) = split(read_logs(py, logs, &topics_arg(topics)?)?);
         let v = detached(py, move || {
-            if logs.iter().all(terraslip_calib::track::position_only) {
-                let o = terraslip_calib::validate::stored_offset(&params).unwrap_or(0.0);
-                let s = terraslip::validation::position_only(&logs, &params, &vec![o; logs.len()])
-                    .context("validation failed")?;
-                return Ok(s.to_json());
-            }
             let cfg = terraslip_calib::ValidateConfig::default();
-            let v = terraslip_calib::validate(&logs, &params, &cfg).context("validation failed")?;
-            let prediction = terraslip::validation::prediction_at(&logs, &params, &v.offsets);
-            Ok(terraslip::validation::to_json(&v, prediction.as_ref()))
+            Ok(terraslip::validation::score(&logs, &params, &cfg)?.to_json())
         })?;
         from_json(py, &v)
     })

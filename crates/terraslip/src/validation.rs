@@ -1,10 +1,72 @@
 //! `terraslip calibrate validate` as values: the 2 s prediction score of a
 //! parameters file and the JSON object `--json` prints.
 
+use anyhow::Context;
 use terraslip_calib::prediction::{score_timed, PredictionScore, Timed};
-use terraslip_calib::validate::{model_for, stored_offset};
-use terraslip_calib::{ModelChoice, Mse, Validation};
+use terraslip_calib::validate::{model_for, stored_offset, OffsetChoice};
+use terraslip_calib::{ModelChoice, Mse, ValidateConfig, Validation};
 use terraslip_io::{DriveLog, ParamsFile};
+
+/// What `calibrate validate` scores on a set of logs.
+#[derive(Debug, Clone)]
+pub enum Scores {
+    /// Logs with a heading reference: the segment scores, and the 2 s
+    /// prediction with the same time offsets (`None` when a log lacks a
+    /// track width or a pose reference).
+    Segments {
+        validation: Box<Validation>,
+        prediction: Option<PredictionScore>,
+    },
+    /// Logs whose reference is position-only (GNSS fixes, no heading):
+    /// the 2 s prediction alone ([`position_only`]).
+    PositionOnly(PositionOnlyScore),
+}
+
+impl Scores {
+    /// What `calibrate validate --json` prints.
+    pub fn to_json(&self) -> serde_json::Value {
+        match self {
+            Scores::Segments {
+                validation,
+                prediction,
+            } => to_json(validation, prediction.as_ref()),
+            Scores::PositionOnly(s) => s.to_json(),
+        }
+    }
+}
+
+/// `calibrate validate`: scores `params` on `logs` as `cfg` asks. When
+/// every log's reference is position-only the segment scores are not
+/// made (they need headings) and the 2 s prediction is scored with the
+/// start heading profiled out; `cfg.time_offset` must then be the file's
+/// offset or a fixed one (`auto` regresses heading changes).
+pub fn score(
+    logs: &[DriveLog],
+    params: &ParamsFile,
+    cfg: &ValidateConfig,
+) -> anyhow::Result<Scores> {
+    if !logs.is_empty() && logs.iter().all(terraslip_calib::track::position_only) {
+        let offset = match cfg.time_offset {
+            OffsetChoice::FromParams => stored_offset(params).unwrap_or(0.0),
+            OffsetChoice::Fixed(o) => o,
+            OffsetChoice::Auto { .. } => anyhow::bail!(
+                "--time-offset auto regresses heading changes, which a position-only reference \
+                 (no heading) does not have: give `params` (the offset calibrate found) or seconds"
+            ),
+        };
+        return Ok(Scores::PositionOnly(position_only(
+            logs,
+            params,
+            &vec![offset; logs.len()],
+        )?));
+    }
+    let v = terraslip_calib::validate(logs, params, cfg).context("validation failed")?;
+    let prediction = prediction_at(logs, params, &v.offsets);
+    Ok(Scores::Segments {
+        validation: Box::new(v),
+        prediction,
+    })
+}
 
 /// The 2 s prediction score of `params` over all `logs` together, each log
 /// read with the file's `time_offset_s` (0 without one); `None` when a log
@@ -105,7 +167,6 @@ pub fn position_only(
     params: &ParamsFile,
     offsets: &[f64],
 ) -> anyhow::Result<PositionOnlyScore> {
-    use anyhow::Context;
     let p = params.for_terrain(None).context(
         "a position-only reference is scored with the file's pooled parameter set \
          (`params`), and this file has only terrain sets",

@@ -91,15 +91,18 @@ fn the_husky_bag_yields_a_controller_file_with_no_topics_file() {
     );
     // `calibrate validate` on the position-only bag: the 2 s prediction,
     // start headings profiled out, stated in the output.
-    let o = Command::cargo_bin("terraslip")
-        .unwrap()
-        .args(["calibrate", "validate"])
-        .arg(&bag)
-        .arg("--params")
-        .arg(a.join("params.json"))
-        .arg("--json")
-        .output()
-        .unwrap();
+    let validate = |extra: &[&str]| {
+        Command::cargo_bin("terraslip")
+            .unwrap()
+            .args(["calibrate", "validate"])
+            .arg(&bag)
+            .arg("--params")
+            .arg(a.join("params.json"))
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let o = validate(&["--json"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let p = &v["prediction"];
@@ -113,4 +116,23 @@ fn the_husky_bag_yields_a_controller_file_with_no_topics_file() {
         p["no_slip"]["mean_m"].as_f64().unwrap(),
     );
     assert!(m > 0.0 && m <= n * 1.01, "{v}");
+    // What needs headings is refused with the reason, before any output.
+    for (flag, value, reason) in [
+        (
+            "--time-offset",
+            "auto".to_string(),
+            "regresses heading changes",
+        ),
+        (
+            "--plot",
+            a.join("v.svg").display().to_string(),
+            "draws segment scores",
+        ),
+    ] {
+        let o = validate(&[flag, &value]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(reason), "{flag}: {err}");
+        assert!(o.stdout.is_empty());
+    }
+    assert!(!a.join("v.svg").exists());
 }

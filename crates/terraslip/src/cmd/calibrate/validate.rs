@@ -5,8 +5,8 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use terraslip_calib::validate::stored_offset;
-use terraslip_calib::{validate, ModelChoice, OffsetChoice, ValidateConfig, Validation};
+use terraslip::validation::Scores;
+use terraslip_calib::{ModelChoice, ValidateConfig, Validation};
 use terraslip_io::ParamsFile;
 use terraslip_report::{Figure, LinePlot, Series, SeriesStyle};
 
@@ -69,10 +69,18 @@ pub(super) fn run(a: ValidateArgs) -> anyhow::Result<()> {
         },
     };
     let logs = read_logs(&a.logs)?;
-    if logs.iter().all(terraslip_calib::track::position_only) {
-        return position_only(&a, &logs, &params, &cfg);
+    if a.plot.is_some() && logs.iter().all(terraslip_calib::track::position_only) {
+        anyhow::bail!(
+            "--plot draws segment scores, which a position-only reference (no heading) does not give"
+        );
     }
-    let v = validate(&logs, &params, &cfg).context("validation failed")?;
+    let (v, prediction) = match terraslip::validation::score(&logs, &params, &cfg)? {
+        Scores::PositionOnly(s) => return position_only(&a, &s),
+        Scores::Segments {
+            validation,
+            prediction,
+        } => (*validation, prediction),
+    };
     let ratio = |n: f64, c: f64| if c > 0.0 { n / c } else { f64::INFINITY };
     eprintln!(
         "{} segments ({} stationary skipped, {} implausible references dropped, {} held and {} mistimed poses dropped, {} without parameters); time offset {}",
@@ -124,7 +132,6 @@ pub(super) fn run(a: ValidateArgs) -> anyhow::Result<()> {
     // The 2 s prediction error, as `estimate` reports it: the model of the
     // terrain in effect (or the pooled set) over each 2 s, with the time
     // offsets the scores above used.
-    let prediction = terraslip::validation::prediction_at(&logs, &params, &v.offsets);
     if let Some(p) = &prediction {
         eprintln!(
             "  2 s prediction: {} segments, mean {:.3} m (no-slip {:.3} m), p90 {:.3} m",
@@ -151,25 +158,9 @@ pub(super) fn run(a: ValidateArgs) -> anyhow::Result<()> {
 /// and position profiled out, nothing per segment.
 fn position_only(
     a: &ValidateArgs,
-    logs: &[terraslip_io::DriveLog],
-    params: &ParamsFile,
-    cfg: &ValidateConfig,
+    s: &terraslip::validation::PositionOnlyScore,
 ) -> anyhow::Result<()> {
-    if a.plot.is_some() {
-        anyhow::bail!(
-            "--plot draws segment scores, which a position-only reference (no heading) does not give"
-        );
-    }
-    let offset = match cfg.time_offset {
-        OffsetChoice::FromParams => stored_offset(params).unwrap_or(0.0),
-        OffsetChoice::Fixed(o) => o,
-        OffsetChoice::Auto { .. } => anyhow::bail!(
-            "--time-offset auto regresses heading changes, which a position-only reference \
-             (no heading) does not have: give `params` (the offset calibrate found) or seconds"
-        ),
-    };
-    let s = terraslip::validation::position_only(logs, params, &vec![offset; logs.len()])
-        .context("validation failed")?;
+    let offset = s.offsets.first().copied().unwrap_or(0.0);
     let p = &s.prediction;
     eprintln!(
         "position-only reference (no heading): no segment scores (they need headings); time offset {offset:+.3} s"

@@ -247,13 +247,16 @@ fn score(target: &DriveLog, models: &[Model], from: f64, to: f64) -> (Vec<f64>, 
     (m, n)
 }
 
+/// Each scored start's time (s) and each model's error there (m).
+type Segments = Vec<(f64, Vec<f64>)>;
+
 /// [`score`] and each scored start's time and errors (m).
 fn score_segments(
     target: &DriveLog,
     models: &[Model],
     from: f64,
     to: f64,
-) -> (Vec<f64>, usize, Vec<(f64, Vec<f64>)>) {
+) -> (Vec<f64>, usize, Segments) {
     let mut segs = Vec::new();
     let refs = references(&target.pose);
     let spec = PredictionSpec::default();

@@ -1,17 +1,8 @@
 //! The speed factors' turn law learned online: treads that lose speed in
 //! a turn, driven in DRIVE's 2 s command windows.
 
+use super::centripetal::filter;
 use super::*;
-
-fn filter(prior: &Prior) -> Filter {
-    Filter::new(
-        prior,
-        FilterConfig::default(),
-        MeasurementConfig::default(),
-        band(0.5),
-    )
-    .unwrap()
-}
 
 /// Mean 2 s position error of the filter's model against the truth
 /// (`truth` straight-line, speed factors scaled by `1 + law |dv|`) over

@@ -44,6 +44,10 @@ pub struct Args {
     /// errors to DIR/NAME.csv.
     #[arg(long, value_name = "DIR")]
     diagnose: Option<PathBuf>,
+    /// Also score the online estimator with these configurations (a preset
+    /// or `config:FILE.toml`; repeatable), each run like the default.
+    #[arg(long = "estimator", value_name = "NAME")]
+    estimators: Vec<String>,
 }
 
 /// A twist of a wheels row for a segment starting at `t` (s).
@@ -148,15 +152,11 @@ enum Pick {
 /// and clock offset in effect at each start.
 fn online_picks<'a>(
     target: &DriveLog,
+    cfg: &EstimatorConfig,
     init: Option<&ParamsFile>,
     picks: &[(String, Pick)],
 ) -> anyhow::Result<Vec<Model<'a>>> {
-    let run = pipeline::run(
-        target,
-        &EstimatorConfig::default(),
-        &TerrainEvidence::None,
-        init,
-    )?;
+    let run = pipeline::run(target, cfg, &TerrainEvidence::None, init)?;
     let ts: std::rc::Rc<Vec<f64>> = std::rc::Rc::new(run.rows.iter().map(|r| r.t).collect());
     let start: Vec<Timed> = run.rows.iter().map(|r| r.prediction_model).collect();
     // Prefix sums of the models' values, for the means.
@@ -237,7 +237,12 @@ fn online<'a>(
     init: Option<&ParamsFile>,
     name: &str,
 ) -> anyhow::Result<Model<'a>> {
-    let mut m = online_picks(target, init, &[(name.to_string(), Pick::Start)])?;
+    let mut m = online_picks(
+        target,
+        &EstimatorConfig::default(),
+        init,
+        &[(name.to_string(), Pick::Start)],
+    )?;
     m.pop().context("no model")
 }
 
@@ -334,6 +339,7 @@ fn row(
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let logs = crate::drives::logs_or_default(&a.logs)?;
+    let extra = crate::estimators::resolve(&a.estimators)?;
     let spec = PredictionSpec::default();
     let mut table = Vec::new();
     eprintln!("first half -> second half");
@@ -366,7 +372,20 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 ("mean 60 s".to_string(), Pick::Mean(60.0)),
                 ("calibrate's clock".to_string(), Pick::Clock(cal_clock)),
             ];
-            models.extend(online_picks(&log, None, &picks)?);
+            models.extend(online_picks(
+                &log,
+                &EstimatorConfig::default(),
+                None,
+                &picks,
+            )?);
+        }
+        for (name, cfg) in &extra {
+            models.extend(online_picks(
+                &log,
+                cfg,
+                None,
+                &[(format!("online {name}"), Pick::Start)],
+            )?);
         }
         let (cols, n) = row(&log, &models, mid, t1 + 1.0 - spec.horizon);
         if let Some(out) = &a.diagnose {
@@ -425,6 +444,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             constant,
             selected,
         ];
+        let mut models = models.into_iter().collect::<Vec<_>>();
+        for (name, cfg) in &extra {
+            models.extend(online_picks(
+                &to_log,
+                cfg,
+                None,
+                &[(format!("online {name}"), Pick::Start)],
+            )?);
+        }
         let (cols, n) = row(
             &to_log,
             &models,

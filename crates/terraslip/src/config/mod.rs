@@ -149,7 +149,7 @@ impl Default for InitSection {
             std_turn_law: 0.1,
             std_k_x_speed: 0.1,
             std_k_spread_speed: 0.0,
-            std_speed_law: 0.05,
+            std_speed_law: 0.02,
         }
     }
 }

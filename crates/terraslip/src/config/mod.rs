@@ -77,8 +77,7 @@ pub struct InitSection {
     /// 0 = held at its starting value (0, or an `--init` file's): learning
     /// it lost on the family of worlds (docs/benchmarks.md).
     pub std_k_spread_speed: f64,
-    /// Starting std of the speed factors' turn law (starting at 0, or an
-    /// `--init` file's `k_alpha`), s/m: both speed factors in effect are
+    /// Starting std of the speed factors' turn law (starting at 0), s/m: both speed factors in effect are
     /// `1 + slope |V_r - V_l|` times the straight-line ones (negative: the
     /// treads lose speed in a turn). Learned only with a position
     /// reference; 0 = held.

@@ -3,7 +3,7 @@
 //! estimator built from them.
 
 use terraslip_core::estimator::Estimator;
-use terraslip_core::filter::{Filter, SlipStd, MAX_K_SPREAD_SPEED, MAX_K_X_SPEED, MAX_TURN_LAW};
+use terraslip_core::filter::{Filter, SlipStd, MAX_K_SPREAD_SPEED, MAX_K_X_SPEED};
 use terraslip_core::kinematics::CentripetalSlopes;
 use terraslip_core::schedule::NoiseSchedule;
 use terraslip_core::terrain_belief::MAX_TERRAINS;
@@ -253,7 +253,6 @@ fn init_prior(
         }
         prior.icr = r.params;
         prior.turn_law = r.k_spread;
-        prior.speed_law = r.k_alpha.clamp(-MAX_TURN_LAW, MAX_TURN_LAW);
         // Those parameters' own uncertainty, not the constant
         // model's.
         let model = extra.get("rate_model");

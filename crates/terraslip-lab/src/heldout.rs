@@ -246,6 +246,19 @@ fn online<'a>(
     m.pop().context("no model")
 }
 
+/// The online estimator over `target` with each named configuration.
+fn online_configs<'a>(
+    target: &DriveLog,
+    configs: &[(String, EstimatorConfig)],
+) -> anyhow::Result<Vec<Model<'a>>> {
+    let mut out = Vec::new();
+    for (name, cfg) in configs {
+        let picks = [(format!("online {name}"), Pick::Start)];
+        out.extend(online_picks(target, cfg, None, &picks)?);
+    }
+    Ok(out)
+}
+
 /// Mean error of each model on the starts every model can score.
 fn score(target: &DriveLog, models: &[Model], from: f64, to: f64) -> (Vec<f64>, usize) {
     let (m, n, _) = score_segments(target, models, from, to);
@@ -379,14 +392,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 &picks,
             )?);
         }
-        for (name, cfg) in &extra {
-            models.extend(online_picks(
-                &log,
-                cfg,
-                None,
-                &[(format!("online {name}"), Pick::Start)],
-            )?);
-        }
+        models.extend(online_configs(&log, &extra)?);
         let (cols, n) = row(&log, &models, mid, t1 + 1.0 - spec.horizon);
         if let Some(out) = &a.diagnose {
             let (_, _, segs) = score_segments(&log, &models, mid, t1 + 1.0 - spec.horizon);
@@ -437,22 +443,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let pf = cal.params_file();
         let acc = accelerations(&to_log.wheels);
         let [selected, constant] = calibrated(&pf, &to_log, &acc)?;
-        let models = [
+        let mut models = vec![
             drive_model(blr),
             online(&to_log, None, "online default")?,
             online(&to_log, Some(&pf), "online --init")?,
             constant,
             selected,
         ];
-        let mut models = models.into_iter().collect::<Vec<_>>();
-        for (name, cfg) in &extra {
-            models.extend(online_picks(
-                &to_log,
-                cfg,
-                None,
-                &[(format!("online {name}"), Pick::Start)],
-            )?);
-        }
+        models.extend(online_configs(&to_log, &extra)?);
         let (cols, n) = row(
             &to_log,
             &models,

@@ -23,6 +23,8 @@ fn filter(cfg: FilterConfig) -> Filter {
         turn_law_std: 0.1,
         centripetal: terraslip_core::kinematics::CentripetalSlopes::NONE,
         centripetal_std: terraslip_core::kinematics::CentripetalSlopes::NONE,
+        speed_law: 0.0,
+        speed_law_std: 0.0,
     };
     let band = IcrBand {
         min_spread: 0.2,

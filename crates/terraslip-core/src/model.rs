@@ -1,7 +1,7 @@
 //! The filter's state and its process model.
 //!
 //! State `x = [east, north, yaw, s0..s4, law, clock, bias_e, bias_n, gyro_bias, gyro_scale,
-//! k_x_speed, k_spread_speed]`:
+//! k_x_speed, k_spread_speed, speed_law]`:
 //!
 //! * world ENU position (m) and yaw (rad, counter-clockwise from east) of
 //!   the body frame, on the wheels' clock;
@@ -24,7 +24,11 @@
 //!   the mean measured tread speed, `x_c` moves by `k_x_speed v` (a lateral
 //!   slip `-k_x_speed v omega`, outward in a turn when positive) and the
 //!   spread scales by `1 + k_spread_speed |v|` about the ICR centre (a yaw
-//!   slip growing with `v omega`), on top of the turn law.
+//!   slip growing with `v omega`), on top of the turn law;
+//! * `speed_law` (s/m): the speed factors' turn law, both speed factors in
+//!   effect being `1 + speed_law |V_r - V_l|` times the straight-line ones
+//!   (clamped as the turn law; the treads lose speed in a turn). The whole
+//!   twist scales by that factor ([`twist_at`]).
 //!
 //! One Euler step of length `dt` with the body twist `(v_x, v_y, omega)` of
 //! [`Chart::twist_with_terms`]:
@@ -47,7 +51,7 @@ use crate::kinematics::{CentripetalSlopes, Twist};
 use crate::slip::{Chart, Slip, TreadInput};
 
 /// Dimension of the state.
-pub const N: usize = K_SPREAD_SPEED + 1;
+pub const N: usize = SPEED_LAW + 1;
 /// Index of east, m.
 pub const EAST: usize = 0;
 /// Index of north, m.
@@ -75,6 +79,10 @@ pub const K_X_SPEED: usize = GYRO_SCALE + 1;
 /// Index of the centripetal term `k_spread_speed`, s/m: the spread scales
 /// by `1 + k_spread_speed |v|` at mean tread speed `v`.
 pub const K_SPREAD_SPEED: usize = K_X_SPEED + 1;
+/// Index of the speed factors' turn law, s/m: both speed factors in effect
+/// are `1 + speed_law dv` times the straight-line ones, `dv` the turn law's
+/// input (the treads lose speed in a turn).
+pub const SPEED_LAW: usize = K_SPREAD_SPEED + 1;
 
 /// The state vector.
 pub type State = SVector<f64, N>;
@@ -98,13 +106,53 @@ pub fn centripetal_of(x: &State) -> CentripetalSlopes {
     }
 }
 
+/// The twist of `x` at tread speeds `u` and turn-law input `dv` (m/s), with
+/// its derivatives by the slip parameters, by the turn law and by the
+/// terms `(k_x_speed, k_spread_speed, speed_law)` (columns): the ICR twist
+/// is linear in the two tread speeds as the ground takes them up, so the
+/// speed law's factor scales all of it.
+#[inline]
+pub fn twist_at(
+    x: &State,
+    chart: Chart,
+    u: TreadInput,
+    dv: f64,
+) -> (Twist, crate::slip::TwistJac, [f64; 3], SMatrix<f64, 3, 3>) {
+    let parts = chart.twist_with_terms(&slip_of(x), x[LAW], dv, &centripetal_of(x), u);
+    with_speed_law(parts, x[SPEED_LAW], dv)
+}
+
+/// The twist of [`Chart::twist_with_terms`] and its derivatives (`parts`)
+/// under the speed factors' turn law of slope `k` (s/m) at input `dv`
+/// (m/s): [`twist_at`]'s.
+#[inline]
+pub fn with_speed_law(
+    parts: (Twist, crate::slip::TwistJac, [f64; 3], SMatrix<f64, 3, 2>),
+    k: f64,
+    dv: f64,
+) -> (Twist, crate::slip::TwistJac, [f64; 3], SMatrix<f64, 3, 3>) {
+    let (t, j, dk, dc) = parts;
+    let (f, d_f) = crate::slip::law_factor(k, dv);
+    let mut d_terms = SMatrix::<f64, 3, 3>::zeros();
+    d_terms.fixed_view_mut::<3, 2>(0, 0).copy_from(&(dc * f));
+    d_terms[(0, 2)] = d_f * t.v_x;
+    d_terms[(1, 2)] = d_f * t.v_y;
+    d_terms[(2, 2)] = d_f * t.omega;
+    let scaled = Twist {
+        v_x: f * t.v_x,
+        v_y: f * t.v_y,
+        omega: f * t.omega,
+    };
+    (scaled, j * f, [f * dk[0], f * dk[1], f * dk[2]], d_terms)
+}
+
 /// One Euler step of `dt` seconds with tread speeds `u` and turn-law
 /// input `dv` (m/s): the new state (yaw wrapped to `(-pi, pi]`), the twist
 /// used, and the pose rows of `F = df/dx` at `x` (the other rows are the
 /// identity's; the bias decay is the filter's).
 #[inline]
 pub fn step(x: &State, chart: Chart, u: TreadInput, dv: f64, dt: f64) -> (State, Twist, PoseRows) {
-    let (t, j, dk, dc) = chart.twist_with_terms(&slip_of(x), x[LAW], dv, &centripetal_of(x), u);
+    let (t, j, dk, dc) = twist_at(x, chart, u, dv);
     let (sn, cs) = (libm::sin(x[YAW]), libm::cos(x[YAW]));
     let mut out = *x;
     out[EAST] += dt * (t.v_x * cs - t.v_y * sn);
@@ -127,7 +175,10 @@ pub fn step(x: &State, chart: Chart, u: TreadInput, dv: f64, dt: f64) -> (State,
         rows[(NORTH, SLIP + k)] = dt * (dvx * sn + dvy * cs);
         rows[(YAW, SLIP + k)] = dt * dw;
     }
-    for (c, i) in [K_X_SPEED, K_SPREAD_SPEED].into_iter().enumerate() {
+    for (c, i) in [K_X_SPEED, K_SPREAD_SPEED, SPEED_LAW]
+        .into_iter()
+        .enumerate()
+    {
         let (dvx, dvy, dw) = (dc[(0, c)], dc[(1, c)], dc[(2, c)]);
         rows[(EAST, i)] = dt * (dvx * cs - dvy * sn);
         rows[(NORTH, i)] = dt * (dvx * sn + dvy * cs);
@@ -166,6 +217,7 @@ mod tests {
                 x[LAW] = 0.1;
                 x[K_X_SPEED] = 0.07;
                 x[K_SPREAD_SPEED] = -0.05;
+                x[SPEED_LAW] = -0.04;
                 x.fixed_rows_mut::<5>(SLIP).copy_from(&chart.from_icr(&p));
                 let dv = (vr - vl).abs();
                 let (_, _, rows) = step(&x, chart, u, dv, dt);

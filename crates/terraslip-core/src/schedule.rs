@@ -328,6 +328,8 @@ mod tests {
             turn_law_std: 0.1,
             centripetal: crate::kinematics::CentripetalSlopes::NONE,
             centripetal_std: crate::kinematics::CentripetalSlopes::NONE,
+            speed_law: 0.0,
+            speed_law_std: 0.0,
         };
         let band = IcrBand {
             min_spread: 0.4,

@@ -39,6 +39,15 @@ pub struct Args {
     /// repeatable).
     #[arg(long, value_name = "A:B")]
     across: Vec<String>,
+    /// Also score variants of the online model (its parameters averaged
+    /// over the last 5, 20, 60 s; `calibrate`'s clock offset) and write each drive's per-segment
+    /// errors to DIR/NAME.csv.
+    #[arg(long, value_name = "DIR")]
+    diagnose: Option<PathBuf>,
+    /// Also score the online estimator with these configurations (a preset
+    /// or `config:FILE.toml`; repeatable), each run like the default.
+    #[arg(long = "estimator", value_name = "NAME")]
+    estimators: Vec<String>,
 }
 
 /// A twist of a wheels row for a segment starting at `t` (s).
@@ -128,6 +137,99 @@ fn drive_model<'a>(blr: Blr) -> Model<'a> {
     }
 }
 
+/// What an online model takes of the run at a start.
+#[derive(Clone, Copy)]
+enum Pick {
+    /// The model at the start, as the estimate's `prediction` takes it.
+    Start,
+    /// [`Pick::Start`]'s parameters averaged over the last `s` seconds.
+    Mean(f64),
+    /// [`Pick::Start`] with a fixed clock offset (s).
+    Clock(f64),
+}
+
+/// The online default's run over `target`: one model per pick, the ICRs
+/// and clock offset in effect at each start.
+fn online_picks<'a>(
+    target: &DriveLog,
+    cfg: &EstimatorConfig,
+    init: Option<&ParamsFile>,
+    picks: &[(String, Pick)],
+) -> anyhow::Result<Vec<Model<'a>>> {
+    let run = pipeline::run(target, cfg, &TerrainEvidence::None, init)?;
+    let ts: std::rc::Rc<Vec<f64>> = std::rc::Rc::new(run.rows.iter().map(|r| r.t).collect());
+    let start: Vec<Timed> = run.rows.iter().map(|r| r.prediction_model).collect();
+    // Prefix sums of the models' values, for the means.
+    let vals = |m: &Timed| {
+        [
+            m.params.y_l,
+            m.params.y_r,
+            m.params.x_c,
+            m.params.alpha_l,
+            m.params.alpha_r,
+            m.slopes.k_spread,
+            m.slopes.k_x_speed,
+            m.slopes.k_spread_speed,
+        ]
+    };
+    let mut sums = vec![[0.0; 8]];
+    for m in &start {
+        let last = sums[sums.len() - 1];
+        let v = vals(m);
+        sums.push(std::array::from_fn(|k| last[k] + v[k]));
+    }
+    let acc = std::rc::Rc::new(accelerations(&target.wheels));
+    let wheels: std::rc::Rc<Vec<f64>> =
+        std::rc::Rc::new(target.wheels.iter().map(|w| w.t).collect());
+    let start = std::rc::Rc::new(start);
+    let sums = std::rc::Rc::new(sums);
+    let mut out = Vec::new();
+    for (name, pick) in picks {
+        let pick = *pick;
+        let (ts, start, sums) = (ts.clone(), start.clone(), sums.clone());
+        let model_at = move |t: f64| -> Timed {
+            let k = ts.partition_point(|r| *r <= t).max(1) - 1;
+            match pick {
+                Pick::Start => start[k],
+                Pick::Clock(c) => Timed {
+                    clock_offset: c,
+                    ..start[k]
+                },
+                Pick::Mean(s) => {
+                    let j = ts.partition_point(|r| *r <= t - s).min(k);
+                    let n = (k + 1 - j) as f64;
+                    let v: [f64; 8] = std::array::from_fn(|i| (sums[k + 1][i] - sums[j][i]) / n);
+                    let mut m = start[k];
+                    m.params = IcrParams {
+                        y_l: v[0],
+                        y_r: v[1],
+                        x_c: v[2],
+                        alpha_l: v[3],
+                        alpha_r: v[4],
+                    };
+                    m.slopes.k_spread = v[5];
+                    m.slopes.k_x_speed = v[6];
+                    m.slopes.k_spread_speed = v[7];
+                    m
+                }
+            }
+        };
+        let model_at = std::rc::Rc::new(model_at);
+        let (m1, m2) = (model_at.clone(), model_at);
+        let (acc, wheels) = (acc.clone(), wheels.clone());
+        out.push(Model {
+            name: name.clone(),
+            twist: Box::new(move |t, w: &WheelSample| {
+                let m = m1(t);
+                let i = wheels.partition_point(|s| *s < w.t).min(acc.len() - 1);
+                m.slopes.twist(&m.params, w.v_left, w.v_right, acc[i])
+            }),
+            clock_at: Box::new(move |t| m2(t).clock_offset),
+        });
+    }
+    Ok(out)
+}
+
 /// The online default's run over `target`: the ICRs and clock offset in
 /// effect at each start.
 fn online<'a>(
@@ -135,36 +237,45 @@ fn online<'a>(
     init: Option<&ParamsFile>,
     name: &str,
 ) -> anyhow::Result<Model<'a>> {
-    let run = pipeline::run(
+    let mut m = online_picks(
         target,
         &EstimatorConfig::default(),
-        &TerrainEvidence::None,
         init,
+        &[(name.to_string(), Pick::Start)],
     )?;
-    let rows: Vec<(f64, Timed)> = run.rows.iter().map(|r| (r.t, r.prediction_model)).collect();
-    let rows = std::rc::Rc::new(rows);
-    let at = move |rows: &[(f64, Timed)], t: f64| {
-        let k = rows.partition_point(|r| r.0 <= t).max(1) - 1;
-        rows[k].1
-    };
-    let rows2 = rows.clone();
-    let acc = accelerations(&target.wheels);
-    let wheels: Vec<f64> = target.wheels.iter().map(|w| w.t).collect();
-    Ok(Model {
-        name: name.to_string(),
-        // The model in effect at the segment's start, as the estimate's
-        // own `prediction` takes it.
-        twist: Box::new(move |t, w: &WheelSample| {
-            let m = at(&rows, t);
-            let i = wheels.partition_point(|s| *s < w.t).min(acc.len() - 1);
-            m.slopes.twist(&m.params, w.v_left, w.v_right, acc[i])
-        }),
-        clock_at: Box::new(move |t| at(&rows2, t).clock_offset),
-    })
+    m.pop().context("no model")
+}
+
+/// The online estimator over `target` with each named configuration.
+fn online_configs<'a>(
+    target: &DriveLog,
+    configs: &[(String, EstimatorConfig)],
+) -> anyhow::Result<Vec<Model<'a>>> {
+    let mut out = Vec::new();
+    for (name, cfg) in configs {
+        let picks = [(format!("online {name}"), Pick::Start)];
+        out.extend(online_picks(target, cfg, None, &picks)?);
+    }
+    Ok(out)
 }
 
 /// Mean error of each model on the starts every model can score.
 fn score(target: &DriveLog, models: &[Model], from: f64, to: f64) -> (Vec<f64>, usize) {
+    let (m, n, _) = score_segments(target, models, from, to);
+    (m, n)
+}
+
+/// Each scored start's time (s) and each model's error there (m).
+type Segments = Vec<(f64, Vec<f64>)>;
+
+/// [`score`] and each scored start's time and errors (m).
+fn score_segments(
+    target: &DriveLog,
+    models: &[Model],
+    from: f64,
+    to: f64,
+) -> (Vec<f64>, usize, Segments) {
+    let mut segs = Vec::new();
     let refs = references(&target.pose);
     let spec = PredictionSpec::default();
     let mut sums = vec![0.0; models.len()];
@@ -186,14 +297,15 @@ fn score(target: &DriveLog, models: &[Model], from: f64, to: f64) -> (Vec<f64>, 
             })
             .collect();
         if let Some(e) = errs {
-            for (s, e) in sums.iter_mut().zip(e) {
+            for (s, e) in sums.iter_mut().zip(&e) {
                 *s += e;
             }
+            segs.push((t, e));
             n += 1;
         }
         t += spec.stride;
     }
-    (sums.iter().map(|s| s / n.max(1) as f64).collect(), n)
+    (sums.iter().map(|s| s / n.max(1) as f64).collect(), n, segs)
 }
 
 fn read(dir: &Path) -> anyhow::Result<DriveLog> {
@@ -240,6 +352,7 @@ fn row(
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let logs = crate::drives::logs_or_default(&a.logs)?;
+    let extra = crate::estimators::resolve(&a.estimators)?;
     let spec = PredictionSpec::default();
     let mut table = Vec::new();
     eprintln!("first half -> second half");
@@ -258,13 +371,46 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let cal = calibrate(std::slice::from_ref(&log), &cc, &|_| {})?;
         let pf = cal.params_file();
         let [selected, constant] = calibrated(&pf, &log, &acc)?;
-        let models = [
+        let cal_clock = stored_offset(&pf).unwrap_or(0.0);
+        let mut models = vec![
             drive_model(blr),
             online(&log, None, "online default")?,
             constant,
             selected,
         ];
+        if a.diagnose.is_some() {
+            let picks = [
+                ("mean 5 s".to_string(), Pick::Mean(5.0)),
+                ("mean 20 s".to_string(), Pick::Mean(20.0)),
+                ("mean 60 s".to_string(), Pick::Mean(60.0)),
+                ("calibrate's clock".to_string(), Pick::Clock(cal_clock)),
+            ];
+            models.extend(online_picks(
+                &log,
+                &EstimatorConfig::default(),
+                None,
+                &picks,
+            )?);
+        }
+        models.extend(online_configs(&log, &extra)?);
         let (cols, n) = row(&log, &models, mid, t1 + 1.0 - spec.horizon);
+        if let Some(out) = &a.diagnose {
+            let (_, _, segs) = score_segments(&log, &models, mid, t1 + 1.0 - spec.horizon);
+            std::fs::create_dir_all(out)?;
+            let mut text = String::from("t");
+            for m in &models {
+                text += &format!(",{}", m.name);
+            }
+            text.push('\n');
+            for (t, e) in segs {
+                text += &format!("{t:.3}");
+                for e in e {
+                    text += &format!(",{e:.4}");
+                }
+                text.push('\n');
+            }
+            std::fs::write(out.join(format!("{}.csv", name_of(dir))), text)?;
+        }
         eprintln!("  {}", name_of(dir));
         table.push((name_of(dir), cols, n));
     }
@@ -297,13 +443,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let pf = cal.params_file();
         let acc = accelerations(&to_log.wheels);
         let [selected, constant] = calibrated(&pf, &to_log, &acc)?;
-        let models = [
+        let mut models = vec![
             drive_model(blr),
             online(&to_log, None, "online default")?,
             online(&to_log, Some(&pf), "online --init")?,
             constant,
             selected,
         ];
+        models.extend(online_configs(&to_log, &extra)?);
         let (cols, n) = row(
             &to_log,
             &models,

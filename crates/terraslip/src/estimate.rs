@@ -418,6 +418,8 @@ pub fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) ->
         "clock_offset_s": {"value": est.clock_offset.0, "std": est.clock_offset.1},
         // The spread in effect is (1 + slope |v_r - v_l|) times "icr"'s.
         "turn_law_s_per_m": {"slope": est.turn_law.0, "std": est.turn_law.1},
+        // Both speed factors in effect are (1 + slope |v_r - v_l|) times "icr"'s.
+        "speed_law_s_per_m": {"slope": est.speed_law.0, "std": est.speed_law.1},
         // At mean tread speed v (m/s): x_c moves by k_x_speed v, the spread
         // scales by 1 + k_spread_speed |v| (on top of the turn law).
         "centripetal": {

@@ -76,11 +76,24 @@ fn real_drive_learns_without_running_to_a_clamp_and_beats_the_papers_ekf() {
         "{:?}",
         ours.warnings
     );
-    let f = ours.final_icr;
+    // The speed factors in effect (the speed factors' turn law applied at
+    // each row's turn): the robot rolls 10-15 % slower than its encoders
+    // say over the drive.
+    let median = |a: fn(&terraslip::pipeline::EstimateRow) -> f64| {
+        let mut v: Vec<f64> = ours.rows.iter().filter(|r| r.t > 60.0).map(a).collect();
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let (al, ar) = (median(|r| r.alpha_l), median(|r| r.alpha_r));
     assert!(
-        (0.8..1.0).contains(&f.alpha_l) && (0.8..1.0).contains(&f.alpha_r),
-        "{f:?}"
+        (0.8..1.0).contains(&al) && (0.8..1.0).contains(&ar),
+        "{al} {ar}"
     );
+    // Straight ahead (the law's straight-line value, extrapolated from a
+    // drive that mostly turns: docs/benchmarks.md) within 15 % above the
+    // encoders.
+    let f = ours.final_icr;
+    assert!(f.alpha_l < 1.15 && f.alpha_r < 1.15, "{f:?}");
     let (p_ours, p_ekf, p_none) = (
         prediction(&log, &ours),
         prediction(&log, &run(&log, "ekf-qmin")),

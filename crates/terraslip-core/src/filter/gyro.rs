@@ -185,6 +185,7 @@ impl Filter {
             &slip_of(&self.x),
             self.x[crate::model::LAW],
             &centripetal_of(&self.x),
+            self.x[crate::model::SPEED_LAW],
             self.x[YAW],
         );
         // The gyro reads g times the true turn.
@@ -196,6 +197,7 @@ impl Filter {
         H[crate::model::LAW] = g * m.d_yaw_law;
         H[K_X_SPEED] = g * m.d_centripetal[(2, 0)];
         H[K_SPREAD_SPEED] = g * m.d_centripetal[(2, 1)];
+        H[crate::model::SPEED_LAW] = g * m.d_centripetal[(2, 2)];
         H[GYRO_BIAS] = w.span;
         H[GYRO_SCALE] = m.d_yaw;
         let nu = w.angle - (g * m.d_yaw + self.x[GYRO_BIAS] * w.span);

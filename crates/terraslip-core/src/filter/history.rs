@@ -40,8 +40,8 @@ pub(super) struct Motion {
     /// `d(heading change) / d(turn law slope)`.
     pub d_yaw_law: f64,
     /// `d(displacement east, north, heading change) / d(k_x_speed,
-    /// k_spread_speed)`.
-    pub d_centripetal: SMatrix<f64, 3, 2>,
+    /// k_spread_speed, speed_law)`.
+    pub d_centripetal: SMatrix<f64, 3, 3>,
 }
 
 #[derive(Debug, Clone)]
@@ -81,8 +81,10 @@ impl History {
     }
 
     /// The motion of the last `lag` seconds with slip parameters `s` in
-    /// `chart`, turn law slope `law` and centripetal terms `c`, ending at
-    /// heading `yaw` (negative lag: extrapolated ahead).
+    /// `chart`, turn law slope `law`, centripetal terms `c` and the speed
+    /// factors' turn law `speed_law` (s/m), ending at heading `yaw`
+    /// (negative lag: extrapolated ahead).
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn over(
         &self,
         lag: f64,
@@ -90,8 +92,12 @@ impl History {
         s: &Slip,
         law: f64,
         c: &CentripetalSlopes,
+        speed_law: f64,
         yaw: f64,
     ) -> Motion {
+        let twist = |dv: f64, u: TreadInput| {
+            crate::model::with_speed_law(chart.twist_with_terms(s, law, dv, c, u), speed_law, dv)
+        };
         let newest = if self.len > 0 {
             self.steps[(self.next + CAPACITY - 1) % CAPACITY]
         } else {
@@ -101,7 +107,7 @@ impl History {
         let lag = if lag.is_finite() { lag } else { 0.0 };
         if lag <= 0.0 {
             // Ahead of the newest step: the motion to come, negated.
-            let (t, j, _, dc) = chart.twist_with_terms(s, law, newest.dv, c, newest.u);
+            let (t, j, _, dc) = twist(newest.dv, newest.u);
             let (sn, cs) = (libm::sin(yaw), libm::cos(yaw));
             m.v_east = t.v_x * cs - t.v_y * sn;
             m.v_north = t.v_x * sn + t.v_y * cs;
@@ -114,7 +120,7 @@ impl History {
                 m.d_slip[(1, k)] = lag * (j[(0, k)] * sn + j[(1, k)] * cs);
                 m.d_slip[(2, k)] = lag * j[(2, k)];
             }
-            for k in 0..2 {
+            for k in 0..3 {
                 m.d_centripetal[(0, k)] = lag * (dc[(0, k)] * cs - dc[(1, k)] * sn);
                 m.d_centripetal[(1, k)] = lag * (dc[(0, k)] * sn + dc[(1, k)] * cs);
                 m.d_centripetal[(2, k)] = lag * dc[(2, k)];
@@ -136,7 +142,7 @@ impl History {
             last = step;
             let dt = step.dt.min(left);
             left -= dt;
-            let (t, j, dk, dc) = chart.twist_with_terms(s, law, step.dv, c, step.u);
+            let (t, j, dk, dc) = twist(step.dv, step.u);
             // Integrated backwards: the heading at the start of this step.
             heading -= dt * t.omega;
             let (sn, cs) = (libm::sin(heading), libm::cos(heading));
@@ -150,7 +156,7 @@ impl History {
                 m.d_slip[(1, k)] += dt * (j[(0, k)] * sn + j[(1, k)] * cs);
                 m.d_slip[(2, k)] += dt * j[(2, k)];
             }
-            for k in 0..2 {
+            for k in 0..3 {
                 m.d_centripetal[(0, k)] += dt * (dc[(0, k)] * cs - dc[(1, k)] * sn);
                 m.d_centripetal[(1, k)] += dt * (dc[(0, k)] * sn + dc[(1, k)] * cs);
                 m.d_centripetal[(2, k)] += dt * dc[(2, k)];
@@ -192,16 +198,16 @@ mod tests {
         );
         let yaw = 0.1;
         let none = CentripetalSlopes::NONE;
-        let m = h.over(0.2, chart, &s, 0.0, &none, yaw);
+        let m = h.over(0.2, chart, &s, 0.0, &none, 0.0, yaw);
         assert!((m.d_yaw - 0.1).abs() < 1e-12);
         // The straight was driven at heading 0.
         assert!((m.d_east - 0.1).abs() < 1e-12 && m.d_north.abs() < 1e-12);
         assert!((m.v_east - 1.0).abs() < 1e-12 && m.omega == 0.0);
-        let half = h.over(0.05, chart, &s, 0.0, &none, yaw);
+        let half = h.over(0.05, chart, &s, 0.0, &none, 0.0, yaw);
         assert!((half.d_yaw - 0.05).abs() < 1e-12 && (half.omega - 1.0).abs() < 1e-12);
-        let ahead = h.over(-0.5, chart, &s, 0.0, &none, yaw);
+        let ahead = h.over(-0.5, chart, &s, 0.0, &none, 0.0, yaw);
         assert!((ahead.d_yaw + 0.5).abs() < 1e-12);
-        let beyond = h.over(1.2, chart, &s, 0.0, &none, yaw);
+        let beyond = h.over(1.2, chart, &s, 0.0, &none, 0.0, yaw);
         assert!((beyond.d_east - 1.1).abs() < 1e-9);
     }
 
@@ -230,7 +236,7 @@ mod tests {
                 k_spread_speed: -0.08,
             };
             for lag in [0.7, -0.3] {
-                let m = h.over(lag, chart, &s, -0.05, &c, 0.3);
+                let m = h.over(lag, chart, &s, -0.05, &c, 0.0, 0.3);
                 for k in 0..2 {
                     let eps = 1e-6;
                     let (mut cp, mut cm) = (c, c);
@@ -242,8 +248,8 @@ mod tests {
                         cm.k_spread_speed -= eps;
                     }
                     let (p, q) = (
-                        h.over(lag, chart, &s, -0.05, &cp, 0.3),
-                        h.over(lag, chart, &s, -0.05, &cm, 0.3),
+                        h.over(lag, chart, &s, -0.05, &cp, 0.0, 0.3),
+                        h.over(lag, chart, &s, -0.05, &cm, 0.0, 0.3),
                     );
                     let num = (p.d_yaw - q.d_yaw) / (2.0 * eps);
                     // The heading change exactly; the displacement's rows,

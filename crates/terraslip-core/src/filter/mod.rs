@@ -38,7 +38,7 @@ use nalgebra::SMatrix;
 use crate::kinematics::{CentripetalSlopes, IcrParams, Twist};
 use crate::model::{
     self, MatN, State, BIAS_E, BIAS_N, CLOCK, EAST, GYRO_BIAS, GYRO_SCALE, K_SPREAD_SPEED,
-    K_X_SPEED, LAW, N, NORTH, SLIP, YAW,
+    K_X_SPEED, LAW, N, NORTH, SLIP, SPEED_LAW, YAW,
 };
 use crate::slip::{Slip, SlipMat, TreadInput};
 
@@ -144,6 +144,13 @@ pub struct Prior {
     /// Their standard deviations, s and s/m (both 0 = held at
     /// `centripetal`).
     pub centripetal_std: CentripetalSlopes,
+    /// Starting slope of the speed factors' turn law, s/m: both speed
+    /// factors in effect are `1 + speed_law |V_r - V_l|` times the
+    /// straight-line ones (0 = constant).
+    pub speed_law: f64,
+    /// Its standard deviation, s/m (0 = held at `speed_law`). Learned
+    /// where the speed factor is: with a position reference.
+    pub speed_law_std: f64,
 }
 
 /// Chord of the first position fix to now, for finding the heading when no
@@ -223,6 +230,8 @@ pub struct Filter {
     /// room; otherwise it is held at its starting value with no
     /// uncertainty.
     learn_centripetal: [bool; 2],
+    /// Whether the speed factors' turn law is learned.
+    learn_speed_law: bool,
 }
 
 type Mat3xN = SMatrix<f64, 3, N>;
@@ -274,10 +283,14 @@ impl Filter {
         }
         if !(prior.turn_law.abs() <= 2.0
             && prior.turn_law_std.is_finite()
-            && prior.turn_law_std >= 0.0)
+            && prior.turn_law_std >= 0.0
+            && prior.speed_law.abs() <= MAX_TURN_LAW
+            && prior.speed_law_std.is_finite()
+            && prior.speed_law_std >= 0.0)
         {
             return Err(FilterError::BadInput(
-                "turn law slope must be within +-2 s/m with a finite std",
+                "turn law slopes must be within +-2 s/m (the speed factors' +-1 s/m) \
+                 with finite stds",
             ));
         }
         let (c, c_std) = (prior.centripetal, prior.centripetal_std);
@@ -333,6 +346,12 @@ impl Filter {
                 P[(i, i)] = sd * sd;
             }
         }
+        x[SPEED_LAW] = prior.speed_law;
+        // Learned where the speed factor is shown: a position reference.
+        let learn_speed_law = prior.speed_law_std > 0.0 && shown && cfg.learn_alpha;
+        if learn_speed_law {
+            P[(SPEED_LAW, SPEED_LAW)] = prior.speed_law_std * prior.speed_law_std;
+        }
         let q_slip = cfg
             .slip_walk_cov(&icr0)
             .ok_or(FilterError::BadInput("prior ICR parameters are singular"))?;
@@ -376,6 +395,7 @@ impl Filter {
             last_step: (0.0, 0.0, 0.0),
             gyro_counts: [0; 2],
             learn_centripetal,
+            learn_speed_law,
         })
     }
 
@@ -405,7 +425,28 @@ impl Filter {
     /// to give the filter's twist.
     pub fn icr_now(&self) -> IcrParams {
         let chart = self.cfg.chart;
-        chart.to_icr(&self.terms_now().slip)
+        self.with_speed_law(chart.to_icr(&self.terms_now().slip))
+    }
+
+    /// `p` with both speed factors scaled by the speed factors' turn law at
+    /// the last step's turn.
+    fn with_speed_law(&self, p: IcrParams) -> IcrParams {
+        let (f, _) = crate::slip::law_factor(self.x[SPEED_LAW], self.law_input);
+        IcrParams {
+            alpha_l: f * p.alpha_l,
+            alpha_r: f * p.alpha_r,
+            ..p
+        }
+    }
+
+    /// Slope of the speed factors' turn law and its std, s/m: both speed
+    /// factors in effect are `1 + slope |V_r - V_l|` times the
+    /// straight-line ones.
+    pub fn speed_law(&self) -> (f64, f64) {
+        (
+            self.x[SPEED_LAW],
+            libm::sqrt(self.P[(SPEED_LAW, SPEED_LAW)].max(0.0)),
+        )
     }
 
     /// The slip parameters in effect at the last step's tread speeds.
@@ -423,9 +464,11 @@ impl Filter {
     /// not the centripetal terms ([`CentripetalSlopes::at`] applies those
     /// at a speed).
     pub fn icr_turn(&self) -> IcrParams {
-        self.cfg
-            .chart
-            .to_icr_at(&self.slip(), self.x[LAW], self.law_input)
+        self.with_speed_law(
+            self.cfg
+                .chart
+                .to_icr_at(&self.slip(), self.x[LAW], self.law_input),
+        )
     }
 
     /// The centripetal terms (s, s/m) and their stds.
@@ -586,6 +629,7 @@ impl Filter {
         x[GYRO_SCALE] = x[GYRO_SCALE].clamp(-MAX_GYRO_SCALE, MAX_GYRO_SCALE);
         x[K_X_SPEED] = x[K_X_SPEED].clamp(-MAX_K_X_SPEED, MAX_K_X_SPEED);
         x[K_SPREAD_SPEED] = x[K_SPREAD_SPEED].clamp(-MAX_K_SPREAD_SPEED, MAX_K_SPREAD_SPEED);
+        x[SPEED_LAW] = x[SPEED_LAW].clamp(-MAX_TURN_LAW, MAX_TURN_LAW);
         moved
     }
 

@@ -109,6 +109,10 @@ impl Filter {
             if P[(LAW, LAW)] > 0.0 && cfg.hold != SlipHold::All {
                 P[(LAW, LAW)] += dt * cfg.turn_law_walk * cfg.turn_law_walk;
             }
+            if self.learn_speed_law {
+                let i = crate::model::SPEED_LAW;
+                P[(i, i)] += dt * cfg.turn_law_walk * cfg.turn_law_walk;
+            }
         }
         let qb = self.bias_std * self.bias_std * (1.0 - phi * phi);
         P[(BIAS_E, BIAS_E)] += qb;

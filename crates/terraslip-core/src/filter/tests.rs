@@ -7,6 +7,7 @@ use crate::rng::SplitMix64;
 use crate::slip::Chart;
 
 mod centripetal;
+mod speed_law;
 
 fn band(w: f64) -> IcrBand {
     IcrBand {
@@ -32,6 +33,8 @@ fn prior(w: f64) -> Prior {
         turn_law_std: 0.15,
         centripetal: crate::kinematics::CentripetalSlopes::NONE,
         centripetal_std: crate::kinematics::CentripetalSlopes::NONE,
+        speed_law: 0.0,
+        speed_law_std: 0.0,
     }
 }
 
@@ -73,6 +76,9 @@ struct Drive {
     windows: bool,
     /// How the true ICRs move with the speed.
     centripetal: crate::kinematics::CentripetalSlopes,
+    /// The true speed factors' turn law, s/m: both speed factors are
+    /// `1 + speed_law |V_r - V_l|` times `truth`'s.
+    speed_law: f64,
     seed: u64,
 }
 
@@ -95,6 +101,7 @@ impl Default for Drive {
             heading: true,
             windows: false,
             centripetal: crate::kinematics::CentripetalSlopes::NONE,
+            speed_law: 0.0,
             seed: 1,
         }
     }
@@ -125,6 +132,12 @@ fn run(f: &mut Filter, d: &Drive) -> ((f64, f64, f64), IcrParams) {
         }
         let (vl, vr) = if d.windows { window } else { treads(t) };
         let tw = d.centripetal.at(&truth, vl, vr).twist(vl, vr);
+        let g = 1.0 + d.speed_law * (vr - vl).abs();
+        let tw = Twist {
+            v_x: g * tw.v_x,
+            v_y: g * tw.v_y,
+            omega: g * tw.omega,
+        };
         for _ in 0..10 {
             let h = dt / 10.0;
             e += h * (tw.v_x * libm::cos(yaw) - tw.v_y * libm::sin(yaw));

@@ -26,7 +26,7 @@ use super::{
 use crate::angle;
 use crate::model::{
     MatN, BIAS_E, BIAS_N, CLOCK, EAST, GYRO_SCALE, K_SPREAD_SPEED, K_X_SPEED, LAW, N, NORTH, SLIP,
-    YAW,
+    SPEED_LAW, YAW,
 };
 
 type MatNx3 = SMatrix<f64, N, 3>;
@@ -395,6 +395,7 @@ impl Filter {
             &crate::model::slip_of(x),
             x[LAW],
             &crate::model::centripetal_of(x),
+            x[SPEED_LAW],
             x[YAW],
         )
     }
@@ -429,7 +430,10 @@ impl Filter {
                     H[(0, SLIP + k)] = -m.d_slip[(0, k)];
                     H[(1, SLIP + k)] = -m.d_slip[(1, k)];
                 }
-                for (k, i) in [K_X_SPEED, K_SPREAD_SPEED].into_iter().enumerate() {
+                for (k, i) in [K_X_SPEED, K_SPREAD_SPEED, SPEED_LAW]
+                    .into_iter()
+                    .enumerate()
+                {
                     H[(0, i)] = -m.d_centripetal[(0, k)];
                     H[(1, i)] = -m.d_centripetal[(1, k)];
                 }
@@ -442,7 +446,10 @@ impl Filter {
             for k in 0..5 {
                 H[(2, SLIP + k)] = -m.d_slip[(2, k)];
             }
-            for (k, i) in [K_X_SPEED, K_SPREAD_SPEED].into_iter().enumerate() {
+            for (k, i) in [K_X_SPEED, K_SPREAD_SPEED, SPEED_LAW]
+                .into_iter()
+                .enumerate()
+            {
                 H[(2, i)] = -m.d_centripetal[(2, k)];
             }
         }
@@ -540,6 +547,8 @@ impl Filter {
         for f in &mut frozen[SLIP..=LAW] {
             *f |= self.still || !cfg.learn_icr || hold_all;
         }
+        // The speed factors' turn law, as the speed factors it scales.
+        frozen[SPEED_LAW] |= self.still || !self.learn_speed_law || hold_all;
         for (k, held) in cfg.held_slots().iter().enumerate() {
             frozen[SLIP + k] |= *held;
         }

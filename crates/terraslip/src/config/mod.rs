@@ -77,6 +77,11 @@ pub struct InitSection {
     /// 0 = held at its starting value (0, or an `--init` file's): learning
     /// it lost on the family of worlds (docs/benchmarks.md).
     pub std_k_spread_speed: f64,
+    /// Starting std of the speed factors' turn law (starting at 0), s/m: both speed factors in effect are
+    /// `1 + slope |V_r - V_l|` times the straight-line ones (negative: the
+    /// treads lose speed in a turn). Learned only with a position
+    /// reference; 0 = held.
+    pub std_speed_law: f64,
 }
 
 /// `[band]`: multiples of the track width W.
@@ -143,6 +148,7 @@ impl Default for InitSection {
             std_turn_law: 0.1,
             std_k_x_speed: 0.1,
             std_k_spread_speed: 0.0,
+            std_speed_law: 0.02,
         }
     }
 }
@@ -260,6 +266,7 @@ impl EstimatorConfig {
             ("init.std_turn_law", i.std_turn_law),
             ("init.std_k_x_speed", i.std_k_x_speed),
             ("init.std_k_spread_speed", i.std_k_spread_speed),
+            ("init.std_speed_law", i.std_speed_law),
             ("schedule.boost_factor", self.schedule.boost_factor),
             ("schedule.memory_min_dwell", self.schedule.memory_min_dwell),
             ("schedule.memory_average", self.schedule.memory_average),
@@ -353,6 +360,8 @@ impl EstimatorConfig {
                 k_x_speed: i.std_k_x_speed,
                 k_spread_speed: i.std_k_spread_speed,
             },
+            speed_law: 0.0,
+            speed_law_std: i.std_speed_law,
         }
     }
 

@@ -59,6 +59,7 @@ fn papers(q: f64) -> EstimatorConfig {
     i.std_turn_law = 0.0;
     i.std_k_x_speed = 0.0;
     i.std_k_spread_speed = 0.0;
+    i.std_speed_law = 0.0;
     c.schedule.reset = false;
     c.schedule.memory = false;
     c

@@ -324,7 +324,8 @@ impl<'a> Live<'a> {
 impl EstimateRun {
     /// The parameters the run learned as a parameters file (the format
     /// `calibrate` writes and `--init` reads): the straight-line ICRs with
-    /// their stds, the turn law when it is not flat, the gyro's delay (and
+    /// their stds, the turn laws (of the spread, `k_spread`, and of the speed
+    /// factors, `k_alpha`) when they are not flat, the gyro's delay (and
     /// its scale where the run learned one) and the pose stream's clock
     /// offset. One pooled set: without terrain
     /// evidence the run cannot tell grounds apart.
@@ -344,13 +345,13 @@ impl EstimateRun {
                 }),
             );
         }
-        if self.turn_law.0 != 0.0 {
+        if self.turn_law.0 != 0.0 || self.speed_law.0 != 0.0 {
             pf.extra.insert(
                 "rate_model".into(),
                 serde_json::json!({
                     "selected": true,
                     "k_spread": self.turn_law.0,
-                    "k_alpha": 0.0,
+                    "k_alpha": self.speed_law.0,
                     "params": p,
                 }),
             );

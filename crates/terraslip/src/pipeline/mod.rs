@@ -183,6 +183,8 @@ pub struct EstimateRun {
     pub final_icr: IcrParams,
     /// Final turn law slope and its std, s/m.
     pub turn_law: (f64, f64),
+    /// Final slope of the speed factors' turn law and its std, s/m.
+    pub speed_law: (f64, f64),
     /// Final centripetal terms (`k_x_speed` s, `k_spread_speed` s/m), their
     /// stds, and whether they were learned (false: held at their starting
     /// values, without a position reference or with a zero prior std).
@@ -533,6 +535,7 @@ fn finish(
         band,
         final_icr: f.icr(),
         turn_law: f.turn_law(),
+        speed_law: f.speed_law(),
         centripetal: {
             let (c, sd) = f.centripetal();
             (c, sd, f.learns_centripetal())

@@ -16,7 +16,8 @@ fn prior_terms(w: f64) -> Prior {
     }
 }
 
-fn filter(prior: &Prior) -> Filter {
+/// A filter with the default configuration started from `prior`.
+pub(super) fn filter(prior: &Prior) -> Filter {
     Filter::new(
         prior,
         FilterConfig::default(),

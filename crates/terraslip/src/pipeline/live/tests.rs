@@ -204,6 +204,13 @@ fn a_restart_from_the_written_parameters_starts_where_the_run_ended() {
         run.gyro
     );
     assert_eq!(back.extra["gyro_scale"], serde_json::json!(run.gyro.scale));
+    // The speed factors' turn law it learned describes the straight-line
+    // set's speed factors in turns.
+    assert!(run.speed_law.0 != 0.0, "{:?}", run.speed_law);
+    assert_eq!(
+        back.extra["rate_model"]["k_alpha"],
+        serde_json::json!(run.speed_law.0)
+    );
     let again = Live::new("live", &cfg, 0.5, Some(&back), 0.3, delay).unwrap();
     let s = again.summary();
     assert_eq!(s.init_source, "init:params");

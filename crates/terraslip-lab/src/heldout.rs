@@ -4,7 +4,8 @@
 //!
 //! * every drive: trained on its first half (the online default: the
 //!   parameters it had at each start, having seen only the past), scored on
-//!   its second half;
+//!   its second half; the online default also started with `--init` from
+//!   the first half's calibration;
 //! * `--across A:B`: trained on drive A (the online default runs on B,
 //!   alone and started with `--init` from A's calibration), scored on B
 //!   after its first 60 s.
@@ -39,6 +40,10 @@ pub struct Args {
     /// repeatable).
     #[arg(long, value_name = "A:B")]
     across: Vec<String>,
+    /// The online runs' configuration (TOML, as `estimate --config`;
+    /// default: the defaults).
+    #[arg(long, value_name = "FILE.toml")]
+    online_config: Option<PathBuf>,
 }
 
 /// A twist of a wheels row for a segment starting at `t` (s).
@@ -132,15 +137,11 @@ fn drive_model<'a>(blr: Blr) -> Model<'a> {
 /// effect at each start.
 fn online<'a>(
     target: &DriveLog,
+    cfg: &EstimatorConfig,
     init: Option<&ParamsFile>,
     name: &str,
 ) -> anyhow::Result<Model<'a>> {
-    let run = pipeline::run(
-        target,
-        &EstimatorConfig::default(),
-        &TerrainEvidence::None,
-        init,
-    )?;
+    let run = pipeline::run(target, cfg, &TerrainEvidence::None, init)?;
     let rows: Vec<(f64, Timed)> = run.rows.iter().map(|r| (r.t, r.prediction_model)).collect();
     let rows = std::rc::Rc::new(rows);
     let at = move |rows: &[(f64, Timed)], t: f64| {
@@ -240,6 +241,14 @@ fn row(
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let logs = crate::drives::logs_or_default(&a.logs)?;
+    let cfg = match &a.online_config {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("{}: cannot read", path.display()))?;
+            EstimatorConfig::from_toml(&text).with_context(|| path.display().to_string())?
+        }
+        None => EstimatorConfig::default(),
+    };
     let spec = PredictionSpec::default();
     let mut table = Vec::new();
     eprintln!("first half -> second half");
@@ -260,7 +269,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let [selected, constant] = calibrated(&pf, &log, &acc)?;
         let models = [
             drive_model(blr),
-            online(&log, None, "online default")?,
+            online(&log, &cfg, None, "online default")?,
+            online(&log, &cfg, Some(&pf), "online --init")?,
             constant,
             selected,
         ];
@@ -299,8 +309,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let [selected, constant] = calibrated(&pf, &to_log, &acc)?;
         let models = [
             drive_model(blr),
-            online(&to_log, None, "online default")?,
-            online(&to_log, Some(&pf), "online --init")?,
+            online(&to_log, &cfg, None, "online default")?,
+            online(&to_log, &cfg, Some(&pf), "online --init")?,
             constant,
             selected,
         ];

@@ -14,6 +14,7 @@
 //!   that resets the slip uncertainty when the ground changes.
 //! * `noise.rs`: the measurement noise scale learned from the residuals.
 //! * `reset.rs`: covariance resets and recalls (the terrain schedule's).
+//! * `speed_law.rs`: the speed factors' turn law, held at a calibration's.
 //!
 //! Frames: REP-103 body frame, ENU world frame, yaw counter-clockwise from
 //! east. Units SI.
@@ -26,12 +27,14 @@ mod history;
 mod noise;
 mod predict;
 mod reset;
+mod speed_law;
 mod update;
 
 pub use config::{
     FilterConfig, IcrBand, MeasurementConfig, SlipHold, SlipStd, Variant, MAX_WINDOW,
 };
 pub use gyro::{GyroNoise, GYRO_WINDOW};
+pub use speed_law::MAX_SPEED_LAW;
 
 use nalgebra::SMatrix;
 
@@ -223,6 +226,8 @@ pub struct Filter {
     /// room; otherwise it is held at its starting value with no
     /// uncertainty.
     learn_centripetal: [bool; 2],
+    /// Slope of the speed factors' turn law, held, s/m (`speed_law.rs`).
+    speed_law: f64,
 }
 
 type Mat3xN = SMatrix<f64, 3, N>;
@@ -376,6 +381,7 @@ impl Filter {
             last_step: (0.0, 0.0, 0.0),
             gyro_counts: [0; 2],
             learn_centripetal,
+            speed_law: 0.0,
         })
     }
 
@@ -405,7 +411,7 @@ impl Filter {
     /// to give the filter's twist.
     pub fn icr_now(&self) -> IcrParams {
         let chart = self.cfg.chart;
-        chart.to_icr(&self.terms_now().slip)
+        self.with_speed_law(chart.to_icr(&self.terms_now().slip), self.tread)
     }
 
     /// The slip parameters in effect at the last step's tread speeds.
@@ -415,7 +421,7 @@ impl Filter {
             self.x[LAW],
             self.law_input,
             &self.centripetal().0,
-            self.tread,
+            self.tread_in_effect(self.tread),
         )
     }
 

@@ -35,7 +35,9 @@ impl Filter {
             1.0
         };
         self.law_input += a * (dv - self.law_input);
-        let (x, twist, rows) = model::step(&self.x, cfg.chart, u, self.law_input, dt);
+        // The model reads the treads with the speed factors' turn law.
+        let ue = self.tread_in_effect(u);
+        let (x, twist, rows) = model::step(&self.x, cfg.chart, ue, self.law_input, dt);
 
         // F = I except the pose rows (`rows`) and the bias decay `phi` on
         // the bias diagonal: F P F' in two products of 3 rows / 3 columns.
@@ -130,7 +132,7 @@ impl Filter {
         self.twist = twist;
         self.tread = u;
         self.last_step = (dt, q_model, q_yaw);
-        self.history.push(dt, u, self.law_input);
+        self.history.push(dt, ue, self.law_input);
         self.basis[0] += v * v * dt;
         self.basis[1] += w * w * dt;
         Ok(())

@@ -7,6 +7,7 @@ use crate::rng::SplitMix64;
 use crate::slip::Chart;
 
 mod centripetal;
+mod speed_law;
 
 fn band(w: f64) -> IcrBand {
     IcrBand {

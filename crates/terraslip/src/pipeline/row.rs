@@ -61,6 +61,7 @@ fn prediction_model(f: &terraslip_core::filter::Filter) -> Timed {
     let mut t = Timed::new(f.icr_turn(), f.clock_offset().0);
     t.slopes.k_x_speed = c.k_x_speed;
     t.slopes.k_spread_speed = c.k_spread_speed;
+    t.slopes.k_alpha = f.speed_law();
     t
 }
 

@@ -61,11 +61,13 @@ pub(super) fn setup(
     // starts on (as far as anything tells), else the prior.
     let mut prior = cfg.prior(track_width);
     let mut init_source = "prior".to_string();
+    // The speed factors' turn law of the --init set's selected model, s/m.
+    let mut speed_law = 0.0;
     let mut meas = cfg.measurement;
     if let Some(pf) = init {
         match starting_set(pf, evidence, log) {
             Some((name, p, extra)) => {
-                prior = init_prior(cfg, &name, p, extra, prior)?;
+                (prior, speed_law) = init_prior(cfg, &name, p, extra, prior)?;
                 init_source = format!("init:{name}");
             }
             None => warnings.push(
@@ -94,8 +96,11 @@ pub(super) fn setup(
         }
     }
 
-    let filter = Filter::new(&prior, cfg.filter, meas, cfg.band(track_width))
+    let mut filter = Filter::new(&prior, cfg.filter, meas, cfg.band(track_width))
         .map_err(|e| PipelineError::Config(e.to_string()))?;
+    filter
+        .hold_speed_law(speed_law)
+        .map_err(|e| PipelineError::Init(e.to_string()))?;
     let mut schedule = NoiseSchedule::new(cfg.schedule_config());
     if init_source != "prior" {
         // A detected slip change falls back to the given set.
@@ -201,14 +206,16 @@ const CENTRIPETAL_STD_FLOOR: f64 = 0.25;
 /// its selected turn-rate model, with its centripetal terms, when
 /// calibration selected one) with their stated stds, never tighter than
 /// `init.calibrated_std` (the centripetal terms' never tighter than
-/// [`CENTRIPETAL_STD_FLOOR`] of their prior's).
+/// [`CENTRIPETAL_STD_FLOOR`] of their prior's); and the selected model's
+/// speed factors' turn law `k_alpha` (s/m, 0 without one), which the
+/// filter holds.
 fn init_prior(
     cfg: &EstimatorConfig,
     name: &str,
     p: IcrParams,
     extra: &Extra,
     mut prior: terraslip_core::filter::Prior,
-) -> Result<terraslip_core::filter::Prior, PipelineError> {
+) -> Result<(terraslip_core::filter::Prior, f64), PipelineError> {
     p.validate()
         .map_err(|e| PipelineError::Init(format!("set `{name}`: {e}")))?;
     prior.icr = p;
@@ -221,6 +228,7 @@ fn init_prior(
             })
     };
     prior.std = stated(extra.get("std"));
+    let mut speed_law = 0.0;
     // A turn law the calibration selected comes with its own
     // straight-line parameters, and its centripetal terms with theirs.
     let law = terraslip_io::RateModelEntry::selected(extra)
@@ -251,8 +259,16 @@ fn init_prior(
                 )));
             }
         }
+        if r.k_alpha.is_nan() || r.k_alpha.abs() > terraslip_core::filter::MAX_SPEED_LAW {
+            return Err(PipelineError::Init(format!(
+                "set `{name}`: rate_model k_alpha = {} s/m is beyond +-{}",
+                r.k_alpha,
+                terraslip_core::filter::MAX_SPEED_LAW
+            )));
+        }
         prior.icr = r.params;
         prior.turn_law = r.k_spread;
+        speed_law = r.k_alpha;
         // Those parameters' own uncertainty, not the constant
         // model's.
         let model = extra.get("rate_model");
@@ -280,7 +296,7 @@ fn init_prior(
             };
         }
     }
-    Ok(prior)
+    Ok((prior, speed_law))
 }
 
 /// A `std` object `terraslip calibrate` writes with a parameter set
@@ -343,9 +359,11 @@ mod tests {
     fn a_selected_turn_law_starts_with_its_own_std() {
         let cfg = EstimatorConfig::default();
         let (p, extra) = calibrated_set();
-        let prior = init_prior(&cfg, "gravel", p, &extra, cfg.prior(1.1)).unwrap();
+        let (prior, speed_law) = init_prior(&cfg, "gravel", p, &extra, cfg.prior(1.1)).unwrap();
         assert_eq!(prior.icr.y_l, 1.36);
         assert_eq!(prior.turn_law, -0.06);
+        // The law's speed factor slope, which the filter holds.
+        assert_eq!(speed_law, -0.05);
         assert!(
             (prior.std.spread - 0.097f64.hypot(0.095)).abs() < 1e-12,
             "{:?}",
@@ -369,7 +387,7 @@ mod tests {
             "selected": true, "k_x_speed": 0.23, "k_spread_speed": -0.04,
             "std_k_x_speed": 0.09, "std_k_spread_speed": 0.001,
         });
-        let prior = init_prior(&cfg, "gravel", p, &extra, cfg.prior(1.1)).unwrap();
+        let (prior, _) = init_prior(&cfg, "gravel", p, &extra, cfg.prior(1.1)).unwrap();
         // The selected model's own straight-line ICRs, law and terms.
         assert_eq!(prior.icr.y_l, 1.36);
         assert_eq!(prior.turn_law, -0.06);
@@ -381,7 +399,7 @@ mod tests {
         // Learned, never tighter than the floor.
         let mut learning = cfg.clone();
         learning.init.std_k_spread_speed = 0.1;
-        let prior = init_prior(&learning, "gravel", p, &extra, learning.prior(1.1)).unwrap();
+        let (prior, _) = init_prior(&learning, "gravel", p, &extra, learning.prior(1.1)).unwrap();
         assert_eq!(
             prior.centripetal_std.k_spread_speed,
             CENTRIPETAL_STD_FLOOR * 0.1
@@ -397,7 +415,8 @@ mod tests {
         let cfg = EstimatorConfig::default();
         let (p, mut extra) = calibrated_set();
         extra.remove("rate_model");
-        let prior = init_prior(&cfg, "gravel", p, &extra, cfg.prior(1.1)).unwrap();
+        let (prior, speed_law) = init_prior(&cfg, "gravel", p, &extra, cfg.prior(1.1)).unwrap();
+        assert_eq!(speed_law, 0.0);
         assert_eq!(prior.icr, p);
         assert!((prior.std.spread - 0.04f64.hypot(0.04)).abs() < 1e-12);
         assert_eq!(

@@ -78,11 +78,15 @@ pub(super) fn setup(
             ),
         }
     }
+    let mut filter_cfg = cfg.filter;
     if let Some(o) = init.and_then(terraslip_calib::validate::stored_offset) {
-        // The calibration's clock offset between wheels and pose: where
-        // the filter's clock starts (it goes on learning it).
+        // The calibration's clock offset between wheels and pose, found
+        // from a whole drive: the filter holds it. The offset belongs to
+        // the two clocks, not the ground, and the filter's own fixes do
+        // not pin it against its slip states (docs/estimator.md).
         if o.is_finite() && o.abs() <= terraslip_core::filter::MAX_CLOCK_OFFSET {
             meas.clock_offset = o;
+            filter_cfg.learn_clock = false;
         }
     }
     if let Some(g) = init.and_then(|pf| pf.extra.get("gyro_scale")) {
@@ -96,7 +100,7 @@ pub(super) fn setup(
         }
     }
 
-    let mut filter = Filter::new(&prior, cfg.filter, meas, cfg.band(track_width))
+    let mut filter = Filter::new(&prior, filter_cfg, meas, cfg.band(track_width))
         .map_err(|e| PipelineError::Config(e.to_string()))?;
     filter
         .hold_speed_law(speed_law)

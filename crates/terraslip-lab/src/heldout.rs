@@ -8,7 +8,7 @@
 //!   the first half's calibration;
 //! * `--across A:B`: trained on drive A (the online default runs on B,
 //!   alone and started with `--init` from A's calibration), scored on B
-//!   after its first 60 s.
+//!   after its first 60 s, and on each half of that span.
 //!
 //! Every model is scored on the identical 2 s segments (starts every
 //! second that every model can score), each reading the pose with its own
@@ -314,18 +314,20 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             constant,
             selected,
         ];
-        let (cols, n) = row(
-            &to_log,
-            &models,
-            b0.t + spec.warmup,
-            b1.t + 1.0 - spec.horizon,
-        );
+        let name = format!("{} -> {}", name_of(Path::new(src)), name_of(Path::new(dst)));
+        let (from, to) = (b0.t + spec.warmup, b1.t + 1.0 - spec.horizon);
+        let mid = 0.5 * (from + to);
+        // The whole scored span, then its two halves: whether the online
+        // estimate gains on the calibration as the drive goes on.
+        for (label, t0, t1) in [
+            ("", from, to),
+            (", first half", from, mid),
+            (", second half", mid, to),
+        ] {
+            let (cols, n) = row(&to_log, &models, t0, t1);
+            table.push((format!("{name}{label}"), cols, n));
+        }
         eprintln!("  {pair}");
-        table.push((
-            format!("{} -> {}", name_of(Path::new(src)), name_of(Path::new(dst))),
-            cols,
-            n,
-        ));
     }
     if !table.is_empty() {
         println!();

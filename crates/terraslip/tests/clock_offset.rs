@@ -1,21 +1,12 @@
 //! The pose stream's clock offset on a real drive whose lidar pose is
 //! stamped late (DRIVE's Warthog on sand, `../shared/data/drive`).
 
-use std::path::Path;
-
 use terraslip::pipeline::{self, TerrainEvidence};
 use terraslip::{EstimatorConfig, Timed};
 use terraslip_io::DriveLog;
 
 fn sand() -> DriveLog {
-    let dir =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/drive/warthog_sand_a");
-    assert!(
-        dir.exists(),
-        "{}: missing; this test needs the real drives of ../shared beside the clone",
-        dir.display()
-    );
-    DriveLog::read(&dir).unwrap()
+    terraslip::testkit::shared_drive("warthog_sand_a")
 }
 
 #[test]

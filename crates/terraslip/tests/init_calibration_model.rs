@@ -3,22 +3,13 @@
 //! that law, so started there and learning nothing it is the
 //! calibration's model (DRIVE's Warthog on sand, `../shared/data/drive`).
 
-use std::path::Path;
-
 use terraslip::pipeline::{self, TerrainEvidence};
 use terraslip::EstimatorConfig;
 use terraslip_core::IcrParams;
 use terraslip_io::DriveLog;
 
 fn sand() -> DriveLog {
-    let dir =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/drive/warthog_sand_b");
-    assert!(
-        dir.exists(),
-        "{}: missing; this test needs the real drives of ../shared beside the clone",
-        dir.display()
-    );
-    DriveLog::read(&dir).unwrap()
+    terraslip::testkit::shared_drive("warthog_sand_b")
 }
 
 #[test]

@@ -4,10 +4,11 @@
 //!
 //! * every drive: trained on its first half (the online default: the
 //!   parameters it had at each start, having seen only the past), scored on
-//!   its second half;
+//!   its second half; the online default also started with `--init` from
+//!   the first half's calibration;
 //! * `--across A:B`: trained on drive A (the online default runs on B,
 //!   alone and started with `--init` from A's calibration), scored on B
-//!   after its first 60 s.
+//!   after its first 60 s, and on each half of that span.
 //!
 //! Every model is scored on the identical 2 s segments (starts every
 //! second that every model can score), each reading the pose with its own
@@ -48,6 +49,10 @@ pub struct Args {
     /// or `config:FILE.toml`; repeatable), each run like the default.
     #[arg(long = "estimator", value_name = "NAME")]
     estimators: Vec<String>,
+    /// The online runs' configuration (TOML, as `estimate --config`;
+    /// default: the defaults).
+    #[arg(long, value_name = "FILE.toml")]
+    online_config: Option<PathBuf>,
 }
 
 /// A twist of a wheels row for a segment starting at `t` (s).
@@ -234,12 +239,13 @@ fn online_picks<'a>(
 /// effect at each start.
 fn online<'a>(
     target: &DriveLog,
+    cfg: &EstimatorConfig,
     init: Option<&ParamsFile>,
     name: &str,
 ) -> anyhow::Result<Model<'a>> {
     let mut m = online_picks(
         target,
-        &EstimatorConfig::default(),
+        cfg,
         init,
         &[(name.to_string(), Pick::Start)],
     )?;
@@ -353,6 +359,14 @@ fn row(
 pub fn run(a: Args) -> anyhow::Result<()> {
     let logs = crate::drives::logs_or_default(&a.logs)?;
     let extra = crate::estimators::resolve(&a.estimators)?;
+    let cfg = match &a.online_config {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("{}: cannot read", path.display()))?;
+            EstimatorConfig::from_toml(&text).with_context(|| path.display().to_string())?
+        }
+        None => EstimatorConfig::default(),
+    };
     let spec = PredictionSpec::default();
     let mut table = Vec::new();
     eprintln!("first half -> second half");
@@ -374,7 +388,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let cal_clock = stored_offset(&pf).unwrap_or(0.0);
         let mut models = vec![
             drive_model(blr),
-            online(&log, None, "online default")?,
+            online(&log, &cfg, None, "online default")?,
+            online(&log, &cfg, Some(&pf), "online --init")?,
             constant,
             selected,
         ];
@@ -445,24 +460,26 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let [selected, constant] = calibrated(&pf, &to_log, &acc)?;
         let mut models = vec![
             drive_model(blr),
-            online(&to_log, None, "online default")?,
-            online(&to_log, Some(&pf), "online --init")?,
+            online(&to_log, &cfg, None, "online default")?,
+            online(&to_log, &cfg, Some(&pf), "online --init")?,
             constant,
             selected,
         ];
         models.extend(online_configs(&to_log, &extra)?);
-        let (cols, n) = row(
-            &to_log,
-            &models,
-            b0.t + spec.warmup,
-            b1.t + 1.0 - spec.horizon,
-        );
+        let name = format!("{} -> {}", name_of(Path::new(src)), name_of(Path::new(dst)));
+        let (from, to) = (b0.t + spec.warmup, b1.t + 1.0 - spec.horizon);
+        let mid = 0.5 * (from + to);
+        // The whole scored span, then its two halves: whether the online
+        // estimate gains on the calibration as the drive goes on.
+        for (label, t0, t1) in [
+            ("", from, to),
+            (", first half", from, mid),
+            (", second half", mid, to),
+        ] {
+            let (cols, n) = row(&to_log, &models, t0, t1);
+            table.push((format!("{name}{label}"), cols, n));
+        }
         eprintln!("  {pair}");
-        table.push((
-            format!("{} -> {}", name_of(Path::new(src)), name_of(Path::new(dst))),
-            cols,
-            n,
-        ));
     }
     if !table.is_empty() {
         println!();

@@ -171,3 +171,18 @@ pub fn drive(spec: &SynthSpec) -> DriveLog {
         .collect();
     log
 }
+
+/// The real drive `name` of `../shared/data/drive` beside the clone (a
+/// DRIVE Warthog log). Panics, naming the directory, when it is missing:
+/// a test that needs it fails loudly rather than passing without it.
+pub fn shared_drive(name: &str) -> DriveLog {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/data/drive")
+        .join(name);
+    assert!(
+        dir.exists(),
+        "{}: missing; this test needs the real drives of ../shared beside the clone",
+        dir.display()
+    );
+    DriveLog::read(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+}

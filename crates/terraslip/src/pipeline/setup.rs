@@ -76,11 +76,15 @@ pub(super) fn setup(
             ),
         }
     }
+    let mut filter_cfg = cfg.filter;
     if let Some(o) = init.and_then(terraslip_calib::validate::stored_offset) {
-        // The calibration's clock offset between wheels and pose: where
-        // the filter's clock starts (it goes on learning it).
+        // The calibration's clock offset between wheels and pose, found
+        // from a whole drive: the filter holds it. The offset belongs to
+        // the two clocks, not the ground, and the filter's own fixes do
+        // not pin it against its slip states (docs/estimator.md).
         if o.is_finite() && o.abs() <= terraslip_core::filter::MAX_CLOCK_OFFSET {
             meas.clock_offset = o;
+            filter_cfg.learn_clock = false;
         }
     }
     if let Some(g) = init.and_then(|pf| pf.extra.get("gyro_scale")) {
@@ -94,7 +98,7 @@ pub(super) fn setup(
         }
     }
 
-    let filter = Filter::new(&prior, cfg.filter, meas, cfg.band(track_width))
+    let filter = Filter::new(&prior, filter_cfg, meas, cfg.band(track_width))
         .map_err(|e| PipelineError::Config(e.to_string()))?;
     let mut schedule = NoiseSchedule::new(cfg.schedule_config());
     if init_source != "prior" {
@@ -201,7 +205,9 @@ const CENTRIPETAL_STD_FLOOR: f64 = 0.25;
 /// its selected turn-rate model, with its centripetal terms, when
 /// calibration selected one) with their stated stds, never tighter than
 /// `init.calibrated_std` (the centripetal terms' never tighter than
-/// [`CENTRIPETAL_STD_FLOOR`] of their prior's).
+/// [`CENTRIPETAL_STD_FLOOR`] of their prior's); the selected model's
+/// speed factors' turn law `k_alpha` (s/m) is held, so the filter's model
+/// is the calibration's.
 fn init_prior(
     cfg: &EstimatorConfig,
     name: &str,
@@ -251,8 +257,17 @@ fn init_prior(
                 )));
             }
         }
+        if r.k_alpha.is_nan() || r.k_alpha.abs() > terraslip_core::filter::MAX_TURN_LAW {
+            return Err(PipelineError::Init(format!(
+                "set `{name}`: rate_model k_alpha = {} s/m is beyond +-{}",
+                r.k_alpha,
+                terraslip_core::filter::MAX_TURN_LAW
+            )));
+        }
         prior.icr = r.params;
         prior.turn_law = r.k_spread;
+        prior.speed_law = r.k_alpha;
+        prior.speed_law_std = 0.0;
         // Those parameters' own uncertainty, not the constant
         // model's.
         let model = extra.get("rate_model");
@@ -346,6 +361,8 @@ mod tests {
         let prior = init_prior(&cfg, "gravel", p, &extra, cfg.prior(1.1)).unwrap();
         assert_eq!(prior.icr.y_l, 1.36);
         assert_eq!(prior.turn_law, -0.06);
+        // The law's speed factor slope, held.
+        assert_eq!((prior.speed_law, prior.speed_law_std), (-0.05, 0.0));
         assert!(
             (prior.std.spread - 0.097f64.hypot(0.095)).abs() < 1e-12,
             "{:?}",
@@ -398,6 +415,7 @@ mod tests {
         let (p, mut extra) = calibrated_set();
         extra.remove("rate_model");
         let prior = init_prior(&cfg, "gravel", p, &extra, cfg.prior(1.1)).unwrap();
+        assert_eq!(prior.speed_law, cfg.prior(1.1).speed_law);
         assert_eq!(prior.icr, p);
         assert!((prior.std.spread - 0.04f64.hypot(0.04)).abs() < 1e-12);
         assert_eq!(

@@ -16,6 +16,9 @@
 //! The manoeuvre split: `TS_SPLIT=manoeuvre` holds out every terrain's
 //! fastest drive and slowest spin ([`manoeuvre_split`]) and trains once on
 //! the rest (`folds` is ignored).
+//!
+//! Speed augmentation of the training logs ([`augment`]): `TS_AUGMENT=0.7,1.4`
+//! (speed factors), `TS_AUG_AMP=0`, `TS_AUG_CURRENTS=0`.
 
 use terraslip_terrain::classify::SplitMix64;
 use terraslip_terrain::*;
@@ -129,6 +132,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if env("TS_CURRENTS") == Some(0.0) {
         opts.currents = Some(false);
+    }
+    // Speed augmentation: TS_AUGMENT=0.7,1.4 (factors), TS_AUG_AMP=0 (no
+    // amplitude law), TS_AUG_CURRENTS=0 (currents resampled only).
+    if let Ok(f) = std::env::var("TS_AUGMENT") {
+        let factors = f
+            .split(',')
+            .filter(|s| !s.trim().is_empty())
+            .map(|s| s.trim().parse::<f64>())
+            .collect::<Result<Vec<_>, _>>()?;
+        opts.speed_augmentation = (!factors.is_empty()).then(|| augment::SpeedAugmentation {
+            factors,
+            amplitude_law: env("TS_AUG_AMP") != Some(0.0),
+            currents: env("TS_AUG_CURRENTS") != Some(0.0),
+        });
     }
     let folds: usize = args.get(4).map_or(Ok(5), |s| s.parse())?;
     let logs = match env("TS_PARTITION") {

@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 use terraslip_core::terrain_belief::{BeliefConfig, TerrainBelief, MAX_TERRAINS};
 use terraslip_io::DriveLog;
 
+use crate::augment::{SpeedAugmentation, SpeedLaw};
 use crate::classify::{Classifier, ClassifierParams, Standardizer};
 use crate::envelope::{lower_confidence, Envelope};
 use crate::error::{Result, TerrainError};
@@ -114,6 +115,9 @@ pub struct TrainOptions {
     /// cross-validation over the training runs (overrides
     /// `vibration.speed_norm_min`).
     pub speed_floor: Option<f64>,
+    /// Speed copies of the training logs ([`crate::augment`]; `full`
+    /// vibration features with speed normalisation only); `None`: none.
+    pub speed_augmentation: Option<SpeedAugmentation>,
 }
 
 impl Default for TrainOptions {
@@ -127,6 +131,7 @@ impl Default for TrainOptions {
             imu_channels: None,
             currents: None,
             speed_floor: None,
+            speed_augmentation: None,
         }
     }
 }
@@ -323,6 +328,16 @@ impl TerrainModel {
         if logs.is_empty() {
             return Err(TerrainError::Training("no logs given".into()));
         }
+        if let Some(r) = opts
+            .speed_augmentation
+            .iter()
+            .flat_map(|a| &a.factors)
+            .find(|r| !(r.is_finite() && **r > 0.0))
+        {
+            return Err(TerrainError::Config(format!(
+                "speed augmentation factor {r}: must be a positive number"
+            )));
+        }
         if classes.len() > MAX_TERRAINS {
             return Err(TerrainError::Training(format!(
                 "{} terrain classes, the belief filter holds at most {MAX_TERRAINS}",
@@ -450,14 +465,35 @@ impl TerrainModel {
                     config.speed_norm_ref,
                     config.speed_norm_min,
                 )?;
-                x.iter_mut().for_each(|r| sn.apply(r));
                 Some(sn)
             }
             _ => None,
         };
+        // The envelope holds the recorded windows only: what was driven.
+        let n_recorded = x.len();
+        if let (Some(aug), Some(sn), Features::Vibration { config, .. }) =
+            (&opts.speed_augmentation, &speed_normalisation, &features)
+        {
+            let law = SpeedLaw::from_speed_normalisation(sn, &config.feature_names());
+            for log in logs {
+                for &r in &aug.factors {
+                    let copy = crate::augment::speed_copy(log, r, &law, aug);
+                    for s in labelled(&copy, &features, classes)? {
+                        x.push(s.x);
+                        y.push(s.y);
+                    }
+                }
+            }
+        }
+        if let Some(sn) = &speed_normalisation {
+            x.iter_mut().for_each(|r| sn.apply(r));
+        }
         let envelope = manoeuvre_indices(&features).map(|(iv, id)| {
             Envelope::fit(
-                x.iter().zip(&y).map(|(r, &c)| (c, r[iv], r[id])),
+                x[..n_recorded]
+                    .iter()
+                    .zip(&y)
+                    .map(|(r, &c)| (c, r[iv], r[id])),
                 classes.len(),
             )
         });

@@ -17,8 +17,9 @@
 //! fastest drive and slowest spin ([`manoeuvre_split`]) and trains once on
 //! the rest (`folds` is ignored).
 //!
-//! Speed augmentation of the training logs ([`augment`]): `TS_AUGMENT=0.7,1.4`
-//! (speed factors), `TS_AUG_AMP=0`, `TS_AUG_CURRENTS=0`.
+//! Speed copies of the training logs ([`augment`], on by default):
+//! `TS_AUGMENT=0.7,1.4` (speed factors), `TS_AUGMENT=none` (recorded
+//! windows only).
 
 use terraslip_terrain::classify::SplitMix64;
 use terraslip_terrain::*;
@@ -133,19 +134,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if env("TS_CURRENTS") == Some(0.0) {
         opts.currents = Some(false);
     }
-    // Speed augmentation: TS_AUGMENT=0.7,1.4 (factors), TS_AUG_AMP=0 (no
-    // amplitude law), TS_AUG_CURRENTS=0 (currents resampled only).
+    // Speed copies (default: augment::SpeedAugmentation::default()):
+    // TS_AUGMENT=0.7,1.4 (factors), TS_AUGMENT=none.
     if let Ok(f) = std::env::var("TS_AUGMENT") {
         let factors = f
             .split(',')
-            .filter(|s| !s.trim().is_empty())
+            .filter(|s| !s.trim().is_empty() && s.trim() != "none")
             .map(|s| s.trim().parse::<f64>())
             .collect::<Result<Vec<_>, _>>()?;
-        opts.speed_augmentation = (!factors.is_empty()).then(|| augment::SpeedAugmentation {
-            factors,
-            amplitude_law: env("TS_AUG_AMP") != Some(0.0),
-            currents: env("TS_AUG_CURRENTS") != Some(0.0),
-        });
+        opts.speed_augmentation =
+            (!factors.is_empty()).then_some(augment::SpeedAugmentation { factors });
     }
     let folds: usize = args.get(4).map_or(Ok(5), |s| s.parse())?;
     let logs = match env("TS_PARTITION") {

@@ -16,14 +16,14 @@
 //!   same frequencies (power density unchanged: the sensor and motor noise
 //!   floor rather than texture).
 //! - Amplitude: the texture part (above [`MOTION_CUTOFF_HZ`]) of channel
-//!   `c` is scaled by `r^β_c` (`amplitude_law`), β_c from how the channel's
+//!   `c` is scaled by `r^β_c`, β_c from how the channel's
 //!   log variance grows with the tread speed within terrains on the
 //!   training windows (half the speed normalisation's slope of
 //!   `<channel>_log_var`); below the cut-off the motion: angular rates
 //!   scale by `r`, accelerations (gravity, tilt) stay.
 //! - Treads: speeds times `r`, timestamps compressed by `r`: tread
 //!   difference and commanded yaw rate scale by `r`, the spin share stays.
-//! - Motor currents (`currents`): the robot's own current baseline
+//! - Motor currents: the robot's own current baseline
 //!   ([`crate::current::CurrentBaseline`], fitted on the training
 //!   windows) says how the current grows with speed and turn:
 //!   `ln I' = ln I + c1 · ln r + c3 · (r − 1) · |ω_cmd|`, ω_cmd the
@@ -48,15 +48,21 @@ pub const MOTION_CUTOFF_HZ: f64 = 0.5;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SpeedAugmentation {
-    /// Speed factors `r` (each > 0, not 1): one copy of every training log
-    /// per factor, driven `r` times as fast.
+    /// Speed factors `r` (each > 0): one copy of every training log per
+    /// factor, driven `r` times as fast. A copy's window is kept only
+    /// where the recorded windows of its terrain did not drive (outside
+    /// the terrain's envelope, [`crate::envelope`]).
     pub factors: Vec<f64>,
-    /// Scale the texture vibration by `r^β` per channel (β measured on the
-    /// training windows); off: time resampling only.
-    pub amplitude_law: bool,
-    /// Scale the motor currents by the robot's current baseline; off: the
-    /// currents are only resampled in time.
-    pub currents: bool,
+}
+
+impl Default for SpeedAugmentation {
+    /// Copies at 0.6, 0.8, 1.25 and 1.6 times the recorded speeds
+    /// (docs/benchmarks.md, "Speed copies").
+    fn default() -> Self {
+        Self {
+            factors: vec![0.6, 0.8, 1.25, 1.6],
+        }
+    }
 }
 
 /// What [`speed_copy`] scales by, measured on the training windows.
@@ -88,9 +94,9 @@ impl SpeedLaw {
 }
 
 /// `log` as if driven `r` times as fast (see the module doc), named
-/// `<dir>/speed_x<r>`. `law` gives the amplitude exponents and current
-/// baseline; `aug` which of them apply. `r` must be finite and positive.
-pub fn speed_copy(log: &DriveLog, r: f64, law: &SpeedLaw, aug: &SpeedAugmentation) -> DriveLog {
+/// `<dir>/speed_x<r>`, with the amplitude exponents and current baseline of
+/// `law`. `r` must be finite and positive.
+pub fn speed_copy(log: &DriveLog, r: f64, law: &SpeedLaw) -> DriveLog {
     assert!(r.is_finite() && r > 0.0, "speed factor {r}");
     let t_start = [
         log.imu.first().map(|s| s.t),
@@ -101,11 +107,6 @@ pub fn speed_copy(log: &DriveLog, r: f64, law: &SpeedLaw, aug: &SpeedAugmentatio
     .fold(f64::INFINITY, f64::min);
     let t_start = if t_start.is_finite() { t_start } else { 0.0 };
     let warp = |t: f64| t_start + (t - t_start) / r;
-    let beta = if aug.amplitude_law {
-        law.beta
-    } else {
-        [0.0; 6]
-    };
     let wheels: Vec<WheelSample> = log
         .wheels
         .iter()
@@ -116,7 +117,7 @@ pub fn speed_copy(log: &DriveLog, r: f64, law: &SpeedLaw, aug: &SpeedAugmentatio
         })
         .collect();
     let track_width = log.meta.track_width.filter(|w| *w > 1e-3).unwrap_or(1.0);
-    let current_law = law.current.as_ref().filter(|_| aug.currents);
+    let current_law = law.current.as_ref();
     let currents = log
         .currents
         .iter()
@@ -140,7 +141,7 @@ pub fn speed_copy(log: &DriveLog, r: f64, law: &SpeedLaw, aug: &SpeedAugmentatio
         .collect();
     DriveLog {
         dir: log.dir.join(format!("speed_x{r}")),
-        imu: resample_imu(&log.imu, r, &beta, &warp),
+        imu: resample_imu(&log.imu, r, &law.beta, &warp),
         wheels,
         currents,
         terrain: log
@@ -375,12 +376,7 @@ mod tests {
                 coefficients: [1.0, 0.5, 0.3, 0.2],
             }),
         };
-        let aug = SpeedAugmentation {
-            factors: vec![1.4],
-            amplitude_law: true,
-            currents: true,
-        };
-        let c = speed_copy(&log, 1.4, &law, &aug);
+        let c = speed_copy(&log, 1.4, &law);
         assert_eq!(c.imu.len(), (1000.0f64 / 1.4).floor() as usize);
         assert!(c
             .imu
@@ -393,10 +389,10 @@ mod tests {
         // ln gain = 0.5 ln 1.4 + 0.2 · 0.4 · |0.2 / 0.5|.
         let gain = (0.5 * 1.4f64.ln() + 0.2 * 0.4 * 0.4).exp();
         assert!((c.currents[3].right / 3.0 - gain).abs() < 1e-12);
-        let plain = SpeedAugmentation {
-            currents: false,
-            ..aug
+        let plain = SpeedLaw {
+            current: None,
+            ..law
         };
-        assert_eq!(speed_copy(&log, 1.4, &law, &plain).currents[3].right, 3.0);
+        assert_eq!(speed_copy(&log, 1.4, &plain).currents[3].right, 3.0);
     }
 }

@@ -54,11 +54,7 @@ fn opts(augment: Option<Vec<f64>>) -> TrainOptions {
     o.vibration.window_s = 2.0;
     o.classifier.boost.rounds = 40;
     o.speed_floor = Some(0.1);
-    o.speed_augmentation = augment.map(|factors| SpeedAugmentation {
-        factors,
-        amplitude_law: true,
-        currents: true,
-    });
+    o.speed_augmentation = augment.map(|factors| SpeedAugmentation { factors });
     o
 }
 
@@ -112,12 +108,7 @@ fn a_speed_copy_has_the_features_of_the_faster_drive() {
     };
     let slow = drive(0, 0.3, 40.0, 1);
     let fast = drive(0, 0.48, 40.0, 2);
-    let aug = SpeedAugmentation {
-        factors: vec![1.6],
-        amplitude_law: false,
-        currents: false,
-    };
-    let copy = speed_copy(&slow, 1.6, &SpeedLaw::default(), &aug);
+    let copy = speed_copy(&slow, 1.6, &SpeedLaw::default());
     // 6 Hz at 0.3 m/s is in band 1 (4.2-8.3 Hz of 12 bands to 50 Hz); 9.6 Hz
     // at 0.48 m/s in band 2.
     for feature in [

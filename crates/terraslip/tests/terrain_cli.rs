@@ -228,6 +228,20 @@ fn bad_input_is_one_line_and_non_zero() {
     log.imu.clear();
     log.write(&no_imu).unwrap();
     eval_fails(&no_imu, &model, &plots, "no imu data");
+    // A speed copy factor that is not a positive number.
+    fails_with(
+        terraslip()
+            .args([
+                "terrain",
+                "train",
+                &runs[0],
+                &runs[1],
+                "--speed-copies",
+                "1.2,0",
+            ])
+            .args(["--out", dir.path().join("s.json").to_str().unwrap()]),
+        "--speed-copies takes positive speed factors, got 0",
+    );
     // Training a camera model from logs without images.
     fails_with(
         terraslip()

@@ -86,7 +86,11 @@ pub(super) struct TrainSettings {
     /// resampled in time, tread speeds times r, amplitude and currents by
     /// laws measured on the training runs), its windows kept where their
     /// terrain was not driven. Comma-separated, each > 0.
-    #[arg(long, value_delimiter = ',', default_value = "0.6,0.8,1.25,1.6")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_values_t = terraslip_terrain::augment::SpeedAugmentation::default().factors
+    )]
     speed_copies: Vec<f64>,
     /// imu, full features: train on the recorded windows only (no speed copies).
     #[arg(long)]

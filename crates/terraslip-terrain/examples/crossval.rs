@@ -16,6 +16,10 @@
 //! The manoeuvre split: `TS_SPLIT=manoeuvre` holds out every terrain's
 //! fastest drive and slowest spin ([`manoeuvre_split`]) and trains once on
 //! the rest (`folds` is ignored).
+//!
+//! Speed copies of the training logs ([`augment`], on by default):
+//! `TS_AUGMENT=0.7,1.4` (speed factors), `TS_AUGMENT=none` (recorded
+//! windows only).
 
 use terraslip_terrain::classify::SplitMix64;
 use terraslip_terrain::*;
@@ -129,6 +133,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if env("TS_CURRENTS") == Some(0.0) {
         opts.currents = Some(false);
+    }
+    // Speed copies (default: augment::SpeedAugmentation::default()):
+    // TS_AUGMENT=0.7,1.4 (factors), TS_AUGMENT=none.
+    if let Ok(f) = std::env::var("TS_AUGMENT") {
+        let factors = f
+            .split(',')
+            .filter(|s| !s.trim().is_empty() && s.trim() != "none")
+            .map(|s| s.trim().parse::<f64>())
+            .collect::<Result<Vec<_>, _>>()?;
+        opts.speed_augmentation =
+            (!factors.is_empty()).then_some(augment::SpeedAugmentation { factors });
     }
     let folds: usize = args.get(4).map_or(Ok(5), |s| s.parse())?;
     let logs = match env("TS_PARTITION") {

@@ -16,12 +16,14 @@
 //!   leave-runs-out cross-validation (parallel folds).
 //! - [`speed_norm`]: learnt per-feature speed slopes; [`envelope`]: the
 //!   speeds and turns each terrain was trained at.
+//! - [`augment`]: speed copies of training logs (driven faster or slower).
 //! - [`synth`]: small synthetic labelled logs for tests and benchmarks.
 //!
 //! The Bayesian (HMM) filter and the λ-vote live in
 //! `terraslip_core::terrain_belief`, allocation-free, so the robot-side
 //! estimator can run them.
 
+pub mod augment;
 pub mod boost;
 pub mod classify;
 pub mod crossval;

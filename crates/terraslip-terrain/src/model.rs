@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 use terraslip_core::terrain_belief::{BeliefConfig, TerrainBelief, MAX_TERRAINS};
 use terraslip_io::DriveLog;
 
+use crate::augment::{SpeedAugmentation, SpeedLaw};
 use crate::classify::{Classifier, ClassifierParams, Standardizer};
 use crate::envelope::{lower_confidence, Envelope};
 use crate::error::{Result, TerrainError};
@@ -114,6 +115,10 @@ pub struct TrainOptions {
     /// cross-validation over the training runs (overrides
     /// `vibration.speed_norm_min`).
     pub speed_floor: Option<f64>,
+    /// Speed copies of the training logs ([`crate::augment`]; `full`
+    /// vibration features with speed normalisation only; ignored
+    /// otherwise); `None`: the recorded windows only.
+    pub speed_augmentation: Option<SpeedAugmentation>,
 }
 
 impl Default for TrainOptions {
@@ -127,6 +132,7 @@ impl Default for TrainOptions {
             imu_channels: None,
             currents: None,
             speed_floor: None,
+            speed_augmentation: Some(SpeedAugmentation::default()),
         }
     }
 }
@@ -137,6 +143,13 @@ pub struct TrainingInfo {
     pub logs: Vec<String>,
     /// Training windows (frames) per class, in the order of `classes`.
     pub samples_per_class: Vec<usize>,
+    /// Speed factors of the training copies ([`crate::augment`]); empty: none.
+    #[serde(default)]
+    pub speed_copies: Vec<f64>,
+    /// Windows of the speed copies trained on, per class (beside
+    /// `samples_per_class`); empty without copies.
+    #[serde(default)]
+    pub speed_copy_samples_per_class: Vec<usize>,
 }
 
 /// A trained terrain classifier, saved as JSON.
@@ -323,6 +336,16 @@ impl TerrainModel {
         if logs.is_empty() {
             return Err(TerrainError::Training("no logs given".into()));
         }
+        if let Some(r) = opts
+            .speed_augmentation
+            .iter()
+            .flat_map(|a| &a.factors)
+            .find(|r| !(r.is_finite() && **r > 0.0))
+        {
+            return Err(TerrainError::Config(format!(
+                "speed augmentation factor {r}: must be a positive number"
+            )));
+        }
         if classes.len() > MAX_TERRAINS {
             return Err(TerrainError::Training(format!(
                 "{} terrain classes, the belief filter holds at most {MAX_TERRAINS}",
@@ -450,17 +473,47 @@ impl TerrainModel {
                     config.speed_norm_ref,
                     config.speed_norm_min,
                 )?;
-                x.iter_mut().for_each(|r| sn.apply(r));
                 Some(sn)
             }
             _ => None,
         };
-        let envelope = manoeuvre_indices(&features).map(|(iv, id)| {
+        // The envelope holds the recorded windows only: what was driven.
+        let manoeuvre = manoeuvre_indices(&features);
+        let envelope = manoeuvre.map(|(iv, id)| {
             Envelope::fit(
                 x.iter().zip(&y).map(|(r, &c)| (c, r[iv], r[id])),
                 classes.len(),
             )
         });
+        let mut speed_copies = Vec::new();
+        let mut speed_copy_samples_per_class = Vec::new();
+        if let (Some(aug), Some(sn), Features::Vibration { config, .. }) =
+            (&opts.speed_augmentation, &speed_normalisation, &features)
+        {
+            speed_copies.clone_from(&aug.factors);
+            speed_copy_samples_per_class = vec![0usize; classes.len()];
+            let law = SpeedLaw::from_speed_normalisation(sn, &config.feature_names());
+            let driven = |s: &crate::samples::Labelled| match (&envelope, manoeuvre) {
+                (Some(e), Some((iv, id))) => e.covers(s.y, s.x[iv], s.x[id]),
+                _ => false,
+            };
+            for log in logs {
+                for &r in &aug.factors {
+                    let copy = crate::augment::speed_copy(log, r, &law);
+                    for s in labelled(&copy, &features, classes)? {
+                        if driven(&s) {
+                            continue;
+                        }
+                        speed_copy_samples_per_class[s.y] += 1;
+                        x.push(s.x);
+                        y.push(s.y);
+                    }
+                }
+            }
+        }
+        if let Some(sn) = &speed_normalisation {
+            x.iter_mut().for_each(|r| sn.apply(r));
+        }
         let normalisation = Standardizer::fit(&x);
         let xs: Vec<Vec<f64>> = x.iter().map(|r| normalisation.apply(r)).collect();
         let classifier = Classifier::fit(&xs, &y, classes.len(), &opts.classifier)?;
@@ -483,6 +536,8 @@ impl TerrainModel {
             training: TrainingInfo {
                 logs: logs.iter().map(|l| l.name()).collect(),
                 samples_per_class,
+                speed_copies,
+                speed_copy_samples_per_class,
             },
         })
     }

@@ -24,6 +24,18 @@ pub fn imu_rate(imu: &[ImuSample]) -> Option<f64> {
     Some(1.0 / *m)
 }
 
+/// Channel `c` of an IMU sample, in the order of [`CHANNEL_NAMES`].
+pub(crate) fn channel(s: &ImuSample, c: usize) -> Option<f64> {
+    match c {
+        0 => s.accel_x,
+        1 => s.accel_y,
+        2 => Some(s.accel_z),
+        3 => s.gyro_x,
+        4 => s.gyro_y,
+        _ => s.gyro_z,
+    }
+}
+
 /// The IMU of a log split into channels, checked against what `cfg` reads.
 pub(crate) struct ImuChannels {
     pub t: Vec<f64>,
@@ -51,15 +63,7 @@ impl ImuChannels {
         for &c in cfg.channel_indices() {
             let mut v = Vec::with_capacity(log.imu.len());
             for (i, s) in log.imu.iter().enumerate() {
-                let x = match c {
-                    0 => s.accel_x,
-                    1 => s.accel_y,
-                    2 => Some(s.accel_z),
-                    3 => s.gyro_x,
-                    4 => s.gyro_y,
-                    _ => s.gyro_z,
-                };
-                match x {
+                match channel(s, c) {
                     Some(x) if x.is_finite() => v.push(x),
                     _ => {
                         return Err(TerrainError::MissingSource {

@@ -228,13 +228,25 @@ fn bad_input_is_one_line_and_non_zero() {
     log.imu.clear();
     log.write(&no_imu).unwrap();
     eval_fails(&no_imu, &model, &plots, "no imu data");
-    // Training a camera model from logs without images.
-    fails_with(
-        terraslip()
-            .args(["terrain", "train", &runs[0], &runs[1], "--source", "camera"])
-            .args(["--out", dir.path().join("c.json").to_str().unwrap()]),
-        "camera",
+    // Training on two runs with `extra` settings must fail naming `needle`.
+    let train_fails = |extra: &[&str], needle: &str| {
+        let out = dir.path().join("refused.json");
+        fails_with(
+            terraslip()
+                .args(["terrain", "train", &runs[0], &runs[1]])
+                .args(extra)
+                .arg("--out")
+                .arg(&out),
+            needle,
+        )
+    };
+    // A speed copy factor that is not a positive number.
+    train_fails(
+        &["--speed-copies", "1.2,0"],
+        "--speed-copies takes positive speed factors, got 0",
     );
+    // Training a camera model from logs without images.
+    train_fails(&["--source", "camera"], "camera");
     // A class with too few windows.
     let tiny = dir.path().join("tiny");
     vibration_log(&NAMES, &[(2, 1.2)], 7, 0.0)

@@ -81,6 +81,20 @@ pub(super) struct TrainSettings {
     /// training runs].
     #[arg(long)]
     speed_floor: Option<f64>,
+    /// imu, full features: speed factors of the training copies: every
+    /// training log is also replayed as if driven r times as fast (IMU
+    /// resampled in time, tread speeds times r, amplitude and currents by
+    /// laws measured on the training runs), its windows kept where their
+    /// terrain was not driven. Comma-separated, each > 0.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_values_t = terraslip_terrain::augment::SpeedAugmentation::default().factors
+    )]
+    speed_copies: Vec<f64>,
+    /// imu, full features: train on the recorded windows only (no speed copies).
+    #[arg(long)]
+    no_speed_copies: bool,
     /// Neighbours of the KNN classifier.
     #[arg(long, default_value_t = 5)]
     k: usize,
@@ -170,6 +184,18 @@ pub(super) fn options(s: &TrainSettings) -> anyhow::Result<TrainOptions> {
             bail!("--speed-floor must be a positive speed in m/s, got {v}");
         }
         o.speed_floor = Some(v);
+    }
+    if s.no_speed_copies || o.vibration.feature_set != VibrationFeatureSet::Full {
+        o.speed_augmentation = None;
+    } else if let Some(aug) = &mut o.speed_augmentation {
+        if let Some(r) = s
+            .speed_copies
+            .iter()
+            .find(|r| !(r.is_finite() && **r > 0.0))
+        {
+            bail!("--speed-copies takes positive speed factors, got {r}");
+        }
+        aug.factors = s.speed_copies.clone();
     }
     if let Some(p) = &s.roi {
         let text =

@@ -59,6 +59,23 @@ pub(super) fn run(a: TrainArgs) -> anyhow::Result<()> {
             .collect::<Vec<_>>()
             .join(" ")
     );
+    if !model.training.speed_copies.is_empty() {
+        eprintln!(
+            "and on {} windows of speed copies (r = {}) where their terrain was not driven",
+            model
+                .training
+                .speed_copy_samples_per_class
+                .iter()
+                .sum::<usize>(),
+            model
+                .training
+                .speed_copies
+                .iter()
+                .map(|r| r.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
     eprintln!(
         "reads {}; wrote {} ({:.0} s)",
         model.channels_description(),

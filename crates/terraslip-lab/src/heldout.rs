@@ -243,12 +243,7 @@ fn online<'a>(
     init: Option<&ParamsFile>,
     name: &str,
 ) -> anyhow::Result<Model<'a>> {
-    let mut m = online_picks(
-        target,
-        cfg,
-        init,
-        &[(name.to_string(), Pick::Start)],
-    )?;
+    let mut m = online_picks(target, cfg, init, &[(name.to_string(), Pick::Start)])?;
     m.pop().context("no model")
 }
 

@@ -71,6 +71,20 @@ pub struct Twist {
     pub omega: f64,
 }
 
+impl Twist {
+    /// Every component times `f`: the twist of the ICR model with both
+    /// speed factors times `f` (the twist is linear in `alpha_l V_l` and
+    /// `alpha_r V_r`).
+    #[inline]
+    pub fn scaled(self, f: f64) -> Twist {
+        Twist {
+            v_x: f * self.v_x,
+            v_y: f * self.v_y,
+            omega: f * self.omega,
+        }
+    }
+}
+
 /// ICR kinematic parameters of one robot on one terrain (body frame, metres).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]

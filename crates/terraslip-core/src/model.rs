@@ -138,12 +138,12 @@ pub fn with_speed_law(
     d_terms[(0, 2)] = d_f * t.v_x;
     d_terms[(1, 2)] = d_f * t.v_y;
     d_terms[(2, 2)] = d_f * t.omega;
-    let scaled = Twist {
-        v_x: f * t.v_x,
-        v_y: f * t.v_y,
-        omega: f * t.omega,
-    };
-    (scaled, j * f, [f * dk[0], f * dk[1], f * dk[2]], d_terms)
+    (
+        t.scaled(f),
+        j * f,
+        [f * dk[0], f * dk[1], f * dk[2]],
+        d_terms,
+    )
 }
 
 /// One Euler step of `dt` seconds with tread speeds `u` and turn-law

@@ -355,11 +355,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let logs = crate::drives::logs_or_default(&a.logs)?;
     let extra = crate::estimators::resolve(&a.estimators)?;
     let cfg = match &a.online_config {
-        Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("{}: cannot read", path.display()))?;
-            EstimatorConfig::from_toml(&text).with_context(|| path.display().to_string())?
-        }
+        Some(path) => crate::estimators::config_file(path)?,
         None => EstimatorConfig::default(),
     };
     let spec = PredictionSpec::default();

@@ -432,11 +432,7 @@ impl Filter {
     /// the last step's turn.
     fn with_speed_law(&self, p: IcrParams) -> IcrParams {
         let (f, _) = crate::slip::law_factor(self.x[SPEED_LAW], self.law_input);
-        IcrParams {
-            alpha_l: f * p.alpha_l,
-            alpha_r: f * p.alpha_r,
-            ..p
-        }
+        crate::kinematics::scaled(&p, 1.0, f)
     }
 
     /// Slope of the speed factors' turn law and its std, s/m: both speed

@@ -132,12 +132,7 @@ fn run(f: &mut Filter, d: &Drive) -> ((f64, f64, f64), IcrParams) {
         }
         let (vl, vr) = if d.windows { window } else { treads(t) };
         let tw = d.centripetal.at(&truth, vl, vr).twist(vl, vr);
-        let g = 1.0 + d.speed_law * (vr - vl).abs();
-        let tw = Twist {
-            v_x: g * tw.v_x,
-            v_y: g * tw.v_y,
-            omega: g * tw.omega,
-        };
+        let tw = tw.scaled(1.0 + d.speed_law * (vr - vl).abs());
         for _ in 0..10 {
             let h = dt / 10.0;
             e += h * (tw.v_x * libm::cos(yaw) - tw.v_y * libm::sin(yaw));

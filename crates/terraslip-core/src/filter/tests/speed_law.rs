@@ -20,12 +20,7 @@ fn prediction_error(f: &Filter, truth: &IcrParams, law: f64, seed: u64) -> f64 {
         };
         let dv = (vr - vl).abs();
         let t = truth.twist(vl, vr);
-        let g = 1.0 + law * dv;
-        let real = Twist {
-            v_x: g * t.v_x,
-            v_y: g * t.v_y,
-            omega: g * t.omega,
-        };
+        let real = t.scaled(1.0 + law * dv);
         let (model, ..) = model::twist_at(x, f.config().chart, u, dv);
         let (mut a, mut b) = ([0.0f64; 3], [0.0f64; 3]);
         for _ in 0..100 {

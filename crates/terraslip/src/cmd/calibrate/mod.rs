@@ -166,6 +166,14 @@ pub struct Args {
     /// information criterion further), `on` (kept when identified) or `off`.
     #[arg(long, value_enum, default_value = "auto")]
     centripetal: RateArg,
+    /// Reduced constant models next to the full five parameters: symmetric
+    /// ICRs (`y_r = -y_l`), `x_c` at 0, equal speed factors, and their
+    /// combinations. `auto` keeps the one of lowest information criterion
+    /// (a short drive that cannot pay for all five parameters holds the
+    /// relations it does not resolve; the variable models then hold them
+    /// too), `off` fits all five.
+    #[arg(long, value_enum, default_value = "auto")]
+    reduced_models: ReducedArg,
     /// Fit segments overlap, each lasting --min-segment: one starts at every
     /// pose where an earlier one ended, and at the first pose at least this
     /// many seconds after the previous start (0: at every pose, the
@@ -200,6 +208,13 @@ impl From<RateArg> for RateModel {
             RateArg::On => RateModel::On,
         }
     }
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Serialize)]
+#[serde(rename_all = "kebab-case")]
+enum ReducedArg {
+    Off,
+    Auto,
 }
 
 /// Segment selection shared by calibrate and validate.
@@ -337,6 +352,7 @@ fn config(a: &Args) -> anyhow::Result<CalibConfig> {
         traction: a.traction.into(),
         traction_signed: a.traction_signed,
         centripetal: a.centripetal.into(),
+        reduced_models: matches!(a.reduced_models, ReducedArg::Auto),
         ..Default::default()
     };
     if !(a.stride.is_finite() && a.stride >= 0.0) {

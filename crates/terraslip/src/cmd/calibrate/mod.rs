@@ -47,7 +47,11 @@ tread acceleration, kept by the same criterion; on top of the selected
 model the centripetal terms (--centripetal, default auto) move x_c by
 k_x_speed per m/s of speed (a lateral slip on v*omega, as DRIVE's learned
 model has) and scale the spread by 1 + k_spread_speed |v| (a yaw slip on
-v*omega), kept by the same criterion. `calibrate validate` scores the
+v*omega), kept by the same criterion. Where none is kept, reduced
+constant sets (--reduced-models, default auto: symmetric ICRs, x_c at 0,
+equal speed factors) hold what a short drive does not resolve, kept by
+the same criterion and written as a full set under `reduction`.
+`calibrate validate` scores the
 variable model where it was selected (--model constant scores the constant
 one) and reports both.
 
@@ -166,12 +170,13 @@ pub struct Args {
     /// information criterion further), `on` (kept when identified) or `off`.
     #[arg(long, value_enum, default_value = "auto")]
     centripetal: RateArg,
-    /// Reduced constant models next to the full five parameters: symmetric
-    /// ICRs (`y_r = -y_l`), `x_c` at 0, equal speed factors, and their
-    /// combinations. `auto` keeps the one of lowest information criterion
-    /// (a short drive that cannot pay for all five parameters holds the
-    /// relations it does not resolve; the variable models then hold them
-    /// too), `off` fits all five.
+    /// Reduced constant models where no variable model is selected:
+    /// symmetric ICRs (`y_r = -y_l`), `x_c` at 0, equal speed factors, and
+    /// their combinations, each tried when the full fit leaves a parameter
+    /// it removes unresolved (1-sigma over 0.05 m, 0.01 for a speed
+    /// factor). `auto` keeps the one of lowest information criterion and
+    /// profiles the time offset again with it (a short drive holds the
+    /// relations it cannot resolve); `off` fits all five.
     #[arg(long, value_enum, default_value = "auto")]
     reduced_models: ReducedArg,
     /// Fit segments overlap, each lasting --min-segment: one starts at every

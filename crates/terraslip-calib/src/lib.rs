@@ -42,6 +42,7 @@ pub mod model;
 pub mod offset;
 pub mod position_prediction;
 pub mod prediction;
+pub mod reduction;
 pub mod sandwich;
 pub mod segment;
 pub mod symmetric;

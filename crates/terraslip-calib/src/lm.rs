@@ -20,6 +20,7 @@ use terraslip_core::kinematics::MIN_SPREAD;
 use terraslip_core::IcrParams;
 
 use crate::model::{from_vec, residuals_rate, to_vec, RateSlopes};
+use crate::reduction::Reduction;
 use crate::sandwich::{self, ResidualNoise};
 use crate::segment::Segments;
 
@@ -42,6 +43,8 @@ pub struct LmConfig {
     /// Which of (y_l, y_r, x_c, alpha_l, alpha_r) are fitted; the others
     /// keep their starting value.
     pub free: [bool; 5],
+    /// Relations among them the fit holds ([`Reduction::NONE`]: none).
+    pub reduction: Reduction,
 }
 
 impl Default for LmConfig {
@@ -52,6 +55,7 @@ impl Default for LmConfig {
             cauchy_c: f64::INFINITY,
             outlier_sigmas: 5.0,
             free: [true; 5],
+            reduction: Reduction::NONE,
         }
     }
 }
@@ -348,9 +352,15 @@ pub fn fit(
     if active.iter().filter(|&&a| a).count() == 0 {
         return None;
     }
-    let res = |v: &[f64; 5]| residuals_rate(&from_vec(v), &RateSlopes::NONE, segs, yaw_weight);
-    let problem = constant_problem(segs, &res, cfg.free, yaw_weight);
+    let reduction = cfg.reduction;
+    let res = |v: &[f64; 5]| {
+        let mut v = *v;
+        reduction.apply(&mut v);
+        residuals_rate(&from_vec(&v), &RateSlopes::NONE, segs, yaw_weight)
+    };
+    let problem = constant_problem(segs, &res, reduction.free(cfg.free), yaw_weight);
     let mut v = to_vec(start);
+    reduction.apply(&mut v);
     let mut w: Vec<f64> = active.iter().map(|&a| if a { 1.0 } else { 0.0 }).collect();
     let mut iterations = 0;
     let mut capped = false;
@@ -358,6 +368,7 @@ pub fn fit(
     for round in 0..cfg.irls_rounds.max(1) {
         let before = v;
         let (used, out_of_iterations) = problem.solve(&mut v, &w, cfg.max_iterations);
+        reduction.apply(&mut v);
         iterations += used;
         capped |= out_of_iterations;
         let norms: Vec<f64> = res(&v)
@@ -401,7 +412,7 @@ pub fn fit(
     let (std, noise) = problem.uncertainties(&v, &w);
     Some(LmFit {
         params: from_vec(&v),
-        std,
+        std: reduction.std(std),
         noise,
         weights: w,
         sigma,
@@ -425,6 +436,58 @@ pub fn uncertainties(
     constant_problem(segs, &res, *free, yaw_weight)
         .uncertainties(v, w)
         .0
+}
+
+/// A constant-ICR set holding `reduction`'s relations, fitted by
+/// Levenberg-Marquardt from `start` with the segment weights `w` held fixed
+/// (those of the full fit, so that every model is judged on the same
+/// segments). `free` says which of the five parameters may be fitted at
+/// all. The dependent parameters' 1-sigma are their free partners'
+/// ([`Reduction::std`]); `x_c` held at 0 has NaN. `None` when no segment
+/// has weight.
+pub fn fit_reduced(
+    segs: &Segments,
+    start: &IcrParams,
+    w: &[f64],
+    yaw_weight: f64,
+    free: &[bool; 5],
+    reduction: Reduction,
+    max_iterations: usize,
+) -> Option<ReducedFit> {
+    if !w.iter().any(|&x| x > 0.0) {
+        return None;
+    }
+    let res = |v: &[f64; 5]| {
+        let mut v = *v;
+        reduction.apply(&mut v);
+        residuals_rate(&from_vec(&v), &RateSlopes::NONE, segs, yaw_weight)
+    };
+    let problem = constant_problem(segs, &res, reduction.free(*free), yaw_weight);
+    let mut v = to_vec(start);
+    reduction.apply(&mut v);
+    problem.solve(&mut v, w, max_iterations);
+    // The dependent parameters follow the fitted ones.
+    reduction.apply(&mut v);
+    let (std, _) = problem.uncertainties(&v, w);
+    Some(ReducedFit {
+        params: from_vec(&v),
+        std: reduction.std(std),
+        sse: problem.weighted_sse(&v, w),
+        n_free: reduction.free(*free).iter().filter(|&&f| f).count(),
+    })
+}
+
+/// A constant-ICR set fitted under a [`Reduction`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReducedFit {
+    /// The full set, its relations holding.
+    pub params: IcrParams,
+    /// 1-sigma of (y_l, y_r, x_c, alpha_l, alpha_r); NaN where held.
+    pub std: [f64; 5],
+    /// Weighted eq. 13 sum at the fit.
+    pub sse: f64,
+    /// Parameters fitted.
+    pub n_free: usize,
 }
 
 /// Parameter order of the turn-rate dependent fit (and its traction term).
@@ -480,8 +543,9 @@ impl RateFit {
 /// `start_slopes` (slopes not in `free_slopes` keep their start value,
 /// normally 0) with the segment weights `w` held fixed (those of the
 /// constant fit, so that every model is judged on the same segments).
-/// `free` says which of the five ICR parameters are fitted. `None` when no
-/// segment has weight.
+/// `free` says which of the five ICR parameters are fitted, `reduction`
+/// which relations among them are held ([`Reduction::NONE`]: none). `None`
+/// when no segment has weight.
 #[allow(clippy::too_many_arguments)]
 pub fn fit_rate(
     segs: &Segments,
@@ -489,7 +553,7 @@ pub fn fit_rate(
     start_slopes: &RateSlopes,
     w: &[f64],
     yaw_weight: f64,
-    free: &[bool; 5],
+    (free, reduction): (&[bool; 5], Reduction),
     free_slopes: &[bool; N_SLOPES],
     max_iterations: usize,
 ) -> Option<RateFit> {
@@ -497,8 +561,10 @@ pub fn fit_rate(
         return None;
     }
     let split = |v: &[f64; 5 + N_SLOPES]| {
+        let mut p = [v[0], v[1], v[2], v[3], v[4]];
+        reduction.apply(&mut p);
         (
-            from_vec(&[v[0], v[1], v[2], v[3], v[4]]),
+            from_vec(&p),
             RateSlopes {
                 k_spread: v[5],
                 k_alpha: v[6],
@@ -517,7 +583,7 @@ pub fn fit_rate(
         usable(&[v[0], v[1], v[2], v[3], v[4]]) && v[5..].iter().all(|x| x.is_finite())
     };
     let mut f = [false; 5 + N_SLOPES];
-    f[..5].copy_from_slice(free);
+    f[..5].copy_from_slice(&reduction.free(*free));
     f[5..].copy_from_slice(free_slopes);
     let problem = Problem {
         segs,
@@ -526,7 +592,8 @@ pub fn fit_rate(
         free: f,
         yaw_weight,
     };
-    let p0 = to_vec(start);
+    let mut p0 = to_vec(start);
+    reduction.apply(&mut p0);
     let k0 = start_slopes;
     let mut v = [
         p0[0],
@@ -543,10 +610,13 @@ pub fn fit_rate(
     ];
     problem.solve(&mut v, w, max_iterations);
     let (params, slopes) = split(&v);
+    let mut std = problem.uncertainties(&v, w).0;
+    let icr_std = reduction.std([std[0], std[1], std[2], std[3], std[4]]);
+    std[..5].copy_from_slice(&icr_std);
     Some(RateFit {
         params,
         slopes,
-        std: problem.uncertainties(&v, w).0,
+        std,
         sse: problem.weighted_sse(&v, w),
         free_slopes: *free_slopes,
     })

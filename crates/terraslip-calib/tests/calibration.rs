@@ -958,3 +958,85 @@ fn a_robot_that_slides_out_in_fast_turns_gets_its_centripetal_terms() {
         .expect("rate_model")
         .contains_key("k_x_speed"));
 }
+
+/// A short, noisy drive of a robot whose ICRs are symmetric, level with
+/// the body origin and whose treads slip alike: five free parameters fit
+/// noise, the reduced set holds what the data cannot resolve and predicts
+/// another drive better. A long drive of an asymmetric robot keeps all five.
+#[test]
+fn a_short_drive_holds_the_relations_it_cannot_resolve() {
+    let truth = IcrParams {
+        y_l: 0.9,
+        y_r: -0.9,
+        x_c: 0.0,
+        alpha_l: 0.93,
+        alpha_r: 0.93,
+    };
+    let full = CalibConfig {
+        reduced_models: false,
+        ..lm_only()
+    };
+    let (mut reduced_mse, mut full_mse) = (0.0, 0.0);
+    for seed in [21, 22, 23, 24, 25, 26] {
+        // A Warthog-sized robot on a short drive with a noisy reference.
+        let mut cfg = SynthConfig::p3at(30.0, seed);
+        cfg.track_width = 1.1;
+        cfg.max_speed = 2.0;
+        cfg.max_yaw_rate = 1.0;
+        cfg.pose_noise_xy = 0.15;
+        cfg.pose_noise_yaw = 0.08;
+        cfg.robot = None;
+        let log = drive(&[("asphalt", truth)], &cfg);
+        let cal = calibrate(std::slice::from_ref(&log), &lm_only(), &|_| {}).expect("calibration");
+        let s = &cal.sets[0];
+        let r = s.reduction.as_ref().expect("reduced models fitted");
+        assert!(!r.selected.is_none(), "seed {seed}: {}", r.summary());
+        // A full set with its relations holding, in the file too.
+        let p = s.best.params;
+        assert!(r.selected.symmetric == (p.y_r == -p.y_l));
+        assert!(r.selected.x_c_zero == (p.x_c == 0.0));
+        assert!(r.selected.equal_alphas == (p.alpha_r == p.alpha_l));
+        let pf = cal.params_file();
+        let e = &pf.terrains["asphalt"];
+        assert_eq!(e.params, p);
+        assert_eq!(
+            e.extra["reduction"]["selected"],
+            serde_json::json!(r.selected.describe())
+        );
+        let cal_full = calibrate(std::slice::from_ref(&log), &full, &|_| {}).expect("full");
+        assert!(cal_full.sets[0].reduction.is_none());
+        // Scored against a sharp reference, so the parameters' errors show.
+        let sharp = SynthConfig {
+            pose_noise_xy: 0.002,
+            pose_noise_yaw: 0.001,
+            ..cfg.clone()
+        };
+        let (_, v) = validate_on_another_drive(truth, &sharp, seed + 100, &pf);
+        let (_, v_full) =
+            validate_on_another_drive(truth, &sharp, seed + 100, &cal_full.params_file());
+        eprintln!(
+            "seed {seed}: holds {} -> {:.3e}, all five -> {:.3e}",
+            r.selected.describe(),
+            v.mse.position(),
+            v_full.mse.position()
+        );
+        reduced_mse += v.mse.position();
+        full_mse += v_full.mse.position();
+    }
+    assert!(
+        reduced_mse < 0.7 * full_mse,
+        "held out: reduced {reduced_mse:.3e}, all five {full_mse:.3e}"
+    );
+    // Mandow's robot (asymmetric, x_c off the origin) over 300 s: every
+    // relation is resolved against it.
+    let log = drive(
+        &[("asphalt", mandow_table1())],
+        &SynthConfig::p3at(300.0, 3),
+    );
+    let cal = calibrate(&[log], &lm_only(), &|_| {}).expect("calibration");
+    let r = cal.sets[0]
+        .reduction
+        .as_ref()
+        .expect("reduced models fitted");
+    assert!(r.selected.is_none(), "{}", r.summary());
+}

@@ -104,6 +104,11 @@ pub struct CalibConfig {
     /// of [`RateSlopes`](crate::model::RateSlopes)) on top of the selected
     /// model. `Auto` selects them by the same information criterion.
     pub centripetal: RateModel,
+    /// Whether to fit the reduced constant models ([`Reduction`](crate::reduction::Reduction):
+    /// symmetric ICRs, `x_c` at 0, equal speed factors, and their
+    /// combinations) next to the full one and keep the one of lowest
+    /// information criterion; the variable models then hold its relations.
+    pub reduced_models: bool,
 }
 
 /// Whether the turn-rate dependent ICR model ([`RateSlopes`](crate::model::RateSlopes)) is fitted.
@@ -157,6 +162,7 @@ impl Default for CalibConfig {
             traction: RateModel::Auto,
             traction_signed: false,
             centripetal: RateModel::Auto,
+            reduced_models: true,
         }
     }
 }

@@ -13,6 +13,7 @@ use crate::ga::{self, GaConfig};
 use crate::lm;
 use crate::model::{self, PARAM_NAMES};
 use crate::offset::estimate_offset;
+use crate::reduction::Reduction;
 use crate::segment::{SegmentConfig, SegmentStats, Segments};
 use crate::symmetric::{self, SymmetricMissing};
 use crate::CalibError;
@@ -21,13 +22,16 @@ mod config;
 mod offset_profile;
 mod position_only;
 mod rate;
+mod reduction;
 mod result;
 
 use offset_profile::{refine_offset, spread_from_yaw, ProfiledOffset};
 use rate::choose_rate;
+use reduction::{choose_reduction, reduced_best};
 
 pub use config::{CalibConfig, GaSettings, Method, RateModel, TimeOffset};
 pub use rate::RateChoice;
+pub use reduction::ReductionChoice;
 pub use result::{Calibration, DroppedSegment, MethodFit, SetCalibration, TurnFigures};
 
 /// Most chained segments the genetic algorithm scores each individual on;
@@ -82,15 +86,56 @@ pub fn calibrate(
         overlap: Some(0.0),
         ..scfg.clone()
     };
+    // The offset is the joint least-squares estimate with the model; a set
+    // that holds a reduced model ([`crate::reduction`]) has it profiled
+    // again with that model, until the selection stands.
+    let mut held: Vec<(Option<String>, Reduction)> = Vec::new();
+    let mut pass = 1;
+    loop {
+        let mut w = warnings.clone();
+        let offsets = search_offsets(logs, cfg, &ocfg, &held, &mut w, progress);
+        let cal = calibrate_sets(logs, cfg, &scfg, &offsets, progress, w)?;
+        let selected: Vec<(Option<String>, Reduction)> = cal
+            .sets
+            .iter()
+            .filter_map(|s| Some((s.terrain.clone(), s.reduction.as_ref()?.selected)))
+            .filter(|h| !h.1.is_none())
+            .collect();
+        if selected == held
+            || pass >= OFFSET_PASSES
+            || !matches!(cfg.time_offset, TimeOffset::Auto { .. })
+        {
+            return Ok(cal);
+        }
+        held = selected;
+        pass += 1;
+    }
+}
+
+/// Most rounds of the offset search and the calibration when a reduced
+/// model is selected: the second profiles the offset with it, a third
+/// settles a selection that the offset changed.
+const OFFSET_PASSES: usize = 3;
+
+/// Each log's time offset (s) and its 1-sigma, searched (or given) as
+/// `cfg.time_offset` says, the profile's fits holding `held`'s reduced
+/// models; warnings about offsets the data do not pin go to `warnings`.
+fn search_offsets(
+    logs: &[DriveLog],
+    cfg: &CalibConfig,
+    ocfg: &SegmentConfig,
+    held: &[(Option<String>, Reduction)],
+    warnings: &mut Vec<String>,
+    progress: &dyn Fn(Progress),
+) -> Vec<(f64, Option<f64>)> {
     progress(Progress::Stage("aligning wheel and pose streams"));
     let mut offsets = Vec::with_capacity(logs.len());
-    let mut offset_stds = Vec::with_capacity(logs.len());
     for full in logs {
         // A long drive's offset is searched on evenly spread windows of it.
         let log = &*crate::offset::thinned(full, crate::offset::OFFSET_POSES);
         let o = match cfg.time_offset {
             TimeOffset::Fixed(o) => o,
-            TimeOffset::Auto { max, step } => match estimate_offset(log, &ocfg, max, step) {
+            TimeOffset::Auto { max, step } => match estimate_offset(log, ocfg, max, step) {
                 Some((o, _)) => o,
                 None => {
                     warnings.push(format!(
@@ -103,7 +148,7 @@ pub fn calibrate(
         };
         let (o, std) = match cfg.time_offset {
             TimeOffset::Auto { max, step } => {
-                let p = refine_offset(log, &ocfg, o, max, cfg.yaw_weight);
+                let p = refine_offset(log, ocfg, o, (max, cfg.yaw_weight), held);
                 if p.offset.abs() >= max - 0.5 * step {
                     warnings.push(offset_at_edge(log, p.offset, max));
                 } else if !p.pinned() {
@@ -113,11 +158,25 @@ pub fn calibrate(
             }
             TimeOffset::Fixed(_) => (o, None),
         };
-        offsets.push(o);
-        offset_stds.push(std);
+        offsets.push((o, std));
     }
+    offsets
+}
+
+/// One parameter set per terrain (or one pooled), the logs read with
+/// `offsets` (s, with their 1-sigma).
+fn calibrate_sets(
+    logs: &[DriveLog],
+    cfg: &CalibConfig,
+    scfg: &SegmentConfig,
+    offset_found: &[(f64, Option<f64>)],
+    progress: &dyn Fn(Progress),
+    mut warnings: Vec<String>,
+) -> Result<Calibration, CalibError> {
+    let offsets: Vec<f64> = offset_found.iter().map(|o| o.0).collect();
+    let offset_stds: Vec<Option<f64>> = offset_found.iter().map(|o| o.1).collect();
     let refs: Vec<&DriveLog> = logs.iter().collect();
-    let all = Segments::build(&refs, &offsets, &scfg);
+    let all = Segments::build(&refs, &offsets, scfg);
     let names = terrain_sets(all.segments.iter().map(|s| &s.terrain));
     let RobotFacts {
         track_width,
@@ -545,11 +604,11 @@ fn calibrate_set(
         &mut unidentified,
         &mut notes,
     )?;
-    let rate = match cfg.rate_model {
+    let rate_for = |best: &MethodFit, held: Reduction| match cfg.rate_model {
         RateModel::Off => None,
         m => choose_rate(
             segs,
-            &best,
+            (best, held),
             &lm_fit.weights,
             cfg.yaw_weight,
             &lm_cfg,
@@ -558,6 +617,50 @@ fn calibrate_set(
             cfg.centripetal,
             coverage,
         ),
+    };
+    let rate = rate_for(&best, Reduction::NONE);
+    // Terms are removed only where none is added: a drive that pays for a
+    // variable model has the data for all five constant parameters.
+    let variable = rate.as_ref().is_some_and(|r| r.selected);
+    let mut reduction = cfg.reduced_models.then(|| {
+        if variable {
+            return ReductionChoice::not_tried(
+                "a variable model is selected: the data pay for more terms, not fewer",
+            );
+        }
+        choose_reduction(
+            segs,
+            &best,
+            &lm_fit.weights,
+            cfg.yaw_weight,
+            &lm_cfg,
+            coverage,
+        )
+    });
+    // The reduced set and the variable models on top of it (holding its
+    // relations) against the full set and its variable models: the
+    // selected model of each, by the same criterion.
+    let (best, rate) = match reduction.as_mut() {
+        Some(r) if !r.selected.is_none() => {
+            let held = r.selected;
+            let reduced = r
+                .fit()
+                .map(|f| reduced_best(&best, f, segs, (&inlier, &ones), cfg.yaw_weight, c))
+                .unwrap_or_else(|| best.clone());
+            let reduced_rate = rate_for(&reduced, held);
+            let full_bic = rate.as_ref().map_or(r.bic_full, RateChoice::selected_bic);
+            let reduced_bic = reduced_rate
+                .as_ref()
+                .map_or(r.bic_reduced(), RateChoice::selected_bic);
+            r.selected_bics = Some((full_bic, reduced_bic));
+            if reduced_bic < full_bic {
+                (reduced, reduced_rate)
+            } else {
+                r.selected = Reduction::NONE;
+                (best, rate)
+            }
+        }
+        _ => (best, rate),
     };
     let dropped = segs
         .segments
@@ -591,6 +694,7 @@ fn calibrate_set(
         wheel_radius: None,
         pioneer: false,
         rate,
+        reduction,
         coverage,
         course: None,
     })

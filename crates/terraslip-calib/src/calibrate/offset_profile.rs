@@ -7,6 +7,7 @@ use terraslip_io::DriveLog;
 use crate::lm::{self, LmConfig};
 use crate::model;
 use crate::offset;
+use crate::reduction::Reduction;
 use crate::segment::{SegmentConfig, Segments};
 
 /// Spread (m) that best explains the yaw changes with unit alphas:
@@ -56,19 +57,22 @@ impl ProfiledOffset {
 /// symmetric ICRs and pure rotation or translation. Its 1-sigma is read
 /// from the same parabola ([`offset_std`]). Returns `offset` unchanged,
 /// without a 1-sigma, when no fit is possible.
+///
+/// `held` names the terrain sets whose fit holds a reduced model
+/// ([`Reduction`]); the others fit all five parameters.
 pub(super) fn refine_offset(
     log: &DriveLog,
     cfg: &SegmentConfig,
     offset: f64,
-    max: f64,
-    yaw_weight: f64,
+    (max, yaw_weight): (f64, f64),
+    held: &[(Option<String>, Reduction)],
 ) -> ProfiledOffset {
     const STEP: f64 = 0.05;
     let grid: Vec<f64> = (-3..=3)
         .map(|k| offset + STEP * k as f64)
         .filter(|t| t.abs() <= max + 1e-9)
         .collect();
-    let (curve, n) = profile(log, cfg, &grid, yaw_weight);
+    let (curve, n) = profile(log, cfg, &grid, yaw_weight, held);
     ProfiledOffset {
         offset: offset::parabolic_minimum(&curve, STEP).unwrap_or(offset),
         std: offset_std(&curve, STEP, n),
@@ -113,6 +117,7 @@ fn profile(
     cfg: &SegmentConfig,
     grid: &[f64],
     yaw_weight: f64,
+    held: &[(Option<String>, Reduction)],
 ) -> (Vec<(f64, f64)>, usize) {
     let keys = offset::common_keys(log, grid, cfg);
     let quick = LmConfig {
@@ -157,6 +162,13 @@ fn profile(
             if active.iter().filter(|&&a| a).count() < 10 {
                 continue;
             }
+            let quick = LmConfig {
+                reduction: held
+                    .iter()
+                    .find(|h| h.0 == *name)
+                    .map_or(Reduction::NONE, |h| h.1),
+                ..quick.clone()
+            };
             let Some(f) = lm::fit(segs, start, &active, yaw_weight, &quick) else {
                 continue;
             };
@@ -236,7 +248,7 @@ mod tests {
                 ..cfg
             };
             let (first, _) = offset::estimate_offset(&log, &cfg, 0.5, 0.01).expect("first stage");
-            let p = refine_offset(&log, &cfg, first, 0.5, 0.5);
+            let p = refine_offset(&log, &cfg, first, (0.5, 0.5), &[]);
             let std = p.std.expect("an interior minimum");
             eprintln!("seed {seed} latency {latency}: {:.4} +- {std:.4}", p.offset);
             assert!(p.pinned(), "{p:?}");

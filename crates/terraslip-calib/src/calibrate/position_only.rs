@@ -329,6 +329,7 @@ fn calibrate_set(
         wheel_radius: None,
         pioneer: false,
         rate: None,
+        reduction: None,
         coverage,
         course,
     })

@@ -7,6 +7,7 @@ use super::result::{finite_or_null, params_json};
 use super::{MethodFit, RateModel};
 use crate::lm::{self, LmConfig, RateFit, RATE_PARAM_NAMES};
 use crate::model;
+use crate::reduction::Reduction;
 use crate::segment::Segments;
 
 /// The turn-rate dependent model of one set and why it was (not) selected.
@@ -101,6 +102,19 @@ impl RateChoice {
         v
     }
 
+    /// The information criterion of the model `validate` scores: the
+    /// variable model written when one is selected, else the constant set.
+    pub fn selected_bic(&self) -> f64 {
+        if !self.selected {
+            return self.bic_constant;
+        }
+        match (&self.centripetal, &self.traction) {
+            (Some((_, b)), _) if self.centripetal_selected => *b,
+            (_, Some((_, b))) if self.traction_selected => *b,
+            _ => self.bic_rate,
+        }
+    }
+
     /// The variable model the file holds: the centripetal model when it
     /// was selected, else the traction model when it was, else the
     /// turn-rate model.
@@ -113,12 +127,31 @@ impl RateChoice {
     }
 }
 
-/// Fits the turn-rate model from the constant winner over the constant
+/// The number of residuals `n` of the information criterion: 3 per
+/// segment with weight, counted as the chained equivalent (residuals of
+/// overlapping segments are not independent).
+pub(super) fn evidence(weights: &[f64], coverage: f64) -> f64 {
+    3.0 * weights
+        .iter()
+        .filter(|&&w| w > 0.0)
+        .map(|w| w.min(1.0))
+        .sum::<f64>()
+        / coverage
+}
+
+/// Bayesian information criterion `n ln(J/n) + k ln n` of a weighted
+/// eq. 13 sum `j` (per chained equivalent) with `k` fitted parameters.
+pub(super) fn bic(j: f64, k: f64, n: f64) -> f64 {
+    n * (j.max(1e-300) / n).ln() + k * n.ln()
+}
+
+/// Fits the turn-rate model from the selected constant set `best` (which
+/// holds `reduction`; the variable models hold it too) over the constant
 /// fit's segment weights and decides whether it is worth its two slopes.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn choose_rate(
     segs: &Segments,
-    best: &MethodFit,
+    (best, reduction): (&MethodFit, Reduction),
     weights: &[f64],
     yaw_weight: f64,
     lm_cfg: &LmConfig,
@@ -133,22 +166,15 @@ pub(super) fn choose_rate(
         &model::RateSlopes::NONE,
         weights,
         yaw_weight,
-        &lm_cfg.free,
+        (&lm_cfg.free, reduction),
         &lm::TURN_RATE,
         lm_cfg.max_iterations,
     )?;
-    // Residuals of overlapping segments are not independent: count the
-    // chained equivalent.
-    let n = 3.0
-        * weights
-            .iter()
-            .filter(|&&w| w > 0.0)
-            .map(|w| w.min(1.0))
-            .sum::<f64>()
-        / coverage;
-    let k = lm_cfg.free.iter().filter(|&&f| f).count() as f64;
+    let n = evidence(weights, coverage);
+    let free = reduction.free(lm_cfg.free);
+    let k = free.iter().filter(|&&f| f).count() as f64;
     let j0 = model::cost(&best.params, segs, weights, yaw_weight) / coverage;
-    let bic = |j: f64, k: f64| n * (j.max(1e-300) / n).ln() + k * n.ln();
+    let bic = |j: f64, k: f64| bic(j, k, n);
     let (bic_constant, bic_rate) = (bic(j0, k), bic(fit.sse / coverage, k + 2.0));
     // A slope is identified when its 1-sigma is under 0.1 s/m: a factor
     // of 10 % per m/s of tread speed difference.
@@ -176,7 +202,7 @@ pub(super) fn choose_rate(
             &fit.slopes,
             weights,
             yaw_weight,
-            &lm_cfg.free,
+            (&lm_cfg.free, reduction),
             &free_slopes,
             lm_cfg.max_iterations,
         ) {
@@ -224,14 +250,14 @@ pub(super) fn choose_rate(
             *f |= c;
         }
         // The longitudinal shift needs x_c itself to be identified.
-        free_slopes[4] &= lm_cfg.free[2];
+        free_slopes[4] &= free[2];
         if let Some(c) = lm::fit_rate(
             segs,
             &base_params,
             &base_slopes,
             weights,
             yaw_weight,
-            &lm_cfg.free,
+            (&lm_cfg.free, reduction),
             &free_slopes,
             lm_cfg.max_iterations,
         ) {

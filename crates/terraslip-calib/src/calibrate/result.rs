@@ -5,7 +5,7 @@ use serde_json::{json, Value};
 use terraslip_core::IcrParams;
 use terraslip_io::{ParamEntry, ParamsFile};
 
-use super::{Method, RateChoice};
+use super::{Method, RateChoice, ReductionChoice};
 use crate::model::PARAM_NAMES;
 use crate::segment::SegmentStats;
 
@@ -55,6 +55,9 @@ pub struct SetCalibration {
     pub notes: Vec<String>,
     /// The turn-rate dependent model, unless `RateModel::Off`.
     pub rate: Option<RateChoice>,
+    /// The reduced constant models and the one `best` holds, unless
+    /// [`CalibConfig::reduced_models`](super::CalibConfig::reduced_models) is off.
+    pub reduction: Option<ReductionChoice>,
     /// Mean number of segments covering an instant ([`Segments::coverage`](crate::segment::Segments::coverage)):
     /// 1 for chained segments; counts are corrected by it.
     pub coverage: f64,
@@ -169,6 +172,9 @@ impl SetCalibration {
                 .map(|(n, o)| (n.clone(), json!(o)))
                 .collect();
             x.insert("time_offsets".into(), Value::Object(per_log));
+        }
+        if let Some(r) = &self.reduction {
+            x.insert("reduction".into(), r.to_json());
         }
         if let Some(r) = &self.rate {
             x.insert("rate_model".into(), r.to_json());

@@ -47,7 +47,11 @@ tread acceleration, kept by the same criterion; on top of the selected
 model the centripetal terms (--centripetal, default auto) move x_c by
 k_x_speed per m/s of speed (a lateral slip on v*omega, as DRIVE's learned
 model has) and scale the spread by 1 + k_spread_speed |v| (a yaw slip on
-v*omega), kept by the same criterion. `calibrate validate` scores the
+v*omega), kept by the same criterion. Where none is kept, reduced
+constant sets (--reduced-models, default auto: symmetric ICRs, x_c at 0,
+equal speed factors) hold what a short drive does not resolve, kept by
+the same criterion and written as a full set under `reduction`.
+`calibrate validate` scores the
 variable model where it was selected (--model constant scores the constant
 one) and reports both.
 
@@ -166,6 +170,15 @@ pub struct Args {
     /// information criterion further), `on` (kept when identified) or `off`.
     #[arg(long, value_enum, default_value = "auto")]
     centripetal: RateArg,
+    /// Reduced constant models where no variable model is selected:
+    /// symmetric ICRs (`y_r = -y_l`), `x_c` at 0, equal speed factors, and
+    /// their combinations, each tried when the full fit leaves a parameter
+    /// it removes unresolved (1-sigma over 0.05 m, 0.01 for a speed
+    /// factor). `auto` keeps the one of lowest information criterion and
+    /// profiles the time offset again with it (a short drive holds the
+    /// relations it cannot resolve); `off` fits all five.
+    #[arg(long, value_enum, default_value = "auto")]
+    reduced_models: ReducedArg,
     /// Fit segments overlap, each lasting --min-segment: one starts at every
     /// pose where an earlier one ended, and at the first pose at least this
     /// many seconds after the previous start (0: at every pose, the
@@ -200,6 +213,13 @@ impl From<RateArg> for RateModel {
             RateArg::On => RateModel::On,
         }
     }
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Serialize)]
+#[serde(rename_all = "kebab-case")]
+enum ReducedArg {
+    Off,
+    Auto,
 }
 
 /// Segment selection shared by calibrate and validate.
@@ -337,6 +357,7 @@ fn config(a: &Args) -> anyhow::Result<CalibConfig> {
         traction: a.traction.into(),
         traction_signed: a.traction_signed,
         centripetal: a.centripetal.into(),
+        reduced_models: matches!(a.reduced_models, ReducedArg::Auto),
         ..Default::default()
     };
     if !(a.stride.is_finite() && a.stride >= 0.0) {

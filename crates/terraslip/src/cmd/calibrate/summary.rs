@@ -59,6 +59,16 @@ pub(super) fn print_set(s: &SetCalibration) {
             }
         );
     }
+    if let Some(r) = &s.reduction {
+        eprintln!("  {}", r.summary());
+        if let Some(f) = r.fit() {
+            let p = f.params;
+            eprintln!(
+                "  held      {:12.4} {:8.4} {:8.4} {:8.4} {:8.4} {:8.4}  <- written",
+                f.sse, p.y_l, p.y_r, p.x_c, p.alpha_l, p.alpha_r
+            );
+        }
+    }
     eprintln!(
         "  1-sigma     {:>12} {:>8} {:>8} {:>8} {:>8} {:>8}",
         "",

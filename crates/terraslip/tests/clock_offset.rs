@@ -9,6 +9,30 @@ fn sand() -> DriveLog {
     terraslip::testkit::shared_drive("warthog_sand_a")
 }
 
+/// The default estimator on `log`, started with `--init pf`.
+fn run_with(
+    log: &DriveLog,
+    pf: &terraslip_io::ParamsFile,
+) -> Result<pipeline::EstimateRun, pipeline::PipelineError> {
+    pipeline::run(
+        log,
+        &EstimatorConfig::default(),
+        &TerrainEvidence::None,
+        Some(pf),
+    )
+}
+
+/// A plausible sand set to start from.
+fn sand_set() -> terraslip_io::ParamEntry {
+    terraslip_io::ParamEntry::new(terraslip_core::IcrParams {
+        y_l: 1.1,
+        y_r: -1.1,
+        x_c: 0.02,
+        alpha_l: 0.82,
+        alpha_r: 0.83,
+    })
+}
+
 #[test]
 fn the_learned_clock_offset_does_not_depend_on_its_start_and_the_prediction_uses_it() {
     let log = sand();
@@ -54,26 +78,53 @@ fn the_learned_clock_offset_does_not_depend_on_its_start_and_the_prediction_uses
 fn init_holds_the_calibrated_clock_offset() {
     let log = sand();
     let mut pf = terraslip_io::ParamsFile::default();
-    let mut entry = terraslip_io::ParamEntry::new(terraslip_core::IcrParams {
-        y_l: 1.1,
-        y_r: -1.1,
-        x_c: 0.02,
-        alpha_l: 0.82,
-        alpha_r: 0.83,
-    });
+    let mut entry = sand_set();
     entry
         .extra
         .insert("time_offset_s".into(), serde_json::json!(0.4));
     pf.terrains.insert("sand".into(), entry);
-    let r = pipeline::run(
-        &log,
-        &EstimatorConfig::default(),
-        &TerrainEvidence::None,
-        Some(&pf),
-    )
-    .unwrap();
+    let r = run_with(&log, &pf).unwrap();
     let first = r.first_row.unwrap().clock_offset;
     assert!((first - 0.4).abs() < 0.02, "started at {first:.3} s");
     let (end, _) = r.clock_offset;
     assert!((end - 0.4).abs() < 1e-9, "ended at {end:.4} s");
+}
+
+/// A parameters file the node wrote carries the offset the filter had
+/// learned (`clock_offset_s`): `--init` and the node's recall start the
+/// clock there and go on learning it, rather than starting again from 0.
+#[test]
+fn init_from_a_node_file_resumes_its_learned_clock_offset() {
+    let log = sand();
+    let mut pf = terraslip_io::ParamsFile::default();
+    pf.terrains.insert("default".into(), sand_set());
+    pf.extra
+        .insert("clock_offset_s".into(), serde_json::json!(0.3));
+    let r = run_with(&log, &pf).unwrap();
+    let first = r.first_row.unwrap().clock_offset;
+    assert!((first - 0.3).abs() < 0.02, "started at {first:.3} s");
+    let (end, std) = r.clock_offset;
+    assert!(
+        std > 0.0,
+        "the offset is still learned: ended at {end:.3} +- {std:.4} s"
+    );
+}
+
+/// An offset beyond what the filter carries is refused, naming the key.
+#[test]
+fn init_refuses_a_clock_offset_out_of_bounds() {
+    let log = sand();
+    for (key, v) in [
+        ("clock_offset_s", serde_json::json!(5.0)),
+        ("clock_offset_s", serde_json::json!("late")),
+        ("time_offset_s", serde_json::json!(-3.0)),
+    ] {
+        let mut pf = terraslip_io::ParamsFile::default();
+        pf.terrains.insert("default".into(), sand_set());
+        pf.extra.insert(key.into(), v.clone());
+        let e = run_with(&log, &pf)
+            .err()
+            .unwrap_or_else(|| panic!("{key} = {v} was accepted"));
+        assert!(e.to_string().contains(key), "{key} = {v}: {e}");
+    }
 }

@@ -77,14 +77,18 @@ pub(super) fn setup(
         }
     }
     let mut filter_cfg = cfg.filter;
-    if let Some(o) = init.and_then(terraslip_calib::validate::stored_offset) {
-        // The calibration's clock offset between wheels and pose, found
-        // from a whole drive: the filter holds it. The offset belongs to
-        // the two clocks, not the ground, and the filter's own fixes do
-        // not pin it against its slip states (docs/estimator.md).
-        if o.is_finite() && o.abs() <= terraslip_core::filter::MAX_CLOCK_OFFSET {
-            meas.clock_offset = o;
+    if let Some(pf) = init {
+        if let Some(o) = terraslip_calib::validate::stored_offset(pf) {
+            // The calibration's clock offset between wheels and pose, found
+            // from a whole drive: the filter holds it. The offset belongs to
+            // the two clocks, not the ground, and the filter's own fixes do
+            // not pin it against its slip states (docs/estimator.md).
+            meas.clock_offset = init_offset("time_offset_s", Some(o))?;
             filter_cfg.learn_clock = false;
+        } else if let Some(v) = pf.extra.get("clock_offset_s") {
+            // The offset a run of this filter had learned (the node's
+            // parameters file): the clock starts there and goes on learning.
+            meas.clock_offset = init_offset("clock_offset_s", v.as_f64())?;
         }
     }
     if let Some(g) = init.and_then(|pf| pf.extra.get("gyro_scale")) {
@@ -296,6 +300,19 @@ fn init_prior(
         }
     }
     Ok(prior)
+}
+
+/// A clock offset between wheels and pose read from `--init`'s `key`, s:
+/// a number within the filter's bound.
+fn init_offset(key: &str, o: Option<f64>) -> Result<f64, PipelineError> {
+    let max = terraslip_core::filter::MAX_CLOCK_OFFSET;
+    o.filter(|o| o.is_finite() && o.abs() <= max)
+        .ok_or_else(|| {
+            PipelineError::Init(format!(
+                "{key} must be a number of seconds within +-{max}, not {}",
+                o.map_or("a non-number".into(), |o| o.to_string())
+            ))
+        })
 }
 
 /// A `std` object `terraslip calibrate` writes with a parameter set

@@ -80,8 +80,8 @@ pub const K_X_SPEED: usize = GYRO_SCALE + 1;
 /// by `1 + k_spread_speed |v|` at mean tread speed `v`.
 pub const K_SPREAD_SPEED: usize = K_X_SPEED + 1;
 /// Index of the speed factors' turn law, s/m: both speed factors in effect
-/// are `1 + speed_law dv` times the straight-line ones, `dv` the turn law's
-/// input (the treads lose speed in a turn).
+/// are `1 + speed_law dv` times the straight-line ones, `dv` its input
+/// ([`LawInputs::speed`]; the treads lose speed in a turn).
 pub const SPEED_LAW: usize = K_SPREAD_SPEED + 1;
 
 /// The state vector.
@@ -106,7 +106,27 @@ pub fn centripetal_of(x: &State) -> CentripetalSlopes {
     }
 }
 
-/// The twist of `x` at tread speeds `u` and turn-law input `dv` (m/s), with
+/// The turn laws' inputs, m/s: the tread speed difference `|V_r - V_l|` as
+/// each law reads it.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct LawInputs {
+    /// The spread's turn law (`law`).
+    pub spread: f64,
+    /// The speed factors' turn law (`speed_law`).
+    pub speed: f64,
+}
+
+impl LawInputs {
+    /// Both laws reading `dv` (m/s).
+    pub const fn both(dv: f64) -> Self {
+        Self {
+            spread: dv,
+            speed: dv,
+        }
+    }
+}
+
+/// The twist of `x` at tread speeds `u` and turn-law inputs `dv`, with
 /// its derivatives by the slip parameters, by the turn law and by the
 /// terms `(k_x_speed, k_spread_speed, speed_law)` (columns): the ICR twist
 /// is linear in the two tread speeds as the ground takes them up, so the
@@ -116,10 +136,10 @@ pub fn twist_at(
     x: &State,
     chart: Chart,
     u: TreadInput,
-    dv: f64,
+    dv: LawInputs,
 ) -> (Twist, crate::slip::TwistJac, [f64; 3], SMatrix<f64, 3, 3>) {
-    let parts = chart.twist_with_terms(&slip_of(x), x[LAW], dv, &centripetal_of(x), u);
-    with_speed_law(parts, x[SPEED_LAW], dv)
+    let parts = chart.twist_with_terms(&slip_of(x), x[LAW], dv.spread, &centripetal_of(x), u);
+    with_speed_law(parts, x[SPEED_LAW], dv.speed)
 }
 
 /// The twist of [`Chart::twist_with_terms`] and its derivatives (`parts`)
@@ -147,11 +167,17 @@ pub fn with_speed_law(
 }
 
 /// One Euler step of `dt` seconds with tread speeds `u` and turn-law
-/// input `dv` (m/s): the new state (yaw wrapped to `(-pi, pi]`), the twist
+/// inputs `dv`: the new state (yaw wrapped to `(-pi, pi]`), the twist
 /// used, and the pose rows of `F = df/dx` at `x` (the other rows are the
 /// identity's; the bias decay is the filter's).
 #[inline]
-pub fn step(x: &State, chart: Chart, u: TreadInput, dv: f64, dt: f64) -> (State, Twist, PoseRows) {
+pub fn step(
+    x: &State,
+    chart: Chart,
+    u: TreadInput,
+    dv: LawInputs,
+    dt: f64,
+) -> (State, Twist, PoseRows) {
     let (t, j, dk, dc) = twist_at(x, chart, u, dv);
     let (sn, cs) = (libm::sin(x[YAW]), libm::cos(x[YAW]));
     let mut out = *x;
@@ -219,7 +245,8 @@ mod tests {
                 x[K_SPREAD_SPEED] = -0.05;
                 x[SPEED_LAW] = -0.04;
                 x.fixed_rows_mut::<5>(SLIP).copy_from(&chart.from_icr(&p));
-                let dv = (vr - vl).abs();
+                // The speed law reading another input than the spread's.
+                let dv = LawInputs { spread: (vr - vl).abs(), speed: 0.8 * (vr - vl).abs() + 0.1 };
                 let (_, _, rows) = step(&x, chart, u, dv, dt);
                 for k in 0..N {
                     let h = 1e-6 * (1.0 + x[k].abs());

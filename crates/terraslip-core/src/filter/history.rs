@@ -12,6 +12,7 @@
 use nalgebra::SMatrix;
 
 use crate::kinematics::CentripetalSlopes;
+use crate::model::LawInputs;
 use crate::slip::{Chart, Slip, TreadInput};
 
 /// Steps kept (at 100 Hz, 2.5 s).
@@ -21,8 +22,8 @@ pub(super) const CAPACITY: usize = 256;
 struct Step {
     dt: f64,
     u: TreadInput,
-    /// The turn law's input, m/s.
-    dv: f64,
+    /// The turn laws' inputs.
+    dv: LawInputs,
 }
 
 /// Motion over a lag: displacement (world frame) and heading change from
@@ -60,7 +61,10 @@ impl History {
                     v_left: 0.0,
                     v_right: 0.0,
                 },
-                dv: 0.0,
+                dv: LawInputs {
+                    spread: 0.0,
+                    speed: 0.0,
+                },
             }; CAPACITY],
             len: 0,
             next: 0,
@@ -68,8 +72,8 @@ impl History {
     }
 
     /// Records one prediction step of `dt` s with tread speeds `u` and
-    /// turn-law input `dv`.
-    pub(super) fn push(&mut self, dt: f64, u: TreadInput, dv: f64) {
+    /// turn-law inputs `dv`.
+    pub(super) fn push(&mut self, dt: f64, u: TreadInput, dv: LawInputs) {
         self.steps[self.next] = Step { dt, u, dv };
         self.next = (self.next + 1) % CAPACITY;
         self.len = (self.len + 1).min(CAPACITY);
@@ -95,8 +99,9 @@ impl History {
         speed_law: f64,
         yaw: f64,
     ) -> Motion {
-        let twist = |dv: f64, u: TreadInput| {
-            crate::model::with_speed_law(chart.twist_with_terms(s, law, dv, c, u), speed_law, dv)
+        let twist = |dv: LawInputs, u: TreadInput| {
+            let parts = chart.twist_with_terms(s, law, dv.spread, c, u);
+            crate::model::with_speed_law(parts, speed_law, dv.speed)
         };
         let newest = if self.len > 0 {
             self.steps[(self.next + CAPACITY - 1) % CAPACITY]
@@ -186,7 +191,7 @@ mod tests {
                 v_left: 1.0,
                 v_right: 1.0,
             },
-            0.0,
+            LawInputs::both(0.0),
         );
         h.push(
             0.1,
@@ -194,7 +199,7 @@ mod tests {
                 v_left: -0.5,
                 v_right: 0.5,
             },
-            1.0,
+            LawInputs::both(1.0),
         );
         let yaw = 0.1;
         let none = CentripetalSlopes::NONE;
@@ -227,7 +232,7 @@ mod tests {
                             v_left: vl,
                             v_right: vr,
                         },
-                        0.1 * k as f64,
+                        LawInputs::both(0.1 * k as f64),
                     );
                 }
             }

@@ -182,8 +182,8 @@ pub struct Filter {
     twist: Twist,
     /// Tread speeds of the last step.
     tread: TreadInput,
-    /// The turn law's input: `|V_r - V_l|` low-passed, m/s.
-    law_input: f64,
+    /// The turn laws' inputs at the last step ([`Filter::law_inputs`]).
+    law_input: model::LawInputs,
     still: bool,
     history: History,
     /// Noise of the position and heading fixes (a scale of the stated
@@ -373,7 +373,7 @@ impl Filter {
             schedule_scale: 1.0,
             twist: Twist::default(),
             tread: TreadInput::default(),
-            law_input: 0.0,
+            law_input: model::LawInputs::default(),
             still: true,
             history: History::new(),
             noise: [fit(cfg.q_pos_per_speed2), fit(cfg.q_yaw_per_rate2)],
@@ -431,7 +431,7 @@ impl Filter {
     /// `p` with both speed factors scaled by the speed factors' turn law at
     /// the last step's turn.
     fn with_speed_law(&self, p: IcrParams) -> IcrParams {
-        let (f, _) = crate::slip::law_factor(self.x[SPEED_LAW], self.law_input);
+        let (f, _) = crate::slip::law_factor(self.x[SPEED_LAW], self.law_input.speed);
         crate::kinematics::scaled(&p, 1.0, f)
     }
 
@@ -450,21 +450,31 @@ impl Filter {
         self.cfg.chart.with_terms(
             &self.slip(),
             self.x[LAW],
-            self.law_input,
+            self.law_input.spread,
             &self.centripetal().0,
             self.tread,
         )
     }
 
-    /// The ICRs at the last step's turn, at rest: the turn law applied,
-    /// not the centripetal terms ([`CentripetalSlopes::at`] applies those
-    /// at a speed).
-    pub fn icr_turn(&self) -> IcrParams {
-        self.with_speed_law(
-            self.cfg
-                .chart
-                .to_icr_at(&self.slip(), self.x[LAW], self.law_input),
-        )
+    /// What a prediction from the last step takes of the model: the ICRs
+    /// at that step's turn, at rest (the turn law applied, not the
+    /// centripetal terms: [`CentripetalSlopes::at`] applies those at a
+    /// speed), and the slope (s/m) of the speed factors' turn law still to
+    /// apply at each tread speed row of the prediction. A learned law reads
+    /// the lagged turn and is applied here at the last step's (slope 0
+    /// returned); a held law reads each instant's tread speeds
+    /// ([`Filter::law_inputs`]): its slope is returned and the ICRs are
+    /// without it.
+    pub fn icr_turn(&self) -> (IcrParams, f64) {
+        let icr = self
+            .cfg
+            .chart
+            .to_icr_at(&self.slip(), self.x[LAW], self.law_input.spread);
+        if self.learn_speed_law {
+            (self.with_speed_law(icr), 0.0)
+        } else {
+            (icr, self.x[SPEED_LAW])
+        }
     }
 
     /// The centripetal terms (s, s/m) and their stds.

@@ -34,7 +34,8 @@ impl Filter {
         } else {
             1.0
         };
-        self.law_input += a * (dv - self.law_input);
+        let lagged = self.law_input.spread + a * (dv - self.law_input.spread);
+        self.law_input = self.law_inputs(dv, lagged);
         let (x, twist, rows) = model::step(&self.x, cfg.chart, u, self.law_input, dt);
 
         // F = I except the pose rows (`rows`) and the bias decay `phi` on
@@ -138,5 +139,20 @@ impl Filter {
         self.basis[0] += v * v * dt;
         self.basis[1] += w * w * dt;
         Ok(())
+    }
+
+    /// The turn laws' inputs at a step whose tread speed difference
+    /// `|V_r - V_l|` is `dv` (m/s), `lagged` that difference low-passed
+    /// over `turn_law_lag`. The spread's law reads `lagged`: the ground
+    /// takes a new turn up with a lag. The speed factors' law reads
+    /// `lagged` where it is learned and `dv` where it is held (a
+    /// calibration's, from `estimate --init`): held, it is the
+    /// calibration's model, which scales the speed factors at each
+    /// instant's tread speeds.
+    pub(super) fn law_inputs(&self, dv: f64, lagged: f64) -> model::LawInputs {
+        model::LawInputs {
+            spread: lagged,
+            speed: if self.learn_speed_law { lagged } else { dv },
+        }
     }
 }

@@ -55,10 +55,13 @@ pub fn row(est: &Estimator, t: f64, terrain: Option<usize>, s: &FixSummary) -> E
 
 /// What the 2 s prediction from a start takes of the filter: the ICRs at
 /// the start's turn, the centripetal terms applied at each row's speed
-/// over the 2 s, and the pose stream's clock offset (s).
+/// over the 2 s (and a held speed factors' turn law at each row's tread
+/// speeds, as the filter reads it), and the pose stream's clock offset (s).
 fn prediction_model(f: &terraslip_core::filter::Filter) -> Timed {
     let (c, _) = f.centripetal();
-    let mut t = Timed::new(f.icr_turn(), f.clock_offset().0);
+    let (icr, k_alpha) = f.icr_turn();
+    let mut t = Timed::new(icr, f.clock_offset().0);
+    t.slopes.k_alpha = k_alpha;
     t.slopes.k_x_speed = c.k_x_speed;
     t.slopes.k_spread_speed = c.k_spread_speed;
     t

@@ -21,7 +21,7 @@ fn prediction_error(f: &Filter, truth: &IcrParams, law: f64, seed: u64) -> f64 {
         let dv = (vr - vl).abs();
         let t = truth.twist(vl, vr);
         let real = t.scaled(1.0 + law * dv);
-        let (model, ..) = model::twist_at(x, f.config().chart, u, dv);
+        let (model, ..) = model::twist_at(x, f.config().chart, u, model::LawInputs::both(dv));
         let (mut a, mut b) = ([0.0f64; 3], [0.0f64; 3]);
         for _ in 0..100 {
             for (p, tw) in [(&mut a, real), (&mut b, model)] {
@@ -102,5 +102,43 @@ fn a_robot_without_the_law_keeps_the_slope_near_zero() {
             k.abs() < 0.02 && k.abs() < 3.0 * sd + 1e-3,
             "seed {seed}: {k} +- {sd}"
         );
+    }
+}
+
+/// Held (an `--init` calibration's), the law is `calibrate`'s model: it
+/// scales the speed factors at each instant's tread speed difference,
+/// and a prediction applies it row by row. Learned, it reads the turn
+/// law's lagged input, and a prediction takes the factors at the start's
+/// turn.
+#[test]
+fn a_held_speed_law_reads_each_instants_turn_and_a_learned_one_the_lagged_turn() {
+    let k = -0.1;
+    for (std, held) in [(0.0, true), (0.05, false)] {
+        let mut f = filter(&Prior {
+            speed_law: k,
+            speed_law_std: std,
+            ..prior(0.5)
+        });
+        for _ in 0..40 {
+            f.predict(1.0, 1.0, 0.05).unwrap();
+        }
+        // A step from straight to 2 m/s of tread speed difference.
+        f.predict(0.0, 2.0, 0.05).unwrap();
+        let straight = f.icr();
+        let a = 1.0 - libm::exp(-0.05 / f.config().turn_law_lag);
+        let dv = if held { 2.0 } else { 2.0 * a };
+        let now = f.icr_now();
+        assert!(
+            (now.alpha_l / straight.alpha_l - (1.0 + k * dv)).abs() < 1e-12,
+            "held {held}: {now:?} against {straight:?}"
+        );
+        let (start, slope) = f.icr_turn();
+        if held {
+            assert_eq!(slope, k);
+            assert!((start.alpha_r - straight.alpha_r).abs() < 1e-12);
+        } else {
+            assert_eq!(slope, 0.0);
+            assert!((start.alpha_r - now.alpha_r).abs() < 1e-12);
+        }
     }
 }

@@ -246,7 +246,6 @@ impl Filter {
         }
         // What this fix's innovation says about the noise (fused or gated;
         // `noise.rs`): the sensor's and the model's since the last fix.
-        let basis_since = self.basis;
         for (k, fate, dims) in [(0usize, report.position, 0..2), (1, report.yaw, 2..3)] {
             if !matches!(fate, Fate::Fused | Fate::Gated) {
                 continue;
@@ -313,11 +312,8 @@ impl Filter {
         // poor and every state is iterated; after, the heading stays at the
         // prior and only the clock is.
         let heading_known = self.P[(YAW, YAW)] <= HEADING_KNOWN_RAD * HEADING_KNOWN_RAD;
-        let nominal_clock = std::env::var_os("TS_CLOCK_NOMINAL").is_some();
-        let blind_clock = std::env::var_os("TS_CLOCK_SEEN").is_some();
         let mut xi = self.x;
         let mut last = None;
-        let mut last_ri = Vector3::zeros();
         for it in 0..iterations {
             let at = if heading_known {
                 let mut at = self.x;
@@ -344,36 +340,12 @@ impl Filter {
             // K = P H' S^-1  <=>  S K' = H P
             let mut K: MatNx3 = chol.solve(&HPi).transpose();
             self.zero_gains(&mut K, yaw_known);
-            if blind_clock && (0..3).all(|j| Hi[(j, CLOCK)] == 0.0) {
-                K.row_mut(CLOCK).fill(0.0);
-            }
-            if heading_known && nominal_clock && !self.frozen(yaw_known)[CLOCK] {
-                let (q_speed, q_turn) = self.model_noise();
-                let excess = [
-                    (q_speed - self.cfg.q_pos_per_speed2).max(0.0) * basis_since[0],
-                    (q_speed - self.cfg.q_pos_per_speed2).max(0.0) * basis_since[0],
-                    (q_turn - self.cfg.q_yaw_per_rate2).max(0.0) * basis_since[1],
-                ];
-                let mut Sc = gain_S;
-                for i in 0..3 {
-                    if used[i] {
-                        Sc[(i, i)] = (Sc[(i, i)] - excess[i]).max(r[i]);
-                    }
-                }
-                if let Some(c) = Sc.cholesky() {
-                    let Kc: MatNx3 = c.solve(&HPi).transpose();
-                    for j in 0..3 {
-                        K[(CLOCK, j)] = Kc[(CLOCK, j)];
-                    }
-                }
-            }
             let mut x = self.x + K * ri;
             x[YAW] = angle::wrap(x[YAW]);
             let mut step = x - xi;
             step[YAW] = angle::wrap(step[YAW]);
             xi = x;
             last = Some((K, Hi, HPi, Si));
-            last_ri = ri;
             // Converged: the step is far below the state's uncertainty.
             if it + 1 < iterations
                 && (0..N).all(|k| step[k] * step[k] <= 1e-6 * self.P[(k, k)].max(1e-30))
@@ -384,19 +356,6 @@ impl Filter {
         let Some((K, Hl, HP, S)) = last else {
             return Ok(report);
         };
-        if std::env::var_os("TS_CLOCK_TRACE").is_some() {
-            let m = self.motion(&self.x, lag);
-            std::eprintln!(
-                "CLK {t:.3} {} {} {} {:.5} {:.5} {:.5} {:.5} {:.5} {:.5} {:.5} {:.4} {:.4} {:.4} {:.4} {:.4}",
-                use_pos as u8, use_yaw as u8, heading_known as u8,
-                K[(CLOCK, 0)] * last_ri[0] + K[(CLOCK, 1)] * last_ri[1],
-                K[(CLOCK, 2)] * last_ri[2],
-                libm::sqrt(self.P[(CLOCK, CLOCK)]),
-                self.x[CLOCK], m.v_east, m.v_north, m.omega,
-                last_ri[0], last_ri[1], last_ri[2],
-                K[(EAST, 0)], libm::sqrt(self.P[(EAST, EAST)])
-            );
-        }
         self.gyro_win.after_update(&K, &Hl);
         let x = xi;
         let P = match self.cfg.variant {

@@ -225,6 +225,18 @@ def main(argv):
                 fit = np.linalg.lstsq(np.c_[np.ones(g.sum()), v[:n][g]], s["x_c"][:n][g], rcond=None)
                 cells.append(f"{t0:.0f}: {fit[0][1]:+.3f}")
         print("  the filter's x_c against v per 50 s (its k_x_speed as it went, s): " + ", ".join(cells))
+    # The same slope over the drive so far (every other moving row from
+    # the start), to set beside the filter's k_x_speed as it went.
+    run = (abs(vl) + abs(vr) >= 0.2) & (wt > 1.0) & (wt < wt[-1] - 1.0)
+    ridx = np.where(run)[0][::2]
+    rvy = body_velocity(p, wt[ridx] + clock)[:, 1]
+    rx = (v * dv / b)[ridx]
+    cum = []
+    for t1 in np.arange(100.0, wt[-1] + 100.0, 100.0):
+        g = wt[ridx] < t1
+        if g.sum() > 10:
+            cum.append(f"{min(t1, wt[-1]):.0f}: {(rx[g] @ rvy[g]) / (rx[g] @ rx[g]):+.3f}")
+    print("  the pose's slope over the drive up to t (s): " + ", ".join(cum))
     for lo, hi in [(0, 1), (1, 2), (2, 3), (3, 4), (4, 1e9)]:
         g = (abs(x) >= lo) & (abs(x) < hi)
         if g.sum():

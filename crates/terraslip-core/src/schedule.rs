@@ -12,7 +12,10 @@
 //! * **given sets** (`--init`): a set given for a terrain, or the set the
 //!   drive started from, is what a change the slip-change detector finds
 //!   falls back to (with the set's own covariance), rather than the
-//!   current estimate with its uncertainty raised.
+//!   current estimate with its uncertainty raised; once the filter's
+//!   estimates on that ground cover `memory_min_dwell` seconds of driving
+//!   (taken after half of it, as the memory's average), the fallback is
+//!   their mean (the set's covariance kept).
 //!
 //! Terrains are indices `0..MAX_TERRAINS` (the pipeline maps names).
 
@@ -36,7 +39,9 @@ pub struct ScheduleConfig {
     /// Recall learned ICRs when a terrain is revisited.
     pub memory: bool,
     /// Seconds on a terrain (while moving) before what was learned there is
-    /// worth remembering.
+    /// worth remembering; and, taken after half of it, seconds of estimates
+    /// a detected change under a given set needs before it falls back to
+    /// their mean rather than to the set ([`NoiseSchedule::fallback`]).
     pub memory_min_dwell: f64,
     /// Time constant (s) of the running average of the slip parameters that
     /// is remembered (0 = the estimate at the moment of leaving). Taken
@@ -118,6 +123,9 @@ pub struct NoiseSchedule {
     /// the seconds it covers.
     average: [f64; K],
     averaged: f64,
+    /// Time integral of the slip parameters over the same stretch, and the
+    /// seconds it covers: the plain mean of the stay.
+    stay_sum: [f64; K],
 }
 
 impl NoiseSchedule {
@@ -133,6 +141,7 @@ impl NoiseSchedule {
             start: None,
             average: [0.0; K],
             averaged: 0.0,
+            stay_sum: [0.0; K],
         }
     }
 
@@ -173,9 +182,11 @@ impl NoiseSchedule {
 
     /// The slip-change detector fired. With a set given for the current
     /// terrain (or, no terrain declared, the set the drive started from),
-    /// the filter's slip parameters fall back to it with its covariance,
-    /// and `true` is returned; otherwise nothing is done (the filter has
-    /// raised its slip uncertainty itself).
+    /// the filter's slip parameters fall back with the set's covariance, to
+    /// the set itself or, once the stay covers `memory_min_dwell` seconds,
+    /// to the mean of the filter's estimates over the stay
+    /// ([`Self::fallback`]), and `true` is returned; otherwise nothing is
+    /// done (the filter has raised its slip uncertainty itself).
     pub fn on_detected_change(&mut self, filter: &mut Filter) -> Result<bool, FilterError> {
         let given = match self.current {
             Some(k) => self.given.get(k).copied().flatten(),
@@ -183,10 +194,30 @@ impl NoiseSchedule {
         };
         match given {
             Some(m) => {
-                filter.set_slip(&m.icr, &m.cov)?;
+                filter.set_slip(&self.fallback(&m.icr), &m.cov)?;
                 Ok(true)
             }
             None => Ok(false),
+        }
+    }
+
+    /// Where a detected change on a ground with a given set `given` falls
+    /// back to: the mean of the filter's slip parameters over the stay
+    /// (taken after half of `memory_min_dwell`, as the memory's average)
+    /// once it covers `memory_min_dwell` seconds of driving (what the drive has
+    /// shown of this ground: the estimate at the alarm is what the detector
+    /// found wrong, and the mean is taken from the given set onwards, each
+    /// earlier fallback included), else `given`. A stay that does not give
+    /// a usable set leaves `given`.
+    pub fn fallback(&self, given: &IcrParams) -> IcrParams {
+        if self.averaged <= 0.0 || self.averaged < self.cfg.memory_min_dwell {
+            return *given;
+        }
+        let mean = from_entries(&self.stay_sum.map(|v| v / self.averaged));
+        if mean.validate().is_ok() {
+            mean
+        } else {
+            *given
         }
     }
 
@@ -194,15 +225,18 @@ impl NoiseSchedule {
     pub fn on_predict(&mut self, filter: &Filter, dt: f64) {
         if !filter.is_still() && dt.is_finite() && dt > 0.0 {
             self.dwell += dt;
-            if self.cfg.memory_average > 0.0 && self.dwell >= 0.5 * self.cfg.memory_min_dwell {
+            if self.dwell >= 0.5 * self.cfg.memory_min_dwell {
                 // A plain mean until one time constant is covered, then
                 // exponential: no start-up bias towards zero.
                 self.averaged += dt;
                 let a = dt / self.averaged.min(self.cfg.memory_average);
                 let p = filter.icr();
                 let x = [p.y_l, p.y_r, p.x_c, p.alpha_l, p.alpha_r];
-                for (m, v) in self.average.iter_mut().zip(x) {
-                    *m += a * (v - *m);
+                for ((m, s), v) in self.average.iter_mut().zip(&mut self.stay_sum).zip(x) {
+                    if self.cfg.memory_average > 0.0 {
+                        *m += a * (v - *m);
+                    }
+                    *s += v * dt;
                 }
             }
         }
@@ -233,15 +267,11 @@ impl NoiseSchedule {
                 if self.dwell >= self.cfg.memory_min_dwell && prev < MAX_TERRAINS {
                     let cov = filter.icr_covariance();
                     let mut icr = filter.icr();
-                    if self.averaged > 0.0 && self.average.iter().all(|v| v.is_finite()) {
-                        let m = &self.average;
-                        icr = IcrParams {
-                            y_l: m[0],
-                            y_r: m[1],
-                            x_c: m[2],
-                            alpha_l: m[3],
-                            alpha_r: m[4],
-                        };
+                    if self.cfg.memory_average > 0.0
+                        && self.averaged > 0.0
+                        && self.average.iter().all(|v| v.is_finite())
+                    {
+                        icr = from_entries(&self.average);
                     }
                     self.memory[prev] = Some(Memory {
                         icr,
@@ -253,6 +283,7 @@ impl NoiseSchedule {
         self.current = Some(terrain);
         self.dwell = 0.0;
         self.averaged = 0.0;
+        self.stay_sum = [0.0; K];
         if self.cfg.memory {
             if let Some(Some(m)) = self.memory.get(terrain) {
                 filter.set_slip(&m.icr, &m.cov)?;
@@ -274,6 +305,18 @@ impl NoiseSchedule {
             filter.set_schedule_scale(self.cfg.boost_factor);
         }
         Ok(ChangeAction::Learning)
+    }
+}
+
+/// The slip parameters from their entries `(y_l, y_r, x_c, alpha_l,
+/// alpha_r)` (m, m, m, 1, 1), the order the schedule averages them in.
+fn from_entries(m: &[f64; K]) -> IcrParams {
+    IcrParams {
+        y_l: m[0],
+        y_r: m[1],
+        x_c: m[2],
+        alpha_l: m[3],
+        alpha_r: m[4],
     }
 }
 
@@ -476,16 +519,21 @@ mod tests {
         assert!(var_spread(&f) >= 0.004f64.powi(2) - 1e-12);
     }
 
-    #[test]
-    fn a_detected_change_falls_back_to_the_given_set_not_to_the_estimate() {
-        let given = learned(0.3, 0.85, -0.03);
-        let given_std = SlipStd {
+    /// A calibrated set and its standard deviations.
+    fn given_set() -> (IcrParams, SlipStd) {
+        let std = SlipStd {
             spread: 0.01,
             centre: 0.01,
             x_c: 0.02,
             alpha: 0.01,
             alpha_diff: 0.003,
         };
+        (learned(0.3, 0.85, -0.03), std)
+    }
+
+    #[test]
+    fn a_detected_change_falls_back_to_the_given_set_not_to_the_estimate() {
+        let (given, given_std) = given_set();
         let wandered = learned(0.6, 1.1, 0.02);
         let wide = SlipStd {
             spread: 0.3,
@@ -524,6 +572,51 @@ mod tests {
         s.seed(0, &given, given_std);
         s.on_terrain(&mut f, 1).unwrap();
         assert!(!s.on_detected_change(&mut f).unwrap());
+    }
+
+    #[test]
+    fn a_detected_change_after_a_stay_falls_back_to_the_stays_mean() {
+        let (given, given_std) = given_set();
+        let cfg = ScheduleConfig {
+            memory_min_dwell: 2.0,
+            ..Default::default()
+        };
+        let mut f = filter(Chart::Gain);
+        let mut s = NoiseSchedule::new(cfg);
+        s.start_from(&given, given_std);
+        f.set_slip(&given, &given_std.icr_cov()).unwrap();
+        let tiny = SlipStd::ZERO.icr_cov();
+        // 1 s before the mean starts, then 2 s at y_l = 0.34 and 1 s at
+        // 0.40 (where the filter wandered just before the alarm).
+        let drive = |f: &mut Filter, s: &mut NoiseSchedule, steps: usize, y_l: f64| {
+            for _ in 0..steps {
+                f.predict(0.5, 0.5, 0.02).unwrap();
+                f.set_slip(&IcrParams { y_l, ..given }, &tiny).unwrap();
+                s.on_predict(f, 0.02);
+            }
+        };
+        drive(&mut f, &mut s, 50, 0.5);
+        drive(&mut f, &mut s, 50, 0.34);
+        // Under memory_min_dwell of mean: the given set.
+        assert!(s.on_detected_change(&mut f).unwrap());
+        assert!((f.icr().y_l - given.y_l).abs() < 1e-9, "{:?}", f.icr());
+        drive(&mut f, &mut s, 50, 0.34);
+        drive(&mut f, &mut s, 50, 0.40);
+        assert!(s.on_detected_change(&mut f).unwrap());
+        let p = f.icr();
+        // Mean of 0.34 over 2 s, 0.40 over 1 s: 0.36.
+        assert!((p.y_l - 0.36).abs() < 1e-3, "the stay's mean: {p:?}");
+        assert!((p.alpha_l - given.alpha_l).abs() < 1e-9, "{p:?}");
+        assert!(
+            (var_spread(&f) - 1e-4).abs() < 1e-9,
+            "the given set's own covariance: {}",
+            var_spread(&f)
+        );
+        // A new terrain starts a new stay: its given set again.
+        s.seed(1, &given, given_std);
+        s.on_terrain(&mut f, 1).unwrap();
+        assert!(s.on_detected_change(&mut f).unwrap());
+        assert!((f.icr().y_l - given.y_l).abs() < 1e-9, "{:?}", f.icr());
     }
 
     #[test]

@@ -117,7 +117,10 @@ pub struct ScheduleSection {
     pub reset_std: SlipStd,
     /// Recall learned slip parameters when a terrain is revisited.
     pub memory: bool,
-    /// Seconds of driving on a terrain before its parameters are remembered.
+    /// Seconds of driving on a terrain before its parameters are remembered;
+    /// under `--init`, also the seconds of estimates (taken after half of
+    /// it) before a detected slip change falls back to their mean rather
+    /// than to the given set.
     pub memory_min_dwell: f64,
     /// Time constant (s) of the running average of the slip parameters
     /// remembered for a terrain, taken after half of `memory_min_dwell`

@@ -658,3 +658,54 @@ fn a_held_gyro_scale_stays_exactly_put() {
     );
     assert_spd(&f);
 }
+
+#[test]
+fn a_fix_taken_standing_still_leaves_the_clock_offset() {
+    // Drive with a late pose stream until the clock is learned (and
+    // correlated with the pose), stand still for a second and move off
+    // again: the fix stamped during the stop arrives once moving.
+    let mut f = Filter::new(
+        &prior(0.5),
+        FilterConfig::default(),
+        MeasurementConfig::default(),
+        band(0.5),
+    )
+    .unwrap();
+    let d = Drive {
+        delay: 0.3,
+        duration: 60.0,
+        ..Default::default()
+    };
+    run(&mut f, &d);
+    for _ in 0..50 {
+        f.predict(0.0, 0.0, 0.02).unwrap();
+    }
+    let (e, n, yaw) = f.pose();
+    for _ in 0..5 {
+        f.predict(0.5, 0.5, 0.02).unwrap();
+    }
+    let (_, P) = f.raw();
+    assert!(
+        P[(CLOCK, EAST)].abs() + P[(CLOCK, NORTH)].abs() > 1e-9,
+        "the clock is correlated with the pose"
+    );
+    let before = f.clock_offset();
+    // A fix 2 cm off the pose of the stop, 0.2 s after its stamp: read at
+    // the stamp minus the clock offset, the robot stood still.
+    let fix = PoseFix {
+        position: Some((e + 0.02, n - 0.02)),
+        yaw: Some(yaw),
+        std_xy: 0.03,
+        std_yaw: 0.005,
+        stated: true,
+    };
+    let report = f.update(61.0, 0.2, &fix).unwrap();
+    assert!(
+        matches!(report.position, Fate::Fused),
+        "the fix is used: {report:?}"
+    );
+    let after = f.clock_offset();
+    assert_eq!(before.0, after.0, "clock {before:?} -> {after:?}");
+    assert!(after.1 <= before.1 + 1e-15);
+    assert_spd(&f);
+}

@@ -340,6 +340,7 @@ impl Filter {
             // K = P H' S^-1  <=>  S K' = H P
             let mut K: MatNx3 = chol.solve(&HPi).transpose();
             self.zero_gains(&mut K, yaw_known);
+            blind_clock_gain(&mut K, &Hi);
             let mut x = self.x + K * ri;
             x[YAW] = angle::wrap(x[YAW]);
             let mut step = x - xi;
@@ -632,5 +633,18 @@ fn normalised(
         }
         let z = nu[2] / libm::sqrt(S[(2, 2)]);
         Ok((z * z, [z, 0.0]))
+    }
+}
+
+/// A fix taken while the robot stood still at the pose's time (the
+/// measurement's clock column `H[.., CLOCK]` is zero: no motion for the
+/// offset to shift) says nothing of the clock offset. The clock then keeps
+/// its value (its gain row is zeroed, a consider update; the Joseph form
+/// keeps `P` honest) instead of following the pose through their
+/// correlation, which at stops and starts carries the slip model's errors.
+#[allow(non_snake_case)]
+fn blind_clock_gain(K: &mut MatNx3, H: &SMatrix<f64, 3, N>) {
+    if (0..3).all(|j| H[(j, CLOCK)] == 0.0) {
+        K.row_mut(CLOCK).fill(0.0);
     }
 }

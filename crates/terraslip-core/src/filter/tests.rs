@@ -38,6 +38,17 @@ fn prior(w: f64) -> Prior {
     }
 }
 
+/// The default filter for a 0.5 m track.
+fn default_filter() -> Filter {
+    Filter::new(
+        &prior(0.5),
+        FilterConfig::default(),
+        MeasurementConfig::default(),
+        band(0.5),
+    )
+    .unwrap()
+}
+
 fn papers_cfg() -> (FilterConfig, MeasurementConfig) {
     let mut cfg = FilterConfig::default();
     cfg.chart = Chart::Tread;
@@ -175,13 +186,7 @@ fn assert_spd(f: &Filter) {
 
 #[test]
 fn learns_spread_and_speed_factor_from_lidar_grade_fixes() {
-    let mut f = Filter::new(
-        &prior(0.5),
-        FilterConfig::default(),
-        MeasurementConfig::default(),
-        band(0.5),
-    )
-    .unwrap();
+    let mut f = default_filter();
     let d = Drive::default();
     let ((e, n, _), truth) = run(&mut f, &d);
     let p = f.icr();
@@ -249,13 +254,7 @@ fn a_late_pose_stream_is_blamed_on_the_clock_not_on_the_slip() {
 
 #[test]
 fn learns_the_pose_noise_when_none_is_stated() {
-    let mut f = Filter::new(
-        &prior(0.5),
-        FilterConfig::default(),
-        MeasurementConfig::default(),
-        band(0.5),
-    )
-    .unwrap();
+    let mut f = default_filter();
     let d = Drive::default();
     // Same drive, but the fixes state a configured 1 m / 2 deg guess.
     let mut rng = SplitMix64::new(9);
@@ -297,13 +296,7 @@ fn learns_the_pose_noise_when_none_is_stated() {
 
 #[test]
 fn a_multipath_jump_is_gated_and_the_gate_keeps_its_meaning() {
-    let mut f = Filter::new(
-        &prior(0.5),
-        FilterConfig::default(),
-        MeasurementConfig::default(),
-        band(0.5),
-    )
-    .unwrap();
+    let mut f = default_filter();
     let d = Drive {
         duration: 60.0,
         fix_hz: 1.0,
@@ -338,13 +331,7 @@ fn a_multipath_jump_is_gated_and_the_gate_keeps_its_meaning() {
 
 #[test]
 fn finds_the_heading_from_position_fixes_alone() {
-    let mut f = Filter::new(
-        &prior(0.5),
-        FilterConfig::default(),
-        MeasurementConfig::default(),
-        band(0.5),
-    )
-    .unwrap();
+    let mut f = default_filter();
     let d = Drive {
         heading: false,
         fix_hz: 1.0,
@@ -664,13 +651,7 @@ fn a_fix_taken_standing_still_leaves_the_clock_offset() {
     // Drive with a late pose stream until the clock is learned (and
     // correlated with the pose), stand still for a second and move off
     // again: the fix stamped during the stop arrives once moving.
-    let mut f = Filter::new(
-        &prior(0.5),
-        FilterConfig::default(),
-        MeasurementConfig::default(),
-        band(0.5),
-    )
-    .unwrap();
+    let mut f = default_filter();
     let d = Drive {
         delay: 0.3,
         duration: 60.0,

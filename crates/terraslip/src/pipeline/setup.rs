@@ -319,10 +319,11 @@ fn init_offset(key: &str, o: Option<f64>) -> Result<f64, PipelineError> {
 /// (`y_l, y_r, x_c, alpha_l, alpha_r`), as independent stds of spread,
 /// centre, x_c, speed factor and factor difference.
 fn stated_std(s: &serde_json::Value) -> Option<SlipStd> {
-    let get = |k: &str| {
-        s.get(k)
-            .and_then(|v| v.as_f64())
-            .filter(|v| v.is_finite() && *v >= 0.0)
+    // `null`: a parameter the calibration's reduced model held (its
+    // relation to another, or `x_c` at 0); the floor then applies to it.
+    let get = |k: &str| match s.get(k)? {
+        serde_json::Value::Null => Some(0.0),
+        v => v.as_f64().filter(|v| v.is_finite() && *v >= 0.0),
     };
     let (yl, yr, xc, al, ar) = (
         get("y_l")?,
@@ -424,6 +425,26 @@ mod tests {
         extra.get_mut("rate_model").unwrap()["k_x_speed"] = serde_json::json!(3.0);
         let err = init_prior(&cfg, "gravel", p, &extra, cfg.prior(1.1)).unwrap_err();
         assert!(err.to_string().contains("k_x_speed"), "{err}");
+    }
+
+    /// A reduced set (`calibrate`'s reduced models) states no 1-sigma
+    /// for a parameter it held (`null`): the others keep theirs.
+    #[test]
+    fn a_reduced_set_keeps_the_std_it_states() {
+        let cfg = EstimatorConfig::default();
+        let (p, mut extra) = calibrated_set();
+        extra.remove("rate_model");
+        extra.insert(
+            "std".into(),
+            serde_json::json!({"y_l": 0.09, "y_r": 0.09, "x_c": null, "alpha_l": 0.013, "alpha_r": 0.013}),
+        );
+        let prior = init_prior(&cfg, "grass", p, &extra, cfg.prior(1.1)).unwrap();
+        assert!(
+            (prior.std.spread - 0.09f64.hypot(0.09)).abs() < 1e-12,
+            "{:?}",
+            prior.std
+        );
+        assert_eq!(prior.std.x_c, cfg.init.calibrated_std.x_c);
     }
 
     #[test]

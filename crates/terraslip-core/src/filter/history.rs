@@ -61,10 +61,7 @@ impl History {
                     v_left: 0.0,
                     v_right: 0.0,
                 },
-                dv: LawInputs {
-                    spread: 0.0,
-                    speed: 0.0,
-                },
+                dv: LawInputs::both(0.0),
             }; CAPACITY],
             len: 0,
             next: 0,

@@ -1,5 +1,5 @@
-//! Reads back `estimate.csv` (what `terraslip estimate` writes), for plots
-//! and reports.
+//! Reads back `estimate.csv` and `prediction.csv` (what `terraslip
+//! estimate` writes), for plots and reports.
 
 use std::path::Path;
 
@@ -112,6 +112,35 @@ pub fn read_estimate(path: &Path) -> Result<Vec<EstimateRecord>, LogError> {
             std_alpha_r: o[3],
             std_spread: o[4],
             clock_offset: o[5],
+        });
+        Ok(())
+    })?;
+    Ok(out)
+}
+
+/// One row of `prediction.csv`: a start of the 2 s prediction `estimate`
+/// scored for `summary.json`'s `prediction`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PredictionRecord {
+    /// Start time, s (the wheels' clock).
+    pub t: f64,
+    /// Position error of the learned model's prediction, m.
+    pub error_m: f64,
+    /// Position error of the no-slip model's prediction, m.
+    pub no_slip_m: f64,
+}
+
+/// Reads `prediction.csv` (`t,error_m,no_slip_m`; a header alone when
+/// no start could be scored).
+pub fn read_prediction(path: &Path) -> Result<Vec<PredictionRecord>, LogError> {
+    let mut tab = read_csv_table(path)?;
+    let (error, no_slip) = (tab.require("error_m")?, tab.require("no_slip_m")?);
+    let mut out = Vec::new();
+    tab.each_timed_row(|tab, line, t, rec| {
+        out.push(PredictionRecord {
+            t,
+            error_m: tab.req_f64(line, rec, error)?,
+            no_slip_m: tab.req_f64(line, rec, no_slip)?,
         });
         Ok(())
     })?;

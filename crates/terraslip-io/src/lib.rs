@@ -19,7 +19,7 @@ mod types;
 mod write;
 
 pub use atomic::{write_atomic, AtomicFile, DirLock};
-pub use estimate::{read_estimate, EstimateRecord};
+pub use estimate::{read_estimate, read_prediction, EstimateRecord, PredictionRecord};
 pub use guard::{Inputs, OverInput};
 pub use params::{ParamEntry, ParamsFile, RateModelEntry};
 pub use read::{

@@ -668,6 +668,21 @@ impl RowWriter {
     }
 }
 
+/// The text of `prediction.csv`: one line per start of the 2 s prediction
+/// behind `summary.json`'s `prediction` (`t` s on the wheels' clock, the
+/// learned model's and the no-slip model's position errors in m), each
+/// number as the shortest text that reads back as the same number; a
+/// header alone without a score. `terraslip report` plots these lines.
+pub fn prediction_csv(score: Option<&terraslip_calib::prediction::PredictionScore>) -> String {
+    let segments = score.map_or(&[][..], |s| &s.segments[..]);
+    let mut text = String::with_capacity(48 * (segments.len() + 1));
+    text.push_str("t,error_m,no_slip_m\n");
+    for s in segments {
+        text.push_str(&format!("{},{},{}\n", s.t, s.error, s.no_slip));
+    }
+    text
+}
+
 /// `v` as `estimate.csv` holds it: the number its text reads back as
 /// ([`Column::Fixed`] columns rounded to their decimals).
 pub fn as_written(v: f64, col: Column) -> f64 {

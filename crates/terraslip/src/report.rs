@@ -1,11 +1,13 @@
 //! What `terraslip report EST_DIR` draws from an estimate and its log: the
 //! track against the pose reference, the ICRs and speed factors with 2σ
-//! bands and the terrain, and the 2 s prediction error over time.
+//! bands and the terrain, and the 2 s prediction error over time (the
+//! segments `estimate` scored for `summary.json`'s `prediction`).
 
 use std::path::{Path, PathBuf};
 
+use terraslip_calib::prediction::{PredictionScore, PredictionSegment, PredictionSpec};
 use terraslip_core::IcrParams;
-use terraslip_io::{DriveLog, EstimateRecord};
+use terraslip_io::{DriveLog, EstimateRecord, PredictionRecord};
 use terraslip_report::{Figure, LinePlot, Section, Series, SeriesStyle};
 
 /// Why a report could not be drawn.
@@ -43,28 +45,6 @@ fn thin<T: Clone>(v: &[T], max: usize) -> Vec<T> {
     out
 }
 
-/// `log` with its ground truth as the pose stream.
-fn truth_as_reference(log: &DriveLog) -> DriveLog {
-    let pose = log
-        .truth
-        .iter()
-        .map(|s| terraslip_io::PoseObs {
-            t: s.t,
-            east: Some(s.east),
-            north: Some(s.north),
-            yaw: Some(s.yaw),
-            std_xy: None,
-            std_yaw: None,
-        })
-        .collect();
-    DriveLog {
-        wheels: log.wheels.clone(),
-        pose,
-        meta: log.meta.clone(),
-        ..Default::default()
-    }
-}
-
 /// Times where the estimate's terrain changes, with the new name.
 fn terrain_changes(rows: &[EstimateRecord]) -> Vec<(f64, String)> {
     rows.windows(2)
@@ -73,14 +53,30 @@ fn terrain_changes(rows: &[EstimateRecord]) -> Vec<(f64, String)> {
         .collect()
 }
 
+/// The 2 s prediction errors `estimate` scored (the lines of its
+/// `prediction.csv`), as the score `summary.json`'s `prediction` holds:
+/// the same segments, the same statistics.
+pub fn prediction_score(segments: &[PredictionRecord]) -> Option<PredictionScore> {
+    let segments = segments
+        .iter()
+        .map(|r| PredictionSegment {
+            t: r.t,
+            error: r.error_m,
+            no_slip: r.no_slip_m,
+        })
+        .collect::<Vec<_>>();
+    (!segments.is_empty())
+        .then(|| PredictionScore::from_segments(PredictionSpec::default(), segments))
+}
+
 /// Draws the report of `rows` (an `estimate.csv`) over `log` (for the pose
-/// reference and the wheels; `None` leaves the reference and the
-/// prediction out; `track_width` in m for the no-slip baseline, else the
-/// log's) into `out`: `report.html` and three SVG plots.
+/// reference; `None` leaves it out) and `prediction` (the estimate's
+/// `prediction.csv`; `None` when the estimate directory has none) into
+/// `out`: `report.html` and up to three SVG plots.
 pub fn write(
     rows: &[EstimateRecord],
     log: Option<&DriveLog>,
-    track_width: Option<f64>,
+    prediction: Option<&[PredictionRecord]>,
     final_icr: Option<&IcrParams>,
     out: &Path,
     title: &str,
@@ -155,38 +151,12 @@ pub fn write(
     Figure::new(vec![spread, factors]).write_svg(&path)?;
     plots.push(path);
 
-    // The 2 s prediction error over time.
-    let mut summary = String::from("No log: no pose reference, no prediction error.");
-    if let Some(log) = log {
-        let w = track_width.or(log.meta.track_width).unwrap_or_else(|| {
-            let first = &rows[0];
-            first.y_l - first.y_r
-        });
-        // A simulated log's ground truth is the better reference.
-        let (reference, against) = if log.truth.is_empty() {
-            (None, "the pose reference")
-        } else {
-            (Some(truth_as_reference(log)), "the ground truth")
-        };
-        // The ground truth is on the wheels' clock; a pose reference is
-        // read with the clock offset the run had learned.
-        let timeline: Vec<(f64, crate::Timed)> = rows
-            .iter()
-            .map(|r| {
-                let clock_offset = if reference.is_some() {
-                    0.0
-                } else {
-                    r.clock_offset
-                };
-                let params = r.icr();
-                (r.t, crate::Timed::new(params, clock_offset))
-            })
-            .collect();
-        let scored = crate::prediction_of(reference.as_ref().unwrap_or(log), w, &timeline);
-        summary = format!(
-            "No 2 s prediction error: {against} has no headings or no stretch of 2 s without a gap over 0.5 s (a 1 Hz GNSS is too sparse; a lidar, RTK or motion-capture pose is not)."
-        );
-        if let Some(p) = scored {
+    // The 2 s prediction error over time: the segments behind
+    // summary.json's `prediction`, as `estimate` scored them.
+    let summary = match prediction.map(prediction_score) {
+        None => "No 2 s prediction error: the estimate directory has no prediction.csv (run `terraslip estimate` again to write it).".to_string(),
+        Some(None) => "No 2 s prediction error: the estimate scored none (summary.json's warnings say why).".to_string(),
+        Some(Some(p)) => {
             let mut plot =
                 LinePlot::new("2 s prediction error", "start t [s]", "position error [m]")
                     .series(
@@ -210,16 +180,16 @@ pub fn write(
             let path = out.join("prediction.svg");
             plot.write_svg(&path)?;
             plots.push(path);
-            summary = format!(
-                "2 s prediction error against {against} over {} segments: mean {:.3} m, p90 {:.3} m with the learned ICRs; mean {:.3} m, p90 {:.3} m with the no-slip model.",
+            format!(
+                "2 s prediction error against the pose reference (summary.json's prediction: each start predicted with the model the estimator had then, the pose read with the clock offset it had learned) over {} segments: mean {:.3} m, p90 {:.3} m with the learned ICRs; mean {:.3} m, p90 {:.3} m with the no-slip model.",
                 p.segments.len(),
                 p.stats.mean_m,
                 p.stats.p90_m,
                 p.no_slip.mean_m,
                 p.no_slip.p90_m
-            );
+            )
         }
-    }
+    };
     let mut sections = vec![
         Section::Paragraph(end_values(rows, final_icr)),
         Section::Paragraph(summary),

@@ -363,6 +363,21 @@ fn init_per_terrain_sets_are_recalled() {
     );
 }
 
+/// Runs `terraslip ARGS`, which must succeed; returns its stderr.
+fn succeeds(args: &[&str]) -> String {
+    let o = estimate().args(args).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(o.status.success(), "{args:?}: {err}");
+    err
+}
+
+/// `terraslip estimate LOG --out OUT`, then `terraslip report OUT`.
+fn estimate_and_report(log: &Path, out: &Path) {
+    let (log, out) = (log.to_str().unwrap(), out.to_str().unwrap());
+    succeeds(&["estimate", log, "--out", out]);
+    succeeds(&["report", out]);
+}
+
 /// `terraslip report` draws an estimate against the log named in its
 /// summary; a directory without estimate.csv fails naming the file.
 #[test]
@@ -377,30 +392,41 @@ fn report_draws_an_estimate() {
             ..short()
         },
     );
-    let o = estimate()
-        .args([
-            "estimate",
-            log.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let o = estimate()
-        .args(["report", out.to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    estimate_and_report(&log, &out);
     let html = fs::read_to_string(out.join("report.html")).unwrap();
     assert!(
-        html.contains("2 s prediction error against the ground truth over"),
+        html.contains("2 s prediction error against the pose reference (summary.json's prediction"),
         "{html}"
     );
     for svg in ["track.svg", "slip.svg", "prediction.svg"] {
         let text = fs::read_to_string(out.join(svg)).unwrap();
         assert!(text.contains("<svg") && text.contains("polyline"), "{svg}");
     }
+
+    // A damaged prediction.csv is named with its line.
+    fs::write(
+        out.join("prediction.csv"),
+        "t,error_m,no_slip_m\n60,abc,1\n",
+    )
+    .unwrap();
+    let o = estimate()
+        .args(["report", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("prediction.csv:2") && err.contains("error_m"),
+        "{err}"
+    );
+    // Without prediction.csv the report says so and draws the rest.
+    fs::remove_file(out.join("prediction.csv")).unwrap();
+    fs::remove_file(out.join("prediction.svg")).unwrap();
+    let err = succeeds(&["report", out.to_str().unwrap()]);
+    assert!(err.contains("prediction.csv is missing"), "{err}");
+    let html = fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains("has no prediction.csv"), "{html}");
+    assert!(!out.join("prediction.svg").exists());
 
     let empty = tmp.path().join("empty");
     fs::create_dir(&empty).unwrap();
@@ -415,4 +441,41 @@ fn report_draws_an_estimate() {
         fs::read_dir(&empty).unwrap().next().is_none(),
         "wrote into {empty:?}"
     );
+}
+
+/// report.html's 2 s prediction is summary.json's: the same segments and
+/// figures, on the shipped Warthog drive, where the filter's laws (the turn law, the
+/// centripetal terms, read at each instant's tread speeds over the 2 s)
+/// and its clock offset matter.
+#[test]
+fn report_shows_the_summarys_prediction() {
+    let log = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/warthog_gravel");
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("est");
+    estimate_and_report(&log, &out);
+    let summary: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let p = &summary["prediction"];
+    let m = |v: &serde_json::Value| v.as_f64().unwrap();
+    let html = fs::read_to_string(out.join("report.html")).unwrap();
+    let figures = format!(
+        "over {} segments: mean {:.3} m, p90 {:.3} m with the learned ICRs; mean {:.3} m, p90 {:.3} m with the no-slip model",
+        p["segments"],
+        m(&p["mean_m"]),
+        m(&p["p90_m"]),
+        m(&p["no_slip"]["mean_m"]),
+        m(&p["no_slip"]["p90_m"]),
+    );
+    assert!(
+        html.contains(&figures),
+        "summary.json: {p}\nreport.html: {html}"
+    );
+    // The series prediction.svg plots: the summary's segments, to the bit.
+    let segments = terraslip_io::read_prediction(&out.join("prediction.csv")).unwrap();
+    assert_eq!(segments.len() as u64, p["segments"].as_u64().unwrap());
+    let scored = terraslip::report::prediction_score(&segments).unwrap();
+    assert_eq!(scored.stats.mean_m, m(&p["mean_m"]));
+    assert_eq!(scored.stats.rmse_m, m(&p["rmse_m"]));
+    assert_eq!(scored.stats.p90_m, m(&p["p90_m"]));
+    assert_eq!(scored.no_slip.mean_m, m(&p["no_slip"]["mean_m"]));
 }

@@ -117,6 +117,7 @@ fn a_held_output_directory_is_reported_and_stale_temporaries_are_removed() {
     fs::write(out.join(".terraslip.lock"), "4294967295").unwrap();
     fs::write(out.join(".estimate.csv.4294967295.tmp"), "half").unwrap();
     fs::write(out.join(".summary.json.4294967295.tmp"), "{").unwrap();
+    fs::write(out.join(".prediction.csv.4294967295.tmp"), "t,").unwrap();
     let o = terraslip(&["estimate", s(&log), "--out", s(&out)]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let mut left: Vec<String> = fs::read_dir(&out)
@@ -124,12 +125,12 @@ fn a_held_output_directory_is_reported_and_stale_temporaries_are_removed() {
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
     left.sort();
-    assert_eq!(left, ["estimate.csv", "summary.json"]);
+    assert_eq!(left, ["estimate.csv", "prediction.csv", "summary.json"]);
 }
 
 /// Two different logs estimated into one directory at the same time: each
-/// run either writes its pair or is told the directory is held, and the
-/// summary always describes the estimate.csv beside it.
+/// run either writes its files or is told the directory is held, and the
+/// summary always describes the estimate.csv and prediction.csv beside it.
 #[test]
 fn concurrent_runs_never_leave_a_mismatched_pair() {
     let tmp = tempfile::tempdir().unwrap();
@@ -168,6 +169,15 @@ fn concurrent_runs_never_leave_a_mismatched_pair() {
             .count()
             - 1;
         assert_eq!(summary["rows"].as_u64(), Some(rows as u64));
+        let starts = fs::read_to_string(out.join("prediction.csv"))
+            .unwrap()
+            .lines()
+            .count()
+            - 1;
+        assert_eq!(
+            summary["prediction"]["segments"].as_u64(),
+            Some(starts as u64)
+        );
     }
 }
 

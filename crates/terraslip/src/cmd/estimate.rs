@@ -15,8 +15,10 @@ use crate::progress::Progress;
 /// Reads LOG (docs/log-format.md: wheels.csv required, pose.csv for
 /// the fixes), runs the filter event by event on the log's timestamps and
 /// writes DIR/estimate.csv (one row per wheels row: pose, ICRs y_l, y_r,
-/// x_c in m in the body frame, their standard deviations, the terrain) and
-/// DIR/summary.json (rows, duration_s, final icr, counters, warnings).
+/// x_c in m in the body frame, their standard deviations, the terrain),
+/// DIR/summary.json (rows, duration_s, final icr, counters, warnings, the
+/// 2 s prediction error) and DIR/prediction.csv (that prediction's error
+/// per start, which `terraslip report` plots).
 ///
 /// Examples:
 ///   terraslip estimate drive/ --out est/
@@ -29,8 +31,8 @@ pub struct Args {
     /// Log directory to read.
     #[arg(required_unless_present = "print_config")]
     pub log: Option<PathBuf>,
-    /// Output directory (created if missing); estimate.csv and summary.json
-    /// appear there only when complete.
+    /// Output directory (created if missing); estimate.csv, summary.json and
+    /// prediction.csv appear there only when complete.
     #[arg(long, required_unless_present = "print_config")]
     pub out: Option<PathBuf>,
     #[command(flatten)]
@@ -70,7 +72,9 @@ x_c, their standard deviations, terrain, then alpha_l, alpha_r, std_spread,
 fused, gated, nis, q_scale, change, clock_offset; metres, radians, REP-103
 frames) and
 DIR/summary.json (rows, duration_s, final icr, terrain changes, counters,
-warnings). Both appear only when complete.
+warnings, the 2 s prediction error) and DIR/prediction.csv (t, error_m,
+no_slip_m: that prediction's error per start, what `terraslip report`
+plots). All three appear only when complete.
 
 Examples:
   terraslip estimate drive/ --out est/
@@ -169,7 +173,7 @@ pub fn run(args: Args) -> Result<()> {
         Some(p) => Some(ParamsFile::read(p).with_context(|| "--init")?),
         None => None,
     };
-    // Held from here until both files are in place: a second run into the
+    // Held from here until the files are in place: a second run into the
     // same directory is told so instead of mixing its files with ours.
     let lock = terraslip_io::DirLock::acquire(out)?;
     lock.remove_stale_temps(&OUTPUTS);
@@ -220,7 +224,8 @@ pub fn run(args: Args) -> Result<()> {
     for n in &notes {
         eprintln!("{n}");
     }
-    write_outputs(out, csv, &summary)?;
+    let prediction = terraslip::estimate::prediction_csv(est.prediction.as_ref());
+    write_outputs(out, csv, &prediction, &summary)?;
     drop(lock);
     #[cfg(feature = "ros2")]
     if let Some(p) = &args.mcap {
@@ -274,7 +279,7 @@ fn progress(total: u64, unit: &str) -> Progress {
 }
 
 /// The files `estimate` writes into its output directory.
-const OUTPUTS: [&str; 2] = ["estimate.csv", "summary.json"];
+const OUTPUTS: [&str; 3] = ["estimate.csv", "summary.json", "prediction.csv"];
 
 /// Bytes of `estimate.csv` gathered before each write.
 const CSV_CHUNK: usize = 1 << 18;
@@ -320,13 +325,22 @@ impl RowSink for CsvSink {
     }
 }
 
-/// Finishes both files as a pair (the caller holds the directory's lock):
-/// neither appears unless both are complete, and summary.json is removed
+/// Finishes the files as a set (the caller holds the directory's lock):
+/// none appears unless all are complete, and summary.json is removed
 /// first and renamed into place last, so a summary.json always describes
-/// the estimate.csv beside it.
-fn write_outputs(out: &Path, mut csv: CsvSink, summary: &serde_json::Value) -> Result<()> {
+/// the estimate.csv and the prediction.csv (text `prediction`) beside it.
+fn write_outputs(
+    out: &Path,
+    mut csv: CsvSink,
+    prediction: &str,
+    summary: &serde_json::Value,
+) -> Result<()> {
     let json_path = out.join(OUTPUTS[1]);
+    let prediction_path = out.join(OUTPUTS[2]);
     csv.flush_buf()?;
+    let mut pred = AtomicFile::create(&prediction_path)?;
+    pred.write_all(prediction.as_bytes())
+        .with_context(|| format!("{}: write failed", prediction_path.display()))?;
     let mut js = AtomicFile::create(&json_path)?;
     js.write_all(serde_json::to_string_pretty(summary)?.as_bytes())
         .with_context(|| format!("{}: write failed", json_path.display()))?;
@@ -337,6 +351,7 @@ fn write_outputs(out: &Path, mut csv: CsvSink, summary: &serde_json::Value) -> R
         _ => {}
     }
     csv.file.commit()?;
+    pred.commit()?;
     js.commit()?;
     Ok(())
 }

@@ -8,12 +8,13 @@ use terraslip::bag::Topics;
 /// Draw an estimate: its track against the pose reference, the ICRs and
 /// speed factors with 2σ bands, the 2 s prediction error.
 ///
-/// Reads EST_DIR/estimate.csv and EST_DIR/summary.json (both written by
-/// `terraslip estimate`), reads the log or bag named in summary.json (or
-/// --log; a bag with the topics the estimate used, unless --topics is given)
-/// for the pose reference (truth.csv, when the log is simulated) and the
-/// wheels, and writes report.html with
-/// track.svg, slip.svg and prediction.svg into --out (default EST_DIR).
+/// Reads EST_DIR/estimate.csv, EST_DIR/summary.json and
+/// EST_DIR/prediction.csv (all written by `terraslip estimate`; the
+/// prediction error is summary.json's, start by start), reads the log or
+/// bag named in summary.json (or --log; a bag with the topics the estimate
+/// used, unless --topics is given) for the pose reference (truth.csv, when
+/// the log is simulated), and writes report.html with track.svg, slip.svg
+/// and prediction.svg into --out (default EST_DIR).
 ///
 /// Examples:
 ///   terraslip estimate data/warthog_gravel --out est
@@ -36,6 +37,7 @@ const OUTPUTS: [&str; 4] = ["report.html", "track.svg", "slip.svg", "prediction.
 
 pub fn run(a: Args) -> Result<()> {
     let csv = a.estimate.join("estimate.csv");
+    let prediction_path = a.estimate.join("prediction.csv");
     let summary_path = a.estimate.join("summary.json");
     let summary: Option<serde_json::Value> = match std::fs::read_to_string(&summary_path) {
         Ok(text) => Some(
@@ -52,12 +54,22 @@ pub fn run(a: Args) -> Result<()> {
     let mut inputs = super::inputs();
     inputs
         .add(&csv, "the estimate")
-        .add(&summary_path, "the estimate's summary");
+        .add(&summary_path, "the estimate's summary")
+        .add(&prediction_path, "the estimate's prediction errors");
     if let Some(d) = &log_dir {
         inputs.add(d, "the log");
     }
     inputs.check_dir("--out", &out, &OUTPUTS)?;
     let rows = terraslip_io::read_estimate(&csv)?;
+    let prediction = if prediction_path.exists() {
+        Some(terraslip_io::read_prediction(&prediction_path)?)
+    } else {
+        eprintln!(
+            "warning: {} is missing; drawing without the 2 s prediction error (run `terraslip estimate` again to write it)",
+            prediction_path.display()
+        );
+        None
+    };
     // A bag is read again with the topics the estimate used, unless
     // --topics says otherwise.
     let topics = match (super::bag::topics(), field("bag_topics")) {
@@ -86,7 +98,6 @@ pub fn run(a: Args) -> Result<()> {
             None
         }
     };
-    let track_width = field("track_width").and_then(|v| v.as_f64());
     let final_icr =
         field("icr").and_then(|v| serde_json::from_value::<terraslip_core::IcrParams>(v).ok());
     let title = match &log_dir {
@@ -96,7 +107,7 @@ pub fn run(a: Args) -> Result<()> {
     let written = terraslip::report::write(
         &rows,
         log.as_ref(),
-        track_width,
+        prediction.as_deref(),
         final_icr.as_ref(),
         &out,
         &title,

@@ -1,8 +1,9 @@
 //! Opening a rosbag2 recording and streaming its raw messages.
 //!
 //! A bag is a directory with `metadata.yaml` (versions 4 to 9) naming its
-//! storage files, or one `.mcap` / `.db3` file (optionally `.zstd`/`.lz4`
-//! compressed whole). Messages are streamed file by file; memory holds one
+//! storage files, a directory of storage files without it (a recording that
+//! was not closed, or copied without it), or one `.mcap` / `.db3` file
+//! (optionally `.zstd`/`.lz4` compressed whole). Messages are streamed file by file; memory holds one
 //! MCAP chunk or one sqlite row at a time.
 
 use std::fs::File;
@@ -61,18 +62,43 @@ pub struct Bag {
     message_zstd: bool,
 }
 
-/// Whether `path` looks like a bag (a directory with `metadata.yaml`, or an
+/// Whether `path` looks like a bag (a directory with `metadata.yaml`, a
+/// directory of `.mcap`/`.db3` files and no `wheels.csv`, or an
 /// `.mcap`/`.db3` file) rather than a terraslip log directory.
 pub fn is_bag(path: &Path) -> bool {
     if path.is_dir() {
-        return path.join("metadata.yaml").is_file();
+        return path.join("metadata.yaml").is_file()
+            || (!path.join("wheels.csv").exists() && !storage_files(path).is_empty());
     }
-    let name = path.to_string_lossy();
-    [".mcap", ".db3"].iter().any(|e| {
-        name.ends_with(e)
-            || name.ends_with(&format!("{e}.zstd"))
-            || name.ends_with(&format!("{e}.lz4"))
-    })
+    kind_of(path).is_some()
+}
+
+/// The storage files (`.mcap`, `.db3`, whole-compressed or not) directly in
+/// directory `dir`, in recording order: rosbag2 numbers the files of a
+/// split bag `<name>_0`, `<name>_1`, ..., so names compare by their
+/// trailing number after the text before it.
+fn storage_files(dir: &Path) -> Vec<(PathBuf, Storage, Whole)> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Vec::new();
+    };
+    let mut files: Vec<(PathBuf, Storage, Whole)> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.is_file())
+        .filter_map(|p| kind_of(&p).map(|(s, w)| (p, s, w)))
+        .collect();
+    let key = |(p, _, _): &(PathBuf, Storage, Whole)| {
+        let name = p.file_name().unwrap_or_default().to_string_lossy();
+        let stem = name.split('.').next().unwrap_or_default().to_string();
+        let digits = stem.len() - stem.trim_end_matches(|c: char| c.is_ascii_digit()).len();
+        let number: u64 = stem[stem.len() - digits..].parse().unwrap_or(0);
+        (
+            stem[..stem.len() - digits].to_string(),
+            number,
+            name.to_string(),
+        )
+    };
+    files.sort_by_key(key);
+    files
 }
 
 fn kind_of(p: &Path) -> Option<(Storage, Whole)> {
@@ -107,7 +133,15 @@ impl Bag {
             files: Vec::new(),
             message_zstd: false,
         };
-        if path.is_dir() {
+        if path.is_dir() && !path.join("metadata.yaml").exists() {
+            // No metadata: the storage files themselves name their topics.
+            bag.files = storage_files(&path);
+            if bag.files.is_empty() {
+                return Err(err(
+                    "not a bag: no metadata.yaml and no .mcap or .db3 file in the directory".into(),
+                ));
+            }
+        } else if path.is_dir() {
             let meta_path = path.join("metadata.yaml");
             let text = std::fs::read_to_string(&meta_path)
                 .map_err(|e| err(format!("metadata.yaml: {e}")))?;

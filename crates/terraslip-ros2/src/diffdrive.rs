@@ -25,23 +25,26 @@ pub struct DiffDriveParams {
     /// m: the nominal separation the multiplier scales.
     pub wheel_separation: f64,
     pub wheel_separation_multiplier: f64,
-    /// m
-    pub wheel_radius: f64,
+    /// m, when the recording states it (`meta.toml` `wheel_radius`); the
+    /// radius multipliers are relative to it, so without it the file leaves
+    /// the controller's own.
+    pub wheel_radius: Option<f64>,
     pub left_wheel_radius_multiplier: f64,
     pub right_wheel_radius_multiplier: f64,
 }
 
 impl DiffDriveParams {
     /// From calibrated ICRs (m, body frame) and speed factors, keeping the
-    /// nominal `wheel_separation` and `wheel_radius` (m) the robot's config
-    /// already has: the multipliers carry the calibration.
+    /// nominal `wheel_separation` and `wheel_radius` (m, `None` when not
+    /// known) the robot's config already has: the multipliers carry the
+    /// calibration.
     pub fn from_icr(
         y_l: f64,
         y_r: f64,
         alpha_l: f64,
         alpha_r: f64,
         wheel_separation: f64,
-        wheel_radius: f64,
+        wheel_radius: Option<f64>,
     ) -> Self {
         Self {
             wheel_separation,
@@ -53,10 +56,12 @@ impl DiffDriveParams {
     }
 
     /// The controller's odometry twist `(linear m/s, angular rad/s)` from
-    /// wheel angular velocities (rad/s), as odometry.cpp computes it.
+    /// wheel angular velocities (rad/s), as odometry.cpp computes it; with
+    /// no `wheel_radius`, from tread speeds (m/s, a unit radius).
     pub fn odometry_twist(&self, omega_left: f64, omega_right: f64) -> (f64, f64) {
-        let left_vel = omega_left * self.left_wheel_radius_multiplier * self.wheel_radius;
-        let right_vel = omega_right * self.right_wheel_radius_multiplier * self.wheel_radius;
+        let radius = self.wheel_radius.unwrap_or(1.0);
+        let left_vel = omega_left * self.left_wheel_radius_multiplier * radius;
+        let right_vel = omega_right * self.right_wheel_radius_multiplier * radius;
         let separation = self.wheel_separation * self.wheel_separation_multiplier;
         (
             (left_vel + right_vel) * 0.5,
@@ -114,6 +119,13 @@ pub fn params_yaml(
     s.push_str("# holds the constant ICRs and names what its set's selected model adds.\n");
     s.push_str("# wheel_separation and wheel_radius are the nominal values; the multipliers\n");
     s.push_str("# assume the recording's controller ran with radius multipliers of 1.\n");
+    if blocks.iter().any(|b| b.params.wheel_radius.is_none()) {
+        s.push_str(
+            "# The recording does not state the wheel radius (`wheel_radius` in meta.toml,\n",
+        );
+        s.push_str("# `[meta] wheel_radius` in a bag's topics file): keep the controller's own\n");
+        s.push_str("# wheel_radius; the radius multipliers are relative to it.\n");
+    }
     if let Some((sep, source)) = nominal {
         let _ = writeln!(
             s,
@@ -163,12 +175,16 @@ pub fn params_yaml(
         }
         let _ = write!(
             s,
-            "{name}:\n  ros__parameters:\n    wheel_separation: {:.6}\n    wheel_separation_multiplier: {:.6}\n    wheel_radius: {:.6}\n    left_wheel_radius_multiplier: {:.6}\n    right_wheel_radius_multiplier: {:.6}\n",
-            p.wheel_separation,
-            p.wheel_separation_multiplier,
-            p.wheel_radius,
-            p.left_wheel_radius_multiplier,
-            p.right_wheel_radius_multiplier
+            "{name}:\n  ros__parameters:\n    wheel_separation: {:.6}\n    wheel_separation_multiplier: {:.6}\n",
+            p.wheel_separation, p.wheel_separation_multiplier,
+        );
+        if let Some(r) = p.wheel_radius {
+            let _ = writeln!(s, "    wheel_radius: {r:.6}");
+        }
+        let _ = write!(
+            s,
+            "    left_wheel_radius_multiplier: {:.6}\n    right_wheel_radius_multiplier: {:.6}\n",
+            p.left_wheel_radius_multiplier, p.right_wheel_radius_multiplier
         );
     }
     s
@@ -202,7 +218,7 @@ mod tests {
     fn controller_odometry_reproduces_symmetric_icr_twist() {
         let (radius, sep) = (0.165, 0.555);
         for &(y, a_l, a_r) in &[(0.52, 0.95, 0.97), (0.30, 1.0, 1.0), (0.9, 0.8, 1.1)] {
-            let p = DiffDriveParams::from_icr(y, -y, a_l, a_r, sep, radius);
+            let p = DiffDriveParams::from_icr(y, -y, a_l, a_r, sep, Some(radius));
             for &(w_l, w_r) in &[(1.0, 3.0), (-2.0, 2.0), (4.0, 4.0), (0.5, -1.5)] {
                 let (lin, ang) = p.odometry_twist(w_l, w_r);
                 let (vx, vy, om) = icr_twist(y, -y, 0.0, a_l, a_r, w_l * radius, w_r * radius);
@@ -216,7 +232,7 @@ mod tests {
     #[test]
     fn asymmetric_icrs_are_not_reproduced() {
         // Control for the test above: the equality is not automatic.
-        let p = DiffDriveParams::from_icr(0.7, -0.3, 1.0, 1.0, 0.555, 0.165);
+        let p = DiffDriveParams::from_icr(0.7, -0.3, 1.0, 1.0, 0.555, Some(0.165));
         let (lin, ang) = p.odometry_twist(1.0, 3.0);
         let (vx, _, om) = icr_twist(0.7, -0.3, 0.0, 1.0, 1.0, 0.165, 0.495);
         assert!((ang - om).abs() < 1e-12);
@@ -225,7 +241,7 @@ mod tests {
 
     #[test]
     fn yaml_has_one_block_per_terrain() {
-        let p = DiffDriveParams::from_icr(0.52, -0.52, 1.0, 1.0, 0.555, 0.165);
+        let p = DiffDriveParams::from_icr(0.52, -0.52, 1.0, 1.0, 0.555, Some(0.165));
         let b = |t: &str| ParamsBlock {
             terrain: t.into(),
             params: p,
@@ -256,7 +272,7 @@ mod tests {
 
     #[test]
     fn a_nominal_separation_gives_a_factor_not_a_separation() {
-        let p = DiffDriveParams::from_icr(0.45, -0.45, 0.9, 0.92, 1.0, 1.0);
+        let p = DiffDriveParams::from_icr(0.45, -0.45, 0.9, 0.92, 1.0, None);
         let block = ParamsBlock {
             terrain: "all".into(),
             params: p,

@@ -60,7 +60,22 @@ enum Command {
     /// Run the estimator live as a ROS 2 node (no ROS install needed).
     #[cfg(any(feature = "node", feature = "node-humble"))]
     Node(cmd::node::Args),
+    /// Run the estimator live as a ROS 2 node: not in this build (install it
+    /// with `--features node`, docs/user-guide.md §8).
+    #[cfg(not(any(feature = "node", feature = "node-humble")))]
+    #[command(disable_help_flag = true)]
+    Node {
+        /// Whatever was given: this build has no node to take it.
+        #[arg(trailing_var_arg = true, allow_hyphen_values = true, hide = true)]
+        args: Vec<String>,
+    },
 }
+
+/// What `terraslip node` says in a build without the node.
+#[cfg(not(any(feature = "node", feature = "node-humble")))]
+const NO_NODE: &str = "this terraslip is built without the ROS 2 node (it brings the DDS stack in): \
+install it with `cargo install --path crates/terraslip --features node` for a Jazzy, Iron or Kilted graph, \
+or `--features node-humble` for Humble (docs/user-guide.md §8)";
 
 /// Splits a command line at `--ros-args`: the arguments before it (and
 /// after a closing `--`), and those of the ROS section.
@@ -85,7 +100,7 @@ fn main() -> ExitCode {
     let (own, ros_args) = split_ros_args(&args);
     let cli = Cli::parse_from(own);
     #[cfg(not(any(feature = "node", feature = "node-humble")))]
-    if !ros_args.is_empty() {
+    if !ros_args.is_empty() && !matches!(cli.command, Command::Node { .. }) {
         eprintln!("error: --ros-args is for `terraslip node` (build with --features node)");
         return ExitCode::FAILURE;
     }
@@ -101,6 +116,8 @@ fn main() -> ExitCode {
         Command::Import(a) => cmd::import::run(a),
         #[cfg(any(feature = "node", feature = "node-humble"))]
         Command::Node(a) => cmd::node::run(a, &ros_args),
+        #[cfg(not(any(feature = "node", feature = "node-humble")))]
+        Command::Node { .. } => Err(anyhow::anyhow!(NO_NODE)),
     };
 
     cmd::bag::cleanup();

@@ -91,6 +91,11 @@ fn a_bag_and_its_imported_log_give_the_same_estimate() {
         err.contains("no 2 s prediction figure: after the first 60 s"),
         "{err}"
     );
+    // The bag states no track width: the warning says where a bag's goes.
+    assert!(
+        err.contains("no track width") && err.contains("`[meta] track_width` in the --topics file"),
+        "{err}"
+    );
 
     let out = run(&[
         "import",
@@ -181,4 +186,102 @@ fn a_bag_and_its_imported_log_give_the_same_estimate() {
         &s(&topics),
     ]);
     assert!(!out.status.success());
+}
+
+#[test]
+fn a_bag_directory_without_metadata_is_read_from_its_storage_files() {
+    // `ros2 bag record` writes metadata.yaml when it closes the bag: a
+    // recording that was killed, or copied without it, is a directory of
+    // storage files alone.
+    let d = tempfile::tempdir().unwrap();
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let bag = d.path().join("run 1");
+    std::fs::create_dir(&bag).unwrap();
+    write_bag(&bag.join("run_0.mcap"));
+    let (from_dir, from_file) = (d.path().join("a"), d.path().join("b"));
+    for (input, out) in [
+        (bag.clone(), &from_dir),
+        (bag.join("run_0.mcap"), &from_file),
+    ] {
+        let o = run(&["import", &s(&input), "--out", &s(out)]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let wheels = std::fs::read(from_dir.join("wheels.csv")).unwrap();
+    assert_eq!(wheels, std::fs::read(from_file.join("wheels.csv")).unwrap());
+    assert_eq!(wheels.iter().filter(|&&b| b == b'\n').count(), 1201);
+    // Every command takes it as a bag, not as a log missing wheels.csv.
+    let o = run(&["estimate", &s(&bag), "--out", &s(&d.path().join("e"))]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+#[test]
+fn ros2_params_without_a_wheel_radius_leave_the_controllers_own() {
+    // An odometry twist carries tread speeds, not wheel angular rates: the
+    // bag does not tell the wheel radius, and a made-up one would be pasted
+    // into the controller's configuration.
+    let d = tempfile::tempdir().unwrap();
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let bag = d.path().join("drive.mcap");
+    write_bag(&bag);
+    let topics = d.path().join("t.toml");
+    let yaml = d.path().join("ddc.yaml");
+    // The diff_drive_controller file `calibrate` writes with `[meta]` ...
+    let ddc = |meta: &str| {
+        std::fs::write(
+            &topics,
+            format!("[wheels]\nseparation = 0.6\n[meta]\n{meta}"),
+        )
+        .unwrap();
+        let o = run(&[
+            "calibrate",
+            &s(&bag),
+            "--topics",
+            &s(&topics),
+            "--out",
+            &s(&d.path().join("p.json")),
+            "--ros2-params",
+            &s(&yaml),
+            "--allow-partial",
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        std::fs::read_to_string(&yaml).unwrap()
+    };
+    let y = ddc("track_width = 0.5\n");
+    assert!(!y.contains("    wheel_radius:"), "{y}");
+    assert!(
+        y.contains("keep the controller's own\n# wheel_radius"),
+        "{y}"
+    );
+    assert!(y.contains("    wheel_separation: 0.500000"), "{y}");
+    assert!(y.contains("    left_wheel_radius_multiplier:"), "{y}");
+    // Stated, it is written.
+    let y = ddc("track_width = 0.5\nwheel_radius = 0.165\n");
+    assert!(y.contains("    wheel_radius: 0.165000"), "{y}");
+    assert!(!y.contains("keep the controller's own"), "{y}");
+}
+
+#[cfg(not(any(feature = "node", feature = "node-humble")))]
+#[test]
+fn node_in_a_build_without_it_says_how_to_get_it() {
+    // README: `terraslip node` right after `cargo install --path crates/terraslip`.
+    for args in [
+        &["node"][..],
+        &[
+            "node",
+            "--topics",
+            "husky.toml",
+            "--ros-args",
+            "-p",
+            "lag:=0.5",
+        ][..],
+    ] {
+        let o = run(args);
+        assert!(!o.status.success());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            err.contains("cargo install --path crates/terraslip --features node")
+                && err.contains("--features node-humble"),
+            "{err}"
+        );
+    }
 }

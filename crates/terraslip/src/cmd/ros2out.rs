@@ -83,7 +83,7 @@ pub fn write_params(
             "--ros2-params: the log's meta.toml needs track_width (the nominal wheel_separation)"
         ),
     };
-    let radius = meta.wheel_radius.filter(|r| *r > 0.0).unwrap_or(1.0);
+    let radius = meta.wheel_radius.filter(|r| *r > 0.0);
     let mut sets: Vec<(String, terraslip_core::IcrParams, Option<String>)> = Vec::new();
     if let Some(p) = pf.params {
         sets.push(("all".into(), p, left_out(&pf.extra)));

@@ -42,7 +42,7 @@ pub(super) fn setup(
         }
         None => {
             warnings.push(format!(
-                "{dir}: no track_width in meta.toml; using init.default_track_width = {} m",
+                "{dir}: no track width (meta.toml's `track_width`; for a ROS 2 bag, `[meta] track_width` in the --topics file); using init.default_track_width = {} m",
                 cfg.init.default_track_width
             ));
             cfg.init.default_track_width

@@ -1,7 +1,7 @@
 //! The filter's state and its process model.
 //!
 //! State `x = [east, north, yaw, s0..s4, law, clock, bias_e, bias_n, gyro_bias, gyro_scale,
-//! k_x_speed, k_spread_speed, speed_law, e_x, e_y, e_w]`:
+//! k_x_speed, k_spread_speed, speed_law]`:
 //!
 //! * world ENU position (m) and yaw (rad, counter-clockwise from east) of
 //!   the body frame, on the wheels' clock;
@@ -29,27 +29,19 @@
 //!   effect being `1 + speed_law |V_r - V_l|` times the straight-line ones
 //!   (clamped as the turn law; the treads lose speed in a turn). The whole
 //!   twist scales by that factor ([`twist_at`]).
-//! * `e_x`, `e_y`, `e_w` (dimensionless): the slip model's error over the
-//!   current command window, as fractions of the motion: the body moves
-//!   `e_x v` faster forward (body x) and `e_y v` to the left (body y) than
-//!   the model says, `v = (V_l + V_r) / 2` the mean measured tread speed,
-//!   and turns `(1 + e_w)` times the model's yaw rate. First-order
-//!   Gauss-Markov ([`crate::filter`] gives their decay and noise; held at 0
-//!   when `filter.slip_error_time` is 0).
 //!
 //! One Euler step of length `dt` with the body twist `(v_x, v_y, omega)` of
 //! [`Chart::twist_with_terms`]:
 //!
 //! ```text
-//! u_x, u_y = v_x + e_x v, v_y + e_y v
-//! east'  = east  + dt (u_x cos(yaw) - u_y sin(yaw))
-//! north' = north + dt (u_x sin(yaw) + u_y cos(yaw))
-//! yaw'   = yaw   + dt (1 + e_w) omega
+//! east'  = east  + dt (v_x cos(yaw) - v_y sin(yaw))
+//! north' = north + dt (v_x sin(yaw) + v_y cos(yaw))
+//! yaw'   = yaw   + dt omega
 //! ```
 //!
 //! The slip parameters, the law, the clock offset, the gyro bias and the
-//! gyro scale are random walks, the centripetal terms constants, the position bias and
-//! the slip error decay ([`crate::filter`] adds the noise). [`step`] returns the new state and the rows of the Jacobian that
+//! gyro scale are random walks, the centripetal terms constants, the position bias decays
+//! ([`crate::filter`] adds the noise). [`step`] returns the new state and the rows of the Jacobian that
 //! differ from the identity's.
 
 use nalgebra::{SMatrix, SVector};
@@ -59,7 +51,7 @@ use crate::kinematics::{CentripetalSlopes, Twist};
 use crate::slip::{Chart, Slip, TreadInput};
 
 /// Dimension of the state.
-pub const N: usize = E_W + 1;
+pub const N: usize = SPEED_LAW + 1;
 /// Index of east, m.
 pub const EAST: usize = 0;
 /// Index of north, m.
@@ -91,15 +83,6 @@ pub const K_SPREAD_SPEED: usize = K_X_SPEED + 1;
 /// are `1 + speed_law dv` times the straight-line ones, `dv` its input
 /// ([`LawInputs::speed`]; the treads lose speed in a turn).
 pub const SPEED_LAW: usize = K_SPREAD_SPEED + 1;
-
-/// Index of the forward speed error `e_x` (fraction of the mean tread
-/// speed, body x).
-pub const E_X: usize = SPEED_LAW + 1;
-/// Index of the lateral speed error `e_y` (fraction of the mean tread
-/// speed, body y, left).
-pub const E_Y: usize = E_X + 1;
-/// Index of the yaw-rate error `e_w` (fraction of the model's yaw rate).
-pub const E_W: usize = E_Y + 1;
 
 /// The state vector.
 pub type State = SVector<f64, N>;
@@ -184,10 +167,9 @@ pub fn with_speed_law(
 }
 
 /// One Euler step of `dt` seconds with tread speeds `u` and turn-law
-/// inputs `dv`: the new state (yaw wrapped to `(-pi, pi]`), the model's
-/// twist (without the slip error states), and the pose rows of `F = df/dx`
-/// at `x` (the other rows are the identity's; the decays of the bias and of
-/// the slip error are the filter's).
+/// inputs `dv`: the new state (yaw wrapped to `(-pi, pi]`), the twist
+/// used, and the pose rows of `F = df/dx` at `x` (the other rows are the
+/// identity's; the bias decay is the filter's).
 #[inline]
 pub fn step(
     x: &State,
@@ -198,26 +180,17 @@ pub fn step(
 ) -> (State, Twist, PoseRows) {
     let (t, j, dk, dc) = twist_at(x, chart, u, dv);
     let (sn, cs) = (libm::sin(x[YAW]), libm::cos(x[YAW]));
-    let v = 0.5 * (u.v_left + u.v_right);
-    let (ux, uy) = (t.v_x + x[E_X] * v, t.v_y + x[E_Y] * v);
-    // The yaw rate's error scales every yaw rate derivative.
-    let g = 1.0 + x[E_W];
     let mut out = *x;
-    out[EAST] += dt * (ux * cs - uy * sn);
-    out[NORTH] += dt * (ux * sn + uy * cs);
-    out[YAW] = angle::wrap(x[YAW] + dt * g * t.omega);
+    out[EAST] += dt * (t.v_x * cs - t.v_y * sn);
+    out[NORTH] += dt * (t.v_x * sn + t.v_y * cs);
+    out[YAW] = angle::wrap(x[YAW] + dt * t.omega);
 
     let mut rows = PoseRows::zeros();
     for i in 0..3 {
         rows[(i, i)] = 1.0;
     }
-    rows[(EAST, YAW)] = -dt * (ux * sn + uy * cs);
-    rows[(NORTH, YAW)] = dt * (ux * cs - uy * sn);
-    rows[(EAST, E_X)] = dt * v * cs;
-    rows[(NORTH, E_X)] = dt * v * sn;
-    rows[(EAST, E_Y)] = -dt * v * sn;
-    rows[(NORTH, E_Y)] = dt * v * cs;
-    rows[(YAW, E_W)] = dt * t.omega;
+    rows[(EAST, YAW)] = -dt * (t.v_x * sn + t.v_y * cs);
+    rows[(NORTH, YAW)] = dt * (t.v_x * cs - t.v_y * sn);
     for k in 0..6 {
         let (dvx, dvy, dw) = if k < 5 {
             (j[(0, k)], j[(1, k)], j[(2, k)])
@@ -226,7 +199,7 @@ pub fn step(
         };
         rows[(EAST, SLIP + k)] = dt * (dvx * cs - dvy * sn);
         rows[(NORTH, SLIP + k)] = dt * (dvx * sn + dvy * cs);
-        rows[(YAW, SLIP + k)] = dt * g * dw;
+        rows[(YAW, SLIP + k)] = dt * dw;
     }
     for (c, i) in [K_X_SPEED, K_SPREAD_SPEED, SPEED_LAW]
         .into_iter()
@@ -235,7 +208,7 @@ pub fn step(
         let (dvx, dvy, dw) = (dc[(0, c)], dc[(1, c)], dc[(2, c)]);
         rows[(EAST, i)] = dt * (dvx * cs - dvy * sn);
         rows[(NORTH, i)] = dt * (dvx * sn + dvy * cs);
-        rows[(YAW, i)] = dt * g * dw;
+        rows[(YAW, i)] = dt * dw;
     }
     (out, t, rows)
 }
@@ -271,9 +244,6 @@ mod tests {
                 x[K_X_SPEED] = 0.07;
                 x[K_SPREAD_SPEED] = -0.05;
                 x[SPEED_LAW] = -0.04;
-                x[E_X] = 0.2;
-                x[E_Y] = -0.1;
-                x[E_W] = 0.3;
                 x.fixed_rows_mut::<5>(SLIP).copy_from(&chart.from_icr(&p));
                 // The speed law reading another input than the spread's.
                 let dv = LawInputs { spread: (vr - vl).abs(), speed: 0.8 * (vr - vl).abs() + 0.1 };

@@ -223,12 +223,6 @@ pub struct FilterConfig {
     /// on gravel). The starting value: the filter learns it from the heading
     /// innovations (`noise_memory`).
     pub q_yaw_per_rate2: f64,
-    /// Correlation time of the slip model's error, s (`tau_c`). Above 0 the
-    /// speed and yaw-rate model noise (`q_pos_per_speed2`,
-    /// `q_yaw_per_rate2`, as learned) drive body-frame velocity error
-    /// states (first-order Gauss-Markov, white-equivalent intensity) that
-    /// the pose integrates; 0: they are white position and heading noise.
-    pub slip_error_time: f64,
     /// Random walk of the slip parameters while moving: std growth per
     /// square-root second of spread (m), centre (m), x_c (m), common speed
     /// factor and factor difference.
@@ -301,7 +295,6 @@ impl Default for FilterConfig {
             q_pos_per_speed2: 1e-3,
             q_yaw: 1e-6,
             q_yaw_per_rate2: 1e-3,
-            slip_error_time: 0.0,
             slip_walk: SlipStd {
                 spread: 2e-3,
                 centre: 3e-4,
@@ -373,7 +366,7 @@ impl FilterConfig {
     /// Checks every setting; the error names the key.
     pub fn validate(&self) -> Result<(), FilterError> {
         let finite_nonneg = |v: f64| v.is_finite() && v >= 0.0;
-        let checks: [(&'static str, bool); 18] = [
+        let checks: [(&'static str, bool); 17] = [
             (
                 "filter.innovation_window must be 1..=64",
                 (1..=MAX_WINDOW).contains(&self.innovation_window),
@@ -409,10 +402,6 @@ impl FilterConfig {
             (
                 "filter.turn_law_walk must be finite and >= 0",
                 finite_nonneg(self.turn_law_walk),
-            ),
-            (
-                "filter.slip_error_time must be finite and >= 0",
-                finite_nonneg(self.slip_error_time),
             ),
             (
                 "filter.turn_law_lag must be finite and >= 0",

@@ -35,8 +35,7 @@ use nalgebra::SVector;
 use super::history::CAPACITY;
 use super::{finite_mat, Filter, FilterError};
 use crate::model::{
-    centripetal_of, slip_of, State, E_W, E_X, E_Y, GYRO_BIAS, GYRO_SCALE, K_SPREAD_SPEED,
-    K_X_SPEED, N, SLIP, YAW,
+    centripetal_of, slip_of, State, GYRO_BIAS, GYRO_SCALE, K_SPREAD_SPEED, K_X_SPEED, N, SLIP, YAW,
 };
 
 /// Length of a gyro window, s.
@@ -180,19 +179,15 @@ impl Filter {
             self.gyro_noise
                 .forget(libm::exp(-w.span / self.cfg.noise_memory));
         }
-        let x = &self.x;
-        let m = self
-            .history
-            .over(
-                w.span,
-                self.cfg.chart,
-                &slip_of(x),
-                x[crate::model::LAW],
-                &centripetal_of(x),
-                x[crate::model::SPEED_LAW],
-                x[YAW],
-            )
-            .with_slip_error([x[E_X], x[E_Y], x[E_W]]);
+        let m = self.history.over(
+            w.span,
+            self.cfg.chart,
+            &slip_of(&self.x),
+            self.x[crate::model::LAW],
+            &centripetal_of(&self.x),
+            self.x[crate::model::SPEED_LAW],
+            self.x[YAW],
+        );
         // The gyro reads g times the true turn.
         let g = 1.0 + self.x[GYRO_SCALE];
         let mut H = SVector::<f64, N>::zeros();
@@ -205,7 +200,6 @@ impl Filter {
         H[crate::model::SPEED_LAW] = g * m.d_centripetal[(2, 2)];
         H[GYRO_BIAS] = w.span;
         H[GYRO_SCALE] = m.d_yaw;
-        H[E_W] = g * m.model_turn;
         let nu = w.angle - (g * m.d_yaw + self.x[GYRO_BIAS] * w.span);
 
         // The gyro's white noise integrated, the model's heading error

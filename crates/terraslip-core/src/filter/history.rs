@@ -43,40 +43,6 @@ pub(super) struct Motion {
     /// `d(displacement east, north, heading change) / d(k_x_speed,
     /// k_spread_speed, speed_law)`.
     pub d_centripetal: SMatrix<f64, 3, 3>,
-    /// The mean tread speed integrated along the heading (world east,
-    /// north), m: `d(displacement) / d(e_x)`.
-    pub along: (f64, f64),
-    /// The mean tread speed then, m/s, and the heading then (cos, sin).
-    pub v_tread: f64,
-    pub heading: (f64, f64),
-    /// The model's heading change, rad: `d(heading change) / d(e_w)`.
-    pub model_turn: f64,
-}
-
-impl Motion {
-    /// The motion with the slip error states `e = [e_x, e_y, e_w]`
-    /// (`model.rs`) added, held over the lag: the body moves `e_x v`
-    /// forward and `e_y v` left more than the model says, and turns `1 +
-    /// e_w` times the model's turn.
-    pub(super) fn with_slip_error(mut self, e: [f64; 3]) -> Self {
-        let (ae, an) = self.along;
-        self.d_east += e[0] * ae - e[1] * an;
-        self.d_north += e[0] * an + e[1] * ae;
-        let (c, s) = self.heading;
-        self.v_east += self.v_tread * (e[0] * c - e[1] * s);
-        self.v_north += self.v_tread * (e[0] * s + e[1] * c);
-        let g = 1.0 + e[2];
-        self.d_yaw *= g;
-        self.omega *= g;
-        self.d_yaw_law *= g;
-        for k in 0..5 {
-            self.d_slip[(2, k)] *= g;
-        }
-        for k in 0..3 {
-            self.d_centripetal[(2, k)] *= g;
-        }
-        self
-    }
 }
 
 #[derive(Debug, Clone)]
@@ -148,9 +114,6 @@ impl History {
             m.v_east = t.v_x * cs - t.v_y * sn;
             m.v_north = t.v_x * sn + t.v_y * cs;
             m.omega = t.omega;
-            m.v_tread = 0.5 * (newest.u.v_left + newest.u.v_right);
-            m.heading = (cs, sn);
-            m.along = (lag * m.v_tread * cs, lag * m.v_tread * sn);
             m.d_east = lag * m.v_east;
             m.d_north = lag * m.v_north;
             m.d_yaw = lag * m.omega;
@@ -164,7 +127,6 @@ impl History {
                 m.d_centripetal[(1, k)] = lag * (dc[(0, k)] * sn + dc[(1, k)] * cs);
                 m.d_centripetal[(2, k)] = lag * dc[(2, k)];
             }
-            m.model_turn = m.d_yaw;
             return m;
         }
         let mut left = lag;
@@ -189,11 +151,6 @@ impl History {
             let (ve, vn) = (t.v_x * cs - t.v_y * sn, t.v_x * sn + t.v_y * cs);
             m.d_east += dt * ve;
             m.d_north += dt * vn;
-            let v = 0.5 * (step.u.v_left + step.u.v_right);
-            m.along.0 += dt * v * cs;
-            m.along.1 += dt * v * sn;
-            m.v_tread = v;
-            m.heading = (cs, sn);
             m.d_yaw += dt * t.omega;
             m.d_yaw_law += dt * dk[2];
             for k in 0..5 {
@@ -210,7 +167,6 @@ impl History {
             m.v_north = vn;
             m.omega = t.omega;
         }
-        m.model_turn = m.d_yaw;
         m
     }
 }

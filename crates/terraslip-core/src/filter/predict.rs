@@ -4,8 +4,7 @@ use nalgebra::SMatrix;
 
 use super::{finite_mat, Filter, FilterError, SlipHold};
 use crate::model::{
-    self, MatN, BIAS_E, BIAS_N, CLOCK, EAST, E_W, E_X, E_Y, GYRO_BIAS, GYRO_SCALE, LAW, N, NORTH,
-    SLIP, YAW,
+    self, BIAS_E, BIAS_N, CLOCK, EAST, GYRO_BIAS, GYRO_SCALE, LAW, N, NORTH, SLIP, YAW,
 };
 use crate::slip::TreadInput;
 
@@ -39,49 +38,34 @@ impl Filter {
         self.law_input = self.law_inputs(dv, lagged);
         let (x, twist, rows) = model::step(&self.x, cfg.chart, u, self.law_input, dt);
 
-        // F = I except the pose rows (`rows`) and the decays on the
-        // diagonal (the bias's `phi`, the slip error's `phi_e`): F P F' in
-        // two products of 3 rows / 3 columns.
+        // F = I except the pose rows (`rows`) and the bias decay `phi` on
+        // the bias diagonal: F P F' in two products of 3 rows / 3 columns.
         let phi = if self.bias_std > 0.0 {
             libm::exp(-dt / self.meas.correlation_time)
         } else {
             1.0
         };
-        let phi_e = self.slip_error_decay(dt);
-        let decays = [
-            (BIAS_E, phi),
-            (BIAS_N, phi),
-            (E_X, phi_e),
-            (E_Y, phi_e),
-            (E_W, phi_e),
-        ];
         let fp: SMatrix<f64, 3, N> = rows * self.P;
         let mut A = self.P;
         A.fixed_rows_mut::<3>(0).copy_from(&fp);
-        for (b, f) in decays {
+        for b in [BIAS_E, BIAS_N] {
             for j in 0..N {
-                A[(b, j)] *= f;
+                A[(b, j)] *= phi;
             }
         }
         let afp: SMatrix<f64, N, 3> = A * rows.transpose();
         let mut P = A;
         P.fixed_columns_mut::<3>(0).copy_from(&afp);
-        for (b, f) in decays {
+        for b in [BIAS_E, BIAS_N] {
             for i in 0..N {
-                P[(i, b)] *= f;
+                P[(i, b)] *= phi;
             }
         }
 
-        // Process noise: the model's speed and yaw-rate error white, or
-        // driving the slip error states.
+        // Process noise.
         let v = 0.5 * (v_left + v_right);
         let w = twist.omega;
-        let (q_speed, q_turn) = if phi_e < 1.0 {
-            self.add_slip_error_noise(&mut P, phi_e);
-            (0.0, 0.0)
-        } else {
-            self.model_noise()
-        };
+        let (q_speed, q_turn) = self.model_noise();
         let q_xy = dt * (cfg.q_pos + q_speed * v * v);
         P[(EAST, EAST)] += q_xy;
         P[(NORTH, NORTH)] += q_xy;
@@ -95,9 +79,8 @@ impl Filter {
             let c = self.gyro_win.cross_mut();
             let pose = rows * *c;
             c.fixed_rows_mut::<3>(0).copy_from(&pose);
-            for (b, f) in decays {
-                c[b] *= f;
-            }
+            c[BIAS_E] *= phi;
+            c[BIAS_N] *= phi;
             self.gyro_win.add_model_noise(q_model, q_yaw);
         }
         if self.gyro_seen {
@@ -146,9 +129,8 @@ impl Filter {
             c.turned += libm::fabs(twist.omega * dt);
         }
         self.x = x;
-        for (b, f) in decays {
-            self.x[b] *= f;
-        }
+        self.x[BIAS_E] *= phi;
+        self.x[BIAS_N] *= phi;
         self.P = P;
         self.twist = twist;
         self.tread = u;
@@ -157,34 +139,6 @@ impl Filter {
         self.basis[0] += v * v * dt;
         self.basis[1] += w * w * dt;
         Ok(())
-    }
-
-    /// The slip error's decay over `dt` seconds, `exp(-dt / tau_c)` (1
-    /// when it is not modelled: `slip_error_time` 0).
-    fn slip_error_decay(&self, dt: f64) -> f64 {
-        let tau = self.cfg.slip_error_time;
-        if tau > 0.0 {
-            libm::exp(-dt / tau)
-        } else {
-            1.0
-        }
-    }
-
-    /// Adds the slip error states' noise over a step of decay `phi_e` to
-    /// `P`. White-equivalent: a Gauss-Markov error of time constant `tau_c`
-    /// and stationary variance `sigma^2` integrates to `2 sigma^2 tau_c T`
-    /// over `T >> tau_c`, which the white model's intensity `q` gives as
-    /// `q T`: `sigma^2 = q / (2 tau_c)`, with `q` the learned model noise
-    /// per squared speed (`e_x`, `e_y`) and per squared yaw rate (`e_w`,
-    /// once the heading is known).
-    fn add_slip_error_noise(&self, P: &mut MatN, phi_e: f64) {
-        let (q_speed, q_turn) = self.model_noise();
-        let k = (1.0 - phi_e * phi_e) / (2.0 * self.cfg.slip_error_time);
-        P[(E_X, E_X)] += q_speed * k;
-        P[(E_Y, E_Y)] += q_speed * k;
-        if self.anchored[1] {
-            P[(E_W, E_W)] += q_turn * k;
-        }
     }
 
     /// The turn laws' inputs at a step whose tread speed difference

@@ -25,8 +25,8 @@ use super::{
 };
 use crate::angle;
 use crate::model::{
-    MatN, BIAS_E, BIAS_N, CLOCK, EAST, E_W, E_X, E_Y, GYRO_SCALE, K_SPREAD_SPEED, K_X_SPEED, LAW,
-    N, NORTH, SLIP, SPEED_LAW, YAW,
+    MatN, BIAS_E, BIAS_N, CLOCK, EAST, GYRO_SCALE, K_SPREAD_SPEED, K_X_SPEED, LAW, N, NORTH, SLIP,
+    SPEED_LAW, YAW,
 };
 
 type MatNx3 = SMatrix<f64, N, 3>;
@@ -390,17 +390,15 @@ impl Filter {
 
     /// The motion over the fix's lag at state `x`.
     fn motion(&self, x: &crate::model::State, lag: f64) -> super::history::Motion {
-        self.history
-            .over(
-                lag + x[CLOCK],
-                self.cfg.chart,
-                &crate::model::slip_of(x),
-                x[LAW],
-                &crate::model::centripetal_of(x),
-                x[SPEED_LAW],
-                x[YAW],
-            )
-            .with_slip_error([x[E_X], x[E_Y], x[E_W]])
+        self.history.over(
+            lag + x[CLOCK],
+            self.cfg.chart,
+            &crate::model::slip_of(x),
+            x[LAW],
+            &crate::model::centripetal_of(x),
+            x[SPEED_LAW],
+            x[YAW],
+        )
     }
 
     /// Predicted fix `h(x)` and its Jacobian for the parts in `used`
@@ -440,11 +438,6 @@ impl Filter {
                     H[(0, i)] = -m.d_centripetal[(0, k)];
                     H[(1, i)] = -m.d_centripetal[(1, k)];
                 }
-                let (ae, an) = m.along;
-                H[(0, E_X)] = -ae;
-                H[(1, E_X)] = -an;
-                H[(0, E_Y)] = an;
-                H[(1, E_Y)] = -ae;
             }
         }
         if used[2] {
@@ -460,7 +453,6 @@ impl Filter {
             {
                 H[(2, i)] = -m.d_centripetal[(2, k)];
             }
-            H[(2, E_W)] = -m.model_turn;
         }
         (h, H)
     }

@@ -101,17 +101,3 @@ fn a_graph_without_a_wheel_source_is_refused_with_what_it_has() {
         "{e}"
     );
 }
-
-#[test]
-fn a_live_twist_states_the_separation_its_tread_speeds_are_made_with() {
-    let path = husky();
-    let cfg = TopicsConfig::default();
-    let bag = Bag::open(&path).unwrap();
-    let live = LiveImport::new("ROS 2 graph", bag.topics.clone(), &cfg).unwrap();
-    // No topics file and no URDF read live: the default nominal scale,
-    // which the node's slip parameters must start from.
-    assert_eq!(live.separation(), Some(1.0));
-    let cfg: TopicsConfig = toml::from_str("[meta]\ntrack_width = 0.55\n").unwrap();
-    let live = LiveImport::new("ROS 2 graph", bag.topics.clone(), &cfg).unwrap();
-    assert_eq!(live.separation(), Some(0.55));
-}

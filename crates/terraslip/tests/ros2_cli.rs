@@ -91,9 +91,11 @@ fn a_bag_and_its_imported_log_give_the_same_estimate() {
         err.contains("no 2 s prediction figure: after the first 60 s"),
         "{err}"
     );
-    // The tread speeds were made with a nominal separation: the slip
-    // parameters start in that scale, and no track width is missing.
-    assert!(!err.contains("no track width"), "{err}");
+    // The bag states no track width: the warning says where a bag's goes.
+    assert!(
+        err.contains("no track width") && err.contains("`[meta] track_width` in the --topics file"),
+        "{err}"
+    );
 
     let out = run(&[
         "import",

@@ -124,13 +124,6 @@ impl<'c> LiveImport<'c> {
             .collect()
     }
 
-    /// The separation an odometry twist's tread speeds are made with, m
-    /// (`None` for other wheel sources): in that scale the no-slip spread
-    /// is this separation.
-    pub fn separation(&self) -> Option<f64> {
-        self.rows.wheels.separation
-    }
-
     /// Time 0 of the rows, ns since the epoch (once a message came).
     pub fn origin_ns(&self) -> Option<u64> {
         self.origin

@@ -50,7 +50,6 @@ pub struct Args {
     #[arg(long, value_name = "S", default_value_t = 0.3)]
     pub lag: f64,
     /// Track width, m (else `[meta] track_width` of --topics, else the
-    /// separation an odometry twist's tread speeds are made with, else the
     /// configuration's `init.default_track_width`).
     #[arg(long, value_name = "M")]
     pub track_width: Option<f64>,
@@ -135,6 +134,10 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
             *n = ros.remap(n);
         }
     }
+    let track_width = args
+        .track_width
+        .or(topics_cfg.meta.track_width)
+        .unwrap_or(cfg.init.default_track_width);
     let gyro_delay = args
         .gyro_delay
         .or_else(|| {
@@ -217,11 +220,6 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
         wait.register(&mut r.1, k).context("event poll")?;
     }
 
-    let track_width = args
-        .track_width
-        .or(topics_cfg.meta.track_width)
-        .or(import.separation())
-        .unwrap_or(cfg.init.default_track_width);
     let mut live = Live::new(
         &label,
         &cfg,

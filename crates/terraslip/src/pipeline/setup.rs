@@ -8,7 +8,7 @@ use terraslip_core::kinematics::CentripetalSlopes;
 use terraslip_core::schedule::NoiseSchedule;
 use terraslip_core::terrain_belief::MAX_TERRAINS;
 use terraslip_core::IcrParams;
-use terraslip_io::{DriveLog, Meta, ParamsFile};
+use terraslip_io::{DriveLog, ParamsFile};
 
 use super::{PipelineError, TerrainEvidence};
 use crate::config::EstimatorConfig;
@@ -31,8 +31,23 @@ pub(super) fn setup(
 ) -> Result<Setup, PipelineError> {
     let dir = log.dir.display().to_string();
     let mut warnings = Vec::new();
-    let (track_width, warning) = start_track_width(&log.meta, &dir, cfg.init.default_track_width);
-    warnings.extend(warning);
+    let track_width = match log.meta.track_width {
+        Some(w) if w.is_finite() && w > 0.0 => w,
+        Some(w) => {
+            warnings.push(format!(
+                "{dir}/meta.toml: track_width = {w} is not usable; using init.default_track_width = {} m",
+                cfg.init.default_track_width
+            ));
+            cfg.init.default_track_width
+        }
+        None => {
+            warnings.push(format!(
+                "{dir}: no track width (meta.toml's `track_width`; for a ROS 2 bag, `[meta] track_width` in the --topics file); using init.default_track_width = {} m",
+                cfg.init.default_track_width
+            ));
+            cfg.init.default_track_width
+        }
+    };
 
     let terrains = terrain_names(evidence);
     if terrains.len() > MAX_TERRAINS {
@@ -337,62 +352,9 @@ fn wider(a: SlipStd, b: SlipStd) -> SlipStd {
     }
 }
 
-/// The track width the slip parameters start from, m, with a warning when
-/// the log gives none: `meta.toml`'s `track_width`, else the separation the
-/// tread speeds were made with (an odometry twist's: in that scale the
-/// no-slip spread is the separation), else `default`.
-fn start_track_width(meta: &Meta, dir: &str, default: f64) -> (f64, Option<String>) {
-    let separation = meta.separation.filter(|s| s.is_finite() && *s > 0.0);
-    match meta.track_width {
-        Some(w) if w.is_finite() && w > 0.0 => (w, None),
-        Some(w) => (
-            separation.unwrap_or(default),
-            Some(format!(
-                "{dir}/meta.toml: track_width = {w} is not usable; using {}",
-                fallback_name(separation, default)
-            )),
-        ),
-        None => match separation {
-            Some(s) => (s, None),
-            None => (
-                default,
-                Some(format!(
-                    "{dir}: no track width (meta.toml's `track_width`; for a ROS 2 bag, `[meta] track_width` in the --topics file); using {}",
-                    fallback_name(None, default)
-                )),
-            ),
-        },
-    }
-}
-
-fn fallback_name(separation: Option<f64>, default: f64) -> String {
-    match separation {
-        Some(s) => format!("the separation the tread speeds were made with, {s} m"),
-        None => format!("init.default_track_width = {default} m"),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn a_twist_made_log_starts_at_its_separation() {
-        let mut meta = Meta::default();
-        meta.separation = Some(1.0);
-        meta.separation_source = Some("default".into());
-        let (w, warning) = start_track_width(&meta, "log", 0.5);
-        assert_eq!((w, warning), (1.0, None));
-        meta.separation = None;
-        let (w, warning) = start_track_width(&meta, "log", 0.5);
-        assert_eq!(w, 0.5);
-        assert!(warning
-            .unwrap()
-            .contains("init.default_track_width = 0.5 m"));
-        meta.track_width = Some(0.55);
-        meta.separation = Some(1.0);
-        assert_eq!(start_track_width(&meta, "log", 0.5), (0.55, None));
-    }
 
     /// A calibrated set whose turn law was selected: the constant model's
     /// parameters and std at the top, the law's own under `rate_model`.

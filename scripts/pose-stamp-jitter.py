@@ -27,8 +27,10 @@ regression of the squared residual on what each kind of error predicts.
   dominates, growing with it if model error does.
 
 The coefficients are printed with their standard errors in brackets.
+INJECT (s) adds a known jitter to the log's stamps first (normal, that
+std, seed 1), to see how jitter would show in these figures.
 
-Usage: pose-stamp-jitter.py LOG ESTIMATE CLOCK
+Usage: pose-stamp-jitter.py LOG ESTIMATE CLOCK [INJECT]
 """
 
 import sys
@@ -54,12 +56,20 @@ def fit(y, cols, names):
 
 
 def main():
-    if len(sys.argv) != 4:
+    if len(sys.argv) not in (4, 5):
         sys.exit(__doc__)
     log, est, clock = sys.argv[1], sys.argv[2], float(sys.argv[3])
+    inject = float(sys.argv[4]) if len(sys.argv) == 5 else 0.0
     p, w, e = columns(f"{log}/pose.csv"), columns(f"{log}/wheels.csv"), columns(f"{est}/estimate.csv")
     name = log.rstrip("/").split("/")[-1]
 
+    if inject > 0.0:
+        # Known jitter on top of the log's stamps, to see how it shows.
+        t = p["t"] + inject * np.random.default_rng(1).standard_normal(len(p["t"]))
+        order = np.argsort(t)
+        p = {k: v[order] for k, v in p.items()}
+        p["t"] = t[order]
+        name += f" with {inject:g} s of jitter added"
     ts = p["t"]
     gaps = np.diff(ts)
     wheel_step = np.median(np.diff(w["t"]))

@@ -22,6 +22,9 @@ regression of the squared residual on what each kind of error predicts.
   fast pairs (over 1 m/s, resp. 0.7 rad/s at the fixes) divided by
   `(v0^2 + v1^2) / 2`, where the sensor's constant noise is a column
   `1 / v^2` and jitter the constant `2 sigma_t^2`;
+- the squared residual per unit squared speed (yaw rate) at the
+  commonest interval, by the quartile of the squared speed: level if
+  jitter or white model error alone (both grow as `v^2`);
 - the squared residual per unit squared speed (yaw rate) of the fast
   pairs, binned by the interval: flat in the interval if jitter
   dominates, growing with it if model error does.
@@ -114,9 +117,20 @@ def main():
         cols = [np.ones(keep.sum()), b[keep], b[keep] ** 2 / dt[keep], jit[keep]]
         txt, beta, _ = fit(y[keep], cols, ["const", "white", "correlated", "jitter"])
         print(f"  {what}, with model error correlated over the pair: {txt}; sigma_t {np.sqrt(max(beta[3], 0)):.3f} s")
+        # At the commonest interval, by the squared speed (rate) at the
+        # fixes: jitter and white model error both grow as v^2 here.
+        s2 = 0.5 * jit
+        vals, cnt = np.unique(np.round(dt[keep], 2), return_counts=True)
+        d = vals[np.argmax(cnt)]
+        sel = keep & (np.abs(np.round(dt, 2) - d) < 1e-6)
+        edges = np.percentile(s2[sel], [0, 25, 50, 75, 100])
+        out = []
+        for lo, hi in zip(edges[:-1], edges[1:]):
+            k = sel & (s2 >= lo) & (s2 <= hi)
+            out.append(f"{np.mean(s2[k]):.2f}: {np.mean(y[k]) / np.mean(s2[k]):.4f}")
+        print(f"    {what} square / {'v' if what == 'along' else 'omega'}^2 at {d:.2f} s by its quartile: " + ", ".join(out))
         # Fast pairs, divided by the squared speed (rate) at the fixes:
         # the sensor's constant noise as 1 / v^2, jitter as a constant.
-        s2 = 0.5 * jit
         fast = keep & (s2 > (1.0 if what == "along" else 0.5))
         if fast.sum() < 20:
             print(f"  {what}: {fast.sum()} fast pairs, too few to fit")

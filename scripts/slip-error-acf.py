@@ -19,10 +19,11 @@ autocorrelation of the residual at lags of 0.2-5 s.
 Usage: slip-error-acf.py LOG ESTIMATE CLOCK
 """
 
-import csv
 import sys
 
 import numpy as np
+
+from logcsv import columns, model_twist
 
 LAGS = [0.2, 0.3, 0.5, 1.0, 1.5, 2.0, 3.0, 5.0]
 HALF_WIDTH = 0.1
@@ -30,23 +31,11 @@ GRID = 0.05
 MAX_GAP = 0.5
 
 
-def read(path):
-    with open(path) as f:
-        rows = list(csv.reader(f))
-    cols = {}
-    for i, name in enumerate(rows[0]):
-        try:
-            cols[name] = np.array([float(r[i]) if r[i] != "" else np.nan for r in rows[1:]])
-        except ValueError:
-            pass
-    return cols
-
-
 def main():
     if len(sys.argv) != 4:
         sys.exit(__doc__)
     log, est, clock = sys.argv[1], sys.argv[2], float(sys.argv[3])
-    p, w, e = read(f"{log}/pose.csv"), read(f"{log}/wheels.csv"), read(f"{est}/estimate.csv")
+    p, w, e = columns(f"{log}/pose.csv"), columns(f"{log}/wheels.csv"), columns(f"{est}/estimate.csv")
     ts = p["t"]
     t = np.arange(ts[0], ts[-1], GRID)
     # Grid points inside a gap between stamps are not used.
@@ -64,13 +53,8 @@ def main():
     omega = (yaw[2 * k:] - yaw[:-2 * k]) / span
     vx = ve * np.cos(yc) + vn * np.sin(yc)
     tw = tc - clock
-    vl, vr = np.interp(tw, w["t"], w["v_left"]), np.interp(tw, w["t"], w["v_right"])
-    at = {c: np.interp(tw, e["t"], e[c]) for c in ("y_l", "y_r", "alpha_l", "alpha_r")}
-    gl, gr = at["alpha_l"] * vl, at["alpha_r"] * vr
-    width = at["y_l"] - at["y_r"]
-    model_vx = (gr * at["y_l"] - gl * at["y_r"]) / width
-    model_omega = (gr - gl) / width
-    v = 0.5 * (vl + vr)
+    model_vx, model_omega = model_twist(w, e, tw)
+    v = 0.5 * (np.interp(tw, w["t"], w["v_left"]) + np.interp(tw, w["t"], w["v_right"]))
     late = tc > tc[0] + 0.3 * (tc[-1] - tc[0])
     name = log.rstrip("/").split("/")[-1]
     for what, r, moving in [

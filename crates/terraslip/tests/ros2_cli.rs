@@ -285,3 +285,44 @@ fn node_in_a_build_without_it_says_how_to_get_it() {
         );
     }
 }
+
+#[test]
+fn a_truncated_mcap_is_read_up_to_the_cut_with_a_warning() {
+    // A recording killed mid-write: the file stops inside a record and has
+    // no summary or footer.
+    let d = tempfile::tempdir().unwrap();
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let bag = d.path().join("killed.mcap");
+    write_bag(&bag);
+    let whole = std::fs::read(&bag).unwrap();
+    let cut = whole.len() * 2 / 3;
+    std::fs::write(&bag, &whole[..cut]).unwrap();
+    let est = d.path().join("est");
+    let o = run(&["estimate", &s(&bag), "--out", &s(&est)]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains(&format!(
+            "warning: {}: the file ends in the middle of a record at byte {cut}",
+            bag.display()
+        )) && err.contains("the rest is lost")
+            && err.contains("`mcap recover"),
+        "{err}"
+    );
+    let read: u64 = err
+        .split("read the ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no message count in {err}"));
+    // 1200 estimates of several messages each and 300 poses in the whole file.
+    assert!(read > 0, "{err}");
+    let rows = std::fs::read_to_string(est.join("estimate.csv"))
+        .unwrap()
+        .lines()
+        .count()
+        - 1;
+    assert!(rows > 100 && rows < 1200, "{rows} rows");
+    // Said once, though the bag is read more than once.
+    assert_eq!(err.matches("the rest is lost").count(), 1, "{err}");
+}

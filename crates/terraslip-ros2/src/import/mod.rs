@@ -215,6 +215,7 @@ pub fn import(
         }
         Ok(())
     })?;
+    report.warnings.extend(bag.warnings.iter().cloned());
     report.warnings.extend(unphysical::warnings(&skipped));
     report.skipped = skipped;
 

@@ -326,3 +326,39 @@ fn a_truncated_mcap_is_read_up_to_the_cut_with_a_warning() {
     // Said once, though the bag is read more than once.
     assert_eq!(err.matches("the rest is lost").count(), 1, "{err}");
 }
+
+#[test]
+fn every_log_argument_says_it_takes_a_rosbag2() {
+    for args in [
+        &["estimate", "--help"][..],
+        &["calibrate", "--help"],
+        &["calibrate", "validate", "--help"],
+        &["report", "--help"],
+    ] {
+        let o = run(args);
+        assert!(o.status.success());
+        let text = String::from_utf8_lossy(&o.stdout);
+        // The LOG argument's help: its line to the next blank line.
+        let lines: Vec<&str> = text.lines().collect();
+        let start = lines
+            .iter()
+            .position(|l| {
+                let l = l.trim_start();
+                l.starts_with("[LOG]") || l.starts_with("<LOG>") || l.starts_with("--log <LOG>")
+            })
+            .unwrap_or_else(|| panic!("{args:?}: no LOG argument in\n{text}"));
+        let help: String = lines[start..]
+            .iter()
+            .take_while(|l| !l.trim().is_empty())
+            .copied()
+            .collect::<Vec<_>>()
+            .join(" ");
+        assert!(
+            help.contains("rosbag2")
+                && help.contains("MCAP")
+                && help.contains("sqlite3")
+                && help.contains("--topics"),
+            "{args:?}: {help}"
+        );
+    }
+}

@@ -28,8 +28,7 @@ use crate::progress::Progress;
 #[derive(clap::Args, Debug)]
 #[command(after_help = after_help())]
 pub struct Args {
-    /// Log directory to read.
-    #[arg(required_unless_present = "print_config")]
+    #[arg(required_unless_present = "print_config", help = log_help!())]
     pub log: Option<PathBuf>,
     /// Output directory (created if missing); estimate.csv, summary.json and
     /// prediction.csv appear there only when complete.

@@ -24,8 +24,11 @@ use terraslip::bag::Topics;
 pub struct Args {
     /// Directory written by `terraslip estimate`.
     pub estimate: PathBuf,
-    /// The log the estimate was run on (default: the "log" in summary.json).
-    #[arg(long, value_name = "LOG")]
+    #[arg(
+        long,
+        value_name = "LOG",
+        help = concat!("The log or bag the estimate was run on (default: the \"log\" recorded in summary.json; give it when that moved). ", log_help!())
+    )]
     pub log: Option<PathBuf>,
     /// Where to write report.html and the SVG plots (default: ESTIMATE).
     #[arg(long, value_name = "DIR")]

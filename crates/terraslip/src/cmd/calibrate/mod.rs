@@ -79,8 +79,11 @@ pub struct Args {
     #[command(subcommand)]
     #[serde(skip)]
     command: Option<Sub>,
-    /// Log directories (wheels.csv + pose.csv, optional terrain.csv, meta.toml).
-    #[arg(required_unless_present = "print_config", value_name = "LOG")]
+    #[arg(
+        required_unless_present = "print_config",
+        value_name = "LOG",
+        help = concat!("One or more drives, each with a pose reference (terrain.csv labels give one parameter set per terrain). ", log_help!())
+    )]
     #[serde(skip)]
     logs: Vec<PathBuf>,
     /// Where to write the parameters (JSON, read by `estimate --init`).

@@ -362,3 +362,43 @@ fn every_log_argument_says_it_takes_a_rosbag2() {
         );
     }
 }
+
+#[test]
+fn two_outputs_of_one_run_on_one_path_are_refused_before_any_work() {
+    let d = tempfile::tempdir().unwrap();
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let bag = d.path().join("drive.mcap");
+    write_bag(&bag);
+    let est = d.path().join("est");
+    for (mcap, clash) in [
+        (est.join("summary.json"), est.join("summary.json")),
+        (est.join("./estimate.csv"), est.join("estimate.csv")),
+        (est.clone(), est.clone()),
+    ] {
+        let o = run(&["estimate", &s(&bag), "--out", &s(&est), "--mcap", &s(&mcap)]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{err}");
+        assert!(
+            err.contains(&format!("--mcap {}", mcap.display()))
+                && err.contains(&format!("{}, which --out writes", clash.display())),
+            "{err}"
+        );
+        assert!(!est.exists(), "{err}");
+    }
+    let p = d.path().join("p.json");
+    let o = run(&[
+        "calibrate",
+        &s(&bag),
+        "--out",
+        &s(&p),
+        "--ros2-params",
+        &s(&p),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{err}");
+    assert!(
+        err.contains(&format!("--ros2-params {}", p.display()))
+            && err.contains(&format!("{}, which --out writes", p.display())),
+        "{err}"
+    );
+}

@@ -143,9 +143,12 @@ pub fn run(args: Args) -> Result<()> {
         ],
     );
     inputs.check_dir("--out", out, &OUTPUTS)?;
+    let mut outputs = terraslip_io::Outputs::new();
+    outputs.dir("--out", out, &OUTPUTS)?;
     #[cfg(feature = "ros2")]
     if let Some(m) = &args.mcap {
         inputs.check("--mcap", m)?;
+        outputs.file("--mcap", m)?;
     }
     let cfg = load()?;
     // A plain log directory is streamed row by row; a terrain model needs

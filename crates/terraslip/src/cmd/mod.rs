@@ -59,8 +59,3 @@ pub fn inputs_with(logs: &[PathBuf], files: &[(&str, Option<&Path>)]) -> terrasl
     }
     inputs
 }
-
-/// Whether two output paths name the same file.
-pub fn resolved_same(a: &Path, b: &Path) -> bool {
-    terraslip_io::guard::resolve(a) == terraslip_io::guard::resolve(b)
-}

@@ -422,9 +422,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     #[cfg(feature = "ros2")]
     if let Some(p) = &args.ros2_params {
         inputs.check("--ros2-params", p)?;
-        if super::resolved_same(p, &out) {
-            bail!("--ros2-params {}: the same file as --out", p.display());
-        }
+        terraslip_io::Outputs::new()
+            .file("--out", &out)?
+            .file("--ros2-params", p)?;
     }
     let logs = read_logs(&args.logs)?;
     let bar = progress::Progress::new(0, "generations");

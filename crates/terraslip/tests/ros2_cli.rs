@@ -402,3 +402,44 @@ fn two_outputs_of_one_run_on_one_path_are_refused_before_any_work() {
         "{err}"
     );
 }
+
+fn run_in(dir: &Path, args: &[&str]) -> std::process::Output {
+    Command::cargo_bin("terraslip")
+        .unwrap()
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn report_finds_the_log_from_anywhere_and_names_it_when_it_moved() {
+    // The estimate is run on a relative path; report runs elsewhere.
+    let d = tempfile::tempdir().unwrap();
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    write_bag(&d.path().join("drive.mcap"));
+    let o = run_in(d.path(), &["estimate", "drive.mcap", "--out", "est"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let elsewhere = d.path().join("elsewhere");
+    std::fs::create_dir(&elsewhere).unwrap();
+    let est = d.path().join("est");
+    let o = run_in(&elsewhere, &["report", &s(&est)]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(!err.contains("without the pose reference"), "{err}");
+
+    // Moved: the path recorded is named, and how to point at it.
+    std::fs::rename(d.path().join("drive.mcap"), d.path().join("moved.mcap")).unwrap();
+    let o = run_in(&elsewhere, &["report", &s(&est)]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    let recorded = std::path::absolute(d.path().join("drive.mcap")).unwrap();
+    assert!(
+        err.contains(&format!(
+            "{} (recorded in {}) no longer exists",
+            recorded.display(),
+            est.join("summary.json").display()
+        )) && err.contains("--log"),
+        "{err}"
+    );
+}

@@ -50,6 +50,7 @@ pub fn run(a: Args) -> Result<()> {
         Err(_) => None,
     };
     let field = |k: &str| summary.as_ref().and_then(|s| s.get(k).cloned());
+    let given = a.log.is_some();
     let log_dir = a
         .log
         .or_else(|| field("log").and_then(|v| v.as_str().map(PathBuf::from)));
@@ -88,9 +89,16 @@ pub fn run(a: Args) -> Result<()> {
             }
             Some(log)
         }
+        Some(dir) if given => {
+            eprintln!(
+                "warning: --log {} does not exist; drawing without the pose reference",
+                dir.display()
+            );
+            None
+        }
         Some(dir) => {
             eprintln!(
-                "warning: log {} (from {}) does not exist; drawing without the pose reference (pass --log)",
+                "warning: log {} (recorded in {}) no longer exists (moved or renamed?); drawing without the pose reference; give its new place with --log PATH",
                 dir.display(),
                 summary_path.display()
             );

@@ -98,6 +98,63 @@ impl Inputs {
     }
 }
 
+/// Two outputs of one run on the same path: the later would overwrite the
+/// earlier.
+#[derive(Debug, thiserror::Error)]
+#[error("{flag} {output}: the same path as {other}, which {other_flag} writes; give each output its own path")]
+pub struct SameOutput {
+    /// The option that named the output, e.g. `--mcap`.
+    pub flag: String,
+    /// The output path as given.
+    pub output: PathBuf,
+    /// The option whose output it meets, e.g. `--out`.
+    pub other_flag: String,
+    /// That output's path (a file inside its directory, or the directory).
+    pub other: PathBuf,
+}
+
+/// The paths one run writes, to refuse two of them on one path before
+/// any work is done.
+#[derive(Debug, Default, Clone)]
+pub struct Outputs {
+    /// Flag, path as given, path resolved.
+    items: Vec<(String, PathBuf, PathBuf)>,
+}
+
+impl Outputs {
+    /// No outputs.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Adds the file `path` written for option `flag`; refused when an
+    /// output added before is on the same path.
+    pub fn file(&mut self, flag: &str, path: &Path) -> Result<&mut Self, SameOutput> {
+        let real = resolve(path);
+        if let Some((other_flag, other, _)) = self.items.iter().find(|(_, _, r)| *r == real) {
+            return Err(SameOutput {
+                flag: flag.to_string(),
+                output: path.to_path_buf(),
+                other_flag: other_flag.clone(),
+                other: other.clone(),
+            });
+        }
+        self.items
+            .push((flag.to_string(), path.to_path_buf(), real));
+        Ok(self)
+    }
+
+    /// Adds the directory `dir` of option `flag` and the files `names`
+    /// written into it.
+    pub fn dir(&mut self, flag: &str, dir: &Path, names: &[&str]) -> Result<&mut Self, SameOutput> {
+        self.file(flag, dir)?;
+        for n in names {
+            self.file(flag, &dir.join(n))?;
+        }
+        Ok(self)
+    }
+}
+
 /// `path` absolute, with symbolic links of its existing part resolved and
 /// the rest appended with `.` and `..` applied.
 pub fn resolve(path: &Path) -> PathBuf {
@@ -127,6 +184,24 @@ pub fn resolve(path: &Path) -> PathBuf {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn two_outputs_on_one_path_are_refused() {
+        let d = tempfile::tempdir().unwrap();
+        let est = d.path().join("est");
+        let mut outputs = Outputs::new();
+        outputs.dir("--out", &est, &["summary.json"]).unwrap();
+        let e = outputs
+            .clone()
+            .file("--mcap", &d.path().join("x/../est/./summary.json"))
+            .unwrap_err();
+        assert_eq!(
+            (e.other_flag.as_str(), e.other),
+            ("--out", est.join("summary.json"))
+        );
+        assert!(outputs.clone().file("--mcap", &est).is_err());
+        assert!(outputs.file("--mcap", &est.join("est.mcap")).is_ok());
+    }
 
     #[test]
     fn outputs_on_or_inside_an_input_are_refused() {

@@ -20,7 +20,7 @@ mod write;
 
 pub use atomic::{write_atomic, AtomicFile, DirLock};
 pub use estimate::{read_estimate, read_prediction, EstimateRecord, PredictionRecord};
-pub use guard::{Inputs, OverInput};
+pub use guard::{Inputs, Outputs, OverInput, SameOutput};
 pub use params::{ParamEntry, ParamsFile, RateModelEntry};
 pub use read::{
     physical_limit, read_csv_table, read_images, read_imu, read_meta, read_terrain, read_truth,

@@ -60,6 +60,9 @@ pub struct Bag {
     files: Vec<(PathBuf, Storage, Whole)>,
     /// Each message's data is zstd-compressed (metadata `compression_mode: MESSAGE`).
     message_zstd: bool,
+    /// What reading found that costs data (an MCAP file cut short), one
+    /// line each, naming the file; filled while streaming.
+    pub warnings: Vec<String>,
 }
 
 /// Whether `path` looks like a bag (a directory with `metadata.yaml`, a
@@ -132,6 +135,7 @@ impl Bag {
             topics: Vec::new(),
             files: Vec::new(),
             message_zstd: false,
+            warnings: Vec::new(),
         };
         if path.is_dir() && !path.join("metadata.yaml").exists() {
             // No metadata: the storage files themselves name their topics.
@@ -200,6 +204,7 @@ impl Bag {
             topics,
             files: Vec::new(),
             message_zstd: false,
+            warnings: Vec::new(),
         }
     }
 
@@ -305,7 +310,11 @@ impl Bag {
                             Box::new(lz4::Decoder::new(file).map_err(|e| self.file_err(&p, e))?)
                         }
                     };
-                    self.stream_mcap(&p, reader, record_limit(size), &mut index, want, f)?;
+                    let read =
+                        self.stream_mcap(&p, reader, record_limit(size), &mut index, want, f)?;
+                    if let Some(n) = read.cut_short {
+                        self.warn(cut_short(&p, size, n));
+                    }
                 }
                 Storage::Sqlite => {
                     let (db, _tmp) = match w {
@@ -347,14 +356,23 @@ impl Bag {
         index: &mut u64,
         want: &dyn Fn(usize) -> bool,
         f: &mut dyn FnMut(&Bag, RawMessage) -> Result<(), Ros2Error>,
-    ) -> Result<(), Ros2Error> {
+    ) -> Result<McapRead, Ros2Error> {
         let mut map: Vec<Option<usize>> = Vec::new();
         let mut buf = Vec::new();
+        let first = *index;
         let options = mcap::sans_io::LinearReaderOptions::default().with_record_length_limit(limit);
         for m in mcap::io::MessageReader::new_with_options(reader, options) {
-            let m = m.map_err(|e| {
-                self.file_err(p, format!("after message {}: {e}", index.saturating_sub(0)))
-            })?;
+            let m = match m {
+                Ok(m) => m,
+                // A recording killed before it closed the file: every whole
+                // message before the cut is read, the rest is lost.
+                Err(mcap::McapError::UnexpectedEof) => {
+                    return Ok(McapRead {
+                        cut_short: Some(*index - first),
+                    })
+                }
+                Err(e) => return Err(self.file_err(p, format!("after message {index}: {e}"))),
+            };
             let cid = m.channel.id as usize;
             if map.len() <= cid {
                 map.resize(cid + 1, None);
@@ -405,7 +423,14 @@ impl Bag {
                 },
             )?;
         }
-        Ok(())
+        Ok(McapRead { cut_short: None })
+    }
+
+    /// Adds `w` to [`Bag::warnings`] once (a bag is streamed more than once).
+    fn warn(&mut self, w: String) {
+        if !self.warnings.contains(&w) {
+            self.warnings.push(w);
+        }
     }
 
     fn stream_sqlite(
@@ -484,6 +509,23 @@ impl Bag {
             reason: reason.to_string(),
         }
     }
+}
+
+/// How reading one MCAP file ended.
+struct McapRead {
+    /// The file ends in the middle of a record, after this many whole
+    /// messages.
+    cut_short: Option<u64>,
+}
+
+/// The warning for MCAP file `p` of `size` bytes cut short after `n`
+/// whole messages.
+fn cut_short(p: &Path, size: u64, n: u64) -> String {
+    format!(
+        "{}: the file ends in the middle of a record at byte {size} (a recording stopped before it closed the file?): read the {n} whole messages before it, the rest is lost; `mcap recover {} -o recovered.mcap` may save more (https://mcap.dev/guides/cli)",
+        p.display(),
+        p.display()
+    )
 }
 
 /// The largest MCAP record (or decompressed chunk) accepted from a file of

@@ -285,3 +285,161 @@ fn node_in_a_build_without_it_says_how_to_get_it() {
         );
     }
 }
+
+#[test]
+fn a_truncated_mcap_is_read_up_to_the_cut_with_a_warning() {
+    // A recording killed mid-write: the file stops inside a record and has
+    // no summary or footer.
+    let d = tempfile::tempdir().unwrap();
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let bag = d.path().join("killed.mcap");
+    write_bag(&bag);
+    let whole = std::fs::read(&bag).unwrap();
+    let cut = whole.len() * 2 / 3;
+    std::fs::write(&bag, &whole[..cut]).unwrap();
+    let est = d.path().join("est");
+    let o = run(&["estimate", &s(&bag), "--out", &s(&est)]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains(&format!(
+            "warning: {}: the file ends in the middle of a record at byte {cut}",
+            bag.display()
+        )) && err.contains("the rest is lost")
+            && err.contains("`mcap recover"),
+        "{err}"
+    );
+    let read: u64 = err
+        .split("read the ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no message count in {err}"));
+    // 1200 estimates of several messages each and 300 poses in the whole file.
+    assert!(read > 0, "{err}");
+    let rows = std::fs::read_to_string(est.join("estimate.csv"))
+        .unwrap()
+        .lines()
+        .count()
+        - 1;
+    assert!(rows > 100 && rows < 1200, "{rows} rows");
+    // Said once, though the bag is read more than once.
+    assert_eq!(err.matches("the rest is lost").count(), 1, "{err}");
+}
+
+#[test]
+fn every_log_argument_says_it_takes_a_rosbag2() {
+    for args in [
+        &["estimate", "--help"][..],
+        &["calibrate", "--help"],
+        &["calibrate", "validate", "--help"],
+        &["report", "--help"],
+    ] {
+        let o = run(args);
+        assert!(o.status.success());
+        let text = String::from_utf8_lossy(&o.stdout);
+        // The LOG argument's help: its line to the next blank line.
+        let lines: Vec<&str> = text.lines().collect();
+        let start = lines
+            .iter()
+            .position(|l| {
+                let l = l.trim_start();
+                l.starts_with("[LOG]") || l.starts_with("<LOG>") || l.starts_with("--log <LOG>")
+            })
+            .unwrap_or_else(|| panic!("{args:?}: no LOG argument in\n{text}"));
+        let help: String = lines[start..]
+            .iter()
+            .take_while(|l| !l.trim().is_empty())
+            .copied()
+            .collect::<Vec<_>>()
+            .join(" ");
+        assert!(
+            help.contains("rosbag2")
+                && help.contains("MCAP")
+                && help.contains("sqlite3")
+                && help.contains("--topics"),
+            "{args:?}: {help}"
+        );
+    }
+}
+
+#[test]
+fn two_outputs_of_one_run_on_one_path_are_refused_before_any_work() {
+    let d = tempfile::tempdir().unwrap();
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let bag = d.path().join("drive.mcap");
+    write_bag(&bag);
+    let est = d.path().join("est");
+    for (mcap, clash) in [
+        (est.join("summary.json"), est.join("summary.json")),
+        (est.join("./estimate.csv"), est.join("estimate.csv")),
+        (est.clone(), est.clone()),
+    ] {
+        let o = run(&["estimate", &s(&bag), "--out", &s(&est), "--mcap", &s(&mcap)]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{err}");
+        assert!(
+            err.contains(&format!("--mcap {}", mcap.display()))
+                && err.contains(&format!("{}, which --out writes", clash.display())),
+            "{err}"
+        );
+        assert!(!est.exists(), "{err}");
+    }
+    let p = d.path().join("p.json");
+    let o = run(&[
+        "calibrate",
+        &s(&bag),
+        "--out",
+        &s(&p),
+        "--ros2-params",
+        &s(&p),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{err}");
+    assert!(
+        err.contains(&format!("--ros2-params {}", p.display()))
+            && err.contains(&format!("{}, which --out writes", p.display())),
+        "{err}"
+    );
+}
+
+fn run_in(dir: &Path, args: &[&str]) -> std::process::Output {
+    Command::cargo_bin("terraslip")
+        .unwrap()
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn report_finds_the_log_from_anywhere_and_names_it_when_it_moved() {
+    // The estimate is run on a relative path; report runs elsewhere.
+    let d = tempfile::tempdir().unwrap();
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    write_bag(&d.path().join("drive.mcap"));
+    let o = run_in(d.path(), &["estimate", "drive.mcap", "--out", "est"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let elsewhere = d.path().join("elsewhere");
+    std::fs::create_dir(&elsewhere).unwrap();
+    let est = d.path().join("est");
+    let o = run_in(&elsewhere, &["report", &s(&est)]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(!err.contains("without the pose reference"), "{err}");
+
+    // Moved: the path recorded is named, and how to point at it.
+    std::fs::rename(d.path().join("drive.mcap"), d.path().join("moved.mcap")).unwrap();
+    let o = run_in(&elsewhere, &["report", &s(&est)]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    let recorded = std::path::absolute(d.path().join("drive.mcap")).unwrap();
+    assert!(
+        err.contains(&format!(
+            "{} (recorded in {}) no longer exists",
+            recorded.display(),
+            est.join("summary.json").display()
+        )) && err.contains("--log"),
+        "{err}"
+    );
+}

@@ -121,9 +121,17 @@ pub(super) fn check_heading(pose: &mut Vec<PoseObs>, topic: &str, report: &mut I
     report.warnings.push(format!(
         "{topic}: heading left out: on {n} straight stretches it is {offset_deg:.1}° from the GNSS course with a scatter of {scatter:.1}°, {why}; the estimator learns the heading from the fixes (`[heading] topic = \"{topic}\"` keeps it)"
     ));
-    report.decisions.push(format!(
-        "{topic} heading left out: {offset_deg:.1}° from the GNSS course, scatter {scatter:.1}° over {n} stretches"
-    ));
+    let summary =
+        format!("{offset_deg:.1}° from the GNSS course, scatter {scatter:.1}° over {n} stretches");
+    for r in report.streams.iter_mut() {
+        if r.topic == topic && r.file == super::report::HEADING_FILE {
+            r.rows = 0;
+            r.left_out = Some(format!("heading {summary}; see the warning"));
+        }
+    }
+    report
+        .decisions
+        .push(format!("{topic} heading left out: {summary}"));
 }
 
 #[cfg(test)]
@@ -185,9 +193,29 @@ mod tests {
             let mut pose = drive(bias);
             let fixes = pose.iter().filter(|p| p.east.is_some()).count();
             let mut report = ImportReport::default();
+            let imu = crate::Topic {
+                name: "/imu".into(),
+                ty: "sensor_msgs/Imu".into(),
+                definition: String::new(),
+                count: 3000,
+            };
+            let times: Vec<f64> = (0..3000).map(|k| k as f64 * 0.1).collect();
+            let r = super::super::report::stream_report(
+                super::super::report::HEADING_FILE,
+                &imu,
+                &imu.ty,
+                &times,
+            );
+            report.streams.push(r);
             check_heading(&mut pose, "/imu", &mut report);
             let w = report.warnings.join("\n");
             assert!(w.contains("/imu: heading left out"), "{w}");
+            // The stream's line says so, not that it fed pose.csv.
+            let text = report.to_text();
+            assert!(
+                text.contains("/imu (sensor_msgs/Imu) -> pose.csv (yaw): left out ("),
+                "{text}"
+            );
             assert!(pose.iter().all(|p| p.yaw.is_none()));
             assert_eq!(pose.len(), fixes);
         }

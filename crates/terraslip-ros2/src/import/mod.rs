@@ -215,6 +215,7 @@ pub fn import(
         }
         Ok(())
     })?;
+    report.warnings.extend(bag.warnings.iter().cloned());
     report.warnings.extend(unphysical::warnings(&skipped));
     report.skipped = skipped;
 
@@ -233,7 +234,7 @@ pub fn import(
             let file = match role {
                 Role::Wheels => "wheels.csv",
                 Role::Pose => "pose.csv (east, north)",
-                Role::Heading => "pose.csv (yaw)",
+                Role::Heading => report::HEADING_FILE,
                 Role::Imu => "imu.csv",
                 Role::Images => "images.csv",
                 Role::Tf => "sensor mountings",

@@ -55,6 +55,7 @@ mod tests {
                 rate_hz: 0.0,
                 max_gap_s: 0.0,
                 gaps: 0,
+                left_out: None,
             }],
             ..Default::default()
         }

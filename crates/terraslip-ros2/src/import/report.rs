@@ -3,6 +3,9 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
+/// [`StreamReport::file`] of a heading topic's rows.
+pub(super) const HEADING_FILE: &str = "pose.csv (yaw)";
+
 /// What one log stream was made from.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct StreamReport {
@@ -20,6 +23,9 @@ pub struct StreamReport {
     pub max_gap_s: f64,
     /// Gaps longer than five median periods.
     pub gaps: u64,
+    /// Why the rows were left out of the log after all (a heading that
+    /// disagrees with the GNSS course); `None` when they are in it.
+    pub left_out: Option<String>,
 }
 
 /// What [`import`] did.
@@ -51,6 +57,14 @@ impl ImportReport {
     pub fn to_text(&self) -> String {
         let mut s = String::new();
         for r in &self.streams {
+            if let Some(why) = &r.left_out {
+                let _ = writeln!(
+                    s,
+                    "{} ({}) -> {}: left out ({why}), {} messages",
+                    r.topic, r.ty, r.file, r.messages
+                );
+                continue;
+            }
             let _ = writeln!(
                 s,
                 "{} ({}) -> {}: {} of {} messages, {:.1} Hz, longest gap {:.2} s{}",
@@ -109,5 +123,6 @@ pub(super) fn stream_report(
         },
         max_gap_s: max_gap,
         gaps,
+        left_out: None,
     }
 }

@@ -28,8 +28,7 @@ use crate::progress::Progress;
 #[derive(clap::Args, Debug)]
 #[command(after_help = after_help())]
 pub struct Args {
-    /// Log directory to read.
-    #[arg(required_unless_present = "print_config")]
+    #[arg(required_unless_present = "print_config", help = log_help!())]
     pub log: Option<PathBuf>,
     /// Output directory (created if missing); estimate.csv, summary.json and
     /// prediction.csv appear there only when complete.
@@ -144,9 +143,12 @@ pub fn run(args: Args) -> Result<()> {
         ],
     );
     inputs.check_dir("--out", out, &OUTPUTS)?;
+    let mut outputs = terraslip_io::Outputs::new();
+    outputs.dir("--out", out, &OUTPUTS)?;
     #[cfg(feature = "ros2")]
     if let Some(m) = &args.mcap {
         inputs.check("--mcap", m)?;
+        outputs.file("--mcap", m)?;
     }
     let cfg = load()?;
     // A plain log directory is streamed row by row; a terrain model needs
@@ -215,9 +217,11 @@ pub fn run(args: Args) -> Result<()> {
         mut summary,
         notes,
     } = result;
-    // The input as given (a bag's log lives in a temporary directory), and
-    // for a bag the topics it was read with: what `report` reads again.
-    summary["log"] = log_dir.display().to_string().into();
+    // The input, absolute so that `report` finds it from any directory (a
+    // bag's log lives in a temporary directory), and for a bag the topics
+    // it was read with: what `report` reads again.
+    let recorded = std::path::absolute(log_dir).unwrap_or_else(|_| log_dir.clone());
+    summary["log"] = recorded.display().to_string().into();
     if terraslip::bag::is_bag(log_dir) {
         summary["bag_topics"] = super::bag::topics_record()?;
     }

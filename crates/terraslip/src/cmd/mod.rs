@@ -1,5 +1,23 @@
 use std::path::{Path, PathBuf};
 
+/// The help of every LOG argument: what it takes.
+#[cfg(feature = "ros2")]
+macro_rules! log_help {
+    () => {
+        "A log directory (wheels.csv, pose.csv, meta.toml: docs/log-format.md) or a rosbag2 \
+         recording: a bag directory or one .mcap or .db3 file (MCAP or sqlite3 storage). A \
+         bag's topics are chosen by their types, each choice printed as a `decided:` line; \
+         --topics FILE.toml chooses them (see `terraslip import --help`)."
+    };
+}
+#[cfg(not(feature = "ros2"))]
+macro_rules! log_help {
+    () => {
+        "A log directory (wheels.csv, pose.csv, meta.toml: docs/log-format.md); ROS 2 bags \
+         need a build with the `ros2` feature."
+    };
+}
+
 pub mod bag;
 pub mod calibrate;
 pub mod demo;
@@ -40,9 +58,4 @@ pub fn inputs_with(logs: &[PathBuf], files: &[(&str, Option<&Path>)]) -> terrasl
         }
     }
     inputs
-}
-
-/// Whether two output paths name the same file.
-pub fn resolved_same(a: &Path, b: &Path) -> bool {
-    terraslip_io::guard::resolve(a) == terraslip_io::guard::resolve(b)
 }

@@ -24,8 +24,11 @@ use terraslip::bag::Topics;
 pub struct Args {
     /// Directory written by `terraslip estimate`.
     pub estimate: PathBuf,
-    /// The log the estimate was run on (default: the "log" in summary.json).
-    #[arg(long, value_name = "LOG")]
+    #[arg(
+        long,
+        value_name = "LOG",
+        help = concat!("The log or bag the estimate was run on (default: the \"log\" recorded in summary.json; give it when that moved). ", log_help!())
+    )]
     pub log: Option<PathBuf>,
     /// Where to write report.html and the SVG plots (default: ESTIMATE).
     #[arg(long, value_name = "DIR")]
@@ -47,6 +50,7 @@ pub fn run(a: Args) -> Result<()> {
         Err(_) => None,
     };
     let field = |k: &str| summary.as_ref().and_then(|s| s.get(k).cloned());
+    let given = a.log.is_some();
     let log_dir = a
         .log
         .or_else(|| field("log").and_then(|v| v.as_str().map(PathBuf::from)));
@@ -85,9 +89,16 @@ pub fn run(a: Args) -> Result<()> {
             }
             Some(log)
         }
+        Some(dir) if given => {
+            eprintln!(
+                "warning: --log {} does not exist; drawing without the pose reference",
+                dir.display()
+            );
+            None
+        }
         Some(dir) => {
             eprintln!(
-                "warning: log {} (from {}) does not exist; drawing without the pose reference (pass --log)",
+                "warning: log {} (recorded in {}) no longer exists (moved or renamed?); drawing without the pose reference; give its new place with --log PATH",
                 dir.display(),
                 summary_path.display()
             );

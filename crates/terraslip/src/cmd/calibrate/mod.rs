@@ -79,8 +79,11 @@ pub struct Args {
     #[command(subcommand)]
     #[serde(skip)]
     command: Option<Sub>,
-    /// Log directories (wheels.csv + pose.csv, optional terrain.csv, meta.toml).
-    #[arg(required_unless_present = "print_config", value_name = "LOG")]
+    #[arg(
+        required_unless_present = "print_config",
+        value_name = "LOG",
+        help = concat!("One or more drives, each with a pose reference (terrain.csv labels give one parameter set per terrain). ", log_help!())
+    )]
     #[serde(skip)]
     logs: Vec<PathBuf>,
     /// Where to write the parameters (JSON, read by `estimate --init`).
@@ -419,9 +422,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     #[cfg(feature = "ros2")]
     if let Some(p) = &args.ros2_params {
         inputs.check("--ros2-params", p)?;
-        if super::resolved_same(p, &out) {
-            bail!("--ros2-params {}: the same file as --out", p.display());
-        }
+        terraslip_io::Outputs::new()
+            .file("--out", &out)?
+            .file("--ros2-params", p)?;
     }
     let logs = read_logs(&args.logs)?;
     let bar = progress::Progress::new(0, "generations");

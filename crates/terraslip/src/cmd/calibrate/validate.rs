@@ -22,7 +22,11 @@ enum ModelArg {
 
 #[derive(clap::Args)]
 pub(super) struct ValidateArgs {
-    #[arg(required = true, value_name = "LOG")]
+    #[arg(
+        required = true,
+        value_name = "LOG",
+        help = concat!("One or more drives to score, each with a pose reference. ", log_help!())
+    )]
     logs: Vec<PathBuf>,
     /// Parameters file written by `terraslip calibrate`.
     #[arg(long, required = true, value_name = "PARAMS")]

@@ -10,14 +10,22 @@ pose through the gap:
 * odometry: the recorded odometry twist, v = (v_l+v_r)/2, w = (v_r-v_l)/S, S
   the controller's separation the log was imported with;
 * gyro (when imu.csv has gyro_z): the odometry's v along the raw gyro's
-  heading, the gyro moved onto the wheels' clock by the delay `estimate`
+  heading, the gyro moved onto the wheels' clock (later) by the delay `estimate`
   reports (summary.json gyro.wheels_late_by_s), its bias not removed.
 
 Each is scored by the RMS horizontal distance to the held-out fixes. Prints
 one line per window, then the mean over windows and how many windows the
 estimate wins against each. Pure Python.
 
-usage: ros2-gap-check.py TERRASLIP LOG S [LENGTH_S] [T0 ...] [-- ESTIMATE_ARGS ...]
+With `--split` each error is also split along the track's own direction at
+the fix: along-track (+ ahead of the fix: too far; the distance, a speed
+factor) and cross-track (the heading); each line then gives both RMS, the
+gap's distance by the fixes (chords of about 5 s summed, first to last
+held-out fix) and by each track over the same times, and the estimate's
+mean speed factor over the gap. The means give RMS over all held-out fixes
+of all gaps and the sums of distance.
+
+usage: ros2-gap-check.py TERRASLIP LOG S [LENGTH_S] [T0 ...] [--split] [-- ESTIMATE_ARGS ...]
 (ESTIMATE_ARGS, e.g. `--init params.json`, are passed to every `estimate`;
 T0 defaults to 60 120 180 240 300.)
 """
@@ -46,6 +54,13 @@ def dead_reckon(tw, speed, rate, k, t1, pose):
     return track
 
 
+def on_wheels_clock(gyro, late):
+    """The gyro's (t, rate) samples as times on the wheels' clock and rates:
+    the wheels are stamped `late` s after the gyro sees the same turn, so a
+    gyro sample stamped t belongs with the wheels row stamped t + late."""
+    return [t + late for t, _ in gyro], [g for _, g in gyro]
+
+
 def rms_to_fixes(track, fixes, t0, t1):
     ts = [p[0] for p in track]
     xs = [p[1] for p in track]
@@ -55,11 +70,58 @@ def rms_to_fixes(track, fixes, t0, t1):
     return math.sqrt(sum(e * e for e in err) / len(err)), len(err)
 
 
+def split_errors(track, fixes, t0, t1):
+    """Each held-out fix's error split along the track's direction there:
+    (along, cross) lists in m, along + when the track is ahead."""
+    ts = [p[0] for p in track]
+    xs = [p[1] for p in track]
+    ys = [p[2] for p in track]
+    along, cross = [], []
+    for t, e, n in fixes:
+        if not (t0 <= t < t1 and ts and ts[0] <= t <= ts[-1]):
+            continue
+        dx = interp(ts, xs, t + 0.5) - interp(ts, xs, t - 0.5)
+        dy = interp(ts, ys, t + 0.5) - interp(ts, ys, t - 0.5)
+        norm = math.hypot(dx, dy)
+        if norm < 0.05:
+            continue  # standing: no direction of travel
+        ex, ey = interp(ts, xs, t) - e, interp(ts, ys, t) - n
+        along.append((ex * dx + ey * dy) / norm)
+        cross.append((ey * dx - ex * dy) / norm)
+    return along, cross
+
+
+def distances(track, fixes, t0, t1, chord_s=5.0):
+    """The gap's distance by the fixes and by the track over the same times:
+    chords of about `chord_s` between held-out fixes, summed."""
+    ts = [p[0] for p in track]
+    xs = [p[1] for p in track]
+    ys = [p[2] for p in track]
+    inside = [f for f in fixes if t0 <= f[0] < t1 and ts and ts[0] <= f[0] <= ts[-1]]
+    d_fix = d_track = 0.0
+    j = 0
+    for i in range(1, len(inside)):
+        if inside[i][0] - inside[j][0] < chord_s and i < len(inside) - 1:
+            continue
+        a, b = inside[j], inside[i]
+        d_fix += math.hypot(b[1] - a[1], b[2] - a[2])
+        d_track += math.hypot(interp(ts, xs, b[0]) - interp(ts, xs, a[0]),
+                              interp(ts, ys, b[0]) - interp(ts, ys, a[0]))
+        j = i
+    return d_fix, d_track
+
+
+def rms_of(values):
+    return math.sqrt(sum(v * v for v in values) / len(values)) if values else float("nan")
+
+
 def main():
     argv, extra = sys.argv, []
     if "--" in argv:
         k = argv.index("--")
         argv, extra = argv[:k], argv[k + 1:]
+    split = "--split" in argv
+    argv = [a for a in argv if a != "--split"]
     exe, log, sep = argv[1], argv[2], float(argv[3])
     length = float(argv[4]) if len(argv) > 4 else 30.0
     starts = [float(x) for x in argv[5:]] or [60, 120, 180, 240, 300]
@@ -74,12 +136,16 @@ def main():
     gyro = [(float(r["t"]), float(r["gyro_z"])) for r in imu if r.get("gyro_z")]
     names = ["estimate", "odometry"] + (["gyro"] if gyro else [])
     tot = {n: [] for n in names}
+    parts = {n: ([], []) for n in names}
+    dist = {n: 0.0 for n in names + ["fixes"]}
     for t0 in starts:
         t1 = t0 + length
         with tempfile.TemporaryDirectory() as d:
             subprocess.run([exe, "estimate", log, "--out", d, "--outage", f"{t0},{t1}"] + extra,
                            check=True, stderr=subprocess.DEVNULL)
             est = rows(d, "estimate.csv")
+            alpha = [0.5 * (float(r["alpha_l"]) + float(r["alpha_r"]))
+                     for r in est if t0 <= float(r["t"]) < t1]
             with open(os.path.join(d, "summary.json")) as f:
                 late = (json.load(f).get("gyro") or {}).get("wheels_late_by_s", 0.0)
         k = max(i for i, t in enumerate(tw) if t <= t0)
@@ -91,8 +157,7 @@ def main():
                                     lambda i: (vr[i] - vl[i]) / sep, k, t1, start),
         }
         if gyro:
-            tg = [t - late for t, _ in gyro]
-            gz = [g for _, g in gyro]
+            tg, gz = on_wheels_clock(gyro, late)
             tracks["gyro"] = dead_reckon(tw, lambda i: (vl[i] + vr[i]) / 2,
                                          lambda i: interp(tg, gz, tw[i]), k, t1, start)
         line, n_fixes = [], 0
@@ -100,12 +165,30 @@ def main():
             rms, n_fixes = rms_to_fixes(tracks[n], fixes, t0, t1)
             tot[n].append(rms)
             line.append(f"{n} {rms:.2f} m")
+            if split:
+                along, cross = split_errors(tracks[n], fixes, t0, t1)
+                parts[n][0].extend(along)
+                parts[n][1].extend(cross)
+                d_fix, d_track = distances(tracks[n], fixes, t0, t1)
+                dist["fixes"] += d_fix if n == "estimate" else 0.0
+                dist[n] += d_track
+                line[-1] += (f" (along {rms_of(along):.2f}, cross {rms_of(cross):.2f},"
+                             f" {d_track:.1f} m against the fixes' {d_fix:.1f} m)")
+        if split and alpha:
+            line.append(f"estimate's speed factor {sum(alpha) / len(alpha):.3f}")
         print(f"gap [{t0:.0f}, {t1:.0f}) s, {n_fixes} held-out fixes, RMS: " + ", ".join(line))
     count = len(starts)
     means = ", ".join(f"{n} {sum(tot[n]) / count:.2f} m" for n in names)
     wins = ", ".join(f"against {n} {sum(e <= b for e, b in zip(tot['estimate'], tot[n]))}/{count}"
                      for n in names[1:])
     print(f"mean over {count} gaps: {means}; the estimate wins {wins}")
+    if split:
+        for n in names:
+            along, cross = parts[n]
+            print(f"{n}: along-track RMS {rms_of(along):.2f} m (mean {sum(along) / len(along):+.2f} m),"
+                  f" cross-track RMS {rms_of(cross):.2f} m (mean {sum(cross) / len(cross):+.2f} m),"
+                  f" {dist[n]:.0f} m travelled against the fixes' {dist['fixes']:.0f} m"
+                  f" ({dist[n] / dist['fixes']:.3f})")
 
 
 if __name__ == "__main__":

@@ -11,7 +11,13 @@ speed is right; an online speed factor should sit near it):
 - consecutive windows of W s (default 20) over the whole drive: the fixes'
   chord over the chord of the odometry dead-reckoned with the heading
   (v_r - v_l) / S_TURN (default 1.04 m, the turn the Husky's course check
-  gives for S = 1 m).
+  gives for S = 1 m);
+- a least-squares speed factor from chords of 5 s and 10 s over the whole
+  drive (consecutive, the odometry's chord over 2 m): fixes' chord = k x
+  odometry's chord, each fix chord's squared length less the fixes' white
+  noise (4 sigma^2, sigma from their second differences), with a 90 %
+  interval from resampling 30 s blocks (the fixes' error wanders over tens
+  of seconds, so chords are not independent).
 
 With ESTIMATE (an `estimate --out` directory) each window also shows the
 filter's mean speed factor over it. Pure Python.
@@ -94,10 +100,45 @@ def main():
         a = b
     if odo_sum > 0:
         print(f"  windows: {fix_sum:.1f} / {odo_sum:.1f} m = {fix_sum / odo_sum:.4f}")
+    chord_fit(tw, x, y, tp, e, n)
     if alpha:
         ts, vs = alpha
         later = [v for t, v in zip(ts, vs) if t >= 30.0]
         print(f"filter speed factor: mean after 30 s {sum(later) / len(later):.3f}, final {vs[-1]:.3f}")
+
+
+def chord_fit(tw, x, y, tp, e, n, chords=(5.0, 10.0), block_s=30.0, resamples=2000):
+    """Print the least-squares factor fixes' chord / odometry chord and its
+    90 % block-bootstrap interval, for each chord length in `chords`."""
+    import random
+
+    d2 = [(e[i + 1] - 2 * e[i] + e[i - 1]) ** 2 + (n[i + 1] - 2 * n[i] + n[i - 1]) ** 2
+          for i in range(1, len(tp) - 1)]
+    sigma = math.sqrt(sum(d2) / len(d2) / 12.0)  # per axis: a second difference has 6 sigma^2 per axis
+    for length in chords:
+        pairs = []
+        a = max(tp[0], tw[0])
+        while a + length <= min(tp[-1], tw[-1]):
+            b = a + length
+            o = math.hypot(interp(tw, x, b) - interp(tw, x, a), interp(tw, y, b) - interp(tw, y, a))
+            if o > 2.0:
+                c2 = (interp(tp, e, b) - interp(tp, e, a)) ** 2 + (interp(tp, n, b) - interp(tp, n, a)) ** 2
+                pairs.append((a, math.sqrt(max(c2 - 4 * sigma * sigma, 0.0)), o))
+            a = b
+
+        def fit(sample):
+            return sum(c * o for _, c, o in sample) / sum(o * o for _, _, o in sample)
+
+        blocks = {}
+        for p in pairs:
+            blocks.setdefault(int(p[0] // block_s), []).append(p)
+        keys = sorted(blocks)
+        rng = random.Random(1)
+        boot = sorted(fit([p for k in (rng.choice(keys) for _ in keys) for p in blocks[k]])
+                      for _ in range(resamples))
+        print(f"{length:.0f} s chords, least squares: fixes = {fit(pairs):.3f} x odometry, 90 % "
+              f"{boot[int(0.05 * resamples)]:.3f}-{boot[int(0.95 * resamples)]:.3f} "
+              f"({len(pairs)} chords in {len(keys)} blocks of {block_s:.0f} s; white noise {sigma:.2f} m per axis)")
 
 
 if __name__ == "__main__":

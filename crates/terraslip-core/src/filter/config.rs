@@ -223,18 +223,6 @@ pub struct FilterConfig {
     /// on gravel). The starting value: the filter learns it from the heading
     /// innovations (`noise_memory`).
     pub q_yaw_per_rate2: f64,
-    /// Speed floor of the position model noise, m/s: while moving the
-    /// noise grows as `q_pos_per_speed2 (v^2 + floor^2) dt`.
-    pub model_speed_floor: f64,
-    /// Yaw rate floor of the heading model noise, rad/s: while moving the
-    /// noise grows as `q_yaw_per_rate2 (omega^2 + floor^2) dt`.
-    pub model_rate_floor: f64,
-    /// Speed knee of the position model noise, m/s: the noise grows as
-    /// `q_pos_per_speed2 (v^2 + knee |v|) dt`.
-    pub model_speed_knee: f64,
-    /// Yaw rate knee of the heading model noise, rad/s: the noise grows
-    /// as `q_yaw_per_rate2 (omega^2 + knee |omega|) dt`.
-    pub model_rate_knee: f64,
     /// Random walk of the slip parameters while moving: std growth per
     /// square-root second of spread (m), centre (m), x_c (m), common speed
     /// factor and factor difference.
@@ -307,10 +295,6 @@ impl Default for FilterConfig {
             q_pos_per_speed2: 1e-3,
             q_yaw: 1e-6,
             q_yaw_per_rate2: 1e-3,
-            model_speed_floor: 0.0,
-            model_rate_floor: 0.0,
-            model_speed_knee: 0.0,
-            model_rate_knee: 0.0,
             slip_walk: SlipStd {
                 spread: 2e-3,
                 centre: 3e-4,
@@ -382,7 +366,7 @@ impl FilterConfig {
     /// Checks every setting; the error names the key.
     pub fn validate(&self) -> Result<(), FilterError> {
         let finite_nonneg = |v: f64| v.is_finite() && v >= 0.0;
-        let checks: [(&'static str, bool); 21] = [
+        let checks: [(&'static str, bool); 17] = [
             (
                 "filter.innovation_window must be 1..=64",
                 (1..=MAX_WINDOW).contains(&self.innovation_window),
@@ -406,22 +390,6 @@ impl FilterConfig {
             (
                 "filter.q_yaw_per_rate2 must be finite and >= 0",
                 finite_nonneg(self.q_yaw_per_rate2),
-            ),
-            (
-                "filter.model_speed_floor must be finite and >= 0",
-                finite_nonneg(self.model_speed_floor),
-            ),
-            (
-                "filter.model_rate_floor must be finite and >= 0",
-                finite_nonneg(self.model_rate_floor),
-            ),
-            (
-                "filter.model_speed_knee must be finite and >= 0",
-                finite_nonneg(self.model_speed_knee),
-            ),
-            (
-                "filter.model_rate_knee must be finite and >= 0",
-                finite_nonneg(self.model_rate_knee),
             ),
             (
                 "filter.slip_walk entries must be finite and >= 0",

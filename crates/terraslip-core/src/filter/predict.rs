@@ -66,13 +66,12 @@ impl Filter {
         let v = 0.5 * (v_left + v_right);
         let w = twist.omega;
         let (q_speed, q_turn) = self.model_noise();
-        let (b_speed, b_turn) = self.model_noise_basis(v, w);
-        let q_xy = dt * (cfg.q_pos + q_speed * b_speed);
+        let q_xy = dt * (cfg.q_pos + q_speed * v * v);
         P[(EAST, EAST)] += q_xy;
         P[(NORTH, NORTH)] += q_xy;
         // The model's heading error over the step; the yaw takes it once
         // it is known.
-        let q_model = dt * (cfg.q_yaw + q_turn * b_turn);
+        let q_model = dt * (cfg.q_yaw + q_turn * w * w);
         let q_yaw = if self.anchored[1] { q_model } else { 0.0 };
         P[(YAW, YAW)] += q_yaw;
         if self.gyro_win.is_open() {
@@ -137,26 +136,9 @@ impl Filter {
         self.tread = u;
         self.last_step = (dt, q_model, q_yaw);
         self.history.push(dt, u, self.law_input);
-        self.basis[0] += b_speed * dt;
-        self.basis[1] += b_turn * dt;
+        self.basis[0] += v * v * dt;
+        self.basis[1] += w * w * dt;
         Ok(())
-    }
-
-    /// The model noise's growth per second per unit intensity at forward
-    /// speed `v` (m/s) and yaw rate `w` (rad/s): `v^2 + k_v |v| + v0^2` for
-    /// the position, (m/s)^2, and `w^2 + k_w |w| + w0^2` for the heading,
-    /// (rad/s)^2; the floors `v0`, `w0` while moving only.
-    fn model_noise_basis(&self, v: f64, w: f64) -> (f64, f64) {
-        let (v0, w0) = if self.still {
-            (0.0, 0.0)
-        } else {
-            (self.cfg.model_speed_floor, self.cfg.model_rate_floor)
-        };
-        let (kv, kw) = (self.cfg.model_speed_knee, self.cfg.model_rate_knee);
-        (
-            v * v + kv * libm::fabs(v) + v0 * v0,
-            w * w + kw * libm::fabs(w) + w0 * w0,
-        )
     }
 
     /// The turn laws' inputs at a step whose tread speed difference

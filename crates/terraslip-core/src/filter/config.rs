@@ -223,10 +223,6 @@ pub struct FilterConfig {
     /// on gravel). The starting value: the filter learns it from the heading
     /// innovations (`noise_memory`).
     pub q_yaw_per_rate2: f64,
-    /// Learn a model noise per second moving beside the per-speed and
-    /// per-rate ones (position m^2/s, heading rad^2/s; starting at `q_pos`
-    /// and `q_yaw`).
-    pub learn_model_floor: bool,
     /// Random walk of the slip parameters while moving: std growth per
     /// square-root second of spread (m), centre (m), x_c (m), common speed
     /// factor and factor difference.
@@ -299,7 +295,6 @@ impl Default for FilterConfig {
             q_pos_per_speed2: 1e-3,
             q_yaw: 1e-6,
             q_yaw_per_rate2: 1e-3,
-            learn_model_floor: false,
             slip_walk: SlipStd {
                 spread: 2e-3,
                 centre: 3e-4,

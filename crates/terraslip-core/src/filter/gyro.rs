@@ -222,7 +222,7 @@ impl Filter {
             // (Capped: before the gate applies, one window counts a gate's
             // worth at most.)
             self.gyro_noise
-                .add((nu * nu).min(self.cfg.gate_yaw * s), s, r_nom, 0.0, 0.0);
+                .add((nu * nu).min(self.cfg.gate_yaw * s), s, r_nom, 0.0);
         } else {
             // The model missed the window's turn by more than its assumed
             // heading error allows (new ground, a spin): that error was

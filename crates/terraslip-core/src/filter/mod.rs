@@ -193,8 +193,6 @@ pub struct Filter {
     /// Their bases accumulated since the last position / heading fix:
     /// `sum(v^2 dt)`, `sum(omega^2 dt)`.
     basis: [f64; 2],
-    /// Seconds moved since the last fix of each kind (position, heading).
-    moved: [f64; 2],
     /// Whether a fix of each kind has set the sensor noise's prior yet.
     noise_started: [bool; 2],
     /// Std of the correlated part of the position error in effect, m.
@@ -358,11 +356,11 @@ impl Filter {
             .slip_walk_cov(&icr0)
             .ok_or(FilterError::BadInput("prior ICR parameters are singular"))?;
         let learn = cfg.noise_memory > 0.0;
-        let fit = |model: f64, floor: f64| {
+        let fit = |model: f64| {
             if learn {
-                NoiseFit::new(1.0, STATED_WEIGHT, model, floor, MODEL_WEIGHT)
+                NoiseFit::new(1.0, STATED_WEIGHT, model, MODEL_WEIGHT)
             } else {
-                NoiseFit::fixed(1.0, model, floor)
+                NoiseFit::fixed(1.0, model)
             }
         };
         Ok(Self {
@@ -378,12 +376,8 @@ impl Filter {
             law_input: model::LawInputs::default(),
             still: true,
             history: History::new(),
-            noise: [
-                fit(cfg.q_pos_per_speed2, cfg.q_pos),
-                fit(cfg.q_yaw_per_rate2, cfg.q_yaw),
-            ],
+            noise: [fit(cfg.q_pos_per_speed2), fit(cfg.q_yaw_per_rate2)],
             basis: [0.0; 2],
-            moved: [0.0; 2],
             noise_started: [false; 2],
             bias_std: 0.0,
             detector: [Detector::new(), Detector::new(), Detector::new()],
@@ -395,7 +389,7 @@ impl Filter {
             rejected: [0; 2],
             last_fix_t: None,
             window: adaptive::InnovationWindow::new(),
-            gyro_noise: fit(cfg.q_yaw_per_rate2, cfg.q_yaw),
+            gyro_noise: fit(cfg.q_yaw_per_rate2),
             gyro_seen: false,
             gyro_win: gyro::GyroWindow::new(),
             last_step: (0.0, 0.0, 0.0),
@@ -573,17 +567,6 @@ impl Filter {
     /// of the model's speed and yaw rate over one second.
     pub fn model_noise(&self) -> (f64, f64) {
         (self.noise[0].model(), self.noise[1].model())
-    }
-
-    /// The model noise per second moving, whatever the speed and turn
-    /// rate: position (m^2/s) and heading (rad^2/s); zero where it is not
-    /// learned (`filter.learn_model_floor`).
-    pub fn model_noise_floor(&self) -> (f64, f64) {
-        if self.cfg.learn_model_floor && !self.still {
-            (self.noise[0].floor(), self.noise[1].floor())
-        } else {
-            (0.0, 0.0)
-        }
     }
 
     /// Whether position and heading have been anchored on a fix yet.

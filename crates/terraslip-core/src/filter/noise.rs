@@ -18,7 +18,7 @@
 //! cannot lock out the fixes that would correct it. Forgetting lowers the
 //! weight of old evidence, never its value.
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix2, Vector2};
 
 /// A sample weighs at most this many times the running mean weight.
 const WEIGHT_CAP: f64 = 100.0;
@@ -31,24 +31,20 @@ const MIN_WEIGHT: f64 = 10.0;
 /// Intensities kept within `[1e-8, 1e8]` times their start.
 const LIMIT: f64 = 1e8;
 
-/// Parts of the fit: the sensor scale, the model intensity per unit
-/// squared speed (rate), the model intensity per second moving.
-const PARTS: usize = 3;
-
-/// The sensor scale and model intensities of one kind of fix.
+/// The sensor scale and model intensity of one kind of fix.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct NoiseFit {
     /// Normal equations of the data.
-    m: Matrix3<f64>,
-    v: Vector3<f64>,
+    m: Matrix2<f64>,
+    v: Vector2<f64>,
     /// Running mean of the sample weights.
     mean_weight: f64,
     /// Whether each part's prior has been placed among the data yet.
-    placed: [bool; PARTS],
+    placed: [bool; 2],
     /// Weight of the priors, in fixes.
-    weight0: Vector3<f64>,
-    start: Vector3<f64>,
-    theta: Vector3<f64>,
+    weight0: Vector2<f64>,
+    start: Vector2<f64>,
+    theta: Vector2<f64>,
     /// Weight of the data, in fixes.
     count: f64,
     learns: bool,
@@ -56,22 +52,15 @@ pub(super) struct NoiseFit {
 
 impl NoiseFit {
     /// Starts at sensor scale `sensor` (worth `sensor_weight` fixes) and
-    /// model intensities `model` (per unit basis) and `floor` (per second
-    /// moving), each worth `model_weight` fixes.
-    pub(super) fn new(
-        sensor: f64,
-        sensor_weight: f64,
-        model: f64,
-        floor: f64,
-        model_weight: f64,
-    ) -> Self {
-        let start = Vector3::new(sensor.max(1e-30), model.max(1e-30), floor.max(1e-30));
+    /// model intensity `model` (worth `model_weight` fixes).
+    pub(super) fn new(sensor: f64, sensor_weight: f64, model: f64, model_weight: f64) -> Self {
+        let start = Vector2::new(sensor.max(1e-30), model.max(1e-30));
         Self {
-            m: Matrix3::zeros(),
-            v: Vector3::zeros(),
+            m: Matrix2::zeros(),
+            v: Vector2::zeros(),
             mean_weight: 0.0,
-            placed: [false; PARTS],
-            weight0: Vector3::new(sensor_weight, model_weight, model_weight),
+            placed: [false; 2],
+            weight0: Vector2::new(sensor_weight, model_weight),
             start,
             theta: start,
             count: 0.0,
@@ -80,10 +69,10 @@ impl NoiseFit {
     }
 
     /// A fit that stays at its start (no learning).
-    pub(super) fn fixed(sensor: f64, model: f64, floor: f64) -> Self {
+    pub(super) fn fixed(sensor: f64, model: f64) -> Self {
         Self {
             learns: false,
-            ..Self::new(sensor, 1.0, model, floor, 1.0)
+            ..Self::new(sensor, 1.0, model, 1.0)
         }
     }
 
@@ -92,14 +81,9 @@ impl NoiseFit {
         self.theta[0]
     }
 
-    /// Model intensity per unit basis.
+    /// Model intensity.
     pub(super) fn model(&self) -> f64 {
         self.theta[1]
-    }
-
-    /// Model intensity per second moving.
-    pub(super) fn floor(&self) -> f64 {
-        self.theta[2]
     }
 
     /// Evidence behind the fit, fixes (priors included; infinite for a
@@ -138,13 +122,13 @@ impl NoiseFit {
     }
 
     /// Adds one innovation dimension: `nu2` its (capped) square, `s` its
-    /// predicted variance, `r` the stated sensor variance, `b` the model
-    /// basis since the previous fix and `moving` the seconds moved since.
-    pub(super) fn add(&mut self, nu2: f64, s: f64, r: f64, b: f64, moving: f64) {
-        if !(self.learns && s > 0.0 && nu2.is_finite() && r > 0.0 && b >= 0.0 && moving >= 0.0) {
+    /// predicted variance, `r` the stated sensor variance and `b` the model
+    /// basis since the previous fix.
+    pub(super) fn add(&mut self, nu2: f64, s: f64, r: f64, b: f64) {
+        if !(self.learns && s > 0.0 && nu2.is_finite() && r > 0.0 && b >= 0.0) {
             return;
         }
-        let x = Vector3::new(r, b, moving);
+        let x = Vector2::new(r, b);
         // Weighted by the inverse variance of nu^2 (samples buried under the
         // state's own uncertainty count little), capped at a multiple of
         // the running mean weight so that no transient of the fit can weigh
@@ -158,7 +142,7 @@ impl NoiseFit {
         } else {
             w
         };
-        for k in 0..PARTS {
+        for k in 0..2 {
             if !self.placed[k] && x[k] > 0.0 {
                 // The prior as pseudo-observations of this part alone, as
                 // heavy as this sample; they age like data.
@@ -178,47 +162,27 @@ impl NoiseFit {
     }
 
     fn solve(&mut self) {
-        // Parts held at a value: at the start while nothing is known about
-        // them, at the floor when fitted below it (the others then fitted
-        // alone).
-        let mut held: [Option<f64>; PARTS] = [None; PARTS];
-        for (k, h) in held.iter_mut().enumerate() {
-            if self.m[(k, k)] <= 0.0 {
-                *h = Some(self.start[k]);
+        let mut m = self.m;
+        let mut v = self.v;
+        for k in 0..2 {
+            if m[(k, k)] <= 0.0 {
+                // Nothing about this part yet: hold it at its start.
+                m[(k, k)] = 1.0;
+                v[k] = self.start[k];
             }
         }
-        let mut theta = self.theta;
-        for _ in 0..PARTS {
-            let mut m = self.m;
-            let mut v = self.v;
-            for (k, h) in held.iter().enumerate() {
-                if let Some(value) = *h {
-                    for i in 0..PARTS {
-                        v[i] -= m[(i, k)] * value;
-                        m[(i, k)] = 0.0;
-                        m[(k, i)] = 0.0;
-                    }
-                    m[(k, k)] = 1.0;
-                    v[k] = value;
-                }
-            }
-            let Some(inv) = m.try_inverse() else {
-                return;
-            };
-            theta = inv * v;
-            // Non-negative: the part furthest below its floor is held there.
-            let below = (0..PARTS)
-                .filter(|&k| held[k].is_none() && !(theta[k] >= self.start[k] / LIMIT))
-                .min_by(|&a, &b| {
-                    let (ra, rb) = (theta[a] / self.start[a], theta[b] / self.start[b]);
-                    ra.partial_cmp(&rb).unwrap_or(core::cmp::Ordering::Equal)
-                });
-            match below {
-                Some(k) => held[k] = Some(self.start[k] / LIMIT),
-                None => break,
+        let mut theta = m.try_inverse().map_or(self.theta, |inv| inv * v);
+        // Non-negative: a part fitted below its floor is held there and the
+        // other is fitted alone.
+        for k in 0..2 {
+            let floor = self.start[k] / LIMIT;
+            if !(theta[k] >= floor) {
+                let o = 1 - k;
+                theta[k] = floor;
+                theta[o] = (v[o] - m[(o, k)] * floor) / m[(o, o)];
             }
         }
-        for k in 0..PARTS {
+        for k in 0..2 {
             theta[k] = theta[k].clamp(self.start[k] / LIMIT, self.start[k] * LIMIT);
         }
         if theta.iter().all(|v| v.is_finite()) {
@@ -237,13 +201,13 @@ mod tests {
         // basis of each fix (turning between fixes, or none), starting far
         // from both.
         let mut rng = crate::rng::SplitMix64::new(3);
-        let mut fit = NoiseFit::new(1.0, 1e-3, 1e-4, 1e-4, 1.0);
+        let mut fit = NoiseFit::new(1.0, 1e-3, 1e-4, 1.0);
         for i in 0..5_000 {
             let b = if i % 3 == 0 { 0.0 } else { 2.0 * rng.uniform() };
             let var = 0.01 + 0.04 * b;
             let nu = var.sqrt() * rng.normal();
             let s = fit.sensor() + fit.model() * b;
-            fit.add(nu * nu, s, 1.0, b, 0.0);
+            fit.add(nu * nu, s, 1.0, b);
             fit.forget(0.999);
         }
         assert!((fit.sensor() / 0.01 - 1.0).abs() < 0.15, "{}", fit.sensor());
@@ -253,11 +217,11 @@ mod tests {
     #[test]
     fn learns_a_sensor_far_from_its_guess_at_once() {
         let mut rng = crate::rng::SplitMix64::new(5);
-        let mut fit = NoiseFit::new(1.0, 1e-3, 1e-3, 1e-3, 1.0);
+        let mut fit = NoiseFit::new(1.0, 1e-3, 1e-3, 1.0);
         for _ in 0..30 {
             let nu = 0.03 * rng.normal();
             let s = fit.sensor();
-            fit.add(nu * nu, s, 1.0, 0.0, 0.0);
+            fit.add(nu * nu, s, 1.0, 0.0);
         }
         assert!(fit.sensor() < 3.0 * 0.03f64.powi(2), "{}", fit.sensor());
         assert_eq!(fit.model(), 1e-3);
@@ -265,9 +229,9 @@ mod tests {
 
     #[test]
     fn forgetting_follows_a_sensor_that_changes() {
-        let mut fit = NoiseFit::new(1.0, 2.0, 1e-3, 1e-3, 1.0);
+        let mut fit = NoiseFit::new(1.0, 2.0, 1e-3, 1.0);
         for _ in 0..500 {
-            fit.add(100.0, fit.sensor(), 1.0, 0.0, 0.0);
+            fit.add(100.0, fit.sensor(), 1.0, 0.0);
             fit.forget(0.99);
         }
         assert!(fit.sensor() > 50.0, "{}", fit.sensor());
@@ -276,11 +240,11 @@ mod tests {
         }
         assert!(fit.sensor() > 50.0, "{}", fit.sensor());
         for _ in 0..1000 {
-            fit.add(0.01, fit.sensor(), 1.0, 0.0, 0.0);
+            fit.add(0.01, fit.sensor(), 1.0, 0.0);
             fit.forget(0.99);
         }
         assert!(fit.sensor() < 0.02, "{}", fit.sensor());
-        let f = NoiseFit::fixed(2.0, 0.5, 0.1);
-        assert_eq!((f.sensor(), f.model(), f.floor()), (2.0, 0.5, 0.1));
+        let f = NoiseFit::fixed(2.0, 0.5);
+        assert_eq!((f.sensor(), f.model()), (2.0, 0.5));
     }
 }

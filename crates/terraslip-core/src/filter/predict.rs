@@ -66,13 +66,12 @@ impl Filter {
         let v = 0.5 * (v_left + v_right);
         let w = twist.omega;
         let (q_speed, q_turn) = self.model_noise();
-        let (f_pos, f_yaw) = self.model_noise_floor();
-        let q_xy = dt * (cfg.q_pos + q_speed * v * v + f_pos);
+        let q_xy = dt * (cfg.q_pos + q_speed * v * v);
         P[(EAST, EAST)] += q_xy;
         P[(NORTH, NORTH)] += q_xy;
         // The model's heading error over the step; the yaw takes it once
         // it is known.
-        let q_model = dt * (cfg.q_yaw + q_turn * w * w + f_yaw);
+        let q_model = dt * (cfg.q_yaw + q_turn * w * w);
         let q_yaw = if self.anchored[1] { q_model } else { 0.0 };
         P[(YAW, YAW)] += q_yaw;
         if self.gyro_win.is_open() {
@@ -139,10 +138,6 @@ impl Filter {
         self.history.push(dt, u, self.law_input);
         self.basis[0] += v * v * dt;
         self.basis[1] += w * w * dt;
-        if cfg.learn_model_floor && !self.still {
-            self.moved[0] += dt;
-            self.moved[1] += dt;
-        }
         Ok(())
     }
 

@@ -257,10 +257,9 @@ impl Filter {
             };
             for i in dims {
                 let (nu2, s) = ((nu[i] * nu[i]).min(gate * S[(i, i)]), S[(i, i)]);
-                self.noise[k].add(nu2, s, r_nom[i], self.basis[k], self.moved[k]);
+                self.noise[k].add(nu2, s, r_nom[i], self.basis[k]);
             }
             self.basis[k] = 0.0;
-            self.moved[k] = 0.0;
         }
         if reanchor[1] {
             let m = self.motion(&self.x, lag);

@@ -54,3 +54,27 @@ def model_twist(wheels, estimate, t):
     gl, gr = at["alpha_l"] * vl, at["alpha_r"] * vr
     width = at["y_l"] - at["y_r"]
     return (gr * at["y_l"] - gl * at["y_r"]) / width, (gr - gl) / width
+
+
+def fix_pair(pose, yaw, wheels, estimate, i, clock, step):
+    """The second of the pose fixes `i - 1`, `i` against the model's motion
+    from the first: the tread speeds between them (the pose read `clock` s
+    late) through `model_twist`, integrated in steps of about `step` s
+    (trapezoidal heading, midpoint position). `yaw` is the pose's heading
+    unwrapped. Returns `(v, omega, h, along, across, heading)`: the model's
+    speed (m/s) and yaw rate (rad/s) at the `n + 1` step ends, the step
+    (s), and the second fix's residual along the model's track at it,
+    across it (m) and in heading (rad)."""
+    import numpy as np
+
+    t0, t1 = pose["t"][i - 1], pose["t"][i]
+    n = max(1, int(round((t1 - t0) / step)))
+    v, om = model_twist(wheels, estimate, np.linspace(t0, t1, n + 1) - clock)
+    h = (t1 - t0) / n
+    psi = yaw[i - 1] + np.concatenate([[0.0], np.cumsum(0.5 * (om[1:] + om[:-1]) * h)])
+    pm, vm = 0.5 * (psi[1:] + psi[:-1]), 0.5 * (v[1:] + v[:-1])
+    de, dn = np.sum(vm * np.cos(pm) * h), np.sum(vm * np.sin(pm) * h)
+    re = pose["east"][i] - pose["east"][i - 1] - de
+    rn = pose["north"][i] - pose["north"][i - 1] - dn
+    c, s = np.cos(psi[-1]), np.sin(psi[-1])
+    return v, om, h, c * re + s * rn, -s * re + c * rn, yaw[i] - psi[-1]

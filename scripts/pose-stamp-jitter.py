@@ -40,7 +40,7 @@ import sys
 
 import numpy as np
 
-from logcsv import columns, model_twist
+from logcsv import columns, fix_pair
 
 MAX_PAIR = 0.7
 STEP = 0.01
@@ -86,18 +86,8 @@ def main():
         t0, t1 = ts[i - 1], ts[i]
         if t1 - t0 > MAX_PAIR or t0 < ts[0] + 0.3 * (t_end - ts[0]):
             continue
-        n = max(1, int(round((t1 - t0) / STEP)))
-        tw = np.linspace(t0, t1, n + 1) - clock
-        v, om = model_twist(w, e, tw)
-        h = (t1 - t0) / n
-        # Trapezoidal heading, midpoint position.
-        psi = yaw[i - 1] + np.concatenate([[0.0], np.cumsum(0.5 * (om[1:] + om[:-1]) * h)])
-        pm, vm = 0.5 * (psi[1:] + psi[:-1]), 0.5 * (v[1:] + v[:-1])
-        de, dn = np.sum(vm * np.cos(pm) * h), np.sum(vm * np.sin(pm) * h)
-        re, rn = p["east"][i] - p["east"][i - 1] - de, p["north"][i] - p["north"][i - 1] - dn
-        c, s = np.cos(psi[-1]), np.sin(psi[-1])
-        along, across = c * re + s * rn, -s * re + c * rn
-        dyaw = yaw[i] - psi[-1]
+        v, om, h, along, across, dyaw = fix_pair(p, yaw, w, e, i, clock, STEP)
+        vm = 0.5 * (v[1:] + v[:-1])
         dt = t1 - t0
         rows.append((dt, v[0], v[-1], om[0], om[-1], np.sum(vm**2) * h,
                      np.sum((0.5 * (om[1:] + om[:-1])) ** 2) * h, along, across, dyaw))

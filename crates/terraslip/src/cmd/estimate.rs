@@ -220,9 +220,9 @@ pub fn run(args: Args) -> Result<()> {
     // The input, absolute so that `report` finds it from any directory (a
     // bag's log lives in a temporary directory), and for a bag the topics
     // it was read with: what `report` reads again.
+    let recorded = std::path::absolute(log_dir).unwrap_or_else(|_| log_dir.clone());
+    summary["log"] = recorded.display().to_string().into();
     if terraslip::bag::is_bag(log_dir) {
-        let recorded = std::path::absolute(log_dir).unwrap_or_else(|_| log_dir.clone());
-        summary["log"] = recorded.display().to_string().into();
         summary["bag_topics"] = super::bag::topics_record()?;
     }
     for n in &notes {

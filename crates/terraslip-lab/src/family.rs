@@ -243,6 +243,9 @@ fn figures(run: &EstimateRun, sim: &SimRun, w: &World) -> Figures {
     }
 }
 
+/// One figure of a run, for the report's rows.
+type FigureOf = fn(&Figures) -> f64;
+
 /// What the oracle is told: the terrain labels and each terrain's nominal
 /// parameters.
 fn oracle(w: &World, sim: &SimRun) -> (TerrainEvidence, Option<terraslip_io::ParamsFile>) {
@@ -434,22 +437,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         println!("  clock offset error, ms     {}", of(&|f| f.clock_err_ms));
         println!("  NEES clock        (1 dof)   {}", of(&|f| f.nees_clock));
         if a.gyro || a.gyro_scale > 0.0 {
-            println!(
-                "  gyro scale error, %        {}",
-                of(&|f| f.gyro_scale_err_pct)
-            );
-            println!(
-                "  NEES gyro scale   (1 dof)   {}",
-                of(&|f| f.nees_gyro_scale)
-            );
-            println!(
-                "  gyro bias error, mrad/s    {}",
-                of(&|f| f.gyro_bias_err_mrad_s)
-            );
-            println!(
-                "  NEES gyro bias    (1 dof)   {}",
-                of(&|f| f.nees_gyro_bias)
-            );
+            let gyro: [(&str, FigureOf); 4] = [
+                ("gyro scale error, %       ", |f| f.gyro_scale_err_pct),
+                ("NEES gyro scale   (1 dof) ", |f| f.nees_gyro_scale),
+                ("gyro bias error, mrad/s   ", |f| f.gyro_bias_err_mrad_s),
+                ("NEES gyro bias    (1 dof) ", |f| f.nees_gyro_bias),
+            ];
+            for (label, figure) in gyro {
+                println!("  {label}  {}", of(&figure));
+            }
         }
     }
     if let Some(path) = &a.json {

@@ -99,6 +99,10 @@ struct Figures {
     gyro_scale_err_pct: f64,
     /// Its NEES (NaN where the scale was held: std 0).
     nees_gyro_scale: f64,
+    /// |gyro bias - true| at the end, mrad/s (NaN without a gyro fused).
+    gyro_bias_err_mrad_s: f64,
+    /// Its NEES.
+    nees_gyro_bias: f64,
     /// |learned clock offset - the world's| at the end, ms.
     clock_err_ms: f64,
     /// Its NEES at the end (NaN where the clock was held: std 0).
@@ -211,6 +215,7 @@ fn figures(run: &EstimateRun, sim: &SimRun, w: &World) -> Figures {
     }
     let n = n.max(1) as f64;
     let gyro_err = (run.gyro.fused > 0).then_some(run.gyro.scale - w.scenario.imu.gyro_scale);
+    let bias_err = (run.gyro.fused > 0).then_some(run.gyro.bias - w.scenario.imu.gyro_bias);
     Figures {
         rms_d_cm: 100.0 * rms.d,
         rms_y_cm: 100.0 * rms.y_l.max(rms.y_r),
@@ -225,6 +230,10 @@ fn figures(run: &EstimateRun, sim: &SimRun, w: &World) -> Figures {
         nees_gyro_scale: gyro_err
             .filter(|_| run.gyro.scale_std > 0.0)
             .map_or(f64::NAN, |e| (e / run.gyro.scale_std).powi(2)),
+        gyro_bias_err_mrad_s: bias_err.map_or(f64::NAN, |e| 1000.0 * e.abs()),
+        nees_gyro_bias: bias_err
+            .filter(|_| run.gyro.bias_std > 0.0)
+            .map_or(f64::NAN, |e| (e / run.gyro.bias_std).powi(2)),
         clock_err_ms: 1000.0 * (run.clock_offset.0 - w.clock_offset).abs(),
         nees_clock: if run.clock_offset.1 > 0.0 {
             ((run.clock_offset.0 - w.clock_offset) / run.clock_offset.1).powi(2)
@@ -233,6 +242,9 @@ fn figures(run: &EstimateRun, sim: &SimRun, w: &World) -> Figures {
         },
     }
 }
+
+/// One figure of a run, for the report's rows.
+type FigureOf = fn(&Figures) -> f64;
 
 /// What the oracle is told: the terrain labels and each terrain's nominal
 /// parameters.
@@ -425,14 +437,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         println!("  clock offset error, ms     {}", of(&|f| f.clock_err_ms));
         println!("  NEES clock        (1 dof)   {}", of(&|f| f.nees_clock));
         if a.gyro || a.gyro_scale > 0.0 {
-            println!(
-                "  gyro scale error, %        {}",
-                of(&|f| f.gyro_scale_err_pct)
-            );
-            println!(
-                "  NEES gyro scale   (1 dof)   {}",
-                of(&|f| f.nees_gyro_scale)
-            );
+            let gyro: [(&str, FigureOf); 4] = [
+                ("gyro scale error, %       ", |f| f.gyro_scale_err_pct),
+                ("NEES gyro scale   (1 dof) ", |f| f.nees_gyro_scale),
+                ("gyro bias error, mrad/s   ", |f| f.gyro_bias_err_mrad_s),
+                ("NEES gyro bias    (1 dof) ", |f| f.nees_gyro_bias),
+            ];
+            for (label, figure) in gyro {
+                println!("  {label}  {}", of(&figure));
+            }
         }
     }
     if let Some(path) = &a.json {

@@ -100,7 +100,7 @@ fn storage_files(dir: &Path) -> Vec<(PathBuf, Storage, Whole)> {
             name.to_string(),
         )
     };
-    files.sort_by_key(key);
+    files.sort_by_cached_key(key);
     files
 }
 

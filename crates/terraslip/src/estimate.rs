@@ -674,11 +674,12 @@ impl RowWriter {
 /// number as the shortest text that reads back as the same number; a
 /// header alone without a score. `terraslip report` plots these lines.
 pub fn prediction_csv(score: Option<&terraslip_calib::prediction::PredictionScore>) -> String {
+    use std::fmt::Write as _;
     let segments = score.map_or(&[][..], |s| &s.segments[..]);
     let mut text = String::with_capacity(48 * (segments.len() + 1));
     text.push_str("t,error_m,no_slip_m\n");
     for s in segments {
-        text.push_str(&format!("{},{},{}\n", s.t, s.error, s.no_slip));
+        let _ = writeln!(text, "{},{},{}", s.t, s.error, s.no_slip);
     }
     text
 }

@@ -371,7 +371,7 @@ pub fn run_streams(
             ));
             (&mut no_gyro, 0.0)
         }
-        GyroClock::Delay(d) => (streams.gyro, d),
+        GyroClock::Delay { wheels_late_by, .. } => (streams.gyro, wheels_late_by),
         GyroClock::Unknown => (streams.gyro, 0.0),
     };
     let mut gyro = gyro.peekable();
@@ -396,6 +396,16 @@ pub fn run_streams(
         warnings: setup_warnings,
     } = setup::setup(log, &cfg_held, evidence, init)?;
     warnings.splice(0..0, setup_warnings);
+    if let (true, GyroClock::Delay { gyro_per_tread, .. }) = (gyro_fused, streams.gyro_clock) {
+        let band = cfg.band(track_width);
+        warnings.extend(gyro_delay::turn_disagreement(
+            &dir,
+            gyro_per_tread,
+            track_width,
+            band.min_spread,
+            band.max_spread,
+        ));
+    }
     if let Some(w) = hold_warning(&dir, hold, pose.peek().is_some(), &init_source) {
         warnings.push(w);
     }

@@ -33,7 +33,7 @@ fn offline(log: &DriveLog, cfg: &EstimatorConfig) -> (Vec<EstimateRow>, f64) {
         .iter()
         .filter_map(|s| s.gyro_z.map(|g| Ok((s.t, g))));
     let delay = match gyro_delay(&mut wheels, &mut gyro) {
-        GyroClock::Delay(d) => d,
+        GyroClock::Delay { wheels_late_by, .. } => wheels_late_by,
         other => panic!("the synthetic gyro is the yaw rate: {other:?}"),
     };
     let run = run_with(

@@ -8,7 +8,9 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant, SystemTime};
 
 use anyhow::{bail, Context, Result};
-use terraslip::pipeline::live::{Live, Sample};
+use terraslip::pipeline::decide::Decisions;
+use terraslip::pipeline::live::Sample;
+use terraslip::pipeline::warmup::WarmUp;
 use terraslip::pipeline::{EstimateRow, EstimateRun, PipelineError, RowSink};
 use terraslip_io::ParamsFile;
 use terraslip_node::{Graph, GraphTopic, RosArgs, RosEnv, TopicQos, Wait, Writer};
@@ -28,9 +30,15 @@ use terraslip_ros2::out::{diagnostics_message, estimate_messages, DiagnosticLeve
 /// stamps: samples wait --lag seconds of stamp time for late ones, so a
 /// recording played in gives what `terraslip estimate` gives of it.
 ///
-/// The learned parameters are written (atomically) to --params at the end
-/// (SIGINT, SIGTERM) and every --save-every seconds of drive; the next
-/// start recalls them from there.
+/// The first --warmup seconds of stamp time are held back while the node
+/// decides what `estimate` decides from a recording's start (the gyro's
+/// delay, whether it is the yaw rate, the slip parameters the sensors can
+/// teach; each printed as a `decided:` line), then answered.
+///
+/// The learned parameters are written (atomically) to --params (default:
+/// the user's state directory) at the end (SIGINT, SIGTERM) and every
+/// --save-every seconds of drive; the next start recalls them from there
+/// (--fresh: not).
 #[derive(clap::Args, Debug)]
 #[command(after_help = AFTER_HELP)]
 pub struct Args {
@@ -40,9 +48,19 @@ pub struct Args {
     #[arg(long, value_name = "PARAMS")]
     pub init: Option<PathBuf>,
     /// The node's parameters file: recalled at start when it exists (unless
-    /// --init is given), written at the end and every --save-every s.
-    #[arg(long, value_name = "FILE", default_value = "terraslip-params.json")]
-    pub params: PathBuf,
+    /// --init or --fresh is given), written at the end and every
+    /// --save-every s [default: $XDG_STATE_HOME/terraslip/NODE_NAME.json,
+    /// else ~/.local/state/terraslip/NODE_NAME.json].
+    #[arg(long, value_name = "FILE")]
+    pub params: Option<PathBuf>,
+    /// Start clean: do not recall the parameters file (it is still written).
+    #[arg(long)]
+    pub fresh: bool,
+    /// Seconds of stamp time held back at the start to decide from, as
+    /// `estimate` decides from a recording's first 300 s; the held samples
+    /// are answered once decided.
+    #[arg(long, value_name = "S", default_value_t = terraslip::pipeline::DECISION_SPAN)]
+    pub warmup: f64,
     /// Seconds of drive (stamp time) between writes of --params.
     #[arg(long, value_name = "S", default_value_t = 300.0)]
     pub save_every: f64,
@@ -53,9 +71,9 @@ pub struct Args {
     /// configuration's `init.default_track_width`).
     #[arg(long, value_name = "M")]
     pub track_width: Option<f64>,
-    /// How late the wheels are stamped against the gyro, s (else --init's
-    /// or --params' `gyro_delay_s`, else 0; `estimate` reports it as
-    /// `gyro.wheels_late_by_s`).
+    /// How late the wheels are stamped against the gyro, s (else what the
+    /// warm-up finds, else --init's or --params' `gyro_delay_s`, else 0;
+    /// `estimate` reports it as `gyro.wheels_late_by_s`).
     #[arg(long, value_name = "S")]
     pub gyro_delay: Option<f64>,
     /// Do not publish odom -> base_link on /tf (when another node does).
@@ -106,23 +124,41 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
     let namespace = ros.namespace.clone().unwrap_or_else(|| "/".into());
     let mut table = ros.params_table();
     apply_node_params(&mut args, &mut table)?;
+    let params_path = match &args.params {
+        Some(p) => p.clone(),
+        None => super::node_state::default_path_from_env(&name)?,
+    };
     let mut cfg = args.estimator.load()?;
     if !table.is_empty() {
         let text = toml::to_string(&table).context("--ros-args parameters")?;
-        cfg = terraslip::estimate::overlay(cfg, &text, "--ros-args parameters")?;
+        cfg = terraslip::estimate::overlay(cfg, &text, "--ros-args parameters").with_context(
+            || {
+                format!(
+                    "the node's own parameters are {}; any other name is a key of the configuration (`terraslip estimate --print-config`)",
+                    NODE_PARAMS.join(", ")
+                )
+            },
+        )?;
         cfg.validate()?;
     }
     super::inputs_with(
         &[],
         &[("--init", args.init.as_deref()), args.estimator.input()],
     )
-    .check("--params", &args.params)?;
-    let start = match (&args.init, args.params.is_file()) {
-        (Some(p), _) => Some(ParamsFile::read(p).with_context(|| "--init")?),
-        (None, true) => Some(ParamsFile::read(&args.params).with_context(|| "--params")?),
-        (None, false) => None,
+    .check("--params", &params_path)?;
+    let recall = args.init.is_none() && !args.fresh && params_path.is_file();
+    let start = match &args.init {
+        Some(p) => Some(ParamsFile::read(p).with_context(|| "--init")?),
+        None if recall => {
+            let pf = ParamsFile::read(&params_path).with_context(|| "--params")?;
+            eprintln!("{}", super::node_state::recalled(&params_path, &pf));
+            Some(pf)
+        }
+        None => None,
     };
+    let driven_before = super::node_state::driven(start.as_ref().filter(|_| recall));
     let mut topics_cfg = super::bag::topics().config()?;
+    warn_unmatched_remaps(&ros, &topics_cfg);
     for t in [
         &mut topics_cfg.wheels.topic,
         &mut topics_cfg.pose.topic,
@@ -138,14 +174,9 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
         .track_width
         .or(topics_cfg.meta.track_width)
         .unwrap_or(cfg.init.default_track_width);
-    let gyro_delay = args
-        .gyro_delay
-        .or_else(|| {
-            start
-                .as_ref()
-                .and_then(|p| p.extra.get("gyro_delay_s")?.as_f64())
-        })
-        .unwrap_or(0.0);
+    let recalled_delay = start
+        .as_ref()
+        .and_then(|p| p.extra.get("gyro_delay_s")?.as_f64());
 
     let stop = terraslip_node::signals::Stop::install().context("signal handlers")?;
     let env = RosEnv::from_env()?;
@@ -220,14 +251,20 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
         wait.register(&mut r.1, k).context("event poll")?;
     }
 
-    let mut live = Live::new(
+    let mut live = WarmUp::new(
         &label,
         &cfg,
         track_width,
-        start.as_ref(),
+        start,
         args.lag,
-        gyro_delay,
+        args.warmup,
+        args.gyro_delay,
+        recalled_delay,
     )?;
+    eprintln!(
+        "warming up: the first {} s of stamp time are held back to decide from",
+        args.warmup
+    );
     let mut out = Outputs::new(&graph, !args.no_tf)?;
     let mut bad = BadMessages::default();
     let subscribed = Instant::now();
@@ -258,7 +295,9 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
                         LiveRow::Pose(p) => Sample::Pose(p),
                         LiveRow::Imu(i) => Sample::Imu(i),
                     };
-                    live.push(s, &mut out)?;
+                    if let Some(d) = live.push(s, &mut out)? {
+                        say_decided(&d);
+                    }
                 }
             }
         }
@@ -268,15 +307,15 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
         out.failed()?;
         // Diagnostics once a second and the parameters every
         // --save-every s, of stamp time.
-        if let Some(t) = out.last_t {
+        if let (Some(t), Some(summary)) = (out.last_t, live.summary()) {
             if out.diagnostics_due.is_none_or(|d| t >= d) {
                 out.diagnostics_due = Some(t + 1.0);
-                out.diagnostics(&live.summary(), &live, &bad)?;
+                out.diagnostics(&summary, &live, &bad)?;
             }
             let due = *next_save.get_or_insert(t + args.save_every);
             if t >= due {
                 next_save = Some(t + args.save_every);
-                save(&args.params, &live.summary())?;
+                save(&params_path, &summary, driven_before, &live)?;
             }
         }
         if !warned_unmatched && subscribed.elapsed() > Duration::from_secs(5) {
@@ -307,17 +346,30 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
                 .context("event poll")?;
         }
     }
-    live.flush(&mut out)?;
+    if let Some(d) = live.flush(&mut out)? {
+        say_decided(&d);
+    }
     out.failed()?;
-    let summary = live.summary();
-    out.diagnostics(&summary, &live, &bad)?;
-    save(&args.params, &summary)?;
+    let saved = match live.summary() {
+        Some(summary) => {
+            out.diagnostics(&summary, &live, &bad)?;
+            save(&params_path, &summary, driven_before, &live)?
+        }
+        None => false,
+    };
     eprintln!(
-        "node: {} estimates published, {} bad messages, late samples {:?}; parameters in {}",
+        "node: {} estimates published, {} bad messages, late samples {:?}; {}",
         out.published,
         bad.count,
         live.late(),
-        args.params.display()
+        if saved {
+            format!("parameters saved to {}", params_path.display())
+        } else {
+            format!(
+                "no estimate made, so no parameters saved ({} unchanged)",
+                params_path.display()
+            )
+        }
     );
     Ok(())
 }
@@ -353,14 +405,56 @@ fn apply_node_params(args: &mut Args, table: &mut toml::Table) -> Result<()> {
     Ok(())
 }
 
-/// Writes the learned parameters atomically.
-fn save(path: &Path, run: &EstimateRun) -> Result<()> {
-    if run.row_count == 0 {
-        return Ok(());
+/// Writes the learned parameters atomically, with the decisions; `false`
+/// when there is nothing to save yet.
+fn save(path: &Path, run: &EstimateRun, driven_before: f64, live: &WarmUp) -> Result<bool> {
+    let decided = live.decisions().map(|d| d.to_json());
+    super::node_state::save(path, run, driven_before, decided)
+}
+
+/// Prints the warm-up's decisions.
+fn say_decided(d: &Decisions) {
+    for line in d.lines() {
+        eprintln!("decided: {line}");
     }
-    run.params_file()
-        .write(path)
-        .with_context(|| format!("{}: writing the parameters", path.display()))
+}
+
+/// Warns of each `-r` remap that names no topic the topics file names
+/// (only those are remapped; a topic chosen by its type is not).
+fn warn_unmatched_remaps(ros: &RosArgs, topics: &terraslip_ros2::TopicsConfig) {
+    let named: Vec<&str> = [
+        &topics.wheels.topic,
+        &topics.pose.topic,
+        &topics.heading.topic,
+        &topics.imu.topic,
+        &topics.tf.topic,
+    ]
+    .into_iter()
+    .filter_map(|t| t.as_deref().filter(|n| !n.is_empty()))
+    .collect();
+    for (from, to) in &ros.remaps {
+        if !named.iter().any(|n| ros_matches(from, n)) {
+            eprintln!(
+                "warning: --ros-args -r {from}:={to} matches no topic this node reads: remaps apply to the topics the topics file names ({}); a topic chosen by its type is named in the topics file instead",
+                if named.is_empty() {
+                    "it names none".to_string()
+                } else {
+                    named.join(", ")
+                }
+            );
+        }
+    }
+}
+
+/// Whether remap source `from` names `topic` (with or without the
+/// leading slash), as [`RosArgs::remap`] matches.
+fn ros_matches(from: &str, topic: &str) -> bool {
+    RosArgs {
+        remaps: vec![(from.to_string(), String::new())],
+        ..Default::default()
+    }
+    .remap(topic)
+    .is_empty()
 }
 
 fn now_ns() -> u64 {
@@ -456,7 +550,7 @@ impl Outputs {
         }
     }
 
-    fn diagnostics(&self, run: &EstimateRun, live: &Live, bad: &BadMessages) -> Result<()> {
+    fn diagnostics(&self, run: &EstimateRun, live: &WarmUp, bad: &BadMessages) -> Result<()> {
         let Some(t) = self.last_t else { return Ok(()) };
         let p = run.final_icr;
         let f = |x: f64| format!("{x:.6}");
@@ -479,6 +573,15 @@ impl Outputs {
         ];
         if let Some(e) = &bad.last {
             values.push(("last_bad_message".into(), e.clone()));
+        }
+        for (k, line) in live
+            .decisions()
+            .map(|d| d.lines())
+            .unwrap_or_default()
+            .into_iter()
+            .enumerate()
+        {
+            values.push((format!("decided_{k}"), line));
         }
         for (k, w) in run.warnings.iter().enumerate() {
             values.push((format!("warning_{k}"), w.clone()));

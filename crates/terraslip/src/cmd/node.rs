@@ -44,9 +44,6 @@ use terraslip_ros2::out::{diagnostics_message, estimate_messages, DiagnosticLeve
 pub struct Args {
     #[command(flatten)]
     pub estimator: super::estimate::EstimatorArgs,
-    /// Starting ICRs from `terraslip calibrate` or a node's --params (read only).
-    #[arg(long, value_name = "PARAMS")]
-    pub init: Option<PathBuf>,
     /// The node's parameters file: recalled at start when it exists (unless
     /// --init or --fresh is given), written at the end and every
     /// --save-every s [default: $XDG_STATE_HOME/terraslip/NODE_NAME.json,
@@ -143,11 +140,14 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
     }
     super::inputs_with(
         &[],
-        &[("--init", args.init.as_deref()), args.estimator.input()],
+        &[
+            ("--init", args.estimator.init.as_deref()),
+            args.estimator.input(),
+        ],
     )
     .check("--params", &params_path)?;
-    let recall = args.init.is_none() && !args.fresh && params_path.is_file();
-    let start = match &args.init {
+    let recall = args.estimator.init.is_none() && !args.fresh && params_path.is_file();
+    let start = match &args.estimator.init {
         Some(p) => Some(ParamsFile::read(p).with_context(|| "--init")?),
         None if recall => {
             let pf = ParamsFile::read(&params_path).with_context(|| "--params")?;

@@ -273,32 +273,34 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
     let mut next_save: Option<f64> = None;
     loop {
         let mut got = false;
+        // What every reader holds, put in stamp order before it goes on:
+        // after a stall (the warm-up's rows being published) one topic's
+        // backlog must not push the others' past the lag.
+        let mut batch: Vec<LiveRow> = Vec::new();
         for (idx, reader, count, _) in readers.iter_mut() {
             while let Some((raw, source_ns)) = reader.take()? {
                 got = true;
                 *count += 1;
                 let recv_ns = if source_ns > 0 { source_ns } else { now_ns() };
-                let rows = match import.message(*idx, recv_ns, &raw.0) {
-                    Ok(r) => r,
-                    Err(e) => {
-                        bad.note(&e.to_string());
-                        continue;
-                    }
-                };
-                out.origin_ns = import.origin_ns().unwrap_or(0);
-                for r in rows {
-                    let s = match r {
-                        LiveRow::Wheels(w) => {
-                            out.wheels.push_back((w.t, w.v_left, w.v_right));
-                            Sample::Wheels(w)
-                        }
-                        LiveRow::Pose(p) => Sample::Pose(p),
-                        LiveRow::Imu(i) => Sample::Imu(i),
-                    };
-                    if let Some(d) = live.push(s, &mut out)? {
-                        say_decided(&d);
-                    }
+                match import.message(*idx, recv_ns, &raw.0) {
+                    Ok(rows) => batch.extend(rows),
+                    Err(e) => bad.note(&e.to_string()),
                 }
+            }
+        }
+        out.origin_ns = import.origin_ns().unwrap_or(0);
+        batch.sort_by(|a, b| a.t().total_cmp(&b.t()));
+        for r in batch {
+            let s = match r {
+                LiveRow::Wheels(w) => {
+                    out.wheels.push_back((w.t, w.v_left, w.v_right));
+                    Sample::Wheels(w)
+                }
+                LiveRow::Pose(p) => Sample::Pose(p),
+                LiveRow::Imu(i) => Sample::Imu(i),
+            };
+            if let Some(d) = live.push(s, &mut out)? {
+                say_decided(&d);
             }
         }
         if got {

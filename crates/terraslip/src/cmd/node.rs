@@ -127,16 +127,7 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
     };
     let mut cfg = args.estimator.load()?;
     if !table.is_empty() {
-        let text = toml::to_string(&table).context("--ros-args parameters")?;
-        cfg = terraslip::estimate::overlay(cfg, &text, "--ros-args parameters").with_context(
-            || {
-                format!(
-                    "the node's own parameters are {}; any other name is a key of the configuration (`terraslip estimate --print-config`)",
-                    NODE_PARAMS.join(", ")
-                )
-            },
-        )?;
-        cfg.validate()?;
+        cfg = with_params(cfg, &table)?;
     }
     super::inputs_with(
         &[],
@@ -421,9 +412,33 @@ fn say_decided(d: &Decisions) {
     }
 }
 
-/// Warns of each `-r` remap that names no topic the topics file names
-/// (only those are remapped; a topic chosen by its type is not).
+/// The configuration with the `--ros-args` parameters that are not the
+/// node's own over it; an unknown name's error lists the node's own too.
+fn with_params(
+    cfg: terraslip::config::EstimatorConfig,
+    table: &toml::Table,
+) -> Result<terraslip::config::EstimatorConfig> {
+    let text = toml::to_string(table).context("--ros-args parameters")?;
+    let cfg = terraslip::estimate::overlay(cfg, &text, "--ros-args parameters").with_context(|| {
+        format!(
+            "the node's own parameters are {}; any other name is a key of the configuration (`terraslip estimate --print-config`)",
+            NODE_PARAMS.join(", ")
+        )
+    })?;
+    cfg.validate()?;
+    Ok(cfg)
+}
+
+/// Warns of each `-r` remap that names no topic the topics file names.
 fn warn_unmatched_remaps(ros: &RosArgs, topics: &terraslip_ros2::TopicsConfig) {
+    for w in unmatched_remaps(ros, topics) {
+        eprintln!("warning: {w}");
+    }
+}
+
+/// The `-r` remaps that name no topic the topics file names (only those
+/// are remapped; a topic chosen by its type is not), each explained.
+fn unmatched_remaps(ros: &RosArgs, topics: &terraslip_ros2::TopicsConfig) -> Vec<String> {
     let named: Vec<&str> = [
         &topics.wheels.topic,
         &topics.pose.topic,
@@ -434,18 +449,20 @@ fn warn_unmatched_remaps(ros: &RosArgs, topics: &terraslip_ros2::TopicsConfig) {
     .into_iter()
     .filter_map(|t| t.as_deref().filter(|n| !n.is_empty()))
     .collect();
-    for (from, to) in &ros.remaps {
-        if !named.iter().any(|n| ros_matches(from, n)) {
-            eprintln!(
-                "warning: --ros-args -r {from}:={to} matches no topic this node reads: remaps apply to the topics the topics file names ({}); a topic chosen by its type is named in the topics file instead",
+    ros.remaps
+        .iter()
+        .filter(|(from, _)| !named.iter().any(|n| ros_matches(from, n)))
+        .map(|(from, to)| {
+            format!(
+                "--ros-args -r {from}:={to} matches no topic this node reads: remaps apply to the topics the topics file names ({}); name the topic there (`[wheels] topic = \"{from}\"`) to remap it",
                 if named.is_empty() {
                     "it names none".to_string()
                 } else {
                     named.join(", ")
                 }
-            );
-        }
-    }
+            )
+        })
+        .collect()
 }
 
 /// Whether remap source `from` names `topic` (with or without the
@@ -633,5 +650,45 @@ impl RowSink for Outputs {
         self.published += 1;
         self.last_t = Some(r.t);
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_remap_that_matches_no_named_topic_is_named() {
+        let topics: terraslip_ros2::TopicsConfig =
+            toml::from_str("[wheels]\nseparation = 1.04\n[imu]\ntopic = \"/imu/data\"\n").unwrap();
+        let ros = RosArgs::parse(
+            &[
+                "-r".into(),
+                "/odom:=/husky_velocity_controller/odom".into(),
+                "-r".into(),
+                "imu/data:=/imu2".into(),
+            ],
+            "terraslip",
+        )
+        .unwrap();
+        let w = unmatched_remaps(&ros, &topics);
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(
+            w[0].contains("/odom:=") && w[0].contains("/imu/data"),
+            "{}",
+            w[0]
+        );
+    }
+
+    #[test]
+    fn an_unknown_parameter_lists_the_nodes_own() {
+        let mut table = toml::Table::new();
+        table.insert("lagg".into(), toml::Value::Float(0.5));
+        let e = with_params(Default::default(), &table).unwrap_err();
+        let text = format!("{e:#}");
+        assert!(text.contains("lagg"), "{text}");
+        for p in NODE_PARAMS {
+            assert!(text.contains(p), "{p} missing from: {text}");
+        }
     }
 }

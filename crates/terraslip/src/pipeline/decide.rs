@@ -97,7 +97,7 @@ impl Decisions {
                 "gyro fused, no delay (the start turns too little to tell)".into()
             }
             (true, _) => format!(
-                "gyro fused, the wheels stamped {:.3} s late against it (given)",
+                "gyro fused, the wheels stamped {:.3} s late against it (given, or recalled when the warm-up turns too little to tell)",
                 self.gyro_delay
             ),
             (false, GyroClock::NotYaw(c)) => format!(

@@ -119,5 +119,5 @@ fn a_given_delay_replaces_the_one_found() {
         decided = decided.or(w.push(s, &mut rows).unwrap());
     }
     assert_eq!(decided.unwrap().gyro_delay, 0.1);
-    assert!(decided.unwrap().lines()[0].contains("0.100 s late"));
+    assert!(decided.unwrap().lines()[0].contains("0.100 s late against it (given"));
 }

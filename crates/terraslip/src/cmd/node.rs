@@ -91,7 +91,8 @@ pub struct Args {
 
 const AFTER_HELP: &str = "\
 ROS 2 conventions: --ros-args after the node's own flags takes -r from:=to
-(remaps of the topics named in --topics, and __node:=, __ns:=), -p name:=value
+(remaps of the topics named in --topics, a remap matching none of them is
+warned of; and __node:=, __ns:=), -p name:=value
 and --params-file FILE.yaml (`ros__parameters` of /** or of the node). The
 parameters lag, save_every, track_width, gyro_delay, publish_tf (bool) set the
 flags of the same name; any other is a key of the TOML configuration
@@ -100,7 +101,8 @@ flags of the same name; any other is a key of the TOML configuration
 Examples:
   terraslip node --topics husky.toml
   terraslip node --topics husky.toml --params /var/lib/terraslip/params.json
-  terraslip node --topics husky.toml --ros-args -r /odom:=/husky_velocity_controller/odom -p lag:=0.5
+  terraslip node --topics husky.toml --fresh --warmup 60
+  terraslip node --topics husky.toml --ros-args -p lag:=0.5 -r __node:=husky_slip
   ROS_DOMAIN_ID=7 ROS_LOCALHOST_ONLY=1 terraslip node --no-tf
 
 docs/user-guide.md \"Live on the robot\" has a launch file, a systemd unit and

@@ -26,7 +26,7 @@ mod progress;
   terraslip report out/est                            # out/est/report.html: track, ICRs, prediction error
 Each command's --help has more examples; docs/ has the method and the figures."
 )]
-struct Cli {
+pub(crate) struct Cli {
     #[command(subcommand)]
     command: Command,
     /// ROS 2 bags given as LOG: which topic feeds which stream (see `import --help`).

@@ -36,10 +36,6 @@ pub struct Args {
     pub out: Option<PathBuf>,
     #[command(flatten)]
     pub estimator: EstimatorArgs,
-    /// Starting ICRs from `terraslip calibrate` (pooled set and/or one set per
-    /// terrain; per-terrain sets are recalled when the robot enters that terrain).
-    #[arg(long, value_name = "PARAMS")]
-    pub init: Option<PathBuf>,
     /// Use the log's own terrain.csv as terrain evidence (a perfect classifier).
     #[arg(long)]
     pub terrain_labels: bool,
@@ -99,7 +95,9 @@ fn parse_window(s: &str) -> Result<(f64, f64), String> {
     Ok((a, b))
 }
 
-/// The estimator's configuration, as `estimate` and `node` take it.
+/// The estimator's options, as `estimate` and `node` take them (the global
+/// `--topics` aside); the Python package's `terraslip.estimate` takes the
+/// same as keywords (checked by a test below).
 #[derive(clap::Args, Debug)]
 pub struct EstimatorArgs {
     /// TOML configuration (see `terraslip estimate --print-config` for every
@@ -111,6 +109,11 @@ pub struct EstimatorArgs {
     /// at the end of `terraslip estimate --help`). Applied before --config.
     #[arg(long, value_name = "NAME")]
     pub preset: Option<String>,
+    /// Starting ICRs from `terraslip calibrate` or a node's parameters file,
+    /// read only (pooled set and/or one set per terrain; per-terrain sets
+    /// are recalled when the robot enters that terrain).
+    #[arg(long, value_name = "PARAMS")]
+    pub init: Option<PathBuf>,
 }
 
 impl EstimatorArgs {
@@ -137,7 +140,7 @@ pub fn run(args: Args) -> Result<()> {
     let inputs = super::inputs_with(
         std::slice::from_ref(log_dir),
         &[
-            ("--init", args.init.as_deref()),
+            ("--init", args.estimator.init.as_deref()),
             args.estimator.input(),
             ("--terrain-model", args.terrain_model.as_deref()),
         ],
@@ -171,7 +174,7 @@ pub fn run(args: Args) -> Result<()> {
     } else {
         Source::Read(Box::new(super::bag::read_with(log_dir, super::read_log)?))
     };
-    let init = match &args.init {
+    let init = match &args.estimator.init {
         Some(p) => Some(ParamsFile::read(p).with_context(|| "--init")?),
         None => None,
     };
@@ -358,4 +361,76 @@ fn write_outputs(
     pred.commit()?;
     js.commit()?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::{Args as _, CommandFactory as _};
+
+    /// Long names of a command's options (the positional ones by id).
+    fn options(cmd: &clap::Command) -> Vec<String> {
+        cmd.get_arguments()
+            .filter(|a| !["help", "version"].contains(&a.get_id().as_str()))
+            .map(|a| {
+                a.get_long()
+                    .unwrap_or(a.get_id().as_str())
+                    .replace('-', "_")
+            })
+            .collect()
+    }
+
+    /// The keywords of `terraslip.estimate` in the Python package
+    /// (crates/terraslip-py/src/estimate.rs, its `#[pyo3(signature)]`).
+    fn python_keywords() -> Vec<String> {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../terraslip-py/src/estimate.rs"
+        );
+        let src = std::fs::read_to_string(path).expect(path);
+        let sig = src
+            .split("#[pyo3(signature = (")
+            .nth(1)
+            .and_then(|s| s.split("))]").next())
+            .expect("the signature of terraslip.estimate");
+        sig.split(',')
+            .map(|k| k.split('=').next().unwrap_or("").trim().to_string())
+            .filter(|k| !k.is_empty() && k != "*")
+            .collect()
+    }
+
+    /// Options of `estimate` that are for the command line only: where
+    /// the files go and what is printed (Python returns the arrays and the
+    /// summary), the dead-reckoning test window, the bag reading mode.
+    const CLI_ONLY: [&str; 6] = ["out", "outage", "print_config", "json", "mcap", "strict"];
+
+    #[test]
+    fn the_estimators_options_are_pythons_keywords() {
+        let cli = crate::Cli::command();
+        let estimate = cli.find_subcommand("estimate").expect("estimate");
+        let mut cli_opts = options(estimate);
+        cli_opts.extend(options(&cli));
+        cli_opts.sort();
+        cli_opts.dedup();
+        let py = python_keywords();
+        for o in &cli_opts {
+            assert!(
+                py.contains(o) || CLI_ONLY.contains(&o.as_str()),
+                "`terraslip estimate --{o}` has no keyword in terraslip.estimate (add it, or to CLI_ONLY)"
+            );
+        }
+        for k in &py {
+            assert!(
+                cli_opts.contains(k),
+                "terraslip.estimate's keyword `{k}` is no option of `terraslip estimate`"
+            );
+        }
+        // The shared options are declared once, and `node` takes them.
+        let shared = options(&super::EstimatorArgs::augment_args(clap::Command::new("x")));
+        assert_eq!(shared, ["config", "preset", "init"]);
+        #[cfg(any(feature = "node", feature = "node-humble"))]
+        {
+            let node = options(cli.find_subcommand("node").expect("node"));
+            assert!(shared.iter().all(|o| node.contains(o)), "{node:?}");
+        }
+    }
 }

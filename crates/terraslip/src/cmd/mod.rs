@@ -26,6 +26,8 @@ pub mod estimate;
 pub mod import;
 #[cfg(any(feature = "node", feature = "node-humble"))]
 pub mod node;
+#[cfg(any(feature = "node", feature = "node-humble"))]
+mod node_state;
 pub mod report;
 #[cfg(feature = "ros2")]
 pub mod ros2out;

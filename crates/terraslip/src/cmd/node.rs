@@ -8,7 +8,9 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant, SystemTime};
 
 use anyhow::{bail, Context, Result};
-use terraslip::pipeline::live::{Live, Sample};
+use terraslip::pipeline::decide::Decisions;
+use terraslip::pipeline::live::Sample;
+use terraslip::pipeline::warmup::WarmUp;
 use terraslip::pipeline::{EstimateRow, EstimateRun, PipelineError, RowSink};
 use terraslip_io::ParamsFile;
 use terraslip_node::{Graph, GraphTopic, RosArgs, RosEnv, TopicQos, Wait, Writer};
@@ -28,21 +30,34 @@ use terraslip_ros2::out::{diagnostics_message, estimate_messages, DiagnosticLeve
 /// stamps: samples wait --lag seconds of stamp time for late ones, so a
 /// recording played in gives what `terraslip estimate` gives of it.
 ///
-/// The learned parameters are written (atomically) to --params at the end
-/// (SIGINT, SIGTERM) and every --save-every seconds of drive; the next
-/// start recalls them from there.
+/// The first --warmup seconds of stamp time are held back while the node
+/// decides what `estimate` decides from a recording's start (the gyro's
+/// delay, whether it is the yaw rate, the slip parameters the sensors can
+/// teach; each printed as a `decided:` line), then answered.
+///
+/// The learned parameters are written (atomically) to --params (default:
+/// the user's state directory) at the end (SIGINT, SIGTERM) and every
+/// --save-every seconds of drive; the next start recalls them from there
+/// (--fresh: not).
 #[derive(clap::Args, Debug)]
 #[command(after_help = AFTER_HELP)]
 pub struct Args {
     #[command(flatten)]
     pub estimator: super::estimate::EstimatorArgs,
-    /// Starting ICRs from `terraslip calibrate` or a node's --params (read only).
-    #[arg(long, value_name = "PARAMS")]
-    pub init: Option<PathBuf>,
     /// The node's parameters file: recalled at start when it exists (unless
-    /// --init is given), written at the end and every --save-every s.
-    #[arg(long, value_name = "FILE", default_value = "terraslip-params.json")]
-    pub params: PathBuf,
+    /// --init or --fresh is given), written at the end and every
+    /// --save-every s [default: $XDG_STATE_HOME/terraslip/NODE_NAME.json,
+    /// else ~/.local/state/terraslip/NODE_NAME.json].
+    #[arg(long, value_name = "FILE")]
+    pub params: Option<PathBuf>,
+    /// Start clean: do not recall the parameters file (it is still written).
+    #[arg(long)]
+    pub fresh: bool,
+    /// Seconds of stamp time held back at the start to decide from, as
+    /// `estimate` decides from a recording's first 300 s; the held samples
+    /// are answered once decided.
+    #[arg(long, value_name = "S", default_value_t = terraslip::pipeline::DECISION_SPAN)]
+    pub warmup: f64,
     /// Seconds of drive (stamp time) between writes of --params.
     #[arg(long, value_name = "S", default_value_t = 300.0)]
     pub save_every: f64,
@@ -53,9 +68,9 @@ pub struct Args {
     /// configuration's `init.default_track_width`).
     #[arg(long, value_name = "M")]
     pub track_width: Option<f64>,
-    /// How late the wheels are stamped against the gyro, s (else --init's
-    /// or --params' `gyro_delay_s`, else 0; `estimate` reports it as
-    /// `gyro.wheels_late_by_s`).
+    /// How late the wheels are stamped against the gyro, s (else what the
+    /// warm-up finds, else --init's or --params' `gyro_delay_s`, else 0;
+    /// `estimate` reports it as `gyro.wheels_late_by_s`).
     #[arg(long, value_name = "S")]
     pub gyro_delay: Option<f64>,
     /// Do not publish odom -> base_link on /tf (when another node does).
@@ -76,7 +91,8 @@ pub struct Args {
 
 const AFTER_HELP: &str = "\
 ROS 2 conventions: --ros-args after the node's own flags takes -r from:=to
-(remaps of the topics named in --topics, and __node:=, __ns:=), -p name:=value
+(remaps of the topics named in --topics, a remap matching none of them is
+warned of; and __node:=, __ns:=), -p name:=value
 and --params-file FILE.yaml (`ros__parameters` of /** or of the node). The
 parameters lag, save_every, track_width, gyro_delay, publish_tf (bool) set the
 flags of the same name; any other is a key of the TOML configuration
@@ -85,7 +101,8 @@ flags of the same name; any other is a key of the TOML configuration
 Examples:
   terraslip node --topics husky.toml
   terraslip node --topics husky.toml --params /var/lib/terraslip/params.json
-  terraslip node --topics husky.toml --ros-args -r /odom:=/husky_velocity_controller/odom -p lag:=0.5
+  terraslip node --topics husky.toml --fresh --warmup 60
+  terraslip node --topics husky.toml --ros-args -p lag:=0.5 -r __node:=husky_slip
   ROS_DOMAIN_ID=7 ROS_LOCALHOST_ONLY=1 terraslip node --no-tf
 
 docs/user-guide.md \"Live on the robot\" has a launch file, a systemd unit and
@@ -106,23 +123,35 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
     let namespace = ros.namespace.clone().unwrap_or_else(|| "/".into());
     let mut table = ros.params_table();
     apply_node_params(&mut args, &mut table)?;
+    let params_path = match &args.params {
+        Some(p) => p.clone(),
+        None => super::node_state::default_path_from_env(&name)?,
+    };
     let mut cfg = args.estimator.load()?;
     if !table.is_empty() {
-        let text = toml::to_string(&table).context("--ros-args parameters")?;
-        cfg = terraslip::estimate::overlay(cfg, &text, "--ros-args parameters")?;
-        cfg.validate()?;
+        cfg = with_params(cfg, &table)?;
     }
     super::inputs_with(
         &[],
-        &[("--init", args.init.as_deref()), args.estimator.input()],
+        &[
+            ("--init", args.estimator.init.as_deref()),
+            args.estimator.input(),
+        ],
     )
-    .check("--params", &args.params)?;
-    let start = match (&args.init, args.params.is_file()) {
-        (Some(p), _) => Some(ParamsFile::read(p).with_context(|| "--init")?),
-        (None, true) => Some(ParamsFile::read(&args.params).with_context(|| "--params")?),
-        (None, false) => None,
+    .check("--params", &params_path)?;
+    let recall = args.estimator.init.is_none() && !args.fresh && params_path.is_file();
+    let start = match &args.estimator.init {
+        Some(p) => Some(ParamsFile::read(p).with_context(|| "--init")?),
+        None if recall => {
+            let pf = ParamsFile::read(&params_path).with_context(|| "--params")?;
+            eprintln!("{}", super::node_state::recalled(&params_path, &pf));
+            Some(pf)
+        }
+        None => None,
     };
+    let driven_before = super::node_state::driven(start.as_ref().filter(|_| recall));
     let mut topics_cfg = super::bag::topics().config()?;
+    warn_unmatched_remaps(&ros, &topics_cfg);
     for t in [
         &mut topics_cfg.wheels.topic,
         &mut topics_cfg.pose.topic,
@@ -138,14 +167,9 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
         .track_width
         .or(topics_cfg.meta.track_width)
         .unwrap_or(cfg.init.default_track_width);
-    let gyro_delay = args
-        .gyro_delay
-        .or_else(|| {
-            start
-                .as_ref()
-                .and_then(|p| p.extra.get("gyro_delay_s")?.as_f64())
-        })
-        .unwrap_or(0.0);
+    let recalled_delay = start
+        .as_ref()
+        .and_then(|p| p.extra.get("gyro_delay_s")?.as_f64());
 
     let stop = terraslip_node::signals::Stop::install().context("signal handlers")?;
     let env = RosEnv::from_env()?;
@@ -220,14 +244,20 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
         wait.register(&mut r.1, k).context("event poll")?;
     }
 
-    let mut live = Live::new(
+    let mut live = WarmUp::new(
         &label,
         &cfg,
         track_width,
-        start.as_ref(),
+        start,
         args.lag,
-        gyro_delay,
+        args.warmup,
+        args.gyro_delay,
+        recalled_delay,
     )?;
+    eprintln!(
+        "warming up: the first {} s of stamp time are held back to decide from",
+        args.warmup
+    );
     let mut out = Outputs::new(&graph, !args.no_tf)?;
     let mut bad = BadMessages::default();
     let subscribed = Instant::now();
@@ -236,30 +266,34 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
     let mut next_save: Option<f64> = None;
     loop {
         let mut got = false;
+        // What every reader holds, put in stamp order before it goes on:
+        // after a stall (the warm-up's rows being published) one topic's
+        // backlog must not push the others' past the lag.
+        let mut batch: Vec<LiveRow> = Vec::new();
         for (idx, reader, count, _) in readers.iter_mut() {
             while let Some((raw, source_ns)) = reader.take()? {
                 got = true;
                 *count += 1;
                 let recv_ns = if source_ns > 0 { source_ns } else { now_ns() };
-                let rows = match import.message(*idx, recv_ns, &raw.0) {
-                    Ok(r) => r,
-                    Err(e) => {
-                        bad.note(&e.to_string());
-                        continue;
-                    }
-                };
-                out.origin_ns = import.origin_ns().unwrap_or(0);
-                for r in rows {
-                    let s = match r {
-                        LiveRow::Wheels(w) => {
-                            out.wheels.push_back((w.t, w.v_left, w.v_right));
-                            Sample::Wheels(w)
-                        }
-                        LiveRow::Pose(p) => Sample::Pose(p),
-                        LiveRow::Imu(i) => Sample::Imu(i),
-                    };
-                    live.push(s, &mut out)?;
+                match import.message(*idx, recv_ns, &raw.0) {
+                    Ok(rows) => batch.extend(rows),
+                    Err(e) => bad.note(&e.to_string()),
                 }
+            }
+        }
+        out.origin_ns = import.origin_ns().unwrap_or(0);
+        batch.sort_by(|a, b| a.t().total_cmp(&b.t()));
+        for r in batch {
+            let s = match r {
+                LiveRow::Wheels(w) => {
+                    out.wheels.push_back((w.t, w.v_left, w.v_right));
+                    Sample::Wheels(w)
+                }
+                LiveRow::Pose(p) => Sample::Pose(p),
+                LiveRow::Imu(i) => Sample::Imu(i),
+            };
+            if let Some(d) = live.push(s, &mut out)? {
+                say_decided(&d);
             }
         }
         if got {
@@ -268,15 +302,15 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
         out.failed()?;
         // Diagnostics once a second and the parameters every
         // --save-every s, of stamp time.
-        if let Some(t) = out.last_t {
+        if let (Some(t), Some(summary)) = (out.last_t, live.summary()) {
             if out.diagnostics_due.is_none_or(|d| t >= d) {
                 out.diagnostics_due = Some(t + 1.0);
-                out.diagnostics(&live.summary(), &live, &bad)?;
+                out.diagnostics(&summary, &live, &bad)?;
             }
             let due = *next_save.get_or_insert(t + args.save_every);
             if t >= due {
                 next_save = Some(t + args.save_every);
-                save(&args.params, &live.summary())?;
+                save(&params_path, &summary, driven_before, &live)?;
             }
         }
         if !warned_unmatched && subscribed.elapsed() > Duration::from_secs(5) {
@@ -307,17 +341,30 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
                 .context("event poll")?;
         }
     }
-    live.flush(&mut out)?;
+    if let Some(d) = live.flush(&mut out)? {
+        say_decided(&d);
+    }
     out.failed()?;
-    let summary = live.summary();
-    out.diagnostics(&summary, &live, &bad)?;
-    save(&args.params, &summary)?;
+    let saved = match live.summary() {
+        Some(summary) => {
+            out.diagnostics(&summary, &live, &bad)?;
+            save(&params_path, &summary, driven_before, &live)?
+        }
+        None => false,
+    };
     eprintln!(
-        "node: {} estimates published, {} bad messages, late samples {:?}; parameters in {}",
+        "node: {} estimates published, {} bad messages, late samples {:?}; {}",
         out.published,
         bad.count,
         live.late(),
-        args.params.display()
+        if saved {
+            format!("parameters saved to {}", params_path.display())
+        } else {
+            format!(
+                "no estimate made, so no parameters saved ({} unchanged)",
+                params_path.display()
+            )
+        }
     );
     Ok(())
 }
@@ -353,14 +400,82 @@ fn apply_node_params(args: &mut Args, table: &mut toml::Table) -> Result<()> {
     Ok(())
 }
 
-/// Writes the learned parameters atomically.
-fn save(path: &Path, run: &EstimateRun) -> Result<()> {
-    if run.row_count == 0 {
-        return Ok(());
+/// Writes the learned parameters atomically, with the decisions; `false`
+/// when there is nothing to save yet.
+fn save(path: &Path, run: &EstimateRun, driven_before: f64, live: &WarmUp) -> Result<bool> {
+    let decided = live.decisions().map(|d| d.to_json());
+    super::node_state::save(path, run, driven_before, decided)
+}
+
+/// Prints the warm-up's decisions.
+fn say_decided(d: &Decisions) {
+    for line in d.lines() {
+        eprintln!("decided: {line}");
     }
-    run.params_file()
-        .write(path)
-        .with_context(|| format!("{}: writing the parameters", path.display()))
+}
+
+/// The configuration with the `--ros-args` parameters that are not the
+/// node's own over it; an unknown name's error lists the node's own too.
+fn with_params(
+    cfg: terraslip::config::EstimatorConfig,
+    table: &toml::Table,
+) -> Result<terraslip::config::EstimatorConfig> {
+    let text = toml::to_string(table).context("--ros-args parameters")?;
+    let cfg = terraslip::estimate::overlay(cfg, &text, "--ros-args parameters").with_context(|| {
+        format!(
+            "the node's own parameters are {}; any other name is a key of the configuration (`terraslip estimate --print-config`)",
+            NODE_PARAMS.join(", ")
+        )
+    })?;
+    cfg.validate()?;
+    Ok(cfg)
+}
+
+/// Warns of each `-r` remap that names no topic the topics file names.
+fn warn_unmatched_remaps(ros: &RosArgs, topics: &terraslip_ros2::TopicsConfig) {
+    for w in unmatched_remaps(ros, topics) {
+        eprintln!("warning: {w}");
+    }
+}
+
+/// The `-r` remaps that name no topic the topics file names (only those
+/// are remapped; a topic chosen by its type is not), each explained.
+fn unmatched_remaps(ros: &RosArgs, topics: &terraslip_ros2::TopicsConfig) -> Vec<String> {
+    let named: Vec<&str> = [
+        &topics.wheels.topic,
+        &topics.pose.topic,
+        &topics.heading.topic,
+        &topics.imu.topic,
+        &topics.tf.topic,
+    ]
+    .into_iter()
+    .filter_map(|t| t.as_deref().filter(|n| !n.is_empty()))
+    .collect();
+    ros.remaps
+        .iter()
+        .filter(|(from, _)| !named.iter().any(|n| ros_matches(from, n)))
+        .map(|(from, to)| {
+            format!(
+                "--ros-args -r {from}:={to} matches no topic this node reads: remaps apply to the topics the topics file names ({}); name the topic there (`[wheels] topic = \"{from}\"`) to remap it",
+                if named.is_empty() {
+                    "it names none".to_string()
+                } else {
+                    named.join(", ")
+                }
+            )
+        })
+        .collect()
+}
+
+/// Whether remap source `from` names `topic` (with or without the
+/// leading slash), as [`RosArgs::remap`] matches.
+fn ros_matches(from: &str, topic: &str) -> bool {
+    RosArgs {
+        remaps: vec![(from.to_string(), String::new())],
+        ..Default::default()
+    }
+    .remap(topic)
+    .is_empty()
 }
 
 fn now_ns() -> u64 {
@@ -456,7 +571,7 @@ impl Outputs {
         }
     }
 
-    fn diagnostics(&self, run: &EstimateRun, live: &Live, bad: &BadMessages) -> Result<()> {
+    fn diagnostics(&self, run: &EstimateRun, live: &WarmUp, bad: &BadMessages) -> Result<()> {
         let Some(t) = self.last_t else { return Ok(()) };
         let p = run.final_icr;
         let f = |x: f64| format!("{x:.6}");
@@ -479,6 +594,15 @@ impl Outputs {
         ];
         if let Some(e) = &bad.last {
             values.push(("last_bad_message".into(), e.clone()));
+        }
+        for (k, line) in live
+            .decisions()
+            .map(|d| d.lines())
+            .unwrap_or_default()
+            .into_iter()
+            .enumerate()
+        {
+            values.push((format!("decided_{k}"), line));
         }
         for (k, w) in run.warnings.iter().enumerate() {
             values.push((format!("warning_{k}"), w.clone()));
@@ -528,5 +652,45 @@ impl RowSink for Outputs {
         self.published += 1;
         self.last_t = Some(r.t);
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_remap_that_matches_no_named_topic_is_named() {
+        let topics: terraslip_ros2::TopicsConfig =
+            toml::from_str("[wheels]\nseparation = 1.04\n[imu]\ntopic = \"/imu/data\"\n").unwrap();
+        let ros = RosArgs::parse(
+            &[
+                "-r".into(),
+                "/odom:=/husky_velocity_controller/odom".into(),
+                "-r".into(),
+                "imu/data:=/imu2".into(),
+            ],
+            "terraslip",
+        )
+        .unwrap();
+        let w = unmatched_remaps(&ros, &topics);
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(
+            w[0].contains("/odom:=") && w[0].contains("/imu/data"),
+            "{}",
+            w[0]
+        );
+    }
+
+    #[test]
+    fn an_unknown_parameter_lists_the_nodes_own() {
+        let mut table = toml::Table::new();
+        table.insert("lagg".into(), toml::Value::Float(0.5));
+        let e = with_params(Default::default(), &table).unwrap_err();
+        let text = format!("{e:#}");
+        assert!(text.contains("lagg"), "{text}");
+        for p in NODE_PARAMS {
+            assert!(text.contains(p), "{p} missing from: {text}");
+        }
     }
 }

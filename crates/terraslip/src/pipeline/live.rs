@@ -13,6 +13,7 @@ use std::collections::VecDeque;
 use terraslip_core::estimator::Estimator;
 use terraslip_io::{DriveLog, ImuSample, ParamsFile, PoseObs, WheelSample};
 
+use super::decide::Decisions;
 use super::replay::Feed;
 use super::{
     finish, setup, EstimateRun, PipelineError, RowSink, RunInfo, RunOptions, TerrainEvidence,
@@ -222,7 +223,7 @@ impl<'a> Live<'a> {
     /// (m), started from `init` as `estimate --init` starts; `name` names
     /// the source in messages (`dir`), `lag` (s) is how long samples wait
     /// for earlier ones, `gyro_delay` (s) how late the wheels are stamped
-    /// against the gyro.
+    /// against the gyro; the configuration's holds as they are.
     pub fn new(
         name: &'a str,
         cfg: &'a EstimatorConfig,
@@ -231,15 +232,56 @@ impl<'a> Live<'a> {
         lag: f64,
         gyro_delay: f64,
     ) -> Result<Self, PipelineError> {
+        let fuse_gyro = cfg.measurement.std_gyro > 0.0;
+        let decided = Decisions {
+            gyro_clock: super::GyroClock::Unknown,
+            fuse_gyro,
+            gyro_delay: if fuse_gyro { gyro_delay } else { 0.0 },
+            hold: cfg.filter.hold,
+            hold_gyro_scale: cfg.filter.hold_gyro_scale,
+        };
+        Self::decided(
+            name,
+            cfg,
+            track_width,
+            init,
+            lag,
+            &decided,
+            true,
+            Vec::new(),
+        )
+    }
+
+    /// [`Self::new`] with the decisions a warm-up made (`has_pose`: pose
+    /// rows came; `warnings`: those it gave).
+    #[allow(clippy::too_many_arguments)]
+    pub fn decided(
+        name: &'a str,
+        cfg: &'a EstimatorConfig,
+        track_width: f64,
+        init: Option<&ParamsFile>,
+        lag: f64,
+        decided: &Decisions,
+        has_pose: bool,
+        mut warnings: Vec<String>,
+    ) -> Result<Self, PipelineError> {
         cfg.validate().map_err(|e| PipelineError::Config(e.0))?;
         let mut log = DriveLog {
             dir: name.into(),
             ..Default::default()
         };
         log.meta.track_width = Some(track_width);
-        let s = setup::setup(&log, cfg, &NO_EVIDENCE, init)?;
-        let fuse_gyro = cfg.measurement.std_gyro > 0.0;
-        let gyro_delay = if fuse_gyro { gyro_delay } else { 0.0 };
+        let s = setup::setup(&log, &decided.filter_config(cfg), &NO_EVIDENCE, init)?;
+        warnings.splice(0..0, s.warnings);
+        warnings.extend(super::decide::warnings(
+            name,
+            cfg,
+            decided,
+            s.track_width,
+            has_pose,
+            &s.init_source,
+        ));
+        let gyro_delay = decided.gyro_delay;
         Ok(Self {
             cfg,
             feed: Feed::new(
@@ -256,10 +298,10 @@ impl<'a> Live<'a> {
                 terrains: s.terrains,
                 track_width: s.track_width,
                 init_source: s.init_source,
-                warnings: s.warnings,
+                warnings,
                 gyro_delay,
             },
-            fuse_gyro,
+            fuse_gyro: decided.fuse_gyro,
         })
     }
 

@@ -3,12 +3,14 @@
 //! [`terraslip_core::Estimator`] event by event, exactly as a robot would;
 //! one [`EstimateRow`] is taken after each wheels row.
 
+pub mod decide;
 mod gyro_delay;
 pub mod live;
 mod replay;
 pub mod row;
 mod setup;
 mod terrain_feed;
+pub mod warmup;
 
 use terraslip_calib::prediction::PredictionScore;
 use terraslip_core::estimator::{Estimator, FixCounts};
@@ -18,6 +20,9 @@ use terraslip_core::IcrParams;
 use terraslip_io::{DriveLog, LogError, ParamsFile, PoseObs, TerrainLabel};
 
 use crate::config::EstimatorConfig;
+/// Seconds of a drive's start its decisions are made from (the node's
+/// warm-up).
+pub use gyro_delay::SPAN as DECISION_SPAN;
 pub use gyro_delay::{gyro_delay, gyro_delay_in, GyroClock};
 use replay::{Context, Replay};
 pub use replay::{RowSink, Streams};
@@ -361,54 +366,39 @@ pub fn run_streams(
     let mut pose = pose.peekable();
     // The gyro is fused when configured and when it is the body's yaw
     // rate; its samples are moved onto the wheels' clock.
-    let mut warnings = Vec::new();
+    let mut gyro = streams.gyro.peekable();
+    let seen = decide::Seen {
+        gyro_clock: streams.gyro_clock,
+        positions,
+        headings,
+        gyro: gyro.peek().is_some(),
+    };
+    let (decided, gyro_warning) = decide::Decisions::new(&dir, cfg, seen);
+    let mut warnings: Vec<String> = gyro_warning.into_iter().collect();
     let mut no_gyro = std::iter::empty();
-    let (gyro, delay): (&mut dyn Iterator<Item = _>, f64) = match streams.gyro_clock {
-        _ if cfg.measurement.std_gyro == 0.0 => (&mut no_gyro, 0.0),
-        GyroClock::NotYaw(c) => {
-            warnings.push(format!(
-                "{dir}: the gyro (imu gyro_z) does not follow the tread speed difference at any delay within 1 s (best correlation {c:.2}), so it is not fused; it is not the body's yaw rate: check the IMU's mounting (for a bag, `[imu] mount_rpy_deg` in the topics file)"
-            ));
-            (&mut no_gyro, 0.0)
-        }
-        GyroClock::Delay { wheels_late_by, .. } => (streams.gyro, wheels_late_by),
-        GyroClock::Unknown => (streams.gyro, 0.0),
+    let gyro: &mut dyn Iterator<Item = _> = if decided.fuse_gyro {
+        &mut gyro
+    } else {
+        &mut no_gyro
     };
     let mut gyro = gyro.peekable();
-    let gyro_fused = gyro.peek().is_some();
-    let hold = if positions {
-        SlipHold::Nothing
-    } else if headings || gyro_fused {
-        SlipHold::PositionTaught
-    } else {
-        SlipHold::All
-    };
-    let mut cfg_held = cfg.clone();
-    cfg_held.filter.hold = hold;
-    // Only positions or headings show the true turn the gyro's scale is
-    // measured against.
-    cfg_held.filter.hold_gyro_scale = !(positions || headings);
+    let delay = decided.gyro_delay;
     let setup::Setup {
         mut estimator,
         terrains,
         track_width,
         init_source,
         warnings: setup_warnings,
-    } = setup::setup(log, &cfg_held, evidence, init)?;
+    } = setup::setup(log, &decided.filter_config(cfg), evidence, init)?;
     warnings.splice(0..0, setup_warnings);
-    if let (true, GyroClock::Delay { gyro_per_tread, .. }) = (gyro_fused, streams.gyro_clock) {
-        let band = cfg.band(track_width);
-        warnings.extend(gyro_delay::turn_disagreement(
-            &dir,
-            gyro_per_tread,
-            track_width,
-            band.min_spread,
-            band.max_spread,
-        ));
-    }
-    if let Some(w) = hold_warning(&dir, hold, pose.peek().is_some(), &init_source) {
-        warnings.push(w);
-    }
+    warnings.extend(decide::warnings(
+        &dir,
+        cfg,
+        &decided,
+        track_width,
+        pose.peek().is_some(),
+        &init_source,
+    ));
     let cx = Context {
         dir: &dir,
         cfg,
@@ -440,26 +430,6 @@ pub fn run_streams(
 /// Pose rows read ahead to tell whether a log has positions and headings
 /// (a few minutes of 10 Hz fixes).
 const POSE_LOOKAHEAD: usize = 2000;
-
-/// The warning that says which slip parameters a log without positions
-/// cannot teach and holds (`None` when positions are present).
-fn hold_warning(dir: &str, hold: SlipHold, has_pose: bool, start: &str) -> Option<String> {
-    let what = if has_pose {
-        "the pose reference has headings but no positions"
-    } else {
-        "no pose observations: dead reckoning from the origin"
-    };
-    match hold {
-        SlipHold::Nothing => None,
-        SlipHold::PositionTaught => Some(format!(
-            "{dir}: {what}; only positions show the common speed factor (alpha_l + alpha_r)/2 and the ICR centre offsets, so they stay at their starting values ({start}) and are not learned; the turning (spread, speed factor difference) is learned from the {}",
-            if has_pose { "headings" } else { "gyro" }
-        )),
-        SlipHold::All => Some(format!(
-            "{dir}: {what} and no yaw-rate gyro: nothing measures the motion, so every slip parameter stays at its starting value ({start}) and none is learned"
-        )),
-    }
-}
 
 /// What the set-up decided, carried into the result.
 #[derive(Clone)]

@@ -1,0 +1,81 @@
+//! The Husky recording played message by message through the node's live
+//! path (live import, warm-up, live estimator; no DDS), with only the user
+//! guide's topics file and no `--gyro-delay`, gives the odometry `estimate`
+//! gives of the same recording: the warm-up decides the gyro's delay as
+//! `estimate` does.
+#![cfg(feature = "ros2")]
+
+use terraslip::config::EstimatorConfig;
+use terraslip::pipeline::live::Sample;
+use terraslip::pipeline::warmup::WarmUp;
+use terraslip::pipeline::{run, EstimateRow, TerrainEvidence, DECISION_SPAN};
+use terraslip_ros2::import::{LiveImport, LiveRow};
+use terraslip_ros2::{import, Bag, TopicsConfig};
+
+const HUSKY_TOML: &str = "[wheels]\nseparation = 1.040625\n[imu]\nmount_rpy_deg = [90, 0, -90]\n\
+                          [heading]\ntopic = \"\"\n[meta]\ntrack_width = 0.555\n";
+
+fn quantile(mut x: Vec<f64>, q: f64) -> f64 {
+    x.sort_by(f64::total_cmp);
+    x[((x.len() - 1) as f64 * q).round() as usize]
+}
+
+#[test]
+fn the_husky_recording_played_live_gives_the_estimate_of_the_recording() {
+    let Some(path) = terraslip_io::shared::shared_data("ros2/husky_test1_mcap") else {
+        return;
+    };
+    let topics: TopicsConfig = toml::from_str(HUSKY_TOML).unwrap();
+    let cfg = EstimatorConfig::default();
+
+    let (log, report) = import(&path, &topics, None).unwrap();
+    let offline = run(&log, &cfg, &TerrainEvidence::None, None).unwrap();
+
+    let mut bag = Bag::open(&path).unwrap();
+    let mut live_import = LiveImport::new("graph", bag.topics.clone(), &topics).unwrap();
+    let mut samples: Vec<Sample> = Vec::new();
+    bag.for_each(&|_| true, &mut |_, m| {
+        for r in live_import.message(m.topic, m.recv_ns, m.data).unwrap() {
+            samples.push(match r {
+                LiveRow::Wheels(w) => Sample::Wheels(w),
+                LiveRow::Pose(p) => Sample::Pose(p),
+                LiveRow::Imu(i) => Sample::Imu(i),
+            });
+        }
+        Ok(())
+    })
+    .unwrap();
+    let mut node = WarmUp::new("graph", &cfg, 0.555, None, 0.3, DECISION_SPAN, None, None).unwrap();
+    let mut rows: Vec<EstimateRow> = Vec::new();
+    for s in samples {
+        node.push(s, &mut rows).unwrap();
+    }
+    node.flush(&mut rows).unwrap();
+    let d = *node.decisions().expect("decided");
+    assert!(
+        (d.gyro_delay - offline.gyro_delay).abs() < 1e-9,
+        "live {} offline {}",
+        d.gyro_delay,
+        offline.gyro_delay
+    );
+    assert!(d.gyro_delay > 0.3, "the Husky's wheels are stamped late");
+
+    // Row for row on the import's clock (the two origins differ by whole
+    // seconds).
+    let shift = (live_import.origin_ns().unwrap() as f64 - report.time_origin_ns as f64) * 1e-9;
+    assert_eq!(rows.len(), offline.rows.len());
+    let gaps: Vec<f64> = rows
+        .iter()
+        .zip(&offline.rows)
+        .map(|(a, b)| {
+            assert!((a.t + shift - b.t).abs() < 1e-6);
+            (a.east - b.east).hypot(a.north - b.north)
+        })
+        .collect();
+    let (median, p99) = (quantile(gaps.clone(), 0.5), quantile(gaps, 0.99));
+    eprintln!("live against offline: median {median:.6} m, p99 {p99:.6} m");
+    assert!(
+        median <= 0.01 && p99 <= 0.10,
+        "median {median} m, p99 {p99} m"
+    );
+}

@@ -610,7 +610,10 @@ pub fn seed_terrain(
     name: &str,
 ) {
     if let Some(entry) = init.terrains.get(name) {
-        est.schedule_mut()
-            .seed(k, &entry.params, cfg.init.calibrated_std);
+        est.schedule_mut().seed(
+            k,
+            &entry.params,
+            setup::set_std(cfg, entry.extra.get("std")),
+        );
     }
 }

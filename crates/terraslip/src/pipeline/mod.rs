@@ -5,6 +5,7 @@
 
 mod gyro_delay;
 pub mod live;
+pub mod outage;
 mod replay;
 pub mod row;
 mod setup;
@@ -171,6 +172,11 @@ pub struct EstimateRun {
     /// [`crate::prediction_score`] computes from the rows); `None` without
     /// a pose reference.
     pub prediction: Option<PredictionScore>,
+    /// The outage yardstick: the estimate dead-reckoned through 10, 30
+    /// and 60 s without pose fixes from starts every 10 s, beside no-slip
+    /// odometry and odometry + gyro ([`outage`]); `None` without a pose
+    /// reference or a start.
+    pub outage: Option<terraslip_calib::outage::OutageScore>,
     /// Terrain names the rows' indices refer to.
     pub terrains: Vec<String>,
     /// Terrain changes the schedule acted on.
@@ -539,6 +545,7 @@ fn finish(
         first_row: totals.first,
         last_row: totals.last,
         prediction,
+        outage: totals.outage.finish(),
         terrains,
         changes,
         track_width,

@@ -40,6 +40,7 @@ pub mod ga;
 pub mod lm;
 pub mod model;
 pub mod offset;
+pub mod outage;
 pub mod position_prediction;
 pub mod prediction;
 pub mod reduction;

@@ -155,7 +155,7 @@ pub fn interpolate(r: &[Reference], t: f64) -> Option<(f64, f64, f64)> {
 
 /// Linear interpolation at `t` of the samples `r` (their times `time`,
 /// their values `value`); `None` outside them.
-fn lerp<T, const N: usize>(
+pub(crate) fn lerp<T, const N: usize>(
     r: &[T],
     t: f64,
     time: impl Fn(&T) -> f64,
@@ -225,22 +225,27 @@ pub fn predict_with(
     t1: f64,
     start: (f64, f64, f64),
 ) -> (f64, f64) {
-    let (mut e, mut n, mut y) = start;
+    let mut pose = start;
     let mut i = wheels.partition_point(|w| w.t <= t0);
     let mut t = t0;
     while t < t1 && i < wheels.len() {
         let tn = wheels[i].t.min(t1);
-        let dt = tn - t;
-        let tw = twist(&wheels[i]);
-        e += dt * (tw.v_x * y.cos() - tw.v_y * y.sin());
-        n += dt * (tw.v_x * y.sin() + tw.v_y * y.cos());
-        y += dt * tw.omega;
+        advance(&mut pose, tn - t, twist(&wheels[i]));
         t = tn;
         if tn >= wheels[i].t {
             i += 1;
         }
     }
-    (e, n)
+    (pose.0, pose.1)
+}
+
+/// Moves `pose` (east, north, yaw; m, m, rad) on by body twist `tw` held
+/// for `dt` s (Euler step, the heading at the step's start).
+pub fn advance(pose: &mut (f64, f64, f64), dt: f64, tw: terraslip_core::Twist) {
+    let (e, n, y) = pose;
+    *e += dt * (tw.v_x * y.cos() - tw.v_y * y.sin());
+    *n += dt * (tw.v_x * y.sin() + tw.v_y * y.cos());
+    *y += dt * tw.omega;
 }
 
 /// A reference position: time, east, north.
@@ -252,7 +257,7 @@ fn interpolate_position(r: &[Position], t: f64) -> Option<(f64, f64)> {
 
 /// The heading at `t` from headings `(t, yaw unwrapped)` no further apart
 /// than `max_gap` around it.
-fn heading_at(h: &[(f64, f64)], t: f64, max_gap: f64) -> Option<f64> {
+pub(crate) fn heading_at(h: &[(f64, f64)], t: f64, max_gap: f64) -> Option<f64> {
     let i = h.partition_point(|p| p.0 < t);
     if let Some(p) = h.get(i).filter(|p| p.0 == t) {
         return Some(p.1);

@@ -15,6 +15,12 @@
 //! clock offset: the online default the one it had learned at the start,
 //! `calibrate` its `time_offset_s`, DRIVE's model (which has none) the one
 //! that predicts its training data best.
+//!
+//! Then, on the same spans, the outage table ([`crate::outage_table`]):
+//! each model dead-reckoned through 10, 30 and 60 s without the pose, the
+//! online runs from their own pose and covariance (with the end's NEES),
+//! `calibrate` selected, DRIVE's model, no-slip and odometry + gyro from
+//! the reference pose.
 
 use std::path::{Path, PathBuf};
 
@@ -29,6 +35,8 @@ use terraslip_core::{IcrParams, Twist};
 use terraslip_io::{DriveLog, ParamsFile, WheelSample};
 
 use crate::blr::Blr;
+use crate::outage_table;
+use terraslip_calib::outage::OutageScore;
 
 /// Score each estimator on data it was not trained on.
 #[derive(clap::Args)]
@@ -160,7 +168,7 @@ fn online_picks<'a>(
     cfg: &EstimatorConfig,
     init: Option<&ParamsFile>,
     picks: &[(String, Pick)],
-) -> anyhow::Result<Vec<Model<'a>>> {
+) -> anyhow::Result<(Vec<Model<'a>>, Option<OutageScore>)> {
     let run = pipeline::run(target, cfg, &TerrainEvidence::None, init)?;
     let ts: std::rc::Rc<Vec<f64>> = std::rc::Rc::new(run.rows.iter().map(|r| r.t).collect());
     let start: Vec<Timed> = run.rows.iter().map(|r| r.prediction_model).collect();
@@ -232,32 +240,95 @@ fn online_picks<'a>(
             clock_at: Box::new(move |t| m2(t).clock_offset),
         });
     }
-    Ok(out)
+    Ok((out, run.outage))
 }
 
 /// The online default's run over `target`: the ICRs and clock offset in
-/// effect at each start.
+/// effect at each start, and the run's outage yardstick.
 fn online<'a>(
     target: &DriveLog,
     cfg: &EstimatorConfig,
     init: Option<&ParamsFile>,
     name: &str,
-) -> anyhow::Result<Model<'a>> {
-    let mut m = online_picks(target, cfg, init, &[(name.to_string(), Pick::Start)])?;
-    m.pop().context("no model")
+) -> anyhow::Result<(Model<'a>, Option<OutageScore>)> {
+    let (mut m, outage) = online_picks(target, cfg, init, &[(name.to_string(), Pick::Start)])?;
+    Ok((m.pop().context("no model")?, outage))
 }
 
-/// The online estimator over `target` with each named configuration.
+/// Each online run's name and its outage yardstick.
+type Runs = Vec<(String, Option<OutageScore>)>;
+
+/// The online default over `target`, alone and started with `--init`
+/// from `pf`, and their runs' outage yardsticks.
+fn default_and_init<'a>(
+    target: &DriveLog,
+    cfg: &EstimatorConfig,
+    pf: &ParamsFile,
+) -> anyhow::Result<(Vec<Model<'a>>, Runs)> {
+    let (mut models, mut runs) = (Vec::new(), Vec::new());
+    for (name, init) in [("online default", None), ("online --init", Some(pf))] {
+        let (m, o) = online(target, cfg, init, name)?;
+        models.push(m);
+        runs.push((name.to_string(), o));
+    }
+    Ok((models, runs))
+}
+
+/// The online estimator over `target` with each named configuration, and
+/// each run's outage yardstick.
 fn online_configs<'a>(
     target: &DriveLog,
     configs: &[(String, EstimatorConfig)],
-) -> anyhow::Result<Vec<Model<'a>>> {
-    let mut out = Vec::new();
+) -> anyhow::Result<(Vec<Model<'a>>, Runs)> {
+    let (mut out, mut outages) = (Vec::new(), Vec::new());
     for (name, cfg) in configs {
         let picks = [(format!("online {name}"), Pick::Start)];
-        out.extend(online_picks(target, cfg, None, &picks)?);
+        let (m, o) = online_picks(target, cfg, None, &picks)?;
+        out.extend(m);
+        outages.push((format!("online {name}"), o));
     }
-    Ok(out)
+    Ok((out, outages))
+}
+
+/// The outage table's columns on `target` from starts in `[from, to)`:
+/// the online runs' own dead reckoning (`runs`: name and the run's
+/// yardstick, the first the default's), `calibrate` selected and DRIVE's
+/// model from the reference pose, and the default run's no-slip and
+/// odometry + gyro.
+fn outage_columns(
+    target: &DriveLog,
+    models: &[Model],
+    runs: &Runs,
+    from: f64,
+    to: f64,
+) -> Vec<outage_table::Column> {
+    use terraslip::pipeline::outage::{NO_SLIP, ODOMETRY_GYRO, ONLINE};
+    let mut cols: Vec<outage_table::Column> = runs
+        .iter()
+        .map(|(name, o)| outage_table::from_run(name, o.as_ref(), ONLINE, from))
+        .collect();
+    for m in models
+        .iter()
+        .filter(|m| m.name == "calibrate selected" || m.name == "DRIVE's model")
+    {
+        cols.push(outage_table::fixed(
+            target,
+            &m.name,
+            &*m.twist,
+            &*m.clock_at,
+            from,
+            to,
+        ));
+    }
+    if let Some((_, o)) = runs.first() {
+        for model in [NO_SLIP, ODOMETRY_GYRO] {
+            let c = outage_table::from_run(model, o.as_ref(), model, from);
+            if !c.ends.is_empty() {
+                cols.push(c);
+            }
+        }
+    }
+    cols
 }
 
 /// Mean error of each model on the starts every model can score.
@@ -360,6 +431,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     };
     let spec = PredictionSpec::default();
     let mut table = Vec::new();
+    let mut outages = Vec::new();
     eprintln!("first half -> second half");
     for dir in &logs {
         let log = read(dir)?;
@@ -377,13 +449,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let pf = cal.params_file();
         let [selected, constant] = calibrated(&pf, &log, &acc)?;
         let cal_clock = stored_offset(&pf).unwrap_or(0.0);
-        let mut models = vec![
-            drive_model(blr),
-            online(&log, &cfg, None, "online default")?,
-            online(&log, &cfg, Some(&pf), "online --init")?,
-            constant,
-            selected,
-        ];
+        let (default_init, mut runs) = default_and_init(&log, &cfg, &pf)?;
+        let mut models = vec![drive_model(blr)];
+        models.extend(default_init);
+        models.extend([constant, selected]);
         if a.diagnose.is_some() {
             let picks = [
                 ("mean 5 s".to_string(), Pick::Mean(5.0)),
@@ -391,14 +460,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 ("mean 60 s".to_string(), Pick::Mean(60.0)),
                 ("calibrate's clock".to_string(), Pick::Clock(cal_clock)),
             ];
-            models.extend(online_picks(
-                &log,
-                &EstimatorConfig::default(),
-                None,
-                &picks,
-            )?);
+            models.extend(online_picks(&log, &EstimatorConfig::default(), None, &picks)?.0);
         }
-        models.extend(online_configs(&log, &extra)?);
+        let (more, more_runs) = online_configs(&log, &extra)?;
+        models.extend(more);
+        runs.extend(more_runs);
+        outages.push((name_of(dir), outage_columns(&log, &models, &runs, mid, t1)));
         let (cols, n) = row(&log, &models, mid, t1 + 1.0 - spec.horizon);
         if let Some(out) = &a.diagnose {
             let (_, _, segs) = score_segments(&log, &models, mid, t1 + 1.0 - spec.horizon);
@@ -424,6 +491,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         "2 s prediction error on the second half, mean m (clock offset), trained on the first half"
     );
     print(&table);
+    for (drive, cols) in &outages {
+        outage_table::print(
+            &format!("{drive}, second half (trained on the first)"),
+            cols,
+        );
+    }
+    let mut outages = Vec::new();
     let mut table = Vec::new();
     for pair in &a.across {
         let (src, dst) = pair
@@ -449,16 +523,19 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let pf = cal.params_file();
         let acc = accelerations(&to_log.wheels);
         let [selected, constant] = calibrated(&pf, &to_log, &acc)?;
-        let mut models = vec![
-            drive_model(blr),
-            online(&to_log, &cfg, None, "online default")?,
-            online(&to_log, &cfg, Some(&pf), "online --init")?,
-            constant,
-            selected,
-        ];
-        models.extend(online_configs(&to_log, &extra)?);
+        let (default_init, mut runs) = default_and_init(&to_log, &cfg, &pf)?;
+        let mut models = vec![drive_model(blr)];
+        models.extend(default_init);
+        models.extend([constant, selected]);
+        let (more, more_runs) = online_configs(&to_log, &extra)?;
+        models.extend(more);
+        runs.extend(more_runs);
         let name = format!("{} -> {}", name_of(Path::new(src)), name_of(Path::new(dst)));
         let (from, to) = (b0.t + spec.warmup, b1.t + 1.0 - spec.horizon);
+        outages.push((
+            name.clone(),
+            outage_columns(&to_log, &models, &runs, from, b1.t),
+        ));
         let mid = 0.5 * (from + to);
         // The whole scored span, then its two halves: whether the online
         // estimate gains on the calibration as the drive goes on.
@@ -478,6 +555,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             "2 s prediction error on drive B after 60 s, mean m (clock offset), trained on drive A"
         );
         print(&table);
+        for (pair, cols) in &outages {
+            outage_table::print(pair, cols);
+        }
     }
     Ok(())
 }

@@ -18,6 +18,7 @@ mod drives;
 mod estimators;
 mod family;
 mod heldout;
+mod outage_table;
 mod stats;
 
 /// The estimator's quality benchmarks.

@@ -477,6 +477,7 @@ pub fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) ->
         // How well the parameters the filter reported at each time predict
         // the next 2 s of motion against the pose reference (absent without one).
         "prediction": est.prediction.as_ref().map(|p| p.to_json()),
+        "outage": est.outage.as_ref().map(|o| o.to_json()),
     })
 }
 

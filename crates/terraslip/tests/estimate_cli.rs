@@ -479,3 +479,75 @@ fn report_shows_the_summarys_prediction() {
     assert_eq!(scored.stats.p90_m, m(&p["p90_m"]));
     assert_eq!(scored.no_slip.mean_m, m(&p["no_slip"]["mean_m"]));
 }
+
+/// `std_y_l` of `estimate.csv` at the first row of each terrain's stay,
+/// run with `--terrain-labels --init` on a file holding a set per terrain,
+/// each stating `std` (a JSON object, or nothing when empty).
+fn std_y_l_at_terrain_starts(std: &str) -> Vec<f64> {
+    let tmp = tempfile::tempdir().unwrap();
+    let (log, out) = (tmp.path().join("log"), tmp.path().join("out"));
+    let spec = short();
+    write_log(&log, &spec);
+    let set = |p: &terraslip_core::IcrParams| {
+        let std = if std.is_empty() {
+            String::new()
+        } else {
+            format!(r#", "std": {std}"#)
+        };
+        format!(
+            r#"{{"params": {{"y_l": {}, "y_r": {}, "x_c": {}}}{std}}}"#,
+            p.y_l, p.y_r, p.x_c
+        )
+    };
+    let params = tmp.path().join("p.json");
+    fs::write(
+        &params,
+        format!(
+            r#"{{"terrains": {{"asphalt": {}, "grass": {}}}}}"#,
+            set(&spec.terrains[0].2),
+            set(&spec.terrains[1].2)
+        ),
+    )
+    .unwrap();
+    let (l, o) = (log.to_str().unwrap(), out.to_str().unwrap());
+    succeeds(&[
+        "estimate",
+        l,
+        "--out",
+        o,
+        "--terrain-labels",
+        "--init",
+        params.to_str().unwrap(),
+    ]);
+    let (header, rows) = read_rows(&out.join("estimate.csv"));
+    let col = |n: &str| header.iter().position(|h| h == n).unwrap();
+    let at = |t0: f64| {
+        let r = rows
+            .iter()
+            .find(|r| r[col("t")].parse::<f64>().unwrap() >= t0)
+            .unwrap();
+        r[col("std_y_l")].parse::<f64>().unwrap()
+    };
+    spec.terrains.iter().map(|(t, _, _)| at(*t)).collect()
+}
+
+#[test]
+fn init_per_terrain_sets_start_with_their_stated_std() {
+    // Each set states 0.25 m on y_l: the filter starts every terrain that
+    // wide, not at the floor `init.calibrated_std` a set stating nothing
+    // gets.
+    let floor = std_y_l_at_terrain_starts("");
+    let full = std_y_l_at_terrain_starts(
+        r#"{"y_l": 0.25, "y_r": 0.01, "x_c": 0.01, "alpha_l": 0.01, "alpha_r": 0.01}"#,
+    );
+    let partial = std_y_l_at_terrain_starts(r#"{"y_l": 0.25}"#);
+    for s in &floor {
+        assert!(*s < 0.02, "no stated std: the floor, not {s}");
+    }
+    for s in full.iter().chain(&partial) {
+        assert!(
+            *s > 0.15,
+            "stated 0.25 m on y_l, started at {s}: {full:?} {partial:?}"
+        );
+    }
+}

@@ -290,3 +290,37 @@ fn init_with_terrain_sets_starts_from_the_terrain_the_log_names() {
     assert_eq!(run.init_source, "prior");
     assert_warns(&run, "one set per terrain");
 }
+
+#[test]
+fn the_outage_yardstick_dead_reckons_the_estimate_beside_no_slip() {
+    // A slipping robot (exact ICR model): after the warm-up the learned
+    // model dead-reckons far closer than no-slip odometry, and its own
+    // covariance spans the error it makes.
+    let spec = SynthSpec {
+        terrains: SynthSpec::default().terrains[1..2]
+            .iter()
+            .map(|(_, n, p)| (0.0, n.clone(), *p))
+            .collect(),
+        ..Default::default()
+    };
+    let log = drive(&spec);
+    let run = run_plain(&log);
+    let o = run.outage.as_ref().expect("an outage score");
+    let stats = |name: &str| terraslip_calib::outage::OutageStats::all(o.ends(name).unwrap());
+    let (online, no_slip) = (stats("online"), stats("no-slip"));
+    assert_eq!(online.len(), 3, "{online:?}");
+    // Starts every 10 s from 60 s while the horizon ends before the last
+    // wheels row (just short of 300 s).
+    let n: Vec<usize> = online.iter().map(|s| s.segments).collect();
+    assert_eq!(n, [23, 22, 19]);
+    for (a, b) in online.iter().zip(&no_slip) {
+        assert!(b.segments >= a.segments);
+        assert!(a.mean_m < 0.1 * b.mean_m, "{a:?} {b:?}");
+        let nees = a.nees_median.unwrap();
+        assert!(nees > 0.0 && nees < 5.0, "{a:?}");
+    }
+    // No gyro in the log: no odometry + gyro.
+    assert!(o.ends("odometry + gyro").is_none());
+    let js = o.to_json();
+    assert_eq!(js["models"]["online"][1]["horizon_s"], 30.0);
+}

@@ -6,6 +6,7 @@
 pub mod decide;
 mod gyro_delay;
 pub mod live;
+pub mod outage;
 mod replay;
 pub mod row;
 mod setup;
@@ -176,6 +177,11 @@ pub struct EstimateRun {
     /// [`crate::prediction_score`] computes from the rows); `None` without
     /// a pose reference.
     pub prediction: Option<PredictionScore>,
+    /// The outage yardstick: the estimate dead-reckoned through 10, 30
+    /// and 60 s without pose fixes from starts every 10 s, beside no-slip
+    /// odometry and odometry + gyro ([`outage`]); `None` without a pose
+    /// reference or a start.
+    pub outage: Option<terraslip_calib::outage::OutageScore>,
     /// Terrain names the rows' indices refer to.
     pub terrains: Vec<String>,
     /// Terrain changes the schedule acted on.
@@ -509,6 +515,7 @@ fn finish(
         first_row: totals.first,
         last_row: totals.last,
         prediction,
+        outage: totals.outage.finish(),
         terrains,
         changes,
         track_width,
@@ -580,7 +587,10 @@ pub fn seed_terrain(
     name: &str,
 ) {
     if let Some(entry) = init.terrains.get(name) {
-        est.schedule_mut()
-            .seed(k, &entry.params, cfg.init.calibrated_std);
+        est.schedule_mut().seed(
+            k,
+            &entry.params,
+            setup::set_std(cfg, entry.extra.get("std")),
+        );
     }
 }

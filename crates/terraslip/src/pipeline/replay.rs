@@ -67,6 +67,7 @@ pub(super) struct Totals {
     /// Pose rows with a position.
     pub positions: usize,
     pub prediction: PredictionStream,
+    pub outage: super::outage::OutageRun,
 }
 
 impl Totals {
@@ -82,6 +83,7 @@ impl Totals {
             std_yaw: None,
             positions: 0,
             prediction: PredictionStream::new(track_width, PredictionSpec::default()),
+            outage: super::outage::OutageRun::new(track_width),
         }
     }
 
@@ -91,6 +93,7 @@ impl Totals {
         self.std_yaw = self.std_yaw.or(p.std_yaw);
         self.positions += usize::from(p.east.is_some() && p.north.is_some());
         self.prediction.pose(p);
+        self.outage.pose(p);
     }
 }
 
@@ -266,7 +269,9 @@ impl<'a> Feed<'a> {
     ) -> Result<(), PipelineError> {
         estimator
             .on_gyro(t, rate)
-            .map_err(|e| self.filter_err(t, e))
+            .map_err(|e| self.filter_err(t, e))?;
+        self.totals.outage.gyro(t, rate);
+        Ok(())
     }
 
     /// Wheels row `w` into the estimator; the estimate after it.
@@ -287,6 +292,7 @@ impl<'a> Feed<'a> {
         let r = row(estimator, w.t, self.terrain.current, &summary);
         self.params = Some(r.prediction_model);
         self.totals.prediction.estimate_heading(r.yaw);
+        self.totals.outage.wheels(w, estimator, r.clock_offset);
         self.totals.rows += 1;
         self.totals.band.add(&r, &self.band);
         self.totals.first.get_or_insert(r);

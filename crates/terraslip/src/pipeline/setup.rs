@@ -112,7 +112,7 @@ pub(super) fn setup(
     if let Some(pf) = init {
         for (name, entry) in &pf.terrains {
             match terrains.iter().position(|n| n == name) {
-                Some(k) => schedule.seed(k, &entry.params, cfg.init.calibrated_std),
+                Some(k) => schedule.seed(k, &entry.params, set_std(cfg, entry.extra.get("std"))),
                 None if !terrains.is_empty() => warnings.push(format!(
                     "--init: terrain `{name}` never appears in the terrain evidence; ignored"
                 )),
@@ -222,14 +222,7 @@ fn init_prior(
     p.validate()
         .map_err(|e| PipelineError::Init(format!("set `{name}`: {e}")))?;
     prior.icr = p;
-    // The calibration's own uncertainty where it reports one,
-    // never tighter than `init.calibrated_std`.
-    let stated = |std: Option<&serde_json::Value>| {
-        std.and_then(stated_std)
-            .map_or(cfg.init.calibrated_std, |s| {
-                wider(s, cfg.init.calibrated_std)
-            })
-    };
+    let stated = |std: Option<&serde_json::Value>| set_std(cfg, std);
     prior.std = stated(extra.get("std"));
     // A turn law the calibration selected comes with its own
     // straight-line parameters, and its centripetal terms with theirs.
@@ -315,15 +308,29 @@ fn init_offset(key: &str, o: Option<f64>) -> Result<f64, PipelineError> {
         })
 }
 
+/// The uncertainty a set of an `--init` file starts the filter with: its
+/// stated `std` (the calibration's own uncertainty) where it has one,
+/// never tighter than `init.calibrated_std`.
+pub(super) fn set_std(cfg: &EstimatorConfig, std: Option<&serde_json::Value>) -> SlipStd {
+    std.and_then(stated_std)
+        .map_or(cfg.init.calibrated_std, |s| {
+            wider(s, cfg.init.calibrated_std)
+        })
+}
+
 /// A `std` object `terraslip calibrate` writes with a parameter set
 /// (`y_l, y_r, x_c, alpha_l, alpha_r`), as independent stds of spread,
 /// centre, x_c, speed factor and factor difference.
 fn stated_std(s: &serde_json::Value) -> Option<SlipStd> {
-    // `null`: a parameter the calibration's reduced model held (its
-    // relation to another, or `x_c` at 0); the floor then applies to it.
-    let get = |k: &str| match s.get(k)? {
-        serde_json::Value::Null => Some(0.0),
-        v => v.as_f64().filter(|v| v.is_finite() && *v >= 0.0),
+    if !s.is_object() {
+        return None;
+    }
+    // `null` (a parameter the calibration's reduced model held: its
+    // relation to another, or `x_c` at 0) or absent: the floor then
+    // applies to it.
+    let get = |k: &str| match s.get(k) {
+        None | Some(serde_json::Value::Null) => Some(0.0),
+        Some(v) => v.as_f64().filter(|v| v.is_finite() && *v >= 0.0),
     };
     let (yl, yr, xc, al, ar) = (
         get("y_l")?,

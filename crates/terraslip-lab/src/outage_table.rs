@@ -1,0 +1,185 @@
+//! `terraslip-lab heldout`'s outage table: each model dead-reckoned through
+//! 10, 30 and 60 s without the pose ([`terraslip_calib::outage`]) on the
+//! scored span, and at 30 s the online default against half the no-slip
+//! odometry's error and against DRIVE's model by a paired block bootstrap.
+
+use terraslip_calib::outage::{OutageEnd, OutageSpec, OutageStats, Track, HORIZONS};
+use terraslip_core::rng::SplitMix64;
+use terraslip_io::DriveLog;
+
+/// One model's outage ends on a drive.
+pub struct Column {
+    pub name: String,
+    pub ends: Vec<OutageEnd>,
+}
+
+/// The fixed models' ends: dead-reckoned from the reference pose at each
+/// start in `[from, to)`.
+pub fn fixed(
+    log: &DriveLog,
+    name: &str,
+    twist: &dyn Fn(f64, &terraslip_io::WheelSample) -> terraslip_core::Twist,
+    clock_at: &dyn Fn(f64) -> f64,
+    from: f64,
+    to: f64,
+) -> Column {
+    let spec = OutageSpec::default();
+    let Some(t0) = log.wheels.first().map(|w| w.t) else {
+        return Column {
+            name: name.into(),
+            ends: Vec::new(),
+        };
+    };
+    let starts: Vec<f64> = spec.starts(t0, to).filter(|t| *t >= from).collect();
+    let track = Track::of(&log.pose);
+    Column {
+        name: name.into(),
+        ends: track.fixed_model(&log.wheels, twist, clock_at, &starts, spec.max_gap),
+    }
+}
+
+/// A run's ends of `model` from starts in `[from, to)`.
+pub fn from_run(
+    name: &str,
+    score: Option<&terraslip_calib::outage::OutageScore>,
+    model: &str,
+    from: f64,
+) -> Column {
+    let ends = score
+        .and_then(|s| s.ends(model))
+        .map(|e| e.iter().filter(|e| e.t >= from).copied().collect())
+        .unwrap_or_default();
+    Column {
+        name: name.into(),
+        ends,
+    }
+}
+
+/// Prints a drive's outage table: one row per model, per horizon its mean
+/// error (m), m per km and NEES median per dof; then the along/cross split
+/// and the paired comparisons at 30 s.
+pub fn print(drive: &str, cols: &[Column]) {
+    println!();
+    println!("outage dead reckoning on {drive}: mean m (m/km, NEES median per dof; n)");
+    println!("| model | 10 s | 30 s | 60 s | 30 s along / cross rms m |");
+    println!("|---|---|---|---|---|");
+    for c in cols {
+        let mut cells = Vec::new();
+        for h in HORIZONS {
+            cells.push(match OutageStats::of(&c.ends, h) {
+                Some(s) => format!(
+                    "{:.2} ({:.0}, {}; {})",
+                    s.mean_m,
+                    s.m_per_km,
+                    s.nees_median.map_or("-".into(), |v| format!("{v:.2}")),
+                    s.segments
+                ),
+                None => "-".into(),
+            });
+        }
+        let split = OutageStats::of(&c.ends, 30.0).map_or("-".into(), |s| {
+            format!("{:.2} / {:.2}", s.along_rms_m, s.cross_rms_m)
+        });
+        println!("| {} | {} | {split} |", c.name, cells.join(" | "));
+    }
+    let find = |n: &str| cols.iter().find(|c| c.name == n);
+    if let Some(online) = find("online default") {
+        for (other, k) in [("no-slip", 0.5), ("DRIVE's model", 1.0)] {
+            if let Some(o) = find(other) {
+                if let Some((m, lo, hi)) = paired(&online.ends, &o.ends, k, 30.0) {
+                    println!(
+                        "30 s: online default - {k} x {other}: mean {m:+.2} m, 95 % [{lo:+.2}, {hi:+.2}] ({})",
+                        if hi < 0.0 {
+                            "ahead"
+                        } else if lo > 0.0 {
+                            "behind"
+                        } else {
+                            "tie"
+                        }
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// Length of the bootstrap's blocks of starts, s.
+const BLOCK_S: f64 = 20.0;
+
+/// The mean of `a - k b` over the starts both scored at `horizon`, and
+/// its 95 % interval by a block bootstrap (blocks of [`BLOCK_S`] s of
+/// starts, 2000 resamples).
+pub fn paired(a: &[OutageEnd], b: &[OutageEnd], k: f64, horizon: f64) -> Option<(f64, f64, f64)> {
+    let diffs: Vec<(f64, f64)> = a
+        .iter()
+        .filter(|x| x.horizon == horizon)
+        .filter_map(|x| {
+            b.iter()
+                .find(|y| y.horizon == horizon && (y.t - x.t).abs() < 1e-6)
+                .map(|y| (x.t, x.error - k * y.error))
+        })
+        .collect();
+    let t0 = diffs.first()?.0;
+    let mut blocks: Vec<Vec<f64>> = Vec::new();
+    for (t, d) in &diffs {
+        let j = ((t - t0) / BLOCK_S).floor() as usize;
+        if blocks.len() <= j {
+            blocks.resize(j + 1, Vec::new());
+        }
+        blocks[j].push(*d);
+    }
+    blocks.retain(|b| !b.is_empty());
+    let mean = diffs.iter().map(|d| d.1).sum::<f64>() / diffs.len() as f64;
+    let mut rng = SplitMix64::new(37);
+    let mut means: Vec<f64> = (0..2000)
+        .map(|_| {
+            let (mut s, mut n) = (0.0, 0usize);
+            for _ in 0..blocks.len() {
+                let b = &blocks[rng.below(blocks.len())];
+                s += b.iter().sum::<f64>();
+                n += b.len();
+            }
+            s / n.max(1) as f64
+        })
+        .collect();
+    means.sort_by(|x, y| x.total_cmp(y));
+    let q = |p: f64| means[((means.len() - 1) as f64 * p).round() as usize];
+    Some((mean, q(0.025), q(0.975)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn end(t: f64, error: f64) -> OutageEnd {
+        OutageEnd {
+            t,
+            horizon: 30.0,
+            error,
+            distance: 30.0,
+            along: error,
+            cross: 0.0,
+            nees: None,
+        }
+    }
+
+    #[test]
+    fn a_paired_difference_is_a_tie_only_when_its_interval_holds_zero() {
+        let a: Vec<OutageEnd> = (0..60).map(|k| end(k as f64 * 10.0, 1.0)).collect();
+        let b: Vec<OutageEnd> = (0..60)
+            .map(|k| end(k as f64 * 10.0, 3.0 + (k % 3) as f64))
+            .collect();
+        let (m, lo, hi) = paired(&a, &b, 0.5, 30.0).unwrap();
+        assert!(
+            (m + 1.0).abs() < 1e-9 && hi < 0.0 && lo < m && m < hi,
+            "{m} {lo} {hi}"
+        );
+        // Noise around zero: a tie.
+        let c: Vec<OutageEnd> = (0..60)
+            .map(|k| end(k as f64 * 10.0, 1.0 + 0.3 * ((k * 7 % 5) as f64 - 2.0)))
+            .collect();
+        let (_, lo, hi) = paired(&a, &c, 1.0, 30.0).unwrap();
+        assert!(lo < 0.0 && hi > 0.0, "{lo} {hi}");
+        assert!(paired(&a, &[], 1.0, 30.0).is_none());
+    }
+}

@@ -5,6 +5,7 @@
 
 mod gyro_delay;
 pub mod live;
+pub mod recommend;
 mod replay;
 pub mod row;
 mod setup;
@@ -166,6 +167,9 @@ pub struct EstimateRun {
     pub row_count: usize,
     pub first_row: Option<EstimateRow>,
     pub last_row: Option<EstimateRow>,
+    /// The rows' ICRs averaged over the whole drive, with their
+    /// uncertainty ([`recommend`]); `None` without rows.
+    pub drive: Option<recommend::DriveFigures>,
     /// The 2 s motion-prediction error of the parameters the rows
     /// reported against the pose reference (what
     /// [`crate::prediction_score`] computes from the rows); `None` without
@@ -550,6 +554,7 @@ fn finish(
         row_count: totals.rows,
         first_row: totals.first,
         last_row: totals.last,
+        drive: totals.drive.finish(),
         prediction,
         terrains,
         changes,

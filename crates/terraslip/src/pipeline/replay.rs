@@ -67,6 +67,8 @@ pub(super) struct Totals {
     /// Pose rows with a position.
     pub positions: usize,
     pub prediction: PredictionStream,
+    /// The rows' ICRs over the whole drive.
+    pub drive: super::recommend::DriveAverage,
 }
 
 impl Totals {
@@ -82,6 +84,7 @@ impl Totals {
             std_yaw: None,
             positions: 0,
             prediction: PredictionStream::new(track_width, PredictionSpec::default()),
+            drive: Default::default(),
         }
     }
 
@@ -289,6 +292,7 @@ impl<'a> Feed<'a> {
         self.totals.prediction.estimate_heading(r.yaw);
         self.totals.rows += 1;
         self.totals.band.add(&r, &self.band);
+        self.totals.drive.add(&r);
         self.totals.first.get_or_insert(r);
         self.totals.last = Some(r);
         Ok(r)

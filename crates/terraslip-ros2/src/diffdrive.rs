@@ -102,6 +102,16 @@ pub struct ParamsBlock {
 /// scale, so the blocks give the radius multipliers and, as a comment, the
 /// factor on the controller's own `wheel_separation_multiplier`, not
 /// absolute separations.
+/// The controller whose odometry topic is `topic`: its namespace (the
+/// node `/husky_velocity_controller` publishes `/husky_velocity_controller/odom`);
+/// `None` for a topic without one (`/odom`).
+pub fn controller_name(topic: &str) -> Option<&str> {
+    let (ns, _) = topic.trim_start_matches('/').rsplit_once('/')?;
+    let name = ns.rsplit('/').next()?;
+    let plain = !name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+    plain.then_some(name)
+}
+
 pub fn params_yaml(
     controller: &str,
     blocks: &[ParamsBlock],
@@ -193,6 +203,17 @@ pub fn params_yaml(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_controller_is_named_by_its_odometry_topic() {
+        assert_eq!(
+            controller_name("/husky_velocity_controller/odom"),
+            Some("husky_velocity_controller")
+        );
+        assert_eq!(controller_name("/robot1/diff_cont/odom"), Some("diff_cont"));
+        assert_eq!(controller_name("/odom"), None);
+        assert_eq!(controller_name("odom"), None);
+    }
 
     /// The ICR model's body twist (terraslip-core's formula, restated so this
     /// crate stays free of the core).

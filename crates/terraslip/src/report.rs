@@ -294,8 +294,7 @@ mod tests {
                 ..Default::default()
             })
             .collect();
-        let mut log = DriveLog::default();
-        log.pose = (0..20)
+        let pose = (0..20)
             .map(|k| terraslip_io::PoseObs {
                 t: k as f64,
                 east: Some(0.1 * k as f64),
@@ -303,6 +302,10 @@ mod tests {
                 ..Default::default()
             })
             .collect();
+        let log = DriveLog {
+            pose,
+            ..Default::default()
+        };
         let held =
             "held (no position, heading or gyro: nothing measures the motion; its starting value)";
         let summary = serde_json::json!({

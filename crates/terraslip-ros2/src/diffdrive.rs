@@ -181,6 +181,14 @@ pub fn params_yaml(
                 "{name}:\n  ros__parameters:\n    left_wheel_radius_multiplier: {:.6}\n    right_wheel_radius_multiplier: {:.6}\n",
                 p.left_wheel_radius_multiplier, p.right_wheel_radius_multiplier
             );
+            // The line the recording cannot complete: which value to
+            // multiply by what.
+            if let Some(f) = b.separation_factor {
+                let _ = writeln!(
+                    s,
+                    "    # wheel_separation_multiplier: the controller's own x {f:.6} (the recording does not state the controller's; uncomment with the product)"
+                );
+            }
             continue;
         }
         let _ = write!(
@@ -317,6 +325,10 @@ mod tests {
         assert!(!y.contains("    wheel_separation:"), "{y}");
         assert!(
             y.contains("    left_wheel_radius_multiplier: 0.900000"),
+            "{y}"
+        );
+        assert!(
+            y.contains("    # wheel_separation_multiplier: the controller's own x 0.900000"),
             "{y}"
         );
         // Given, the absolute values and the factor.

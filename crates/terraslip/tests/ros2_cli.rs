@@ -252,6 +252,9 @@ fn ros2_params_without_a_wheel_radius_leave_the_controllers_own() {
     );
     assert!(y.contains("    wheel_separation: 0.500000"), "{y}");
     assert!(y.contains("    left_wheel_radius_multiplier:"), "{y}");
+    // The block is named after the controller of the wheels' odometry
+    // topic, /terraslip/odom.
+    assert!(y.contains("\nterraslip:\n  ros__parameters:"), "{y}");
     // Stated, it is written.
     let y = ddc("track_width = 0.5\nwheel_radius = 0.165\n");
     assert!(y.contains("    wheel_radius: 0.165000"), "{y}");

@@ -38,7 +38,9 @@ use crate::segment::accelerations;
 pub struct PredictionSpec {
     /// Prediction horizon, s.
     pub horizon: f64,
-    /// Time from the first wheels row before the first start, s.
+    /// Time from the first wheels row before the first start, s, on a
+    /// drive long enough for it ([`warmup_for`]: a shorter drive's is
+    /// shorter).
     pub warmup: f64,
     /// Time between starts, s.
     pub stride: f64,
@@ -55,6 +57,24 @@ impl Default for PredictionSpec {
             max_gap: 0.5,
         }
     }
+}
+
+/// Seconds of scored starts a drive keeps before its warm-up is shortened.
+pub const MIN_SCORED_S: f64 = 20.0;
+
+/// The warm-up (s) used on a drive of `duration` s: `spec.warmup`, or on a
+/// drive too short to leave [`MIN_SCORED_S`] of starts after it and the
+/// horizon, the longer of what leaves them and half the drive (never
+/// longer than `spec.warmup`), rounded up to whole strides.
+pub fn warmup_for(spec: &PredictionSpec, duration: f64) -> f64 {
+    let w = spec.warmup;
+    let wanted = (duration - spec.horizon - MIN_SCORED_S).max(0.5 * duration);
+    if wanted >= w || spec.stride <= 0.0 {
+        return w;
+    }
+    // On the grid of starts w - k stride.
+    let k = ((w - wanted) / spec.stride).floor();
+    w - k * spec.stride
 }
 
 /// One scored start.
@@ -111,6 +131,9 @@ pub struct PredictionScore {
     /// profiled out over the span of fixes (s) before each start
     /// ([`crate::position_prediction`]).
     pub profiled_window_s: Option<f64>,
+    /// The warm-up used (s from the first wheels row to the first start):
+    /// `spec.warmup`, or a short drive's ([`warmup_for`]).
+    pub warmup_s: f64,
 }
 
 impl PredictionScore {
@@ -120,6 +143,7 @@ impl PredictionScore {
             spec,
             estimate_headings: 0,
             profiled_window_s: None,
+            warmup_s: spec.warmup,
             stats: ErrorStats::of(segments.iter().map(|s| s.error)),
             no_slip: ErrorStats::of(segments.iter().map(|s| s.no_slip)),
             segments,
@@ -130,6 +154,7 @@ impl PredictionScore {
     pub fn to_json(&self) -> serde_json::Value {
         serde_json::json!({
             "horizon_s": self.spec.horizon,
+            "warmup_s": self.warmup_s,
             "segments": self.segments.len(),
             "mean_m": self.stats.mean_m,
             "rmse_m": self.stats.rmse_m,
@@ -353,10 +378,18 @@ pub struct PredictionStream {
     w_max: f64,
     /// The next start to open (from the first wheels row on).
     next_start: Option<f64>,
-    /// Open starts, the parameters (and clock offset) in effect at each
-    /// and the estimate's heading then.
-    open: VecDeque<(f64, Option<Timed>, Option<f64>)>,
+    /// The first wheels row's time.
+    first: Option<f64>,
+    /// Starts before `spec.warmup` still to open, kept for a drive too
+    /// short for it ([`warmup_for`]).
+    early: VecDeque<f64>,
+    /// Open starts, the parameters (and clock offset) in effect at each,
+    /// the estimate's heading then, and whether it is an early start.
+    open: VecDeque<(f64, Option<Timed>, Option<f64>, bool)>,
     segments: Vec<PredictionSegment>,
+    /// Scored early starts, each with whether its start heading was the
+    /// estimate's.
+    early_segments: Vec<(PredictionSegment, bool)>,
 }
 
 impl PredictionStream {
@@ -374,8 +407,11 @@ impl PredictionStream {
             wheels: VecDeque::new(),
             w_max: f64::NEG_INFINITY,
             next_start: None,
+            first: None,
+            early: VecDeque::new(),
             open: VecDeque::new(),
             segments: Vec::new(),
+            early_segments: Vec::new(),
         }
     }
 
@@ -413,10 +449,26 @@ impl PredictionStream {
         if !self.valid() {
             return;
         }
+        if self.first.is_none() {
+            self.first = Some(w.t);
+            // The grid of starts continued back to one stride after the
+            // first row.
+            let (warmup, stride) = (self.spec.warmup, self.spec.stride);
+            let k = ((warmup - stride) / stride).floor().max(0.0) as usize;
+            self.early = (1..=k)
+                .rev()
+                .map(|j| w.t + warmup - j as f64 * stride)
+                .collect();
+        }
+        while let Some(t) = self.early.front().copied().filter(|&t| t < w.t) {
+            self.early.pop_front();
+            self.open
+                .push_back((t, params_at(t), self.estimate_heading, true));
+        }
         let mut next = self.next_start.unwrap_or(w.t + self.spec.warmup);
         while next < w.t {
             self.open
-                .push_back((next, params_at(next), self.estimate_heading));
+                .push_back((next, params_at(next), self.estimate_heading, false));
             next += self.spec.stride;
         }
         self.next_start = Some(next);
@@ -428,11 +480,22 @@ impl PredictionStream {
     /// The score of the whole drive; `None` as for [`score`].
     pub fn finish(mut self) -> Option<PredictionScore> {
         self.close(true);
-        if self.segments.is_empty() {
+        let first = self.first?;
+        let warmup = warmup_for(&self.spec, self.w_max - first);
+        let kept: Vec<(PredictionSegment, bool)> = self
+            .early_segments
+            .into_iter()
+            .filter(|s| s.0.t - first >= warmup - 1e-9 * warmup.abs().max(1.0))
+            .collect();
+        let estimate_headings = kept.iter().filter(|s| s.1).count();
+        let mut segments: Vec<PredictionSegment> = kept.into_iter().map(|s| s.0).collect();
+        segments.append(&mut self.segments);
+        if segments.is_empty() {
             return None;
         }
-        let mut score = PredictionScore::from_segments(self.spec, self.segments);
-        score.estimate_headings = self.estimate_headings;
+        let mut score = PredictionScore::from_segments(self.spec, segments);
+        score.warmup_s = warmup;
+        score.estimate_headings = self.estimate_headings + estimate_headings;
         Some(score)
     }
 
@@ -440,7 +503,7 @@ impl PredictionStream {
     /// the `end`), oldest first, and forgets what no open start needs.
     fn close(&mut self, end: bool) {
         let (h, gap) = (self.spec.horizon, self.spec.max_gap);
-        while let Some(&(t, timed, heading)) = self.open.front() {
+        while let Some(&(t, timed, heading, early)) = self.open.front() {
             // The start and end on the pose stream's clock.
             let c = timed.map_or(0.0, |p| p.clock_offset);
             let (r0, r1) = (t + c, t + h + c);
@@ -449,7 +512,7 @@ impl PredictionStream {
             if end || covered && decidable {
                 self.open.pop_front();
                 if decidable {
-                    self.score_start(t, timed, heading);
+                    self.score_start(t, timed, heading, early);
                 }
                 continue;
             }
@@ -470,7 +533,7 @@ impl PredictionStream {
             .map(|o| o.1.map_or(0.0, |p| p.clock_offset))
             .fold(0.0f64, f64::min);
         let oldest = match (self.open.front(), self.next_start) {
-            (Some(&(t, _, _)), _) | (None, Some(t)) => t,
+            (Some(&(t, _, _, _)), _) | (None, Some(t)) => t,
             (None, None) => return,
         };
         while self.refs.len() >= 2 && self.refs[1].0 < oldest + earliest {
@@ -486,7 +549,7 @@ impl PredictionStream {
 
     /// One start, as [`score`] defines it, on the kept poses and wheels
     /// (which hold everything it reads).
-    fn score_start(&mut self, t: f64, timed: Option<Timed>, estimate: Option<f64>) {
+    fn score_start(&mut self, t: f64, timed: Option<Timed>, estimate: Option<f64>, early: bool) {
         let Some(Timed {
             params: p,
             clock_offset: c,
@@ -508,7 +571,6 @@ impl PredictionStream {
             return;
         };
         let a = (a.0, a.1, yaw);
-        self.estimate_headings += usize::from(reference.is_none());
         let wheels = self.wheels.make_contiguous();
         let t1 = t + self.spec.horizon;
         let (e, n) = if slopes == RateSlopes::NONE {
@@ -524,11 +586,17 @@ impl PredictionStream {
             predict_with(wheels, &at, t, t1, a)
         };
         let (en, nn) = predict(wheels, &self.no_slip, t, t1, a);
-        self.segments.push(PredictionSegment {
+        let segment = PredictionSegment {
             t,
             error: (e - b.0).hypot(n - b.1),
             no_slip: (en - b.0).hypot(nn - b.1),
-        });
+        };
+        if early {
+            self.early_segments.push((segment, reference.is_none()));
+        } else {
+            self.estimate_headings += usize::from(reference.is_none());
+            self.segments.push(segment);
+        }
     }
 }
 
@@ -698,6 +766,30 @@ mod tests {
         assert!(s.segments.iter().all(|g| g.t < 90.0));
         assert_eq!(s.segments.len(), 28);
         assert!(score(&w, &[], 0.5, &|_| Some(truth), PredictionSpec::default()).is_none());
+    }
+
+    #[test]
+    fn a_drive_shorter_than_the_warmup_is_scored_after_a_shorter_one() {
+        let truth = IcrParams::new(0.4, -0.38, 0.02);
+        let (w, p) = drive(&truth, true, None);
+        let spec = PredictionSpec::default();
+        // 40 s: half of it as warm-up (20 s), starts 20..=38 s.
+        let (w40, p40): (Vec<_>, Vec<_>) = (
+            w.iter().copied().filter(|r| r.t <= 40.0).collect(),
+            p.iter().copied().filter(|r| r.t <= 40.0).collect(),
+        );
+        let s = score(&w40, &p40, 0.5, &|_| Some(truth), spec).unwrap();
+        assert_eq!(s.warmup_s, 20.0);
+        assert_eq!(s.to_json()["warmup_s"], 20.0);
+        assert_eq!(s.segments.first().map(|g| g.t), Some(20.0));
+        assert_eq!(s.segments.len(), 19);
+        // A drive long enough keeps the whole warm-up and its starts.
+        let full = score(&w, &p, 0.5, &|_| Some(truth), spec).unwrap();
+        assert_eq!(full.warmup_s, 60.0);
+        assert_eq!(full.segments.first().map(|g| g.t), Some(60.0));
+        assert_eq!(warmup_for(&spec, 30.0), 15.0);
+        assert_eq!(warmup_for(&spec, 82.0), 60.0);
+        assert_eq!(warmup_for(&spec, 600.0), 60.0);
     }
 
     #[test]

@@ -123,7 +123,11 @@ def test_the_fleet_recordings_table_equals_terraslip_estimate(cli, fleet_run, tm
         north = np.array([float(c["north"]) for c in csv])
         assert math.isclose(row["distance_m"], float(np.hypot(np.diff(east), np.diff(north)).sum()), rel_tol=1e-12, abs_tol=1e-12)
         assert row["warnings"] == summary["warnings"]
-        assert row["controller_factor"] == pytest.approx((summary["icr"]["y_l"] - summary["icr"]["y_r"]) / summary["track_width"], rel=1e-15)
+        spread = summary["recommendation"]["spread_m"]
+        if summary["learning"]["spread"] == "learned":
+            assert row["controller_factor"] == pytest.approx(spread["value"] / summary["track_width"], rel=1e-15)
+        else:
+            assert spread is None and row["controller_factor"] is None, path
         if summary["prediction"]:
             assert row["prediction_mean_m"] == summary["prediction"]["mean_m"]
             assert row["no_slip_mean_m"] == summary["prediction"]["no_slip"]["mean_m"]
@@ -329,3 +333,19 @@ def test_tables_replace_only_tables(tmp_path):
     third.commit(["recordings"])
     assert _tables.read(str(tmp_path), "recordings").column("path").to_pylist() == ["c"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["recordings", "rows"]
+
+
+def test_a_factor_not_learned_is_null_and_no_file_time_dates_a_recording(tmp_path):
+    from terraslip.fleet._recording import start_time
+    from terraslip.fleet._tasks import controller_factor
+
+    held = "held (no position, heading or gyro: nothing measures the motion; its starting value)"
+    s = {"icr": {"y_l": 0.25, "y_r": -0.25}, "track_width": 0.5, "learning": {"spread": held}}
+    assert controller_factor(s) is None
+    s["learning"]["spread"] = "learned"
+    s["recommendation"] = {"spread_m": {"value": 0.6, "std": 0.01}}
+    assert controller_factor(s) == pytest.approx(1.2)
+    log = tmp_path / "log"
+    log.mkdir()
+    (log / "wheels.csv").write_text("t,v_left,v_right\n0.0,1,1\n")
+    assert start_time(str(log), "log") == (None, "unknown")

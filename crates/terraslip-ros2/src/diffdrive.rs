@@ -102,6 +102,16 @@ pub struct ParamsBlock {
 /// scale, so the blocks give the radius multipliers and, as a comment, the
 /// factor on the controller's own `wheel_separation_multiplier`, not
 /// absolute separations.
+/// The controller whose odometry topic is `topic`: its namespace (the
+/// node `/husky_velocity_controller` publishes `/husky_velocity_controller/odom`);
+/// `None` for a topic without one (`/odom`).
+pub fn controller_name(topic: &str) -> Option<&str> {
+    let (ns, _) = topic.trim_start_matches('/').rsplit_once('/')?;
+    let name = ns.rsplit('/').next()?;
+    let plain = !name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+    plain.then_some(name)
+}
+
 pub fn params_yaml(
     controller: &str,
     blocks: &[ParamsBlock],
@@ -171,6 +181,14 @@ pub fn params_yaml(
                 "{name}:\n  ros__parameters:\n    left_wheel_radius_multiplier: {:.6}\n    right_wheel_radius_multiplier: {:.6}\n",
                 p.left_wheel_radius_multiplier, p.right_wheel_radius_multiplier
             );
+            // The line the recording cannot complete: which value to
+            // multiply by what.
+            if let Some(f) = b.separation_factor {
+                let _ = writeln!(
+                    s,
+                    "    # wheel_separation_multiplier: the controller's own x {f:.6} (the recording does not state the controller's; uncomment with the product)"
+                );
+            }
             continue;
         }
         let _ = write!(
@@ -193,6 +211,17 @@ pub fn params_yaml(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_controller_is_named_by_its_odometry_topic() {
+        assert_eq!(
+            controller_name("/husky_velocity_controller/odom"),
+            Some("husky_velocity_controller")
+        );
+        assert_eq!(controller_name("/robot1/diff_cont/odom"), Some("diff_cont"));
+        assert_eq!(controller_name("/odom"), None);
+        assert_eq!(controller_name("odom"), None);
+    }
 
     /// The ICR model's body twist (terraslip-core's formula, restated so this
     /// crate stays free of the core).
@@ -296,6 +325,10 @@ mod tests {
         assert!(!y.contains("    wheel_separation:"), "{y}");
         assert!(
             y.contains("    left_wheel_radius_multiplier: 0.900000"),
+            "{y}"
+        );
+        assert!(
+            y.contains("    # wheel_separation_multiplier: the controller's own x 0.900000"),
             "{y}"
         );
         // Given, the absolute values and the factor.

@@ -12,9 +12,12 @@ use crate::config::EstimatorConfig;
 use crate::pipeline::{self, EstimateRow, EstimateRun, RowSink, RunOptions, TerrainEvidence};
 use terraslip_core::filter::{FilterConfig, SlipHold};
 use terraslip_core::slip::Chart;
-use terraslip_core::IcrParams;
 
+pub mod headline;
 mod numbers;
+mod recommendation;
+
+pub use recommendation::{controller_json, recommendation_json};
 
 /// Reads only what the estimator uses: wheels, pose, imu, meta and
 /// terrain (truth is for scoring, not estimating).
@@ -393,6 +396,7 @@ fn finish(
 pub fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) -> serde_json::Value {
     let icr = est.final_icr;
     let last = est.last_row;
+    let learning = learning_json(est.hold, &cfg.filter);
     serde_json::json!({
         "log": log.dir.display().to_string(),
         "rows": est.row_count,
@@ -405,14 +409,17 @@ pub fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) ->
             "alpha_l": icr.alpha_l, "alpha_r": icr.alpha_r,
         },
         "icr_holds_at": "straight line (tread speed difference 0)",
+        "icr_is": "final state: the estimator's last state; `recommendation` holds the whole drive's figures",
         // Per group of slip parameters: "learned" or "held (why)"; a held
         // group's values in "icr" are its starting values.
-        "learning": learning_json(est.hold, &cfg.filter),
+        "learning": learning,
+        // The whole drive's figures with their 1-sigma (null where held).
+        "recommendation": recommendation_json(est.drive.as_ref(), &learning),
         "icr_std": last.map(|r| serde_json::json!({
             "y_l": r.std[3], "y_r": r.std[4], "x_c": r.std[5], "spread": r.std_spread,
         })),
         "track_width": est.track_width,
-        "controller": controller_json(&log.meta, &icr),
+        "controller": controller_json(&log.meta, &icr, est.drive.as_ref(), &learning),
         "variant": cfg.filter.variant,
         "init": est.init_source,
         "clock_offset_s": {"value": est.clock_offset.0, "std": est.clock_offset.1},
@@ -515,31 +522,6 @@ pub fn learning_json(hold: SlipHold, filter: &FilterConfig) -> serde_json::Value
         "speed_factor_difference": state(difference, true),
         "speed_factor": state(speed, true),
         "icr_centre_offsets": state(offsets, false),
-    })
-}
-
-/// The `controller` object of `summary.json`: for tread speeds made from a
-/// controller's odometry twist with separation S (`meta.toml`'s
-/// `separation`), the factors by which its `wheel_separation_multiplier` is
-/// off: `separation_factor` = spread / S (with the speed factors as its
-/// radius multipliers), `turn_factor` = spread / (mean speed factor × S)
-/// (with its radius multipliers left at 1: what a course check measures).
-/// The ICRs are in S's scale: absolute (`wheel_separation_m`, the spread)
-/// only when S was the controller's own. `null` for measured tread speeds.
-pub fn controller_json(meta: &terraslip_io::Meta, icr: &IcrParams) -> serde_json::Value {
-    let Some(s) = meta.separation.filter(|s| s.is_finite() && *s > 0.0) else {
-        return serde_json::Value::Null;
-    };
-    let spread = icr.y_l - icr.y_r;
-    let alpha = 0.5 * (icr.alpha_l + icr.alpha_r);
-    let absolute = meta.separation_is_absolute();
-    serde_json::json!({
-        "separation_m": s,
-        "separation_source": meta.separation_source.as_deref().unwrap_or("given"),
-        "icr_scale": if absolute { "absolute" } else { "nominal: the ICRs are in the scale of the separation used; only the factors carry over" },
-        "separation_factor": spread / s,
-        "turn_factor": spread / (alpha * s),
-        "wheel_separation_m": absolute.then_some(spread),
     })
 }
 

@@ -70,17 +70,23 @@ pub fn prediction_score(segments: &[PredictionRecord]) -> Option<PredictionScore
 }
 
 /// Draws the report of `rows` (an `estimate.csv`) over `log` (for the pose
-/// reference; `None` leaves it out) and `prediction` (the estimate's
-/// `prediction.csv`; `None` when the estimate directory has none) into
-/// `out`: `report.html` and up to three SVG plots.
+/// reference; `None` leaves it out), `prediction` (the estimate's
+/// `prediction.csv`; `None` when the estimate directory has none) and
+/// `summary` (its `summary.json`: the final ICRs, what was learned, the
+/// whole drive's recommendation, the warnings) into `out`: `report.html`
+/// and up to three SVG plots.
 pub fn write(
     rows: &[EstimateRecord],
     log: Option<&DriveLog>,
     prediction: Option<&[PredictionRecord]>,
-    final_icr: Option<&IcrParams>,
+    summary: Option<&serde_json::Value>,
     out: &Path,
     title: &str,
 ) -> Result<Written, ReportError> {
+    let final_icr = summary
+        .and_then(|s| serde_json::from_value::<IcrParams>(s["icr"].clone()).ok())
+        .filter(|_| !nothing_learned(summary));
+    let final_icr = final_icr.as_ref();
     if rows.is_empty() {
         return Err(ReportError::Empty(out.join("estimate.csv")));
     }
@@ -92,8 +98,18 @@ pub fn write(
     let changes = terrain_changes(rows);
     let mut plots = Vec::new();
 
-    // The track.
-    let mut track = LinePlot::new("Track", "east [m]", "north [m]").equal_aspect(true);
+    // The track: the estimate, then the reference over it.
+    let mut track = LinePlot::new("Track", "east [m]", "north [m]")
+        .equal_aspect(true)
+        .series(
+            Series::line(
+                "estimate",
+                thin_rows.iter().map(|r| (r.east, r.north)).collect(),
+            )
+            .color(5),
+        );
+    let mut track_caption =
+        "Track: the estimate (no pose reference to draw against it)".to_string();
     if let Some(log) = log {
         let (name, reference): (&str, Vec<(f64, f64)>) = if log.truth.is_empty() {
             let pose = log.pose.iter().filter_map(|p| p.east.zip(p.north));
@@ -105,16 +121,19 @@ pub fn write(
             )
         };
         if !reference.is_empty() {
-            track = track.series(Series::line(name, thin(&reference, 3000)).color(0));
+            track = track.series(
+                Series::line(name, thin(&reference, 3000))
+                    .color(0)
+                    .style(SeriesStyle::Dashed),
+            );
+            track_caption = if log.truth.is_empty() {
+                "Track: the estimate against the log's pose reference (dashed, drawn over it)"
+            } else {
+                "Track: the estimate against the ground truth of a simulated log (dashed, drawn over it)"
+            }
+            .to_string();
         }
     }
-    track = track.series(
-        Series::line(
-            "estimate",
-            thin_rows.iter().map(|r| (r.east, r.north)).collect(),
-        )
-        .color(5),
-    );
     let path = out.join("track.svg");
     track.write_svg(&path)?;
     plots.push(path);
@@ -153,7 +172,7 @@ pub fn write(
 
     // The 2 s prediction error over time: the segments behind
     // summary.json's `prediction`, as `estimate` scored them.
-    let summary = match prediction.map(prediction_score) {
+    let prediction_text = match prediction.map(prediction_score) {
         None => "No 2 s prediction error: the estimate directory has no prediction.csv (run `terraslip estimate` again to write it).".to_string(),
         Some(None) => "No 2 s prediction error: the estimate scored none (summary.json's warnings say why).".to_string(),
         Some(Some(p)) => {
@@ -190,12 +209,24 @@ pub fn write(
             )
         }
     };
-    let mut sections = vec![
-        Section::Paragraph(end_values(rows, final_icr)),
-        Section::Paragraph(summary),
-    ];
+    let mut sections = vec![Section::Paragraph(end_values(rows, final_icr))];
+    if let Some(s) = summary {
+        sections.extend(
+            crate::estimate::headline::headline(s)
+                .into_iter()
+                .filter(|l| !l.starts_with("2 s prediction"))
+                .map(Section::Paragraph),
+        );
+        let warnings: Vec<String> = s["warnings"].as_array().map_or(Vec::new(), |w| {
+            w.iter()
+                .filter_map(|w| w.as_str().map(|w| format!("Warning: {w}")))
+                .collect()
+        });
+        sections.extend(warnings.into_iter().map(Section::Paragraph));
+    }
+    sections.push(Section::Paragraph(prediction_text));
     for (p, caption) in plots.iter().zip([
-        "Track: the estimate against the pose reference (the ground truth of a simulated log)",
+        track_caption.as_str(),
         "ICRs in effect and speed factors, with 2σ bands; vertical lines: terrain changes",
         "2 s prediction error per start: learned ICRs against the no-slip model",
     ]) {
@@ -210,6 +241,17 @@ pub fn write(
     let html = terraslip_report::html_page(title, &sections);
     terraslip_io::write_atomic(&page, html.as_bytes())?;
     Ok(Written { page, plots })
+}
+
+/// Whether `summary.json` says every slip parameter was held.
+fn nothing_learned(summary: Option<&serde_json::Value>) -> bool {
+    summary
+        .and_then(|s| s["learning"].as_object())
+        .is_some_and(|l| {
+            !l.is_empty()
+                && l.values()
+                    .all(|v| v.as_str().is_some_and(|v| v.starts_with("held")))
+        })
 }
 
 /// The report's first line: the final ICRs as the terminal and
@@ -230,7 +272,7 @@ fn end_values(rows: &[EstimateRecord], final_icr: Option<&IcrParams>) -> String 
             "Final ICRs (straight-line values of the turn law, as in summary.json): {}; {in_effect}.",
             fmt(p.y_l, p.y_r, p.x_c, p.alpha_l, p.alpha_r)
         ),
-        None => format!("ICRs {in_effect}."),
+        None => format!("ICRs held at their starting values (nothing learned, summary.json's `learning` says why; none is a finding): {in_effect}."),
     };
     format!("{} rows over {:.1} s. {end}", rows.len(), last.t - first.t)
 }
@@ -238,6 +280,56 @@ fn end_values(rows: &[EstimateRecord], final_icr: Option<&IcrParams>) -> String 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_real_logs_report_shows_its_warnings_and_holds_nothing_as_a_finding() {
+        let rows: Vec<EstimateRecord> = (0..20)
+            .map(|k| EstimateRecord {
+                t: k as f64,
+                east: 0.1 * k as f64,
+                y_l: 0.25,
+                y_r: -0.25,
+                alpha_l: 1.0,
+                alpha_r: 1.0,
+                ..Default::default()
+            })
+            .collect();
+        let pose = (0..20)
+            .map(|k| terraslip_io::PoseObs {
+                t: k as f64,
+                east: Some(0.1 * k as f64),
+                north: Some(0.0),
+                ..Default::default()
+            })
+            .collect();
+        let log = DriveLog {
+            pose,
+            ..Default::default()
+        };
+        let held =
+            "held (no position, heading or gyro: nothing measures the motion; its starting value)";
+        let summary = serde_json::json!({
+            "icr": {"y_l": 0.25, "y_r": -0.25, "x_c": 0.0, "alpha_l": 1.0, "alpha_r": 1.0},
+            "learning": {"spread": held, "speed_factor": held, "speed_factor_difference": held, "icr_centre_offsets": held},
+            "warnings": ["wheels.csv:12: 3 row(s) repeat the previous timestamp"],
+        });
+        let dir = tempfile::tempdir().unwrap();
+        let w = write(&rows, Some(&log), None, Some(&summary), dir.path(), "t").unwrap();
+        let page = std::fs::read_to_string(&w.page).unwrap();
+        assert!(!page.contains("Final ICRs"), "{page}");
+        assert!(page.contains("held at their starting values"));
+        assert!(page.contains("Warning: wheels.csv:12: 3 row(s) repeat"));
+        assert!(
+            page.contains("the log&#x27;s pose reference")
+                || page.contains("the log's pose reference"),
+            "{page}"
+        );
+        assert!(!page.contains("simulated"));
+        // The reference is drawn after (over) the estimate.
+        let svg = std::fs::read_to_string(dir.path().join("track.svg")).unwrap();
+        let (e, r) = (svg.find("estimate"), svg.find("pose reference"));
+        assert!(e.is_some() && r.is_some() && e < r, "{e:?} {r:?}");
+    }
 
     #[test]
     fn end_values_label_which_icrs_they_are() {

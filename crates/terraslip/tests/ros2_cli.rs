@@ -84,13 +84,11 @@ fn a_bag_and_its_imported_log_give_the_same_estimate() {
     assert_eq!(c["separation_source"], "default");
     assert!(c["wheel_separation_m"].is_null());
     assert!(c["separation_factor"].as_f64().unwrap() > 0.0);
-    // 60 s of drive end within the prediction's 60 s warm-up: no figure,
-    // and a warning that says why.
-    assert!(summary["prediction"].is_null());
-    assert!(
-        err.contains("no 2 s prediction figure: after the first 60 s"),
-        "{err}"
-    );
+    // 60 s of drive: the prediction's warm-up shortened to leave 20 s of
+    // starts, and said so.
+    let w = summary["prediction"]["warmup_s"].as_f64().unwrap();
+    assert!((30.0..=40.0).contains(&w), "{}", summary["prediction"]);
+    assert!(!err.contains("no 2 s prediction figure"), "{err}");
     // The bag states no track width: the warning says where a bag's goes.
     assert!(
         err.contains("no track width") && err.contains("`[meta] track_width` in the --topics file"),
@@ -254,6 +252,9 @@ fn ros2_params_without_a_wheel_radius_leave_the_controllers_own() {
     );
     assert!(y.contains("    wheel_separation: 0.500000"), "{y}");
     assert!(y.contains("    left_wheel_radius_multiplier:"), "{y}");
+    // The block is named after the controller of the wheels' odometry
+    // topic, /terraslip/odom.
+    assert!(y.contains("\nterraslip:\n  ros__parameters:"), "{y}");
     // Stated, it is written.
     let y = ddc("track_width = 0.5\nwheel_radius = 0.165\n");
     assert!(y.contains("    wheel_radius: 0.165000"), "{y}");

@@ -243,18 +243,27 @@ pub fn run(args: Args) -> Result<()> {
         eprintln!("warning: {w}");
     }
     let icr = est.final_icr;
+    let nothing_learned = est.hold == terraslip_core::filter::SlipHold::All;
     eprintln!(
-        "estimate: {} rows over {:.1} s, {} fixes ({} position / {} heading gated), final ICRs (straight line) y_l = {:.4} m, y_r = {:.4} m, x_c = {:.4} m -> {}",
+        "estimate: {} rows over {:.1} s, {} fixes ({} position / {} heading gated), {} y_l = {:.4} m, y_r = {:.4} m, x_c = {:.4} m -> {}",
         est.row_count,
         est.duration(),
         est.stats.fixes_used,
         est.stats.fixes.position_gated,
         est.stats.fixes.yaw_gated,
+        if nothing_learned {
+            "ICRs held at their starting values (nothing learned)"
+        } else {
+            "final ICRs (straight line)"
+        },
         icr.y_l,
         icr.y_r,
         icr.x_c,
         out.display()
     );
+    for line in terraslip::estimate::headline::headline(&summary) {
+        eprintln!("{line}");
+    }
     if args.json {
         println!("{}", serde_json::to_string(&summary)?);
     }

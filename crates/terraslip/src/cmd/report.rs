@@ -42,6 +42,13 @@ pub fn run(a: Args) -> Result<()> {
     let csv = a.estimate.join("estimate.csv");
     let prediction_path = a.estimate.join("prediction.csv");
     let summary_path = a.estimate.join("summary.json");
+    if !csv.exists() {
+        anyhow::bail!(
+            "{}: not an estimate directory: it has no estimate.csv (write one with `terraslip estimate LOG --out {}`)",
+            a.estimate.display(),
+            a.estimate.display()
+        );
+    }
     let summary: Option<serde_json::Value> = match std::fs::read_to_string(&summary_path) {
         Ok(text) => Some(
             serde_json::from_str(&text)
@@ -109,8 +116,6 @@ pub fn run(a: Args) -> Result<()> {
             None
         }
     };
-    let final_icr =
-        field("icr").and_then(|v| serde_json::from_value::<terraslip_core::IcrParams>(v).ok());
     let title = match &log_dir {
         Some(d) => format!("terraslip estimate of {}", d.display()),
         None => format!("terraslip estimate {}", a.estimate.display()),
@@ -119,7 +124,7 @@ pub fn run(a: Args) -> Result<()> {
         &rows,
         log.as_ref(),
         prediction.as_deref(),
-        final_icr.as_ref(),
+        summary.as_ref(),
         &out,
         &title,
     )?;

@@ -123,8 +123,17 @@ pub fn write_params(
             left_out: left_out.clone(),
         });
     }
+    // The controller is named by its odometry topic's namespace when the
+    // tread speeds came from one.
+    let name = logs
+        .iter()
+        .filter_map(|l| super::bag::imported(&l.dir))
+        .flat_map(|(_, topics)| topics)
+        .filter(|t| t.ends_with("/odom"))
+        .find_map(|t| terraslip_ros2::diffdrive::controller_name(&t).map(str::to_string))
+        .unwrap_or_else(|| "diff_drive_controller".to_string());
     let text = params_yaml(
-        "diff_drive_controller",
+        &name,
         &blocks,
         nominal.as_ref().map(|(s, src)| (*s, src.as_str())),
     );

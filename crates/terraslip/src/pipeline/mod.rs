@@ -7,6 +7,7 @@ pub mod decide;
 mod gyro_delay;
 pub mod live;
 pub mod outage;
+pub mod recommend;
 mod replay;
 pub mod row;
 mod setup;
@@ -172,6 +173,9 @@ pub struct EstimateRun {
     pub row_count: usize,
     pub first_row: Option<EstimateRow>,
     pub last_row: Option<EstimateRow>,
+    /// The rows' ICRs averaged over the whole drive, with their
+    /// uncertainty ([`recommend`]); `None` without rows.
+    pub drive: Option<recommend::DriveFigures>,
     /// The 2 s motion-prediction error of the parameters the rows
     /// reported against the pose reference (what
     /// [`crate::prediction_score`] computes from the rows); `None` without
@@ -450,17 +454,25 @@ struct RunInfo {
 /// The run's result: the learned noise, the warnings the whole run
 /// reveals, the counters.
 /// Why a run has no 2 s prediction figure, given the pose rows with a
-/// position it saw and its wheels rows.
-fn no_prediction(dir: &str, positions: usize, rows: usize) -> String {
-    let spec = terraslip_calib::prediction::PredictionSpec::default();
+/// position it saw, its wheels rows and their span (s).
+fn no_prediction(dir: &str, positions: usize, rows: usize, duration: f64) -> String {
+    use terraslip_calib::prediction::{warmup_for, PredictionSpec};
+    let spec = PredictionSpec::default();
     if positions == 0 {
         return format!(
             "{dir}: no 2 s prediction figure: the log has no pose reference (pose.csv with positions) to score it against"
         );
     }
+    let warmup = warmup_for(&spec, duration);
+    if duration < warmup + spec.horizon + spec.stride {
+        return format!(
+            "{dir}: no 2 s prediction figure: the drive ({duration:.1} s of wheels rows) is too short for a start after a warm-up of {warmup} s and a {} s horizon",
+            spec.horizon
+        );
+    }
     format!(
-        "{dir}: no 2 s prediction figure: after the first {} s of the {rows} wheels rows, no start has {} s of pose reference without a gap over {} s (a 1 Hz GNSS is too sparse) and a start heading (the reference's, or the estimate's)",
-        spec.warmup, spec.horizon, spec.max_gap
+        "{dir}: no 2 s prediction figure: after the first {warmup} s of the {rows} wheels rows, no start has {} s of pose reference without a gap over {} s (a 1 Hz GNSS is too sparse) and a start heading (the reference's, or the estimate's)",
+        spec.horizon, spec.max_gap
     )
 }
 
@@ -507,13 +519,18 @@ fn finish(
     }
     let prediction = totals.prediction.finish();
     if prediction.is_none() {
-        warnings.push(no_prediction(&dir, totals.positions, totals.rows));
+        let span = match (&totals.first, &totals.last) {
+            (Some(a), Some(b)) => b.t - a.t,
+            _ => 0.0,
+        };
+        warnings.push(no_prediction(&dir, totals.positions, totals.rows, span));
     }
     EstimateRun {
         rows: Vec::new(),
         row_count: totals.rows,
         first_row: totals.first,
         last_row: totals.last,
+        drive: totals.drive.finish(),
         prediction,
         outage: totals.outage.finish(),
         terrains,

@@ -68,6 +68,8 @@ pub(super) struct Totals {
     pub positions: usize,
     pub prediction: PredictionStream,
     pub outage: super::outage::OutageRun,
+    /// The rows' ICRs over the whole drive.
+    pub drive: super::recommend::DriveAverage,
 }
 
 impl Totals {
@@ -84,6 +86,7 @@ impl Totals {
             positions: 0,
             prediction: PredictionStream::new(track_width, PredictionSpec::default()),
             outage: super::outage::OutageRun::new(track_width),
+            drive: Default::default(),
         }
     }
 
@@ -295,6 +298,7 @@ impl<'a> Feed<'a> {
         self.totals.outage.wheels(w, estimator, r.clock_offset);
         self.totals.rows += 1;
         self.totals.band.add(&r, &self.band);
+        self.totals.drive.add(&r);
         self.totals.first.get_or_insert(r);
         self.totals.last = Some(r);
         Ok(r)

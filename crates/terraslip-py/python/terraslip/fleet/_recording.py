@@ -279,8 +279,8 @@ UNIX_TIME_MIN_S = 1.0e9
 
 def start_time(local: str, kind: str) -> Tuple[Optional[_dt.datetime], str]:
     """When a recording (on this machine) started, UTC, and where that came
-    from: ``bag metadata``, ``log clock``, ``file time`` (the modification
-    time of its wheels.csv or bag), or None and ``unknown``."""
+    from: ``bag metadata`` or ``log clock``, else None and ``unknown`` (a
+    file's modification time says when it was copied, not recorded)."""
     if kind == "bag":
         meta = os.path.join(local, "metadata.yaml") if os.path.isdir(local) else None
         if meta and os.path.isfile(meta):
@@ -288,7 +288,6 @@ def start_time(local: str, kind: str) -> Tuple[Optional[_dt.datetime], str]:
                 t = bag_start(f.read())
             if t is not None:
                 return _utc(t), "bag metadata"
-        target = local
     else:
         target = os.path.join(local, "wheels.csv")
         try:
@@ -300,10 +299,7 @@ def start_time(local: str, kind: str) -> Tuple[Optional[_dt.datetime], str]:
                 return _utc(t0), "log clock"
         except (OSError, ValueError):
             pass
-    try:
-        return _utc(os.path.getmtime(target)), "file time"
-    except OSError:
-        return None, "unknown"
+    return None, "unknown"
 
 
 def _utc(t: float) -> _dt.datetime:

@@ -166,15 +166,24 @@ def _estimate(stack: ExitStack, local: str, kind: str, opts: Options, topics: Op
 def controller_factor(summary: Dict[str, Any]) -> Optional[float]:
     """The ``diff_drive_controller`` ``wheel_separation_multiplier`` the
     learned ICRs give, (y_l - y_r) / track_width (user-guide §3): a
-    summary's own ``controller_factor`` when it states one."""
+    summary's own ``controller_factor`` when it states one; the whole
+    drive's spread (``recommendation``) when the summary has one, else the
+    final ICRs'. None when the drive did not teach the spread (``learning``
+    says it is held): its starting value is no finding."""
     own = _f(summary.get("controller_factor"))
     if own is not None:
         return own
-    y_l, y_r = _f(_get(summary, "icr", "y_l")), _f(_get(summary, "icr", "y_r"))
-    width = _f(summary.get("track_width"))
-    if y_l is None or y_r is None or not width:
+    if str(_get(summary, "learning", "spread") or "learned").startswith("held"):
         return None
-    return (y_l - y_r) / width
+    width = _f(summary.get("track_width"))
+    if isinstance(summary.get("recommendation"), dict):
+        spread = _f(_get(summary, "recommendation", "spread_m", "value"))
+    else:
+        y_l, y_r = _f(_get(summary, "icr", "y_l")), _f(_get(summary, "icr", "y_r"))
+        spread = None if y_l is None or y_r is None else y_l - y_r
+    if spread is None or not width:
+        return None
+    return spread / width
 
 
 def summary_columns(est: Dict[str, Any]) -> Dict[str, Any]:

@@ -294,8 +294,8 @@ fn read_logs(paths: &[PathBuf]) -> anyhow::Result<Vec<DriveLog>> {
             if let Some(topics) = super::bag::bag_topics(p) {
                 bail!(
                     "{}: no pose reference among its topics ({topics}); calibration needs \
-                     sensor_msgs/NavSatFix, a pose (Odometry, PoseStamped, \
-                     PoseWithCovarianceStamped) or an IMU heading with one",
+                     positions: sensor_msgs/NavSatFix or a pose (Odometry, PoseStamped, \
+                     PoseWithCovarianceStamped); an IMU heading helps only beside them",
                     p.display()
                 );
             }

@@ -37,7 +37,7 @@ fn eval_windows_writes_one_row_per_window_and_reports_calibration() {
     terraslip()
         .args(["terrain", "train"])
         .args(&runs)
-        .args(["--out", model.to_str().unwrap()])
+        .args(["--out", model.to_str().unwrap(), "--calibration-folds", "3"])
         .args(SMALL)
         .assert()
         .success();

@@ -11,6 +11,7 @@ use std::sync::mpsc;
 use serde::Serialize;
 use terraslip_io::DriveLog;
 
+use crate::confidence::{ConfidenceScore, ScoredWindow};
 use crate::error::{Result, TerrainError};
 use crate::eval::{score_log, score_timeline, splice, ChangeScore, Confusion, LogScore};
 use crate::model::{TerrainModel, TerrainTimeline, TrainOptions};
@@ -194,6 +195,9 @@ pub struct CrossvalReport {
     /// the first window whose filtered label is the new terrain, s (`None`
     /// when none is before the next change or the end).
     pub change_latency_s: Vec<Option<f64>>,
+    /// Calibration, risk–coverage, "unknown" and the AUROC of a misread
+    /// window over every held-out window (each scored by its fold's model).
+    pub confidence: ConfidenceScore,
 }
 
 impl CrossvalReport {
@@ -520,7 +524,9 @@ fn crossval_folds(
         runs: Vec::new(),
         change_latency_s: Vec::new(),
         fold_accuracy: Vec::new(),
+        confidence: ConfidenceScore::of(&[]),
     };
+    let mut windows: Vec<ScoredWindow> = Vec::new();
     let mut runs: Vec<(usize, RunScore)> = Vec::with_capacity(logs.len());
     let mut held_out: Vec<Option<(TerrainTimeline, Vec<Option<usize>>)>> = vec![None; logs.len()];
     // In fold order, whatever order they finished in; the first error wins.
@@ -533,6 +539,7 @@ fn crossval_folds(
             rep.filtered.merge(&s.filtered);
             rep.change.merge(&s.change);
             runs.push((i, RunScore::new(&logs[i], &s)));
+            windows.extend(s.windows.iter().cloned());
             held_out[i] = Some((tl, s.truth));
         }
         rep.spliced_changes += f.spliced_changes;
@@ -570,6 +577,7 @@ fn crossval_folds(
             prev = Some(t);
         }
     }
+    rep.confidence = ConfidenceScore::of(&windows);
     runs.sort_by_key(|r| r.0);
     rep.runs = runs.into_iter().map(|r| r.1).collect();
     Ok(rep)

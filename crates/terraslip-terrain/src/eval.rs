@@ -5,6 +5,7 @@
 use serde::Serialize;
 use terraslip_io::{DriveLog, TerrainLabel};
 
+use crate::confidence::ScoredWindow;
 use crate::error::{Result, TerrainError};
 use crate::model::{FilteredFrame, TerrainModel, TerrainTimeline};
 
@@ -128,6 +129,8 @@ pub struct LogScore {
     /// Frames driven outside the model's envelope for the terrain they
     /// were read as (`None` for a model without an envelope).
     pub outside_envelope: Option<usize>,
+    /// Every labelled window: confidence, "unknown", envelope, novelty.
+    pub windows: Vec<ScoredWindow>,
 }
 
 /// Scoring of lv2019's change detector against the label changes.
@@ -221,7 +224,6 @@ pub(crate) fn score_timeline(
     }
     LogScore {
         log: log.name(),
-        truth,
         frames,
         raw,
         filtered,
@@ -230,6 +232,8 @@ pub(crate) fn score_timeline(
             .envelope
             .as_ref()
             .map(|_| tl.outside_envelope.iter().filter(|&&o| o).count()),
+        windows: tl.scored_windows(&truth),
+        truth,
     }
 }
 

@@ -16,6 +16,8 @@
 //!   leave-runs-out cross-validation (parallel folds).
 //! - [`speed_norm`]: learnt per-feature speed slopes; [`envelope`]: the
 //!   speeds and turns each terrain was trained at.
+//! - [`calibrate`]: calibration on grouped inner folds; [`confidence`]: calibrated probabilities, the "unknown" verdict,
+//!   novelty, and their scores (ECE, risk–coverage, AUROC).
 //! - [`augment`]: speed copies of training logs (driven faster or slower).
 //! - [`synth`]: small synthetic labelled logs for tests and benchmarks.
 //!
@@ -25,7 +27,9 @@
 
 pub mod augment;
 pub mod boost;
+pub mod calibrate;
 pub mod classify;
+pub mod confidence;
 pub mod crossval;
 pub mod current;
 pub mod envelope;

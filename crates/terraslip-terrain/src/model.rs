@@ -8,6 +8,7 @@ use terraslip_io::DriveLog;
 
 use crate::augment::{SpeedAugmentation, SpeedLaw};
 use crate::classify::{Classifier, ClassifierParams, Standardizer};
+use crate::confidence::{Calibration, ClassDistance, ScoredWindow};
 use crate::envelope::{lower_confidence, Envelope};
 use crate::error::{Result, TerrainError};
 pub use crate::samples::extract;
@@ -119,6 +120,10 @@ pub struct TrainOptions {
     /// vibration features with speed normalisation only; ignored
     /// otherwise); `None`: the recorded windows only.
     pub speed_augmentation: Option<SpeedAugmentation>,
+    /// Grouped inner folds (whole training runs out) on which the class
+    /// probabilities are calibrated and the unknown threshold chosen
+    /// ([`crate::confidence`]); below 2: no calibration.
+    pub calibration_folds: usize,
 }
 
 impl Default for TrainOptions {
@@ -133,6 +138,7 @@ impl Default for TrainOptions {
             currents: None,
             speed_floor: None,
             speed_augmentation: Some(SpeedAugmentation::default()),
+            calibration_folds: 0,
         }
     }
 }
@@ -173,6 +179,14 @@ pub struct TerrainModel {
     pub envelope: Option<Envelope>,
     pub classifier_settings: ClassifierParams,
     pub classifier: Classifier,
+    /// Temperature and unknown threshold fitted on inner folds of the
+    /// training runs (`null`: raw probabilities, never "unknown").
+    #[serde(default)]
+    pub calibration: Option<Calibration>,
+    /// Per-class spread of the training windows in standardised feature
+    /// space, for the novelty of a window (`null` in older files).
+    #[serde(default)]
+    pub class_distance: Option<ClassDistance>,
     pub belief: BeliefSettings,
     pub training: TrainingInfo,
 }
@@ -189,6 +203,12 @@ pub struct TerrainTimeline {
     /// is read as (its probabilities were mixed with a uniform
     /// distribution). Empty when the model has no envelope.
     pub outside_envelope: Vec<bool>,
+    /// Per frame: distance from the training windows of the terrain it is
+    /// read as ([`ClassDistance::novelty`]). Empty when the model has none.
+    pub novelty: Vec<f64>,
+    /// Confidence below which a frame's verdict is "unknown" (the model's
+    /// calibration; 0 without one).
+    pub unknown_below: f64,
 }
 
 /// One frame after the Bayesian filter.
@@ -209,6 +229,31 @@ impl TerrainTimeline {
     pub fn outside_envelope_share(&self) -> Option<f64> {
         let n = self.outside_envelope.len();
         (n > 0).then(|| self.outside_envelope.iter().filter(|&&o| o).count() as f64 / n as f64)
+    }
+
+    /// The frames with a true class (`truth[i]`, `None`: unlabelled,
+    /// skipped) as [`ScoredWindow`]s: confidence, right or wrong,
+    /// "unknown", envelope and novelty.
+    pub fn scored_windows(&self, truth: &[Option<usize>]) -> Vec<ScoredWindow> {
+        self.frames
+            .iter()
+            .zip(truth)
+            .enumerate()
+            .filter_map(|(i, ((time, p), t))| {
+                let truth = (*t)?;
+                let confidence = crate::confidence::confidence(p);
+                Some(ScoredWindow {
+                    t: *time,
+                    truth,
+                    predicted: argmax(p),
+                    confidence,
+                    correct: argmax(p) == truth,
+                    unknown: confidence < self.unknown_below,
+                    outside_envelope: self.outside_envelope.get(i).copied(),
+                    novelty: self.novelty.get(i).copied(),
+                })
+            })
+            .collect()
     }
 
     /// The frames with each probability vector mixed with `floor` of a
@@ -260,6 +305,13 @@ impl TerrainTimeline {
     }
 }
 
+/// Keeps the items of `v` whose `keep` is true (all when `v` is empty:
+/// an optional per-frame column).
+fn retain_by<T>(v: &mut Vec<T>, keep: &[bool]) {
+    let mut k = keep.iter();
+    v.retain(|_| k.next().copied().unwrap_or(false));
+}
+
 pub(crate) fn argmax(p: &[f64]) -> usize {
     let mut best = 0;
     for (i, v) in p.iter().enumerate() {
@@ -281,41 +333,35 @@ impl TerrainModel {
     /// What the online estimator should fuse: [`Self::classify_log`]'s
     /// class probabilities floored by the model's `prob_floor`, without the
     /// vibration windows in which the robot was nearly still (mean tread
-    /// speed below [`MIN_INFORMATIVE_SPEED`]). Camera frames are kept at any
-    /// speed.
+    /// speed below [`MIN_INFORMATIVE_SPEED`]) and without the frames whose
+    /// calibrated verdict is "unknown" (confidence below the model's
+    /// `calibration.unknown_below`): an unsure terrain is no evidence, the
+    /// belief keeps what it had and the estimator's own innovation-driven
+    /// change detection decides. Camera frames are kept at any speed.
     pub fn estimator_evidence(&self, log: &DriveLog) -> Result<TerrainTimeline> {
         let mut timeline = self.classify_log(log)?;
-        timeline.frames = timeline.floored(self.belief.prob_floor);
+        let mut keep: Vec<bool> = timeline
+            .frames
+            .iter()
+            .map(|(_, p)| !self.calibration.as_ref().is_some_and(|c| c.is_unknown(p)))
+            .collect();
         if let Features::Vibration { config, .. } = &self.features {
             let w = &log.wheels;
-            let keep: Vec<bool> = timeline
-                .frames
-                .iter()
-                .map(|(t, _)| {
-                    let lo = w.partition_point(|s| s.t < t - config.window_s);
-                    let hi = w.partition_point(|s| s.t <= *t);
-                    let n = hi.saturating_sub(lo);
-                    if n == 0 {
-                        return false;
-                    }
-                    let sum: f64 = w[lo..hi]
-                        .iter()
-                        .map(|s| 0.5 * (s.v_left.abs() + s.v_right.abs()))
-                        .sum();
-                    sum / n as f64 >= MIN_INFORMATIVE_SPEED
-                })
-                .collect();
-            let mut k = keep.iter();
-            timeline
-                .frames
-                .retain(|_| k.next().copied().unwrap_or(false));
-            if !timeline.outside_envelope.is_empty() {
-                let mut k = keep.iter();
-                timeline
-                    .outside_envelope
-                    .retain(|_| k.next().copied().unwrap_or(false));
+            for ((t, _), k) in timeline.frames.iter().zip(keep.iter_mut()) {
+                let lo = w.partition_point(|s| s.t < t - config.window_s);
+                let hi = w.partition_point(|s| s.t <= *t);
+                let n = hi.saturating_sub(lo);
+                let sum: f64 = w[lo..hi.max(lo)]
+                    .iter()
+                    .map(|s| 0.5 * (s.v_left.abs() + s.v_right.abs()))
+                    .sum();
+                *k &= n > 0 && sum / n.max(1) as f64 >= MIN_INFORMATIVE_SPEED;
             }
         }
+        timeline.frames = timeline.floored(self.belief.prob_floor);
+        retain_by(&mut timeline.frames, &keep);
+        retain_by(&mut timeline.outside_envelope, &keep);
+        retain_by(&mut timeline.novelty, &keep);
         Ok(timeline)
     }
 
@@ -517,6 +563,18 @@ impl TerrainModel {
         let normalisation = Standardizer::fit(&x);
         let xs: Vec<Vec<f64>> = x.iter().map(|r| normalisation.apply(r)).collect();
         let classifier = Classifier::fit(&xs, &y, classes.len(), &opts.classifier)?;
+        let class_distance = Some(ClassDistance::fit(&xs, &y, classes.len()));
+        drop(xs);
+        let calibration = if opts.calibration_folds >= 2 {
+            let mut inner = opts.clone();
+            inner.calibration_folds = 0;
+            if let Features::Vibration { config, .. } = &features {
+                inner.speed_floor = Some(config.speed_norm_min);
+            }
+            crate::calibrate::inner_calibration(logs, classes, &inner, opts.calibration_folds)?
+        } else {
+            None
+        };
         let feature_names = match &features {
             Features::Vibration { config, .. } => config.feature_names(),
             Features::Vision { config, .. } => config.feature_names(),
@@ -532,6 +590,8 @@ impl TerrainModel {
             envelope,
             classifier_settings: opts.classifier.clone(),
             classifier,
+            calibration,
+            class_distance,
             belief: opts.belief,
             training: TrainingInfo {
                 logs: logs.iter().map(|l| l.name()).collect(),
@@ -587,6 +647,8 @@ impl TerrainModel {
             frames: Vec::with_capacity(samples.len()),
             changes: Vec::new(),
             outside_envelope: Vec::new(),
+            novelty: Vec::new(),
+            unknown_below: self.calibration.as_ref().map_or(0.0, |c| c.unknown_below),
         };
         let manoeuvre = manoeuvre_indices(&self.features);
         for (t, mut x, phi) in samples {
@@ -603,14 +665,20 @@ impl TerrainModel {
                 sn.apply(&mut x);
             }
             let mut p = vec![0.0; k];
-            self.classifier
-                .predict_proba(&self.normalisation.apply(&x), &mut p);
+            let xs = self.normalisation.apply(&x);
+            self.classifier.predict_proba(&xs, &mut p);
             if let (Some(e), Some((v, d))) = (&self.envelope, driven) {
                 let outside = !e.covers(argmax(&p), v, d);
                 if outside {
                     lower_confidence(&mut p);
                 }
                 tl.outside_envelope.push(outside);
+            }
+            if let Some(c) = &self.calibration {
+                c.apply(&mut p);
+            }
+            if let Some(cd) = &self.class_distance {
+                tl.novelty.push(cd.novelty(&xs, argmax(&p)));
             }
             if phi > threshold {
                 tl.changes.push(t);

@@ -106,6 +106,12 @@ impl TerrainModel {
             (None, _) => {}
             (Some(_), _) => return Err("a manoeuvre envelope in a camera model".into()),
         }
+        if let Some(c) = &self.calibration {
+            c.check()?;
+        }
+        if let Some(cd) = &self.class_distance {
+            cd.check(k, d)?;
+        }
         let source_ok = matches!(
             (&self.features, self.source),
             (Features::Vibration { .. }, Source::Imu) | (Features::Vision { .. }, Source::Camera)

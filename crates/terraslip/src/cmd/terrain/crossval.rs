@@ -4,9 +4,9 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Context};
-use terraslip_terrain::{crossval, crossval_manoeuvre, Source};
+use terraslip_terrain::{crossval, crossval_manoeuvre, CrossvalReport, Source, TrainOptions};
 
-use super::settings::{options, TrainSettings};
+use super::settings::{baseline_options, options, TrainSettings};
 use super::{read_logs, Progress};
 
 #[derive(clap::Args)]
@@ -33,6 +33,11 @@ pub(super) struct CrossvalArgs {
     /// Print one JSON object on stdout.
     #[arg(long)]
     json: bool,
+    /// Skip the plain baseline (boosted trees with default settings on the
+    /// measured features: no speed normalisation, slip terms, speed copies
+    /// or calibration) cross-validated on the same folds beside the model.
+    #[arg(long)]
+    no_baseline: bool,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -61,17 +66,24 @@ pub(super) fn run(a: CrossvalArgs) -> anyhow::Result<()> {
         Split::Runs => a.folds.min(logs.len()),
         Split::Manoeuvre => 1,
     };
-    let mut bar = Progress::new(folds as u64, "cross-validating (folds done)", a.json);
-    let (rep, held) = match a.split {
-        Split::Runs => (
-            crossval(&logs, &opts, a.folds, |i, _| bar.set(i as u64))
-                .context("cross-validation")?,
-            Vec::new(),
-        ),
-        Split::Manoeuvre => crossval_manoeuvre(&logs, &opts, |i, _| bar.set(i as u64))
-            .context("cross-validation by manoeuvre")?,
+    let cross = |opts: &TrainOptions, what: &'static str| {
+        let mut bar = Progress::new(folds as u64, what, a.json);
+        let r = match a.split {
+            Split::Runs => crossval(&logs, opts, a.folds, |i, _| bar.set(i as u64))
+                .map(|r| (r, Vec::new()))
+                .context("cross-validation"),
+            Split::Manoeuvre => crossval_manoeuvre(&logs, opts, |i, _| bar.set(i as u64))
+                .context("cross-validation by manoeuvre"),
+        };
+        bar.finish();
+        r
     };
-    bar.finish();
+    let (rep, held) = cross(&opts, "cross-validating (folds done)")?;
+    let baseline = if a.no_baseline {
+        None
+    } else {
+        Some(cross(&baseline_options(&opts), "plain baseline (folds done)")?.0)
+    };
     let latency = rep.latency_summary();
     let split = match a.split {
         Split::Runs => format!("{} folds (whole runs left out)", rep.folds),
@@ -87,8 +99,9 @@ pub(super) fn run(a: CrossvalArgs) -> anyhow::Result<()> {
             s.trim_end().to_string()
         }
     };
+    let headline = headline(&rep, baseline.as_ref());
     let text = format!(
-        "{} logs, {split}\nsingle windows: accuracy {:.1} % (balanced {:.1} %; per fold median {:.1} %, worst {:.1} %)\n{}\nruns filtered one by one: accuracy {:.1} %\nspliced runs (terrain changes): raw {:.1} %, filtered {:.1} % (misclassification {:.2} %)\n{}",
+        "{} logs, {split}\n{headline}single windows: accuracy {:.1} % (balanced {:.1} %; per fold median {:.1} %, worst {:.1} %)\n{}\nruns filtered one by one: accuracy {:.1} %\nspliced runs (terrain changes): raw {:.1} %, filtered {:.1} % (misclassification {:.2} %)\n{}",
         logs.len(),
         100.0 * rep.raw.accuracy(),
         100.0 * rep.raw.balanced_accuracy(),
@@ -119,6 +132,7 @@ pub(super) fn run(a: CrossvalArgs) -> anyhow::Result<()> {
             .map_or_else(|| "-".to_string(), |f| format!("{:.1} %", 100.0 * f)),
         rep.runs_table()
     );
+    let text = format!("{text}{}", rep.confidence.to_text());
     let text = if opts.source == Source::Camera {
         format!(
             "{text}change detector: {} of {} changes within one frame, {} false alarms\n",
@@ -156,6 +170,15 @@ pub(super) fn run(a: CrossvalArgs) -> anyhow::Result<()> {
             "fold_accuracy": rep.fold_accuracy,
             "runs": rep.runs,
             "change_detection": rep.change,
+            "confidence": rep.confidence,
+            "baseline": baseline.as_ref().map(|b| serde_json::json!({
+                "accuracy": b.raw.accuracy(),
+                "accuracy_filtered": b.filtered.accuracy(),
+                "spliced_accuracy_filtered": b.spliced_filtered.accuracy(),
+                "chained_accuracy_filtered": b.chained_filtered.accuracy(),
+                "fold_accuracy": b.fold_accuracy,
+                "confidence": b.confidence,
+            })),
         });
         println!("{out}");
     } else {
@@ -178,4 +201,31 @@ fn parse_folds(s: &str) -> Result<usize, String> {
 /// `1.5 s`, or `-` when there is no value.
 fn seconds(v: Option<f64>) -> String {
     v.map_or_else(|| "-".into(), |v| format!("{v:.1} s"))
+}
+
+/// The outer-fold figures (no choice of the model was made on the runs
+/// they score), beside the plain baseline's on the same folds.
+fn headline(rep: &CrossvalReport, baseline: Option<&CrossvalReport>) -> String {
+    let pct = |v: f64| format!("{:.1} %", 100.0 * v);
+    let acc80 = |r: &CrossvalReport| r.confidence.accuracy_at_80.map_or("-".into(), pct);
+    let row = |name: &str, r: &CrossvalReport| {
+        format!(
+            "  {name:<15} {:>8} {:>9} {:>9} {:>13} {:>6.3}\n",
+            pct(r.raw.accuracy()),
+            pct(r.filtered.accuracy()),
+            pct(r.chained_filtered.accuracy()),
+            acc80(r),
+            r.confidence.ece
+        )
+    };
+    let mut s = format!(
+        "outer folds (held-out runs; every choice made on the training runs only):\n  {:<15} {:>8} {:>9} {:>9} {:>13} {:>6}\n",
+        "", "windows", "filtered", "chained", "80 % surest", "ECE"
+    );
+    s += &row("model", rep);
+    match baseline {
+        Some(b) => s += &row("plain baseline", b),
+        None => s += "  (plain baseline skipped: --no-baseline)\n",
+    }
+    s
 }

@@ -2,11 +2,12 @@
 //! raw and filtered accuracy, plots of the confusion and of each log's
 //! terrain timeline.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
 use terraslip_io::DriveLog;
 use terraslip_report::{Heatmap, LinePlot, Series, SeriesStyle};
+use terraslip_terrain::confidence::{ConfidenceScore, ScoredWindow};
 use terraslip_terrain::{score_log, ChangeScore, Confusion, LogScore, Source, TerrainModel};
 
 use super::{read_logs, Progress};
@@ -29,14 +30,23 @@ pub(super) struct EvalArgs {
     /// without an envelope), per-log scores.
     #[arg(long)]
     json: bool,
+    /// Write one CSV row per scored window: log,t,truth,predicted,confidence
+    /// (t the window's end, s; predicted `unknown` when the calibrated
+    /// confidence is below the model's threshold). Written atomically.
+    #[arg(long, value_name = "FILE.csv")]
+    windows: Option<PathBuf>,
 }
 
 pub(super) fn run(a: EvalArgs) -> anyhow::Result<()> {
-    super::super::inputs_with(&a.logs, &[("--model", Some(&a.model))]).check_dir(
+    let inputs = super::super::inputs_with(&a.logs, &[("--model", Some(&a.model))]);
+    inputs.check_dir(
         "--plots",
         &a.plots,
         &["confusion.svg", "confusion_filtered.svg"],
     )?;
+    if let Some(w) = &a.windows {
+        inputs.check("--windows", w)?;
+    }
     let model = TerrainModel::load(&a.model).context("loading the terrain model")?;
     let logs = read_logs(&a.logs, a.json)?;
     for log in &logs {
@@ -135,8 +145,20 @@ pub(super) fn run(a: EvalArgs) -> anyhow::Result<()> {
         Some(_) => "driven outside the training envelope: none of the windows\n".into(),
         None => String::new(),
     };
+    let windows: Vec<ScoredWindow> = scores.iter().flat_map(|s| s.windows.clone()).collect();
+    let confidence = ConfidenceScore::of(&windows);
+    if let Some(path) = &a.windows {
+        write_windows(path, &scores, &model.classes)?;
+    }
+    let calibration_text = match &model.calibration {
+        Some(c) => format!(
+            "calibration: temperature {:.2}, unknown below confidence {:.2} (fitted on {} held-out windows of {} inner folds)\n",
+            c.temperature, c.unknown_below, c.windows, c.folds
+        ),
+        None => "calibration: none (raw probabilities; never unknown)\n".into(),
+    };
     let text = format!(
-        "{} windows from {} logs\nsingle windows: accuracy {:.1} % (balanced {:.1} %)\n{}\nafter the Bayesian filter: accuracy {:.1} % (balanced {:.1} %)\n{}{change_text}{envelope_text}plots in {}",
+        "{} windows from {} logs\nsingle windows: accuracy {:.1} % (balanced {:.1} %)\n{}\nafter the Bayesian filter: accuracy {:.1} % (balanced {:.1} %)\n{}{change_text}{envelope_text}{calibration_text}{}plots in {}",
         raw.total(),
         logs.len(),
         100.0 * raw.accuracy(),
@@ -145,6 +167,7 @@ pub(super) fn run(a: EvalArgs) -> anyhow::Result<()> {
         100.0 * filtered.accuracy(),
         100.0 * filtered.balanced_accuracy(),
         filtered.to_table(),
+        confidence.to_text(),
         a.plots.display()
     );
     if a.json {
@@ -171,6 +194,8 @@ pub(super) fn run(a: EvalArgs) -> anyhow::Result<()> {
             "source": model.source.name(),
             "change_detection": change,
             "outside_envelope_share": outside_share,
+            "confidence": confidence,
+            "calibration": model.calibration,
             "logs": per_log,
             "plots": plots,
         });
@@ -179,6 +204,38 @@ pub(super) fn run(a: EvalArgs) -> anyhow::Result<()> {
         println!("{text}");
     }
     Ok(())
+}
+
+/// `--windows`: one row per scored window, written atomically.
+fn write_windows(path: &Path, scores: &[LogScore], classes: &[String]) -> anyhow::Result<()> {
+    let mut out = String::from("log,t,truth,predicted,confidence\n");
+    for s in scores {
+        for w in &s.windows {
+            let predicted = if w.unknown {
+                "unknown"
+            } else {
+                classes[w.predicted].as_str()
+            };
+            out += &format!(
+                "{},{:.3},{},{predicted},{:.4}\n",
+                csv_field(&s.log),
+                w.t,
+                classes[w.truth],
+                w.confidence
+            );
+        }
+    }
+    terraslip_io::write_atomic(path, out.as_bytes())
+        .with_context(|| format!("writing --windows {}", path.display()))
+}
+
+/// A CSV field, quoted when it holds a comma, quote or line break.
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
 }
 
 /// Why a log gave no scored window: too short for the window, or no label

@@ -8,6 +8,7 @@
 //!   "skipped: ... missing" on stderr, unless [`REQUIRE_SHARED`] is `1`;
 //!   then it fails.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// The variable that makes tests needing `../shared` fail when it is
@@ -60,7 +61,10 @@ fn locate(path: PathBuf, required: bool) -> Result<Option<PathBuf>, String> {
              ({REQUIRE_SHARED}=1)"
         ));
     }
-    eprintln!(
+    // Written to the process's stderr, not `eprintln!`: the test harness
+    // captures the latter and shows it only for a failing test.
+    let _ = writeln!(
+        std::io::stderr(),
         "skipped: {shown} is missing (the shared recordings beside the checkout; \
          {REQUIRE_SHARED}=1 makes this a failure)"
     );

@@ -12,17 +12,23 @@ const VARIANTS: [&str; 7] = [
     "terraslip",
 ];
 
-#[test]
-fn demo_writes_table_plots_and_report_for_every_variant() {
+/// `terraslip demo --out TMP/demo`, which must succeed.
+fn demo() -> (tempfile::TempDir, std::process::Output) {
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("demo");
     let o = Command::cargo_bin("terraslip")
         .unwrap()
         .args(["demo", "--out"])
-        .arg(&out)
+        .arg(dir.path().join("demo"))
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    (dir, o)
+}
+
+#[test]
+fn demo_writes_table_plots_and_report_for_every_variant() {
+    let (dir, o) = demo();
+    let out = dir.path().join("demo");
     let stdout = String::from_utf8_lossy(&o.stdout);
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
@@ -118,15 +124,8 @@ fn demo_writes_table_plots_and_report_for_every_variant() {
 /// the page, from the run.
 #[test]
 fn the_page_says_why_a_reconvergence_is_zero_or_missing_and_why_a_variant_stops_learning() {
-    let dir = tempfile::tempdir().unwrap();
+    let (dir, _) = demo();
     let out = dir.path().join("demo");
-    let o = Command::cargo_bin("terraslip")
-        .unwrap()
-        .args(["demo", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     let summary: serde_json::Value =
@@ -138,7 +137,7 @@ fn the_page_says_why_a_reconvergence_is_zero_or_missing_and_why_a_variant_stops_
         for (r, c) in v["reconvergence_s"].as_array().unwrap().iter().zip(changes) {
             let terrain = c["terrain"].as_str().unwrap();
             let said = match r.as_f64() {
-                Some(s) if s == 0.0 => format!("`{name}`, re-conv. to {terrain} 0.0 s: "),
+                Some(0.0) => format!("`{name}`, re-conv. to {terrain} 0.0 s: "),
                 None => format!("`{name}`, re-conv. to {terrain}: "),
                 Some(_) => continue,
             };

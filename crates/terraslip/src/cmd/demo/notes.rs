@@ -17,7 +17,7 @@ pub(super) fn notes(outcomes: &[Outcome], truth: &[TruthSample]) -> Vec<String> 
         for r in &o.card.reconvergence {
             let t1 = r.t_change + r.segment;
             match r.seconds {
-                Some(s) if s == 0.0 => {
+                Some(0.0) => {
                     let step = spread_step(truth, r.t_change, spec.window);
                     let peak = metrics::largest_spread_error(&o.run, truth, r.t_change, t1);
                     let peak = peak.map_or(String::new(), |(t, e)| {

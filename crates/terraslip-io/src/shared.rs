@@ -1,34 +1,74 @@
-//! The project's shared recordings for tests: `../shared/data` beside the
-//! checkout (CI has it there). A test that needs them fails when they are
-//! missing, unless `TERRASLIP_ALLOW_NO_SHARED=1` is set; then it says
-//! "skipped" on stderr and gets `None`.
+//! Recordings for tests, in two places:
+//!
+//! - the repository's `data/` ([`repo_data`]): ships with every clone, so a
+//!   test reading it always runs;
+//! - `../shared/data` beside the checkout ([`shared_data`]): the full sets
+//!   (every BorealTC run, every DRIVE drive), which CI has and a user's
+//!   clone does not. A test that needs them is skipped, saying
+//!   "skipped: ... missing" on stderr, unless [`REQUIRE_SHARED`] is `1`;
+//!   then it fails.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// The variable that lets tests needing `../shared` skip (visibly).
-pub const ALLOW_NO_SHARED: &str = "TERRASLIP_ALLOW_NO_SHARED";
+/// The variable that makes tests needing `../shared` fail when it is
+/// missing (CI sets it), rather than skip.
+pub const REQUIRE_SHARED: &str = "TERRASLIP_REQUIRE_SHARED";
 
-/// `../shared/data/<rel>` beside the checkout, or `None` (after printing
-/// "skipped: ...") when it is missing and [`ALLOW_NO_SHARED`] is `1`.
+/// `data/<name>` in the repository: a recording that ships with it.
 ///
 /// # Panics
-/// When the path is missing and skipping was not allowed: the test fails
+/// When it is missing (the checkout is incomplete).
+pub fn repo_data(name: &str) -> PathBuf {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../data")
+        .join(name);
+    assert!(
+        path.exists(),
+        "{}: missing from the repository's data/",
+        path.display()
+    );
+    path
+}
+
+/// `../shared/data/<rel>` beside the checkout, or `None` (after printing
+/// "skipped: ... missing" on stderr) when it is missing and
+/// [`REQUIRE_SHARED`] is not `1`.
+///
+/// # Panics
+/// When the path is missing and [`REQUIRE_SHARED`] is `1`: the test fails
 /// and says what it needed.
 pub fn shared_data(rel: &str) -> Option<PathBuf> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
-    let path = root.join(rel);
+    let required = std::env::var(REQUIRE_SHARED).is_ok_and(|v| v == "1");
+    match locate(root.join(rel), required) {
+        Ok(Some(path)) => Some(path),
+        Ok(None) => None,
+        Err(message) => panic!("{message}"),
+    }
+}
+
+/// `path` when it exists; else `Ok(None)` after printing why the test is
+/// skipped, or the failure's message when the data are `required`.
+fn locate(path: PathBuf, required: bool) -> Result<Option<PathBuf>, String> {
     if path.exists() {
-        return Some(path);
+        return Ok(Some(path));
     }
     let shown = path.display();
-    if std::env::var(ALLOW_NO_SHARED).is_ok_and(|v| v == "1") {
-        eprintln!("skipped: {shown} is missing ({ALLOW_NO_SHARED}=1)");
-        return None;
+    if required {
+        return Err(format!(
+            "{shown} is missing: this test needs the shared recordings beside the checkout \
+             ({REQUIRE_SHARED}=1)"
+        ));
     }
-    panic!(
-        "{shown} is missing: this test needs the shared recordings beside the checkout \
-         (set {ALLOW_NO_SHARED}=1 to skip it)"
+    // Written to the process's stderr, not `eprintln!`: the test harness
+    // captures the latter and shows it only for a failing test.
+    let _ = writeln!(
+        std::io::stderr(),
+        "skipped: {shown} is missing (the shared recordings beside the checkout; \
+         {REQUIRE_SHARED}=1 makes this a failure)"
     );
+    Ok(None)
 }
 
 #[cfg(test)]
@@ -36,22 +76,20 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_missing_recording_fails_unless_skipping_is_allowed() {
-        // The only test of this binary that reads the variable.
-        let before = std::env::var(ALLOW_NO_SHARED).ok();
-        std::env::remove_var(ALLOW_NO_SHARED);
-        let failed = std::panic::catch_unwind(|| shared_data("no/such/recording"));
-        let message = failed.unwrap_err();
-        let message = message.downcast_ref::<String>().unwrap();
+    fn a_missing_recording_is_skipped_unless_required() {
+        let missing = PathBuf::from("no/such/recording");
+        assert_eq!(locate(missing.clone(), false), Ok(None));
+        let message = locate(missing, true).unwrap_err();
         assert!(
-            message.contains("no/such/recording is missing"),
+            message.contains("no/such/recording is missing") && message.contains(REQUIRE_SHARED),
             "{message}"
         );
-        std::env::set_var(ALLOW_NO_SHARED, "1");
-        assert_eq!(shared_data("no/such/recording"), None);
-        match before {
-            Some(v) => std::env::set_var(ALLOW_NO_SHARED, v),
-            None => std::env::remove_var(ALLOW_NO_SHARED),
-        }
+        let here = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+        assert_eq!(locate(here.clone(), true), Ok(Some(here)));
+    }
+
+    #[test]
+    fn the_repository_data_is_found() {
+        assert!(repo_data("warthog_gravel").join("meta.toml").is_file());
     }
 }

@@ -11,19 +11,30 @@ import pytest
 REPO = Path(__file__).resolve().parents[3]
 DRIVE = REPO / "data" / "warthog_gravel"
 BOREAL = REPO / "data" / "ice_borealtc_04"
+# The Husky ROS 2 recording the repository ships (MCAP).
+HUSKY = REPO / "data" / "husky_test1"
+
+
+SHARED = REPO.parent / "shared" / "data"
+REQUIRE_SHARED = "TERRASLIP_REQUIRE_SHARED"
 
 
 def require_shared(path):
-    """Fails the calling test when `path` (under ../shared beside the
-    checkout) is missing, unless TERRASLIP_ALLOW_NO_SHARED=1: then skips it."""
+    """Skips the calling test, saying so, when `path` (under ../shared
+    beside the checkout: the full recordings, which the repository does not
+    ship) is missing; fails it instead when TERRASLIP_REQUIRE_SHARED=1 (as
+    CI sets it)."""
     if path.exists():
         return
-    if os.environ.get("TERRASLIP_ALLOW_NO_SHARED") == "1":
-        pytest.skip(f"{path}: missing (TERRASLIP_ALLOW_NO_SHARED=1)")
-    pytest.fail(
-        f"{path}: missing; this test needs the shared recordings beside the checkout "
-        "(set TERRASLIP_ALLOW_NO_SHARED=1 to skip it)"
-    )
+    if os.environ.get(REQUIRE_SHARED) == "1":
+        pytest.fail(f"{path} is missing: this test needs the shared recordings beside the checkout ({REQUIRE_SHARED}=1)")
+    pytest.skip(f"skipped: {path} is missing (the shared recordings beside the checkout; {REQUIRE_SHARED}=1 makes this a failure)")
+
+
+@pytest.fixture
+def shared_present():
+    """For tests that read ../shared/data: see `require_shared`."""
+    require_shared(SHARED)
 
 
 @pytest.fixture(scope="session")

@@ -1,5 +1,6 @@
 """ROS 2 bags in place of log directories, against the command line on the
-same bag (the Husky recording in ../shared beside the checkout)."""
+same bag (the Husky recording the repository ships, data/husky_test1; its
+sqlite3 form from ../shared beside the checkout)."""
 
 import json
 
@@ -7,25 +8,14 @@ import numpy as np
 import pytest
 
 import terraslip
-from conftest import BOREAL, DRIVE, REPO, cli_error, require_shared
+from conftest import BOREAL, DRIVE, HUSKY, SHARED, cli_error, require_shared
 from test_estimate import assert_matches_csv
 
-ROS2 = REPO.parent / "shared" / "data" / "ros2"
-HUSKY = ROS2 / "husky_test1_mcap"
+HUSKY_DB3 = SHARED / "ros2" / "husky_test1_db3"
 # The Husky's odometry twist needs the controller's separation; its IMU
 # heading is not used (as in .ci/run).
 TOPICS = {"wheels": {"separation": 1.040625}, "heading": {"topic": ""}}
 TOPICS_TOML = '[wheels]\nseparation = 1.040625\n[heading]\ntopic = ""\n'
-
-needs_husky = pytest.mark.usefixtures("husky_present")
-
-
-@pytest.fixture
-def husky_present():
-    """Fails without the Husky recording; with TERRASLIP_ALLOW_NO_SHARED=1,
-    skips (shown as skipped in pytest's summary)."""
-    require_shared(HUSKY)
-
 
 @pytest.fixture
 def topics(tmp_path):
@@ -34,13 +24,14 @@ def topics(tmp_path):
     return path
 
 
-@needs_husky
 @pytest.mark.parametrize(
     "bag",
-    [HUSKY, HUSKY / "test1_mcap.mcap", ROS2 / "husky_test1_db3"],
+    [HUSKY, HUSKY / "husky_test1.mcap", HUSKY_DB3],
     ids=["mcap-directory", "mcap-file", "db3-directory"],
 )
 def test_estimate_on_a_bag_equals_the_cli(cli, tmp_path, topics, bag):
+    if bag == HUSKY_DB3:
+        require_shared(bag)
     out = tmp_path / "est"
     cli("estimate", bag, "--topics", topics, "--out", out)
     got = terraslip.estimate(bag, topics=topics)
@@ -57,7 +48,6 @@ def test_estimate_on_a_bag_equals_the_cli(cli, tmp_path, topics, bag):
         assert np.array_equal(again[name], got[name]), name
 
 
-@needs_husky
 def test_a_bag_equals_its_imported_log(cli, tmp_path, topics):
     log = tmp_path / "log"
     cli("import", HUSKY, "--topics", topics, "--out", log)
@@ -82,7 +72,6 @@ def test_a_bag_equals_its_imported_log(cli, tmp_path, topics):
     assert set(a["label"]) == {"grass", "gravel"}
 
 
-@needs_husky
 def test_calibrate_and_validate_read_a_bag_as_the_cli(cli, tmp_path):
     # The Husky's GNSS gives no heading: calibrated on windows of fixes (a
     # position-only reference), the same parameters as the command's.
@@ -116,7 +105,6 @@ def test_calibrate_and_validate_read_a_bag_as_the_cli(cli, tmp_path):
     assert "pooled parameter set" in message
 
 
-@needs_husky
 def test_a_bag_without_its_topics_runs_as_the_cli(cli, tmp_path):
     # No separation given: a nominal one, stated, and the controller's
     # correction as a factor.

@@ -1,7 +1,8 @@
 """terraslip.fleet: the fleet's tables equal the command line's outputs.
 
 The Dask run (a LocalCluster of 2 worker processes over every log and bag
-in ../shared/data) talks over loopback TCP, so it runs in a network
+in ../shared/data, skipped where it is missing unless
+TERRASLIP_REQUIRE_SHARED=1) talks over loopback TCP, so it runs in a network
 namespace of its own (`unshare -n`, lo up), bounded in time; the rest runs
 in this process."""
 
@@ -20,13 +21,12 @@ pytest.importorskip("distributed", reason="the fleet extra (pip install terrasli
 fsspec = pytest.importorskip("fsspec", reason="the fleet extra (pip install terraslip[fleet]) is not installed")
 
 import terraslip  # noqa: E402
-from conftest import REPO, read_csv  # noqa: E402
+from conftest import REPO, SHARED, read_csv, require_shared  # noqa: E402
 from terraslip import fleet  # noqa: E402
 from terraslip.fleet import _report, _tables  # noqa: E402
 from terraslip.fleet._tasks import Options, estimate_recording  # noqa: E402
 
-SHARED = REPO.parent / "shared" / "data"
-needs_shared = pytest.mark.skipif(not SHARED.is_dir(), reason=f"{SHARED}: not here (CI has ../shared beside the clone)")
+needs_shared = pytest.mark.usefixtures("shared_present")
 HUSKY_TOPICS = '[wheels]\nseparation = 1.040625\n[heading]\ntopic = ""\n'
 # The whole fleet run in its namespace: start-up of 2 workers, 56
 # recordings, 8 calibration groups; generous for a loaded 2-core machine.
@@ -65,8 +65,7 @@ def _q(s):
 def fleet_run(tmp_path_factory):
     """estimate (with --rows) of ../shared/data on a LocalCluster of 2
     processes (--scheduler local:2), calibrate on one given by address."""
-    if not SHARED.is_dir():
-        pytest.skip(f"{SHARED}: not here")
+    require_shared(SHARED)
     tmp = tmp_path_factory.mktemp("fleet")
     topics = tmp / "husky.toml"
     topics.write_text(HUSKY_TOPICS)

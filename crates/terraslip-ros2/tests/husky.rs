@@ -1,13 +1,10 @@
-//! The Husky recording in ../shared/data/ros2, in both storage formats
-//! (a missing recording fails the test unless TERRASLIP_ALLOW_NO_SHARED=1).
+//! The Husky recording the repository ships (`data/husky_test1`), in both
+//! storage formats (its sqlite3 copy written at test time).
 
-use std::path::PathBuf;
+mod support;
 
+use support::{husky_db3, husky_mcap};
 use terraslip_ros2::{import, TopicsConfig};
-
-fn bag(name: &str) -> Option<PathBuf> {
-    terraslip_io::shared::shared_data(&format!("ros2/{name}"))
-}
 
 fn cfg() -> TopicsConfig {
     // The heading named: kept without the course check.
@@ -16,9 +13,8 @@ fn cfg() -> TopicsConfig {
 
 #[test]
 fn both_storage_formats_give_the_same_log() {
-    let (Some(m), Some(d)) = (bag("husky_test1_mcap"), bag("husky_test1_db3")) else {
-        return;
-    };
+    let tmp = tempfile::tempdir().unwrap();
+    let (m, d) = (husky_mcap(), husky_db3(tmp.path()));
     let (a, ra) = import(&m, &cfg(), None).unwrap();
     let (b, rb) = import(&d, &cfg(), None).unwrap();
     assert_eq!(a.wheels, b.wheels);
@@ -44,10 +40,7 @@ fn both_storage_formats_give_the_same_log() {
 
 #[test]
 fn with_no_topics_file_the_scale_mounting_and_heading_are_decided_and_said() {
-    let Some(m) = bag("husky_test1_mcap") else {
-        eprintln!("shared data absent: skipped");
-        return;
-    };
+    let m = husky_mcap();
     let (log, report) = import(&m, &TopicsConfig::default(), None).unwrap();
     let text = report.to_text();
     print!("{text}");
@@ -80,16 +73,15 @@ fn with_no_topics_file_the_scale_mounting_and_heading_are_decided_and_said() {
 
 #[test]
 fn a_zstd_file_compressed_sqlite_bag_reads_the_same() {
-    let Some(d) = bag("husky_test1_db3") else {
-        return;
-    };
+    let plain = tempfile::tempdir().unwrap();
+    let d = husky_db3(plain.path());
     let tmp = tempfile::tempdir().unwrap();
-    let raw = std::fs::read(d.join("test1_db3.db3")).unwrap();
+    let raw = std::fs::read(d.join("husky_test1.db3")).unwrap();
     let z = zstd::encode_all(&raw[..], 3).unwrap();
-    std::fs::write(tmp.path().join("test1_db3.db3.zstd"), z).unwrap();
+    std::fs::write(tmp.path().join("husky_test1.db3.zstd"), z).unwrap();
     let meta = std::fs::read_to_string(d.join("metadata.yaml"))
         .unwrap()
-        .replace("- test1_db3.db3", "- test1_db3.db3.zstd")
+        .replace("- husky_test1.db3", "- husky_test1.db3.zstd")
         .replace("compression_format: ''", "compression_format: zstd")
         .replace("compression_mode: ''", "compression_mode: FILE");
     std::fs::write(tmp.path().join("metadata.yaml"), meta).unwrap();
@@ -101,16 +93,11 @@ fn a_zstd_file_compressed_sqlite_bag_reads_the_same() {
 
 #[test]
 fn a_per_message_zstd_sqlite_bag_reads_the_same() {
-    let Some(d) = bag("husky_test1_db3") else {
-        return;
-    };
+    let plain = tempfile::tempdir().unwrap();
+    let d = husky_db3(plain.path());
     let tmp = tempfile::tempdir().unwrap();
-    let db = tmp.path().join("test1_db3.db3");
-    std::fs::copy(d.join("test1_db3.db3"), &db).unwrap();
-    let mut perms = std::fs::metadata(&db).unwrap().permissions();
-    #[allow(clippy::permissions_set_readonly_false)]
-    perms.set_readonly(false);
-    std::fs::set_permissions(&db, perms).unwrap();
+    let db = tmp.path().join("husky_test1.db3");
+    std::fs::copy(d.join("husky_test1.db3"), &db).unwrap();
     {
         let conn = rusqlite::Connection::open(&db).unwrap();
         let rows: Vec<(i64, Vec<u8>)> = conn
@@ -141,4 +128,26 @@ fn a_per_message_zstd_sqlite_bag_reads_the_same() {
     assert_eq!(a.wheels, b.wheels);
     assert_eq!(a.pose, b.pose);
     assert_eq!(a.imu, b.imu);
+}
+
+#[test]
+fn the_shipped_recording_reads_as_the_shared_one_in_both_formats() {
+    let (Some(m), Some(d)) = (
+        terraslip_io::shared::shared_data("ros2/husky_test1_mcap"),
+        terraslip_io::shared::shared_data("ros2/husky_test1_db3"),
+    ) else {
+        return;
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let pairs = [(m, husky_mcap()), (d, husky_db3(tmp.path()))];
+    for (shared, shipped) in pairs {
+        let (a, ra) = import(&shared, &cfg(), None).unwrap();
+        let (b, rb) = import(&shipped, &cfg(), None).unwrap();
+        let what = shipped.display();
+        assert_eq!(a.wheels, b.wheels, "{what}");
+        assert_eq!(a.pose, b.pose, "{what}");
+        assert_eq!(a.imu, b.imu, "{what}");
+        assert_eq!(ra.time_origin_ns, rb.time_origin_ns, "{what}");
+        assert_eq!(ra.warnings, rb.warnings, "{what}");
+    }
 }

@@ -1,26 +1,13 @@
-//! The Husky recording in ../shared/data/ros2 played message by message
-//! into [`LiveImport`] makes the rows `import` makes of it (fails, naming
-//! the path, where the shared data is absent).
-
-use std::path::PathBuf;
+//! The Husky recording the repository ships (`data/husky_test1`) played
+//! message by message into [`LiveImport`] makes the rows `import` makes of
+//! it.
 
 use terraslip_ros2::import::{LiveImport, LiveRow};
 use terraslip_ros2::{import, Bag, TopicsConfig};
 
-fn husky() -> PathBuf {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data/ros2/husky_test1_mcap");
-    assert!(
-        p.is_dir(),
-        "{} is absent: this test needs the shared data beside the clone",
-        p.display()
-    );
-    p
-}
-
 #[test]
 fn a_recording_played_live_makes_the_rows_import_makes() {
-    let path = husky();
+    let path = terraslip_io::shared::repo_data("husky_test1");
     // The import leaves out a heading that disagrees with the GNSS course,
     // which a live graph cannot check before it starts: no heading here.
     let cfg: TopicsConfig = toml::from_str(

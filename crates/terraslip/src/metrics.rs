@@ -110,6 +110,19 @@ fn spread_errors(run: &EstimateRun, truth: &[TruthSample], t0: f64, t1: f64) -> 
         .collect()
 }
 
+/// The run's largest spread error `d_est - d_true` (m) within `[t0, t1)`
+/// and its time, s: what a 5 s mean of [`reconvergence`] can hide.
+pub fn largest_spread_error(
+    run: &EstimateRun,
+    truth: &[TruthSample],
+    t0: f64,
+    t1: f64,
+) -> Option<(f64, f64)> {
+    spread_errors(run, truth, t0, t1)
+        .into_iter()
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+}
+
 /// For every terrain change in `labels` (not the first label): the time
 /// after the change from which every `window`-second average of the spread
 /// error `d = y_l - y_r` (estimate minus truth), up to the next change, is

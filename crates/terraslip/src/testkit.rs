@@ -172,17 +172,17 @@ pub fn drive(spec: &SynthSpec) -> DriveLog {
     log
 }
 
-/// The real drive `name` of `../shared/data/drive` beside the clone (a
-/// DRIVE Warthog log). Panics, naming the directory, when it is missing:
-/// a test that needs it fails loudly rather than passing without it.
-pub fn shared_drive(name: &str) -> DriveLog {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data/drive")
-        .join(name);
-    assert!(
-        dir.exists(),
-        "{}: missing; this test needs the real drives of ../shared beside the clone",
-        dir.display()
-    );
+/// The drive `name` of the repository's `data/` (a log that ships with
+/// it, e.g. DRIVE's `warthog_sand_a`).
+pub fn repo_drive(name: &str) -> DriveLog {
+    let dir = terraslip_io::shared::repo_data(name);
     DriveLog::read(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+}
+
+/// The real drive `name` of `../shared/data/drive` beside the clone (a
+/// DRIVE Warthog log), or `None` when it is missing and the test is
+/// skipped (see [`terraslip_io::shared::shared_data`]).
+pub fn shared_drive(name: &str) -> Option<DriveLog> {
+    let dir = terraslip_io::shared::shared_data(&format!("drive/{name}"))?;
+    Some(DriveLog::read(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display())))
 }

@@ -1,7 +1,6 @@
-//! `calibrate` on the Husky recording in ../shared/data/ros2: GNSS fixes
-//! and no usable heading (a position-only reference), with and without the
-//! user guide's topics file (a missing recording fails the test unless
-//! TERRASLIP_ALLOW_NO_SHARED=1).
+//! `calibrate` on the Husky recording the repository ships
+//! (`data/husky_test1`): GNSS fixes and no usable heading (a position-only
+//! reference), with and without the user guide's topics file.
 #![cfg(feature = "ros2")]
 
 use std::path::Path;
@@ -45,9 +44,7 @@ fn calibrate(bag: &Path, topics: Option<&Path>, out: &Path) -> String {
 
 #[test]
 fn the_husky_bag_yields_a_controller_file_with_no_topics_file() {
-    let Some(bag) = terraslip_io::shared::shared_data("ros2/husky_test1_mcap") else {
-        return;
-    };
+    let bag = terraslip_io::shared::repo_data("husky_test1");
     let dir = tempfile::tempdir().unwrap();
     let (a, b) = (dir.path().join("a"), dir.path().join("b"));
     std::fs::create_dir_all(&a).unwrap();

@@ -1,12 +1,12 @@
 //! The pose stream's clock offset on a real drive whose lidar pose is
-//! stamped late (DRIVE's Warthog on sand, `../shared/data/drive`).
+//! stamped late (DRIVE's Warthog on sand, `data/warthog_sand_a`).
 
 use terraslip::pipeline::{self, TerrainEvidence};
 use terraslip::{EstimatorConfig, Timed};
 use terraslip_io::DriveLog;
 
 fn sand() -> DriveLog {
-    terraslip::testkit::shared_drive("warthog_sand_a")
+    terraslip::testkit::repo_drive("warthog_sand_a")
 }
 
 /// The default estimator on `log`, started with `--init pf`.

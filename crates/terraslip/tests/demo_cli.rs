@@ -12,17 +12,23 @@ const VARIANTS: [&str; 7] = [
     "terraslip",
 ];
 
-#[test]
-fn demo_writes_table_plots_and_report_for_every_variant() {
+/// `terraslip demo --out TMP/demo`, which must succeed.
+fn demo() -> (tempfile::TempDir, std::process::Output) {
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("demo");
     let o = Command::cargo_bin("terraslip")
         .unwrap()
         .args(["demo", "--out"])
-        .arg(&out)
+        .arg(dir.path().join("demo"))
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    (dir, o)
+}
+
+#[test]
+fn demo_writes_table_plots_and_report_for_every_variant() {
+    let (dir, o) = demo();
+    let out = dir.path().join("demo");
     let stdout = String::from_utf8_lossy(&o.stdout);
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
@@ -111,4 +117,42 @@ fn demo_writes_table_plots_and_report_for_every_variant() {
         .unwrap();
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("refusing"));
+}
+
+/// A re-convergence of 0 s (the estimate never left the tolerance) or none
+/// at all, and a variant whose fixes were refused, are each explained on
+/// the page, from the run.
+#[test]
+fn the_page_says_why_a_reconvergence_is_zero_or_missing_and_why_a_variant_stops_learning() {
+    let (dir, _) = demo();
+    let out = dir.path().join("demo");
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let changes = summary["terrain_changes"].as_array().unwrap();
+    let mut explained = 0;
+    for v in summary["variants"].as_array().unwrap() {
+        let name = v["name"].as_str().unwrap();
+        for (r, c) in v["reconvergence_s"].as_array().unwrap().iter().zip(changes) {
+            let terrain = c["terrain"].as_str().unwrap();
+            let said = match r.as_f64() {
+                Some(0.0) => format!("`{name}`, re-conv. to {terrain} 0.0 s: "),
+                None => format!("`{name}`, re-conv. to {terrain}: "),
+                Some(_) => continue,
+            };
+            assert!(report.contains(&said), "no note {said:?} in:\n{report}");
+            explained += 1;
+        }
+    }
+    assert!(
+        explained > 0,
+        "the demo's run has no 0 s or missing re-convergence to explain"
+    );
+    // The papers' innovation-adaptive variant refuses fixes on this drive.
+    assert!(
+        report.contains("`ta-iekf`: ") && report.contains("could not be fused"),
+        "{report}"
+    );
+    assert!(html.contains("On this run:"), "the HTML page has no notes");
 }

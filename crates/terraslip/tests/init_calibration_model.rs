@@ -2,7 +2,7 @@
 //! scales the speed factors with the turn (`k_alpha`): the filter holds
 //! that law and reads it as `calibrate` does, at each instant's tread
 //! speeds, so started there and learning nothing it is the calibration's
-//! model (DRIVE's Warthog on sand, `../shared/data/drive`).
+//! model (DRIVE's Warthog on sand, `data/warthog_sand_b`).
 
 use terraslip::pipeline::{self, EstimateRun, TerrainEvidence};
 use terraslip::EstimatorConfig;
@@ -10,7 +10,7 @@ use terraslip_core::IcrParams;
 use terraslip_io::{DriveLog, ParamsFile};
 
 fn sand() -> DriveLog {
-    terraslip::testkit::shared_drive("warthog_sand_b")
+    terraslip::testkit::repo_drive("warthog_sand_b")
 }
 
 /// sand_b's whole-drive calibration, rounded: the selected model's

@@ -22,9 +22,9 @@ name of the directory holding the recording.
 
 EPILOG = """\
 examples:
-  # the whole ../shared/data on 2 local worker processes, then the report
-  python -m terraslip.fleet estimate ../shared/data --topics husky.toml --out fleet --scheduler local:2
-  python -m terraslip.fleet calibrate ../shared/data/drive --out fleet --scheduler local:2
+  # the repository's data/ on 2 local worker processes, then the report
+  python -m terraslip.fleet estimate data --topics husky.toml --out fleet --scheduler local:2
+  python -m terraslip.fleet calibrate data --topics husky.toml --out fleet --scheduler local:2
   python -m terraslip.fleet report fleet              # fleet/report.html
 
   # a manifest on object storage, on a running Dask cluster

@@ -16,6 +16,7 @@ use terraslip_sim::{simulate, Scenario, SimRun};
 use super::simulate::{check_target, replace_dir, staging_dir};
 use crate::progress::Progress;
 
+mod notes;
 mod pages;
 mod plots;
 
@@ -133,9 +134,16 @@ pub fn run(args: Args) -> Result<()> {
         "\n  re-conv.: s after the change until d = y_l - y_r stays within 2 cm of the truth (5 s means);\n  \
          RMS: from {SETTLE:.0} s after each change; outage drift: dead reckoning with every pose fix dropped."
     );
+    let notes = notes::notes(&outcomes, &log.truth);
+    if !notes.is_empty() {
+        println!("\n  On this run:");
+        for n in &notes {
+            println!("  - {n}");
+        }
+    }
 
     let staging = staging_dir(&args.out)?;
-    let written = write_outputs(&staging, &sim, &outcomes, outage, &table, &args);
+    let written = write_outputs(&staging, &sim, &outcomes, outage, &table, &notes, &args);
     if let Err(e) = written {
         let _ = std::fs::remove_dir_all(&staging);
         return Err(e);
@@ -279,6 +287,7 @@ fn write_outputs(
     outcomes: &[Outcome],
     outage: Option<(f64, f64)>,
     table: &Table,
+    notes: &[String],
     args: &Args,
 ) -> Result<()> {
     let log = &sim.log;
@@ -297,6 +306,7 @@ fn write_outputs(
         outage,
         changes: &changes,
         table,
+        notes,
         figures: &figures,
         args,
     }

@@ -21,6 +21,8 @@ pub(super) struct Pages<'a> {
     /// Terrain changes `(t, "terrain")`.
     pub changes: &'a [(f64, String)],
     pub table: &'a Table,
+    /// What the table says about each variant on this run, in words.
+    pub notes: &'a [String],
     pub figures: &'a [Written],
     pub args: &'a Args,
 }
@@ -46,6 +48,7 @@ impl Pages<'_> {
             "duration_s": sim.scenario.duration(),
             "outage": self.outage.map(|(a, b)| [a, b]),
             "settle_s": SETTLE,
+            "notes": self.notes,
             "terrain_changes": self.changes.iter().map(|(t, n)| serde_json::json!({"t": t, "terrain": n})).collect::<Vec<_>>(),
             "variants": self.outcomes.iter().map(|o| serde_json::json!({
                 "name": o.name,
@@ -100,6 +103,10 @@ impl Pages<'_> {
         let _ = writeln!(md, "# {TITLE}\n");
         let _ = writeln!(md, "{}\n", self.intro());
         let _ = writeln!(md, "{}", self.table.markdown);
+        if !self.notes.is_empty() {
+            let notes: String = self.notes.iter().map(|n| format!("- {n}\n")).collect();
+            let _ = writeln!(md, "On this run:\n\n{notes}");
+        }
         let variants: String = self.variants().iter().map(|v| format!("- {v}\n")).collect();
         let _ = writeln!(md, "Variants:\n\n{variants}");
         for (f, cap) in self.figures {
@@ -122,8 +129,12 @@ impl Pages<'_> {
                 headers: self.table.headers.clone(),
                 rows: self.table.rows.clone(),
             },
-            Section::List(self.variants()),
         ];
+        if !self.notes.is_empty() {
+            sections.push(Section::Paragraph("On this run:".into()));
+            sections.push(Section::List(self.notes.to_vec()));
+        }
+        sections.push(Section::List(self.variants()));
         for (f, cap) in self.figures {
             sections.push(Section::Image {
                 src: f.clone(),

@@ -289,3 +289,131 @@ fn a_skid_steer_with_odometry_only() {
         );
     }
 }
+
+/// A filter's fused odometry (robot_localization, a vendor's fusion node).
+const fn filter_odom(topic: &'static str, frame: &'static str) -> Odom {
+    Odom {
+        topic,
+        frame,
+        lateral: 0.05,
+        yaw_scale: 1.0,
+    }
+}
+
+/// A TurtleBot 3: `/joint_states` with positions only, `/odom`, `/imu`.
+#[test]
+fn a_turtlebot3_with_joint_positions_only() {
+    let r = runs(
+        &Twin {
+            odoms: vec![wheel_odom("/odom")],
+            joints: Some(Joints {
+                left: "wheel_left_joint",
+                right: "wheel_right_joint",
+                velocity: false,
+                position: true,
+                wrapped: false,
+                jitter: 0.002,
+            }),
+            imu: Some("/imu"),
+            gyro_scale: 1.0,
+            ..Default::default()
+        },
+        true,
+    );
+    assert!(
+        r.said
+            .contains("/joint_states (sensor_msgs/JointState) -> wheels.csv"),
+        "{}",
+        r.said
+    );
+    assert!(r.said.contains("from its joint positions"), "{}", r.said);
+}
+
+/// A TurtleBot 4 (Create 3 base): the URDF's wheels on prismatic
+/// wheel-drop joints, `/odom`, `/imu`.
+#[test]
+fn a_turtlebot4_with_wheel_drops_in_its_urdf() {
+    const URDF: &str = r#"<robot name="tb4">
+  <link name="base_footprint"/><link name="base_link"/><link name="wheel_drop_left"/><link name="wheel_drop_right"/>
+  <link name="left_wheel"/><link name="right_wheel"/>
+  <joint name="base_joint" type="fixed"><parent link="base_footprint"/><child link="base_link"/><origin xyz="0 0 0.0061"/></joint>
+  <joint name="wheel_drop_left_joint" type="prismatic"><parent link="base_link"/><child link="wheel_drop_left"/><origin xyz="0 0.1165 0.0402"/></joint>
+  <joint name="wheel_drop_right_joint" type="prismatic"><parent link="base_link"/><child link="wheel_drop_right"/><origin xyz="0 -0.1165 0.0402"/></joint>
+  <joint name="left_wheel_joint" type="continuous"><parent link="wheel_drop_left"/><child link="left_wheel"/><origin xyz="0 0 0" rpy="-1.5708 0 0"/></joint>
+  <joint name="right_wheel_joint" type="continuous"><parent link="wheel_drop_right"/><child link="right_wheel"/><origin xyz="0 0 0" rpy="-1.5708 0 0"/></joint>
+</robot>"#;
+    let r = runs(
+        &Twin {
+            odoms: vec![wheel_odom("/odom")],
+            imu: Some("/imu"),
+            gyro_scale: 1.0,
+            urdf: Some(URDF),
+            ..Default::default()
+        },
+        false,
+    );
+    assert!(
+        r.said.contains("decided: separation S = 0.233 m"),
+        "{}",
+        r.said
+    );
+    assert_eq!(r.summary["controller"]["separation_source"], "urdf");
+}
+
+/// A Clearpath Jackal: the drive controller's odometry beside
+/// robot_localization's `/odometry/filtered`, `/imu/data`.
+#[test]
+fn a_jackal_with_a_filtered_odometry_beside_the_controllers() {
+    let r = runs(
+        &Twin {
+            odoms: vec![
+                wheel_odom("/jackal_velocity_controller/odom"),
+                filter_odom("/odometry/filtered", "odom"),
+            ],
+            imu: Some("/imu/data"),
+            gyro_scale: 1.0,
+            ..Default::default()
+        },
+        true,
+    );
+    assert!(
+        r.said
+            .contains("decided: wheels from /jackal_velocity_controller/odom"),
+        "{}",
+        r.said
+    );
+}
+
+/// A two-wheel base whose driver's `/odom` sits beside another node's
+/// fused `/combined_odom` (frame `combined_odom`).
+#[test]
+fn a_two_wheel_base_with_a_combined_odometry() {
+    let r = runs(
+        &Twin {
+            odoms: vec![
+                wheel_odom("/odom"),
+                filter_odom("/combined_odom", "combined_odom"),
+            ],
+            imu: Some("/imu"),
+            gyro_scale: 1.0,
+            ..Default::default()
+        },
+        true,
+    );
+    assert!(r.said.contains("decided: wheels from /odom"), "{}", r.said);
+}
+
+/// A tracked vehicle: the treads' odometry turns it more than the gyro
+/// sees (the tracks slip), `/odom` and `/imu/data`.
+#[test]
+fn a_tracked_vehicle_whose_gyro_turns_less_than_its_treads() {
+    runs(
+        &Twin {
+            odoms: vec![wheel_odom("/odom")],
+            imu: Some("/imu/data"),
+            gyro_scale: 0.7,
+            ..Default::default()
+        },
+        false,
+    );
+}

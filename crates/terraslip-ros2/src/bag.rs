@@ -535,11 +535,39 @@ fn record_limit(size: u64) -> usize {
     size.saturating_mul(16).clamp(64 << 20, 4 << 30) as usize
 }
 
+/// Opens a `.db3` file read-only and immutable (SQLite URI
+/// `file:...?mode=ro&immutable=1`): no lock, no `-shm` / `-wal` sidecar
+/// files, so a bag on a read-only mount reads and nothing is written
+/// beside it. A recording being written is not a bag to read.
 fn open_sqlite(p: &Path) -> rusqlite::Result<rusqlite::Connection> {
     rusqlite::Connection::open_with_flags(
-        p,
-        rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY | rusqlite::OpenFlags::SQLITE_OPEN_NO_MUTEX,
+        sqlite_uri(p),
+        rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY
+            | rusqlite::OpenFlags::SQLITE_OPEN_URI
+            | rusqlite::OpenFlags::SQLITE_OPEN_NO_MUTEX,
     )
+}
+
+/// The read-only, immutable SQLite URI of file `p`, its path
+/// percent-encoded where a URI needs it (`%`, `?`, `#`, non-ASCII ...).
+fn sqlite_uri(p: &Path) -> String {
+    let abs = std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
+    let path = abs.to_string_lossy().replace('\\', "/");
+    // `file:///tmp/b.db3`, `file:///C:/b.db3`.
+    let mut uri = String::from(if path.starts_with('/') {
+        "file://"
+    } else {
+        "file:///"
+    });
+    for b in path.bytes() {
+        match b {
+            b'A'..=b'Z' | b'a'..=b'z' | b'0'..=b'9' | b'/' | b'-' | b'_' | b'.' | b'~' => {
+                uri.push(b as char)
+            }
+            _ => uri.push_str(&format!("%{b:02X}")),
+        }
+    }
+    uri + "?mode=ro&immutable=1"
 }
 
 /// `(id, name, type, definition)` of every topic in a sqlite3 bag file.

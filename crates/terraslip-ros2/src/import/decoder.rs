@@ -76,7 +76,7 @@ const HEADER: [&str; 2] = ["?header.stamp.sec", "?header.stamp.nanosec"];
 pub(super) fn fields_for(ty: &str, role: Role) -> Vec<&'static str> {
     let mut f: Vec<&'static str> = HEADER.to_vec();
     match (ty, role) {
-        ("sensor_msgs/JointState", _) => f.extend(["name", "velocity"]),
+        ("sensor_msgs/JointState", _) => f.extend(["name", "?velocity", "?position"]),
         ("nav_msgs/Odometry", Role::Wheels) | ("geometry_msgs/TwistStamped", _) => {
             let p: &[&str] = if ty == "nav_msgs/Odometry" {
                 &["twist.twist.linear.x", "twist.twist.angular.z"]

@@ -17,6 +17,7 @@ use super::config::TopicsConfig;
 use super::mount::{self, Quat, Sensors};
 use super::report::ImportReport;
 use super::rows::{heading_yaw, Msg, Rows};
+use super::topics::Decide;
 use super::topics::Role;
 use super::{choose_streams, receive_only, selections, stamp_ns, unphysical, wheel_scale, Sel};
 use crate::{Bag, Ros2Error, Topic};
@@ -70,7 +71,8 @@ impl<'c> LiveImport<'c> {
         cfg: &'c TopicsConfig,
     ) -> Result<Self, Ros2Error> {
         let bag = Bag::live(graph, topics);
-        let c = choose_streams(&bag, cfg, "graph")?;
+        let mut decide = Decide::default();
+        let c = choose_streams(&bag, cfg, "graph", &mut decide)?;
         let sels = selections(&bag, &c)?;
         let (imu, heading, tf) = (c.imu, c.heading, c.tf);
         let receive_only = receive_only(&bag, cfg)?;
@@ -88,10 +90,12 @@ impl<'c> LiveImport<'c> {
             tf: Default::default(),
             heading_rows: Vec::new(),
             unphysical: None,
+            joints: HashMap::new(),
+            wheels_unusable: None,
         };
         let report = ImportReport {
             bag: bag.path.clone(),
-            decisions: vec![scale_line],
+            decisions: decide.decisions.into_iter().chain([scale_line]).collect(),
             ..Default::default()
         };
         Ok(Self {

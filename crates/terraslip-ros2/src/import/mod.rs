@@ -13,6 +13,7 @@
 mod config;
 mod course;
 mod decoder;
+mod evidence;
 mod image;
 mod live;
 pub mod mount;
@@ -43,7 +44,7 @@ use crate::{Bag, Ros2Error};
 use decoder::{fields_for, Decoder};
 use report::stream_report;
 use rows::{Msg, Rows};
-use topics::{choose, list, Role};
+use topics::{choose, list, wheel_twists, Decide, Role};
 
 struct Sel {
     topic: usize,
@@ -64,9 +65,13 @@ pub fn import(
     out_dir: Option<&Path>,
 ) -> Result<(DriveLog, ImportReport), Ros2Error> {
     let mut bag = Bag::open(bag_path)?;
-    let chosen = choose_streams(&bag, cfg, "bag")?;
+    let mut decide = Decide {
+        evidence: topic_evidence(&mut bag)?,
+        ..Default::default()
+    };
+    let chosen = choose_streams(&bag, cfg, "bag", &mut decide)?;
     let (wheels, heading, imu, tf) = (chosen.wheels, chosen.heading, chosen.imu, chosen.tf);
-    let images = match choose(&bag, Role::Images, &cfg.images.topic, &[])? {
+    let images = match choose(&bag, Role::Images, &cfg.images.topic, &[], &mut decide)? {
         Some(i) if out_dir.is_none() => {
             return Err(Ros2Error::Bag {
                 bag: bag.path.clone(),
@@ -79,6 +84,7 @@ pub fn import(
         x => x,
     };
 
+    decide.settled(&bag)?;
     // The scale the tread speeds are made in (scale.rs): the topics
     // file's, else the URDF's, else the track width, else a default.
     let urdf = if needs_urdf(&bag, cfg, wheels) {
@@ -125,11 +131,16 @@ pub fn import(
         tf: Default::default(),
         heading_rows: Vec::new(),
         unphysical: None,
+        joints: HashMap::new(),
+        wheels_unusable: None,
     };
     let mut skipped: Vec<SkippedMessage> = Vec::new();
     let mut report = ImportReport {
         bag: bag.path.clone(),
-        decisions: vec![scale_line],
+        decisions: std::mem::take(&mut decide.decisions)
+            .into_iter()
+            .chain([scale_line])
+            .collect(),
         ..Default::default()
     };
     if let Some(s) = &sep_scale {
@@ -249,6 +260,14 @@ pub fn import(
         .iter()
         .map(|t| (t.name.clone(), t.ty.clone(), t.count))
         .collect();
+    if !rows.joints.is_empty() {
+        report.decisions.push(format!(
+            "wheel rates of {} from its joint positions (its messages carry no velocities), fitted over windows of {} s",
+            bag.topics[wheels].name,
+            rows::JointTrack::SPAN
+        ));
+    }
+    let wheels_unusable = rows.wheels_unusable.take();
     let mut log = rows.log;
     let by_t = |a: f64, b: f64| a.total_cmp(&b);
     log.wheels.sort_by(|a, b| by_t(a.t, b.t));
@@ -277,12 +296,32 @@ pub fn import(
     }
     log.pose.sort_by(|a, b| by_t(a.t, b.t));
     if log.wheels.is_empty() {
+        let why = wheels_unusable.unwrap_or_else(|| "no message had them".into());
+        let name = &bag.topics[wheels].name;
+        // The next source the bag has: its odometry (or twist).
+        let next = wheel_twists(&bag, &[wheels]);
+        if cfg.wheels.topic.is_none() && !next.is_empty() {
+            let mut d = Decide {
+                evidence: decide.evidence.clone(),
+                ..Default::default()
+            };
+            let i = topics::decide(&bag, Role::Wheels, &next, &mut d);
+            let mut cfg = cfg.clone();
+            cfg.wheels.topic = Some(bag.topics[i].name.clone());
+            let (log, mut report) = import(bag_path, &cfg, out_dir)?;
+            report.decisions.insert(
+                0,
+                format!(
+                    "wheels from {} ({}): {name} gave no tread speeds ({why}); `[wheels] topic = \"{name}\"` with `left`, `right` and `wheel_radius` in a --topics file names it",
+                    bag.topics[i].name, bag.topics[i].ty
+                ),
+            );
+            report.decisions.splice(1..1, d.decisions);
+            return Ok((log, report));
+        }
         return Err(Ros2Error::Bag {
             bag: bag.path.clone(),
-            reason: format!(
-                "no usable wheel source: topic {} gave no tread speeds",
-                bag.topics[wheels].name
-            ),
+            reason: format!("no usable wheel source: topic {name} gave no tread speeds ({why})"),
         });
     }
     Ok((log, report))
@@ -351,31 +390,37 @@ struct Chosen {
 
 /// Chooses the topics of the sensor streams (all but the camera's) of
 /// `bag` (`what` it is, for messages: `bag`, `graph`).
-fn choose_streams(bag: &Bag, cfg: &TopicsConfig, what: &str) -> Result<Chosen, Ros2Error> {
-    let wheels = choose(bag, Role::Wheels, &cfg.wheels.topic, &[])?.ok_or_else(|| Ros2Error::Bag {
+fn choose_streams(
+    bag: &Bag,
+    cfg: &TopicsConfig,
+    what: &str,
+    d: &mut Decide,
+) -> Result<Chosen, Ros2Error> {
+    let wheels = choose(bag, Role::Wheels, &cfg.wheels.topic, &[], d)?.ok_or_else(|| Ros2Error::Bag {
         bag: bag.path.clone(),
         reason: format!(
             "no usable wheel source: no sensor_msgs/JointState, nav_msgs/Odometry or geometry_msgs/TwistStamped topic (the {what} has: {})",
             list(bag, &(0..bag.topics.len()).collect::<Vec<_>>())
         ),
     })?;
-    let pose = choose(bag, Role::Pose, &cfg.pose.topic, &[wheels])?;
+    let pose = choose(bag, Role::Pose, &cfg.pose.topic, &[wheels], d)?;
     let pose_is_gnss =
         pose.is_some_and(|p| short_type(&bag.topics[p].ty) == "sensor_msgs/NavSatFix");
     let heading = if pose_is_gnss || cfg.heading.topic.is_some() {
-        choose(bag, Role::Heading, &cfg.heading.topic, &[])?
+        choose(bag, Role::Heading, &cfg.heading.topic, &[], d)?
     } else {
         None
     };
-    let imu = choose(bag, Role::Imu, &cfg.imu.topic, &[])?;
+    let imu = choose(bag, Role::Imu, &cfg.imu.topic, &[], d)?;
     // Static transforms, for the IMUs' mountings.
     let tf = match &cfg.tf.topic {
         _ if imu.is_none() && heading.is_none() => None,
-        Some(_) => choose(bag, Role::Tf, &cfg.tf.topic, &[])?,
+        Some(_) => choose(bag, Role::Tf, &cfg.tf.topic, &[], d)?,
         None => bag
             .topic("/tf_static")
             .filter(|&i| short_type(&bag.topics[i].ty) == "tf2_msgs/TFMessage"),
     };
+    d.settled(bag)?;
     Ok(Chosen {
         wheels,
         pose,
@@ -383,6 +428,26 @@ fn choose_streams(bag: &Bag, cfg: &TopicsConfig, what: &str) -> Result<Chosen, R
         imu,
         tf,
     })
+}
+
+/// The evidence for choosing among several odometries, twists or poses:
+/// read (one pass over those topics) only when some stream has more than
+/// one candidate.
+fn topic_evidence(bag: &mut Bag) -> Result<evidence::Evidence, Ros2Error> {
+    let twists = wheel_twists(bag, &[]);
+    let poses = topics::candidates(
+        bag,
+        &[
+            "geometry_msgs/PoseWithCovarianceStamped",
+            "geometry_msgs/PoseStamped",
+        ],
+        &[],
+    );
+    if twists.len() < 2 && poses.len() < 2 {
+        return Ok(Default::default());
+    }
+    let all: Vec<usize> = twists.into_iter().chain(poses).collect();
+    evidence::gather(bag, &all)
 }
 
 /// A decoder for each topic of `c`, with the streams it feeds (an

@@ -67,6 +67,11 @@ pub(super) struct Rows<'c> {
     /// Why the message just read cannot be physical, when a stream found
     /// that before making rows.
     pub unphysical: Option<String>,
+    /// Each wheel joint's recent positions, for joint states with none of
+    /// their velocities.
+    pub joints: HashMap<String, JointTrack>,
+    /// Why the wheel source's last message gave no tread speeds.
+    pub wheels_unusable: Option<String>,
 }
 
 impl Rows<'_> {
@@ -127,40 +132,68 @@ impl Rows<'_> {
     }
 
     /// Wheel joint velocities (rad/s) times the wheel radius, left and right
-    /// picked by name patterns (the mean of each side's joints).
+    /// picked by name patterns (the mean of each side's joints); the
+    /// positions differentiated ([`JointTrack`]) when the message carries no
+    /// velocities. A message that gives no tread speeds makes no row and
+    /// says why in [`Rows::wheels_unusable`].
     fn joint_state(&mut self, m: &Msg) -> Result<bool, Ros2Error> {
-        let (Some(Value::Strs(names)), Some(Value::Nums(vel))) = (m.get("name"), m.get("velocity"))
-        else {
-            return Err(m.err("name or velocity missing"));
+        let Some(Value::Strs(names)) = m.get("name") else {
+            return Err(m.err("no joint names"));
+        };
+        let nums = |f: &str| match m.get(f) {
+            Some(Value::Nums(v)) if v.len() == names.len() && !v.is_empty() => Some(v),
+            _ => None,
+        };
+        // A rate from positions belongs to its window's mean time.
+        let mut t = m.t;
+        let rates: Vec<Option<f64>> = match (nums("velocity"), nums("position")) {
+            (Some(vel), _) => vel.iter().map(|w| Some(*w)).collect(),
+            (None, Some(pos)) => {
+                let r: Vec<_> = names
+                    .iter()
+                    .zip(pos)
+                    .map(|(n, &p)| self.joints.entry(n.clone()).or_default().rate(m.t, p))
+                    .collect();
+                t = r.iter().flatten().map(|a| a.0).next().unwrap_or(t);
+                r.into_iter().map(|a| a.map(|a| a.1)).collect()
+            }
+            (None, None) => {
+                self.wheels_unusable =
+                    Some("its messages carry neither velocities nor positions".into());
+                return Ok(false);
+            }
         };
         let pick = |pats: &[String]| {
-            let mut sum = 0.0;
-            let mut n = 0;
-            for (name, w) in names.iter().zip(vel) {
+            let (mut sum, mut n, mut named) = (0.0, 0, false);
+            for (name, w) in names.iter().zip(&rates) {
                 let lname = name.to_lowercase();
                 if pats.iter().any(|p| lname.contains(&p.to_lowercase())) {
-                    sum += w;
-                    n += 1;
+                    named = true;
+                    if let Some(w) = w {
+                        sum += w;
+                        n += 1;
+                    }
                 }
             }
-            (n > 0).then(|| sum / n as f64)
+            (named, (n > 0).then(|| sum / n as f64))
         };
         let wcfg = &self.wheels;
         let r = wcfg.wheel_radius.unwrap_or(f64::NAN);
         match (pick(&wcfg.left), pick(&wcfg.right)) {
-            (Some(l), Some(rr)) => self.log.wheels.push(WheelSample {
-                t: m.t,
+            ((_, Some(l)), (_, Some(rr))) => self.log.wheels.push(WheelSample {
+                t,
                 v_left: l * r,
                 v_right: rr * r,
             }),
-            _ if vel.is_empty() => return Ok(false),
+            ((true, _), (true, _)) => return Ok(false),
             _ => {
-                return Err(m.err(format!(
+                self.wheels_unusable = Some(format!(
                     "no joint matches the left {:?} and right {:?} patterns (joints: {}); set [wheels] left/right",
                     wcfg.left,
                     wcfg.right,
                     names.join(", ")
-                )))
+                ));
+                return Ok(false);
             }
         }
         Ok(true)
@@ -342,6 +375,58 @@ impl Rows<'_> {
         Ok(true)
     }
 }
+
+/// A wheel joint's recent positions, differentiated into its rate by a
+/// least-squares line over the last [`JointTrack::SPAN`] (jittered stamps
+/// average out; the rate belongs to the window's mean time). Positions
+/// that stay within ±π are a wrapping joint's: a step of more than π
+/// between messages is a wrap.
+#[derive(Debug, Clone, Default)]
+pub(super) struct JointTrack {
+    /// (log time s, unwrapped position rad), oldest first.
+    recent: std::collections::VecDeque<(f64, f64)>,
+    /// The last position as recorded, rad.
+    last_raw: Option<f64>,
+}
+
+impl JointTrack {
+    /// The span a rate is fitted over, s.
+    pub const SPAN: f64 = 0.3;
+
+    /// Adds position `p` (rad) at `t` (s); the window's mean time (s) and
+    /// the rate (rad/s), once the window spans half of [`Self::SPAN`].
+    pub fn rate(&mut self, t: f64, p: f64) -> Option<(f64, f64)> {
+        if !p.is_finite() || self.recent.back().is_some_and(|b| t <= b.0) {
+            return None;
+        }
+        let step = match self.last_raw {
+            Some(q) if q.abs() <= PI_WRAP && p.abs() <= PI_WRAP => wrap(p - q),
+            Some(q) => p - q,
+            None => 0.0,
+        };
+        self.last_raw = Some(p);
+        let u = self.recent.back().map_or(p, |b| b.1 + step);
+        self.recent.push_back((t, u));
+        while self.recent.len() > 2 && t - self.recent[0].0 > Self::SPAN {
+            self.recent.pop_front();
+        }
+        let n = self.recent.len() as f64;
+        if t - self.recent[0].0 < Self::SPAN / 2.0 {
+            return None;
+        }
+        let tm = self.recent.iter().map(|a| a.0).sum::<f64>() / n;
+        let um = self.recent.iter().map(|a| a.1).sum::<f64>() / n;
+        let (mut stu, mut stt) = (0.0, 0.0);
+        for &(ti, ui) in &self.recent {
+            stu += (ti - tm) * (ui - um);
+            stt += (ti - tm) * (ti - tm);
+        }
+        (stt > 0.0).then(|| (tm, stu / stt))
+    }
+}
+
+/// π with room for rounding: the bound of a wrapping joint's positions.
+const PI_WRAP: f64 = std::f64::consts::PI + 1e-6;
 
 /// Yaw (rad, counter-clockwise about z) of a quaternion.
 pub fn yaw_of(x: f64, y: f64, z: f64, w: f64) -> f64 {

@@ -32,37 +32,75 @@ pub struct UrdfWheels {
     pub radius: Option<f64>,
 }
 
+/// A URDF joint's place: its parent link and its origin (xyz, m; rpy, rad)
+/// in the parent link's frame.
+struct JointOrigin<'a> {
+    parent: &'a str,
+    xyz: [f64; 3],
+    rpy: [f64; 3],
+}
+
+/// The link named in `j`'s `<parent>` or `<child>` (`tag`).
+fn link_of<'a>(j: roxmltree::Node<'a, '_>, tag: &str) -> &'a str {
+    j.children()
+        .find(|n| n.has_tag_name(tag))
+        .and_then(|c| c.attribute("link"))
+        .unwrap_or("")
+}
+
 /// Reads the wheel joints of a URDF: continuous or revolute joints whose
-/// name or child link contains `wheel`, left where their origin's y > 0.
+/// name or child link contains `wheel`, placed in the base (the link named
+/// `base_link` on the way up, else the tree's root) by composing the chain
+/// of joints above them, whatever their type (fixed; prismatic and
+/// revolute at zero, as a TurtleBot 4's wheel-drop joints); left where the
+/// joint's y in the base > 0.
 pub fn urdf_wheels(xml: &str) -> Option<UrdfWheels> {
     let doc = roxmltree::Document::parse(xml).ok()?;
     let root = doc.root_element();
-    let num = |s: &str| -> Vec<f64> {
-        s.split_whitespace()
+    let num = |s: &str| -> [f64; 3] {
+        let v: Vec<f64> = s
+            .split_whitespace()
             .filter_map(|a| a.parse().ok())
-            .collect()
+            .collect();
+        match v[..] {
+            [a, b, c] if v.iter().all(|x| x.is_finite()) => [a, b, c],
+            _ => [0.0; 3],
+        }
     };
+    let joints: Vec<_> = root
+        .children()
+        .filter(|n| n.has_tag_name("joint"))
+        .collect();
+    // Each link's joint from its parent.
+    let mut above: std::collections::HashMap<&str, JointOrigin> = Default::default();
+    for &j in &joints {
+        let origin = j.children().find(|n| n.has_tag_name("origin"));
+        let at = |a: &str| {
+            origin
+                .and_then(|o| o.attribute(a))
+                .map(num)
+                .unwrap_or([0.0; 3])
+        };
+        above.insert(
+            link_of(j, "child"),
+            JointOrigin {
+                parent: link_of(j, "parent"),
+                xyz: at("xyz"),
+                rpy: at("rpy"),
+            },
+        );
+    }
     let (mut left, mut right, mut links) = (Vec::new(), Vec::new(), Vec::new());
-    for j in root.children().filter(|n| n.has_tag_name("joint")) {
+    for &j in &joints {
         if !matches!(j.attribute("type"), Some("continuous" | "revolute")) {
             continue;
         }
-        let child = j
-            .children()
-            .find(|n| n.has_tag_name("child"))
-            .and_then(|c| c.attribute("link"))
-            .unwrap_or("");
+        let child = link_of(j, "child");
         let name = j.attribute("name").unwrap_or("");
         if !(name.to_lowercase().contains("wheel") || child.to_lowercase().contains("wheel")) {
             continue;
         }
-        let y = j
-            .children()
-            .find(|n| n.has_tag_name("origin"))
-            .and_then(|o| o.attribute("xyz"))
-            .map(num)
-            .and_then(|v| v.get(1).copied())
-            .filter(|y| y.is_finite() && y.abs() > 1e-3);
+        let y = in_base(&above, child).filter(|y| y.is_finite() && y.abs() > 1e-3);
         match y {
             Some(y) if y > 0.0 => left.push(y),
             Some(y) => right.push(y),
@@ -87,6 +125,24 @@ pub fn urdf_wheels(xml: &str) -> Option<UrdfWheels> {
             })
         });
     (separation.is_some() || radius.is_some()).then_some(UrdfWheels { separation, radius })
+}
+
+/// The lateral offset (y, m) in the base of the joint above `link`: the
+/// joints' origins composed up to `base_link` or the root; `None` on a
+/// loop.
+fn in_base(above: &std::collections::HashMap<&str, JointOrigin>, link: &str) -> Option<f64> {
+    let mut p = [0.0; 3];
+    let mut at = link;
+    for _ in 0..=above.len() {
+        let Some(j) = above.get(at).filter(|_| at != "base_link") else {
+            return Some(p[1]);
+        };
+        let r = super::mount::from_rpy(j.rpy[0], j.rpy[1], j.rpy[2]);
+        let q = super::mount::rotate(r, p);
+        p = [q[0] + j.xyz[0], q[1] + j.xyz[1], q[2] + j.xyz[2]];
+        at = j.parent;
+    }
+    None
 }
 
 /// A value the tread speeds are made with, and where it came from.
@@ -183,6 +239,40 @@ mod tests {
         assert_eq!(u.radius, Some(0.0352));
         assert_eq!(urdf_wheels("<robot name='x'/>"), None);
         assert_eq!(urdf_wheels("not xml"), None);
+    }
+
+    /// TurtleBot 4 (Create 3): each wheel's continuous joint sits at the
+    /// origin of a prismatic wheel-drop joint, which holds the offset;
+    /// base_footprint is the root, above base_link.
+    const TB4: &str = r#"<robot name="tb4">
+  <link name="base_footprint"/><link name="base_link"/>
+  <link name="wheel_drop_left"/><link name="wheel_drop_right"/>
+  <link name="left_wheel"><collision><geometry><cylinder radius="0.0360" length="0.02"/></geometry></collision></link>
+  <link name="right_wheel"><collision><geometry><cylinder radius="0.0360" length="0.02"/></geometry></collision></link>
+  <joint name="base_joint" type="fixed"><parent link="base_footprint"/><child link="base_link"/><origin xyz="0 0 0.0061"/></joint>
+  <joint name="wheel_drop_left_joint" type="prismatic"><parent link="base_link"/><child link="wheel_drop_left"/><origin xyz="0 0.1165 0.0402"/><axis xyz="0 0 1"/><limit lower="-0.0075" upper="0.0" effort="1" velocity="1"/></joint>
+  <joint name="wheel_drop_right_joint" type="prismatic"><parent link="base_link"/><child link="wheel_drop_right"/><origin xyz="0 -0.1165 0.0402"/><axis xyz="0 0 1"/><limit lower="-0.0075" upper="0.0" effort="1" velocity="1"/></joint>
+  <joint name="left_wheel_joint" type="continuous"><parent link="wheel_drop_left"/><child link="left_wheel"/><origin xyz="0 0 0" rpy="-1.5708 0 0"/><axis xyz="0 0 1"/></joint>
+  <joint name="right_wheel_joint" type="continuous"><parent link="wheel_drop_right"/><child link="right_wheel"/><origin xyz="0 0 0" rpy="-1.5708 0 0"/><axis xyz="0 0 1"/></joint>
+</robot>"#;
+
+    #[test]
+    fn wheel_joints_below_other_joints_are_placed_in_the_base() {
+        let u = urdf_wheels(TB4).unwrap();
+        assert!((u.separation.unwrap() - 0.233).abs() < 1e-9, "{u:?}");
+        assert_eq!(u.radius, Some(0.036));
+        // A yawed mount above the wheels turns their offsets.
+        let turned = TB4.replace(
+            r#"<origin xyz="0 0 0.0061"/>"#,
+            r#"<origin xyz="0 0 0.0061" rpy="0 0 0"/>"#,
+        );
+        assert!((urdf_wheels(&turned).unwrap().separation.unwrap() - 0.233).abs() < 1e-9);
+        let chassis = TB4
+            .replace(r#"<parent link="base_link"/><child link="wheel_drop_left"/>"#, r#"<parent link="chassis"/><child link="wheel_drop_left"/>"#)
+            .replace(r#"<parent link="base_link"/><child link="wheel_drop_right"/>"#, r#"<parent link="chassis"/><child link="wheel_drop_right"/>"#)
+            .replace("</robot>", r#"<link name="chassis"/><joint name="c" type="fixed"><parent link="base_link"/><child link="chassis"/><origin xyz="0.1 0 0" rpy="0 0 3.14159265358979"/></joint></robot>"#);
+        // The chassis turned half a turn: left and right swap, S stays.
+        assert!((urdf_wheels(&chassis).unwrap().separation.unwrap() - 0.233).abs() < 1e-6);
     }
 
     #[test]

@@ -1,8 +1,7 @@
 //! Which topic feeds which stream: by name, or by message type when the
 //! choice is unique.
 
-use std::fmt::Write as _;
-
+use super::evidence::Evidence;
 use crate::msg::short_type;
 use crate::{Bag, Ros2Error};
 
@@ -29,7 +28,7 @@ impl Role {
         }
     }
     /// Accepted types, in order of preference when choosing by type.
-    fn types(self) -> &'static [&'static [&'static str]] {
+    pub(super) fn types(self) -> &'static [&'static [&'static str]] {
         match self {
             Role::Wheels => &[
                 &["sensor_msgs/JointState"],
@@ -50,13 +49,45 @@ impl Role {
     }
 }
 
-/// Picks the topic for `role`: the configured one, or the unique one of the
-/// most preferred type class present. `taken` topics are not candidates.
+/// The decisions made while choosing, and the streams the evidence could
+/// not settle (each with the lines that settle it).
+#[derive(Debug, Default)]
+pub(super) struct Decide {
+    pub evidence: Evidence,
+    pub decisions: Vec<String>,
+    pub ambiguous: Vec<String>,
+}
+
+impl Decide {
+    /// Refuses, listing every stream the evidence could not settle.
+    pub fn settled(&self, bag: &Bag) -> Result<(), Ros2Error> {
+        if self.ambiguous.is_empty() {
+            return Ok(());
+        }
+        Err(Ros2Error::Bag {
+            bag: bag.path.clone(),
+            reason: format!(
+                "the bag does not tell which topic feeds {} stream{}; name {} in a --topics file: {}",
+                self.ambiguous.len(),
+                if self.ambiguous.len() > 1 { "s" } else { "" },
+                if self.ambiguous.len() > 1 { "each" } else { "it" },
+                self.ambiguous.join("; ")
+            ),
+        })
+    }
+}
+
+/// Picks the topic for `role`: the configured one, else the one of the most
+/// preferred type class present, decided from the evidence in `d` when
+/// several are (said in `d.decisions`; when the evidence cannot separate
+/// them, noted in `d.ambiguous` and the first taken for now). `taken`
+/// topics are not candidates.
 pub(super) fn choose(
     bag: &Bag,
     role: Role,
     configured: &Option<String>,
     taken: &[usize],
+    d: &mut Decide,
 ) -> Result<Option<usize>, Ros2Error> {
     let accepted: Vec<&str> = role
         .types()
@@ -91,37 +122,123 @@ pub(super) fn choose(
         return Ok(Some(i));
     }
     for class in role.types() {
-        let c: Vec<usize> = (0..bag.topics.len())
-            .filter(|i| {
-                !taken.contains(i) && class.contains(&short_type(&bag.topics[*i].ty).as_str())
-            })
-            .collect();
-        match c.len() {
-            0 => continue,
-            1 => return Ok(Some(c[0])),
-            _ => {
-                let mut lines = String::new();
-                for &i in &c {
-                    let _ = write!(
-                        lines,
-                        " `[{}] topic = \"{}\"`",
-                        role.key(),
-                        bag.topics[i].name
-                    );
-                }
-                return Err(Ros2Error::Bag {
-                    bag: bag.path.clone(),
-                    reason: format!(
-                        "{} topics could be the {} source: {}; name one in a --topics file with one of the lines{lines}",
-                        c.len(),
-                        role.key(),
-                        list(bag, &c)
-                    ),
-                });
-            }
+        let c = candidates(bag, class, taken);
+        if c.is_empty() {
+            continue;
         }
+        return Ok(Some(decide(bag, role, &c, d)));
     }
     Ok(None)
+}
+
+/// The topics of one type class, not `taken`.
+pub(super) fn candidates(bag: &Bag, class: &[&str], taken: &[usize]) -> Vec<usize> {
+    (0..bag.topics.len())
+        .filter(|i| !taken.contains(i) && class.contains(&short_type(&bag.topics[*i].ty).as_str()))
+        .collect()
+}
+
+/// The wheel twists (odometry, TwistStamped) of the bag, not `taken`.
+pub(super) fn wheel_twists(bag: &Bag, taken: &[usize]) -> Vec<usize> {
+    candidates(bag, Role::Wheels.types()[1], taken)
+}
+
+/// One of candidates `c` (not empty) for `role`, from the evidence.
+pub(super) fn decide(bag: &Bag, role: Role, c: &[usize], d: &mut Decide) -> usize {
+    if c.len() == 1 {
+        return c[0];
+    }
+    let key = role.key();
+    let line = |i: usize| format!("`[{key}] topic = \"{}\"`", bag.topics[i].name);
+    // Each candidate with the reasons against it.
+    let against: Vec<(usize, Vec<String>)> = match role {
+        Role::Wheels => {
+            let filters: Vec<_> = c
+                .iter()
+                .map(|&i| (i, d.evidence.filter_signs(bag, i)))
+                .collect();
+            let own: Vec<usize> = filters
+                .iter()
+                .filter(|f| f.1.is_empty())
+                .map(|f| f.0)
+                .collect();
+            let wheel_like: Vec<usize> = own
+                .iter()
+                .copied()
+                .filter(|&i| d.evidence.wheel_like(bag, i))
+                .collect();
+            filters
+                .into_iter()
+                .map(|(i, mut why)| {
+                    if why.is_empty()
+                        && own.len() > 1
+                        && wheel_like.len() == 1
+                        && wheel_like[0] != i
+                    {
+                        why.push("its name is no drive controller's or base driver's".into());
+                    }
+                    if why.iter().any(|w| w.starts_with("its name says"))
+                        || why.iter().any(|w| w.starts_with("its frame"))
+                        || why.iter().any(|w| w.starts_with("a lateral"))
+                    {
+                        why.insert(0, "a filter's output".into());
+                    }
+                    (i, why)
+                })
+                .collect()
+        }
+        _ => {
+            let most = c.iter().map(|&i| bag.topics[i].count).max().unwrap_or(0);
+            c.iter()
+                .map(|&i| {
+                    let n = bag.topics[i].count;
+                    let why = if n * 10 < most {
+                        vec![format!("{n} messages against {most}: too few for a {key} stream (a goal, a single message?)")]
+                    } else {
+                        Vec::new()
+                    };
+                    (i, why)
+                })
+                .collect()
+        }
+    };
+    let kept: Vec<usize> = against
+        .iter()
+        .filter(|a| a.1.is_empty())
+        .map(|a| a.0)
+        .collect();
+    if kept.len() == 1 {
+        let chosen = kept[0];
+        let others: Vec<String> = against
+            .iter()
+            .filter(|a| a.0 != chosen)
+            .map(|(i, why)| format!("{} ({})", bag.topics[*i].name, why.join(", ")))
+            .collect();
+        let runner_up = against
+            .iter()
+            .find(|a| a.0 != chosen)
+            .map(|a| a.0)
+            .unwrap_or(chosen);
+        d.decisions.push(format!(
+            "{key} from {} ({}), not {}; {} in a --topics file takes {}",
+            bag.topics[chosen].name,
+            bag.topics[chosen].ty,
+            others.join(", not "),
+            line(runner_up),
+            bag.topics[runner_up].name
+        ));
+        return chosen;
+    }
+    let pool = if kept.is_empty() { c.to_vec() } else { kept };
+    d.ambiguous.push(format!(
+        "[{key}]: {} could each be it ({})",
+        list(bag, &pool),
+        pool.iter()
+            .map(|&i| line(i))
+            .collect::<Vec<_>>()
+            .join(" or ")
+    ));
+    pool[0]
 }
 
 pub(super) fn list(bag: &Bag, idx: &[usize]) -> String {

@@ -79,9 +79,20 @@ pub fn write_params(
     let sep = match (meta.track_width.filter(|w| *w > 0.0), &nominal) {
         (Some(w), _) => w,
         (None, Some((s, _))) => *s,
-        (None, None) => anyhow::bail!(
-            "--ros2-params: the log's meta.toml needs track_width (the nominal wheel_separation)"
-        ),
+        // Joint rates times a wheel radius: the spread learned is in
+        // metres, so it is the wheel_separation itself.
+        (None, None) => {
+            let spread = pf
+                .params
+                .or_else(|| pf.terrains.values().next().map(|e| e.params))
+                .map(|p| p.spread())
+                .filter(|s| s.is_finite() && *s > 0.0)
+                .context("--ros2-params: the log's meta.toml needs track_width (the nominal wheel_separation)")?;
+            eprintln!(
+                "--ros2-params: no nominal wheel_separation in the log (meta.toml's track_width); wheel_separation is the learned spread, {spread:.4} m"
+            );
+            spread
+        }
     };
     let radius = meta.wheel_radius.filter(|r| *r > 0.0);
     let mut sets: Vec<(String, terraslip_core::IcrParams, Option<String>)> = Vec::new();

@@ -40,6 +40,20 @@ pub(super) fn setup(
             ));
             cfg.init.default_track_width
         }
+        // The tread speeds were made with a separation S (an odometry
+        // twist): the model starts in that scale, the controller's own
+        // (spread S), so that a factor nothing taught reads 1.
+        None if log
+            .meta
+            .separation
+            .is_some_and(|s| s.is_finite() && s > 0.0) =>
+        {
+            let s = log.meta.separation.unwrap_or(cfg.init.default_track_width);
+            warnings.push(format!(
+                "{dir}: no track width (meta.toml's `track_width`; for a ROS 2 bag, `[meta] track_width` in the --topics file); the model starts from the separation the tread speeds were made with, S = {s} m (meta.toml's `separation`)"
+            ));
+            s
+        }
         None => {
             warnings.push(format!(
                 "{dir}: no track width (meta.toml's `track_width`; for a ROS 2 bag, `[meta] track_width` in the --topics file); using init.default_track_width = {} m",

@@ -1,0 +1,137 @@
+//! What a person reads from the topics that could feed one stream to tell
+//! them apart: a drive controller's or base driver's odometry is the
+//! wheels; a filter's output is not (its name: `filtered`, `combined`,
+//! `ekf`, ...; its frame: `map`, `combined_odom`, ...; a lateral velocity a
+//! wheeled base's odometry never reports). A pose topic with a tenth of
+//! the messages of another (a goal, a single fix) is no reference.
+
+use std::collections::HashMap;
+
+use super::decoder::Decoder;
+use crate::msg::{short_type, Value};
+use crate::{Bag, Ros2Error};
+
+/// One topic's evidence.
+#[derive(Debug, Clone, Default)]
+pub(super) struct TopicEvidence {
+    /// The first message's `header.frame_id`.
+    pub frame: Option<String>,
+    /// Mean |lateral velocity| of a twist, m/s.
+    pub lateral: Option<f64>,
+}
+
+/// Evidence for the topics that were read (by topic index).
+#[derive(Debug, Clone, Default)]
+pub(super) struct Evidence(pub HashMap<usize, TopicEvidence>);
+
+/// Name tokens of a filter's (or a localizer's) output.
+const FILTER_WORDS: &[&str] = &[
+    "filtered",
+    "filter",
+    "combined",
+    "ekf",
+    "ukf",
+    "fused",
+    "fusion",
+    "global",
+    "localization",
+    "amcl",
+    "slam",
+];
+/// Frames a filter's output is in, never a wheel odometry's.
+const FILTER_FRAMES: &[&str] = &["map", "world", "earth", "utm"];
+/// Name tokens of a drive controller's or base driver's odometry.
+const WHEEL_WORDS: &[&str] = &[
+    "controller",
+    "drive",
+    "diff",
+    "base",
+    "wheel",
+    "wheels",
+    "encoder",
+    "encoders",
+    "raw",
+];
+/// A lateral speed a wheeled base's own odometry does not report, m/s.
+const LATERAL: f64 = 0.02;
+
+fn tokens(name: &str) -> impl Iterator<Item = String> + '_ {
+    name.split(|c: char| !c.is_ascii_alphanumeric())
+        .filter(|s| !s.is_empty())
+        .map(str::to_lowercase)
+}
+
+impl Evidence {
+    /// Why topic `i` looks like a filter's output (empty: it does not).
+    pub fn filter_signs(&self, bag: &Bag, i: usize) -> Vec<String> {
+        let name = &bag.topics[i].name;
+        let mut signs = Vec::new();
+        if let Some(w) = tokens(name).find(|t| FILTER_WORDS.contains(&t.as_str())) {
+            signs.push(format!("its name says `{w}`"));
+        }
+        let e = self.0.get(&i).cloned().unwrap_or_default();
+        if let Some(f) = e.frame.filter(|f| {
+            let f = f.to_lowercase();
+            FILTER_FRAMES.contains(&f.as_str())
+                || tokens(&f).any(|t| FILTER_WORDS.contains(&t.as_str()))
+        }) {
+            signs.push(format!("its frame is `{f}`"));
+        }
+        if let Some(l) = e.lateral.filter(|l| *l > LATERAL) {
+            signs.push(format!("a lateral velocity of {l:.2} m/s on average"));
+        }
+        signs
+    }
+
+    /// Whether topic `i`'s name is a drive controller's or base driver's
+    /// (`/odom` itself, or a name with `controller`, `drive`, `base` ...).
+    pub fn wheel_like(&self, bag: &Bag, i: usize) -> bool {
+        let name = &bag.topics[i].name;
+        name == "/odom" || tokens(name).any(|t| WHEEL_WORDS.contains(&t.as_str()))
+    }
+}
+
+/// Reads the frame and lateral velocity of topics `idx` (twists and poses)
+/// in one pass over the bag.
+pub(super) fn gather(bag: &mut Bag, idx: &[usize]) -> Result<Evidence, Ros2Error> {
+    let mut decs: HashMap<usize, Decoder> = HashMap::new();
+    for &i in idx {
+        let lateral: &[&'static str] = match short_type(&bag.topics[i].ty).as_str() {
+            "nav_msgs/Odometry" => &["?twist.twist.linear.y"],
+            "geometry_msgs/TwistStamped" => &["?twist.linear.y"],
+            _ => &[],
+        };
+        let mut f = vec!["?header.frame_id"];
+        f.extend(lateral);
+        decs.insert(i, Decoder::new(bag, i, &f)?);
+    }
+    let mut ev = Evidence::default();
+    let mut sums: HashMap<usize, (f64, u64)> = HashMap::new();
+    bag.for_each(&|i| decs.contains_key(&i), &mut |bag, m| {
+        let d = &decs[&m.topic];
+        let v = d
+            .decode(m.data)
+            .map_err(|e| bag.msg_err(m.topic, m.index, e))?;
+        let e = ev.0.entry(m.topic).or_default();
+        if e.frame.is_none() {
+            if let Some(Value::Str(f)) = d.get(&v, "header.frame_id") {
+                e.frame = Some(f.clone());
+            }
+        }
+        let y = d
+            .f(&v, "twist.twist.linear.y")
+            .or_else(|| d.f(&v, "twist.linear.y"));
+        if let Some(y) = y.filter(|y| y.is_finite()) {
+            let s = sums.entry(m.topic).or_default();
+            s.0 += y.abs();
+            s.1 += 1;
+        }
+        Ok(())
+    })?;
+    for (i, (sum, n)) in sums {
+        if n > 0 {
+            ev.0.entry(i).or_default().lateral = Some(sum / n as f64);
+        }
+    }
+    Ok(ev)
+}

@@ -18,7 +18,7 @@ use terraslip_core::IcrParams;
 use terraslip_io::{DriveLog, LogError, ParamsFile, PoseObs, TerrainLabel};
 
 use crate::config::EstimatorConfig;
-pub use gyro_delay::{gyro_delay, gyro_delay_in, GyroClock};
+pub use gyro_delay::{gyro_delay, gyro_delay_in, gyro_delay_referenced, GyroClock};
 use replay::{Context, Replay};
 pub use replay::{RowSink, Streams};
 pub use row::row;
@@ -292,7 +292,11 @@ pub fn run_with(
             .filter_map(|s| s.gyro_z.map(|g| Ok((s.t, g))))
     };
     let gyro_clock = if cfg.measurement.std_gyro > 0.0 {
-        gyro_delay(&mut log.wheels.iter().copied().map(Ok), &mut gyro())
+        gyro_delay_referenced(
+            &mut log.wheels.iter().copied().map(Ok),
+            &mut gyro(),
+            &mut log.pose.iter().cloned().map(Ok),
+        )
     } else {
         GyroClock::Unknown
     };
@@ -370,6 +374,26 @@ pub fn run_streams(
                 "{dir}: the gyro (imu gyro_z) does not follow the tread speed difference at any delay within 1 s (best correlation {c:.2}), so it is not fused; it is not the body's yaw rate: check the IMU's mounting (for a bag, `[imu] mount_rpy_deg` in the topics file)"
             ));
             (&mut no_gyro, 0.0)
+        }
+        GyroClock::Faulty {
+            wheels,
+            gyro_ref,
+            wheels_ref,
+        } => {
+            warnings.push(format!(
+                "{dir}: the gyro (imu gyro_z) follows neither the tread speed difference (best correlation {wheels:.2}) nor the pose reference's yaw rate ({gyro_ref:.2}), which follows the wheels ({wheels_ref:.2}): the gyro is faulty or mounted wrongly and is not fused; check the IMU's mounting (for a bag, `[imu] mount_rpy_deg` in the topics file)"
+            ));
+            (&mut no_gyro, 0.0)
+        }
+        GyroClock::Slipping {
+            wheels,
+            gyro_ref,
+            wheels_ref,
+        } => {
+            warnings.push(format!(
+                "{dir}: the treads slip heavily: the gyro (imu gyro_z) follows the pose reference's yaw rate (correlation {gyro_ref:.2}) and the tread speed difference does not ({wheels_ref:.2}; against the gyro {wheels:.2}), so the gyro is fused as the body's yaw rate (its clock taken as the wheels') and the wheels' turn is read as slip"
+            ));
+            (streams.gyro, 0.0)
         }
         GyroClock::Delay { wheels_late_by, .. } => (streams.gyro, wheels_late_by),
         GyroClock::Unknown => (streams.gyro, 0.0),

@@ -201,6 +201,8 @@ pub struct EstimateRun {
     pub init_source: String,
     /// Final clock offset of the pose stream and its std, s.
     pub clock_offset: (f64, f64),
+    /// Where the pose reference sits on the robot, as used in the end.
+    pub lever_arm: LeverArm,
     /// The yaw-rate gyro as learned (all zero without one).
     pub gyro: terraslip_core::filter::GyroNoise,
     /// How late the wheels are stamped against the gyro, s.
@@ -228,6 +230,28 @@ impl EstimateRun {
         row.terrain
             .and_then(|i| self.terrains.get(i))
             .map(|s| s.as_str())
+    }
+}
+
+/// Where the pose reference sits on the robot (its lever arm from the
+/// wheel axle's centre, body frame), apart from the slip parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LeverArm {
+    /// m, forward and left.
+    pub x: f64,
+    pub y: f64,
+    /// `stated` (meta.toml's `[pose]`) or `config` (the configured
+    /// `measurement.lever_arm_x`, `_y`, 0 by default).
+    pub source: &'static str,
+}
+
+impl LeverArm {
+    /// The lever arm `filter` ended with, for a log whose meta.toml
+    /// states one or not.
+    fn of(filter: &terraslip_core::Filter, stated: bool) -> Self {
+        let (x, y) = filter.lever_arm();
+        let source = if stated { "stated" } else { "config" };
+        Self { x, y, source }
     }
 }
 
@@ -577,6 +601,7 @@ fn finish(
         hold: f.config().hold,
         init_source,
         clock_offset: f.clock_offset(),
+        lever_arm: LeverArm::of(f, log.meta.pose.is_some()),
         gyro: f.gyro_noise(),
         gyro_delay,
         noise: NoiseUsed {

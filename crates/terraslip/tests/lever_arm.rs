@@ -1,0 +1,77 @@
+//! A pose reference mounted off the wheel axle (a GNSS antenna 0.3 m
+//! ahead of it): stated in meta.toml's `[pose]`, it is reported as the
+//! reference's lever arm and x_c stays near its true value.
+
+use terraslip::config::EstimatorConfig;
+use terraslip::pipeline::{run, EstimateRun, TerrainEvidence};
+use terraslip::testkit::{drive, SynthSpec};
+use terraslip_core::IcrParams;
+use terraslip_io::PoseMount;
+
+const TRUE_X_C: f64 = 0.01;
+
+fn spec() -> SynthSpec {
+    SynthSpec {
+        duration: 300.0,
+        pose_hz: 10.0,
+        std_xy: 0.02,
+        terrains: vec![(0.0, "asphalt".into(), IcrParams::new(0.30, -0.31, TRUE_X_C))],
+        lever_arm: (0.3, 0.0),
+        ..Default::default()
+    }
+}
+
+fn estimate(stated: bool) -> EstimateRun {
+    let mut log = drive(&spec());
+    if stated {
+        log.meta.pose = Some(PoseMount {
+            lever_arm_x: 0.3,
+            lever_arm_y: 0.0,
+        });
+    }
+    let cfg = EstimatorConfig::default();
+    run(&log, &cfg, &TerrainEvidence::None, None).unwrap()
+}
+
+#[test]
+fn an_antenna_off_the_axle_unstated_and_unlearned_is_read_as_x_c() {
+    // What the lever arm is for: the reference's offset pins x_c.
+    let run = estimate(false);
+    assert!(run.final_icr.x_c.abs() > 0.2, "{:?}", run.final_icr);
+    assert_eq!(run.lever_arm.source, "config");
+}
+
+#[test]
+fn a_stated_lever_arm_keeps_x_c_at_its_value() {
+    let run = estimate(true);
+    assert!(
+        (run.final_icr.x_c - TRUE_X_C).abs() < 0.05,
+        "{:?}",
+        run.final_icr
+    );
+    assert_eq!(run.lever_arm.source, "stated");
+    assert_eq!((run.lever_arm.x, run.lever_arm.y), (0.3, 0.0));
+}
+
+#[test]
+fn meta_toml_states_where_the_pose_reference_sits() {
+    let dir = std::env::temp_dir().join(format!("terraslip-lever-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("meta.toml");
+    std::fs::write(&path, "track_width = 0.5\n[pose]\nlever_arm_x = -0.25\n").unwrap();
+    let meta = terraslip_io::read_meta(&path).unwrap();
+    assert_eq!(
+        meta.pose,
+        Some(PoseMount {
+            lever_arm_x: -0.25,
+            lever_arm_y: 0.0
+        })
+    );
+    // Beyond a robot's size, or an unknown key of the table: refused.
+    std::fs::write(&path, "[pose]\nlever_arm_x = 80.0\n").unwrap();
+    let e = terraslip_io::read_meta(&path).unwrap_err().to_string();
+    assert!(e.contains("lever_arm_x"), "{e}");
+    std::fs::write(&path, "[pose]\nlever_arm_z = 1.0\n").unwrap();
+    assert!(terraslip_io::read_meta(&path).is_err());
+    std::fs::remove_dir_all(&dir).unwrap();
+}

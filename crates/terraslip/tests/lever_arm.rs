@@ -75,3 +75,46 @@ fn meta_toml_states_where_the_pose_reference_sits() {
     assert!(terraslip_io::read_meta(&path).is_err());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A simulated papers world whose RTK antenna (10 Hz) sits 0.3 m ahead of
+/// the axle: the simulator records the mount in meta.toml's `[pose]`.
+fn simulated_antenna(seed: u64) -> terraslip_sim::SimRun {
+    use terraslip_sim::family::{world, Subset};
+    let mut w = world(seed, Subset::Papers);
+    w.scenario.gnss = terraslip_sim::scenario::Gnss::rtk(10.0);
+    w.scenario.gnss.lever_arm = [0.3, 0.0];
+    terraslip_sim::simulate(&w.scenario, seed).unwrap()
+}
+
+#[test]
+fn a_simulated_antenna_off_the_axle_is_reported_apart_from_x_c() {
+    let cfg = EstimatorConfig::default();
+    for seed in [3, 4] {
+        let sim = simulated_antenna(seed);
+        assert_eq!(
+            sim.log.meta.pose,
+            Some(PoseMount {
+                lever_arm_x: 0.3,
+                lever_arm_y: 0.0
+            })
+        );
+        let truth = sim.truth.last().unwrap().icr.x_c;
+        let stated = run(&sim.log, &cfg, &TerrainEvidence::None, None).unwrap();
+        let summary = terraslip::estimate::summary_json(&sim.log, &stated, &cfg);
+        assert_eq!(summary["pose_lever_arm_m"]["x"], 0.3);
+        assert_eq!(summary["pose_lever_arm_m"]["source"], "stated");
+        let mut unstated_log = sim.log.clone();
+        unstated_log.meta.pose = None;
+        let unstated = run(&unstated_log, &cfg, &TerrainEvidence::None, None).unwrap();
+        let (e_stated, e_unstated) = (
+            (stated.final_icr.x_c - truth).abs(),
+            (unstated.final_icr.x_c - truth).abs(),
+        );
+        eprintln!(
+            "seed {seed}: x_c truth {truth:.3}, stated {:.3}, unstated {:.3}",
+            stated.final_icr.x_c, unstated.final_icr.x_c
+        );
+        assert!(e_stated < 0.05, "seed {seed}: {e_stated} ({truth})");
+        assert!(e_unstated > 0.2, "seed {seed}: {e_unstated} ({truth})");
+    }
+}

@@ -118,3 +118,34 @@ fn a_simulated_antenna_off_the_axle_is_reported_apart_from_x_c() {
         assert!(e_unstated > 0.2, "seed {seed}: {e_unstated} ({truth})");
     }
 }
+
+/// `calibrate` fits the axle's path: the simulated antenna's fixes, moved
+/// onto the axle, lie on the true path within the receiver's centimetres
+/// (0.3 m off it before).
+#[test]
+fn calibrate_sees_the_axle_of_a_simulated_antenna_off_it() {
+    let sim = simulated_antenna(3);
+    let off = |log: &terraslip_io::DriveLog| {
+        let (mut sum, mut n) = (0.0, 0.0);
+        for p in &log.pose {
+            let (Some(e), Some(nn)) = (p.east, p.north) else {
+                continue;
+            };
+            let i = sim
+                .truth
+                .partition_point(|s| s.t < p.t)
+                .min(sim.truth.len() - 1);
+            sum += (e - sim.truth[i].east).hypot(nn - sim.truth[i].north);
+            n += 1.0;
+        }
+        sum / n
+    };
+    let before = off(&sim.log);
+    let mut log = sim.log.clone();
+    assert_eq!(
+        terraslip_calib::lever_arm::move_fixes_to_axle(&mut log),
+        None
+    );
+    let after = off(&log);
+    assert!(before > 0.25 && after < 0.05, "{before} -> {after}");
+}

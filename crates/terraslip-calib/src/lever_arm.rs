@@ -103,8 +103,10 @@ mod tests {
         // No heading near: left.
         assert_eq!(at(3), (10.0, 5.0));
         // A log stating none is left alone.
-        let mut plain = DriveLog::default();
-        plain.pose = vec![fix(0.0, Some(0.0))];
+        let mut plain = DriveLog {
+            pose: vec![fix(0.0, Some(0.0))],
+            ..Default::default()
+        };
         assert_eq!(move_fixes_to_axle(&mut plain), None);
         assert_eq!(plain.pose[0].east, Some(10.0));
     }

@@ -37,6 +37,7 @@
 pub mod calibrate;
 pub mod course;
 pub mod ga;
+pub mod lever_arm;
 pub mod lm;
 pub mod model;
 pub mod offset;

@@ -480,7 +480,7 @@ pub fn read_truth(path: &Path) -> Result<Vec<TruthSample>, LogError> {
 
 /// The keys of `meta.toml`: the robot description, then the provenance
 /// `terraslip simulate` records.
-const META_KEYS: [&str; 9] = [
+const META_KEYS: [&str; 10] = [
     "robot",
     "track_width",
     "wheel_radius",
@@ -488,6 +488,7 @@ const META_KEYS: [&str; 9] = [
     "ticks_per_rev",
     "separation",
     "separation_source",
+    "pose",
     "scenario",
     "seed",
 ];
@@ -538,6 +539,21 @@ pub fn read_meta(path: &Path) -> Result<Meta, LogError> {
                     path: path.to_path_buf(),
                     reason: format!(
                         "`{name}` = {v} is outside (0, {max}] {unit}; give the robot's value in {unit}"
+                    ),
+                });
+            }
+        }
+    }
+    if let Some(m) = meta.pose {
+        for (name, v) in [
+            ("lever_arm_x", m.lever_arm_x),
+            ("lever_arm_y", m.lever_arm_y),
+        ] {
+            if !(v.is_finite() && v.abs() <= 50.0) {
+                return Err(LogError::Invalid {
+                    path: path.to_path_buf(),
+                    reason: format!(
+                        "`[pose] {name}` = {v} is outside +-50 m; give where the pose reference sits on the robot in m"
                     ),
                 });
             }

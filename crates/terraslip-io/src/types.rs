@@ -100,6 +100,25 @@ pub struct Meta {
     /// (a nominal scale).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub separation_source: Option<String>,
+    /// Where the pose reference sits on the robot (terraslip extension):
+    /// `[pose]` in meta.toml.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pose: Option<PoseMount>,
+}
+
+/// Where the pose reference (GNSS antenna, tag, lidar frame) sits on the
+/// robot: its lever arm from the body frame's origin (the wheel axle's
+/// centre), m, body frame (REP-103: x forward, y left). A position fix is
+/// of that point.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PoseMount {
+    /// m, forward of the axle's centre.
+    #[serde(default)]
+    pub lever_arm_x: f64,
+    /// m, left of the axle's centre.
+    #[serde(default)]
+    pub lever_arm_y: f64,
 }
 
 impl Meta {

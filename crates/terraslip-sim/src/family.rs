@@ -217,6 +217,7 @@ pub fn world(seed: u64, subset: Subset) -> World {
             start: outage.0,
             duration: 30.0,
         }],
+        lever_arm: [0.0; 2],
     };
     let compass = match subset {
         Subset::Gnss2m | Subset::Ground | Subset::Papers => Compass {

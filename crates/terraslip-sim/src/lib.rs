@@ -155,6 +155,10 @@ pub fn simulate(scenario: &Scenario, seed: u64) -> Result<SimRun, SimError> {
                 wheel_radius: Some(robot.wheel_radius),
                 length: Some(robot.length),
                 ticks_per_rev: Some(sc.wheels.ticks_per_rev),
+                pose: (sc.gnss.lever_arm != [0.0; 2]).then_some(terraslip_io::PoseMount {
+                    lever_arm_x: sc.gnss.lever_arm[0],
+                    lever_arm_y: sc.gnss.lever_arm[1],
+                }),
                 ..Default::default()
             },
             terrain: timeline.labels.clone(),

@@ -203,10 +203,12 @@ impl<'a> Recorder<'a> {
             .iter()
             .filter(|j| t >= j.0 && t < j.1)
             .fold((0.0, 0.0), |acc, j| (acc.0 + j.2, acc.1 + j.3));
+        let (s, c) = m.yaw.sin_cos();
+        let [lx, ly] = g.lever_arm;
         Some(PoseObs {
             t,
-            east: Some(m.east + e_err + we + je),
-            north: Some(m.north + n_err + wn + jn),
+            east: Some(m.east + (c * lx - s * ly) + e_err + we + je),
+            north: Some(m.north + (s * lx + c * ly) + n_err + wn + jn),
             yaw: None,
             std_xy: Some(g.reported_std),
             std_yaw: None,

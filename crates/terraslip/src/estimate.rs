@@ -423,6 +423,12 @@ pub fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) ->
         "variant": cfg.filter.variant,
         "init": est.init_source,
         "clock_offset_s": {"value": est.clock_offset.0, "std": est.clock_offset.1},
+        // Where the pose reference sits on the robot (body frame, m), apart
+        // from x_c: "stated" (meta.toml's [pose]) or "config".
+        "pose_lever_arm_m": {
+            "x": est.lever_arm.x, "y": est.lever_arm.y,
+            "source": est.lever_arm.source,
+        },
         // The spread in effect is (1 + slope |v_r - v_l|) times "icr"'s.
         "turn_law_s_per_m": {"slope": est.turn_law.0, "std": est.turn_law.1},
         // Both speed factors in effect are (1 + slope |v_r - v_l|) times "icr"'s.

@@ -29,6 +29,9 @@ pub struct SynthSpec {
     pub pose_delay: f64,
     /// Write the stds into pose.csv (false: the estimator must learn them).
     pub stated_std: bool,
+    /// Where the pose reference sits on the robot, m, body frame: its
+    /// positions are of that point (the truth stays the axle's centre's).
+    pub lever_arm: (f64, f64),
 }
 
 impl Default for SynthSpec {
@@ -48,6 +51,7 @@ impl Default for SynthSpec {
             seed: 1,
             pose_delay: 0.0,
             stated_std: true,
+            lever_arm: (0.0, 0.0),
         }
     }
 }
@@ -149,10 +153,12 @@ pub fn drive(spec: &SynthSpec) -> DriveLog {
             x_c: icr.x_c,
         });
         if k > 0 && k % pose_every == 0 {
+            let (sn, cs) = s[2].sin_cos();
+            let (lx, ly) = spec.lever_arm;
             log.pose.push(PoseObs {
                 t: t + spec.pose_delay,
-                east: Some(s[0] + spec.std_xy * noise.gauss()),
-                north: Some(s[1] + spec.std_xy * noise.gauss()),
+                east: Some(s[0] + cs * lx - sn * ly + spec.std_xy * noise.gauss()),
+                north: Some(s[1] + sn * lx + cs * ly + spec.std_xy * noise.gauss()),
                 yaw: Some(terraslip_core::angle::wrap(
                     s[2] + spec.std_yaw * noise.gauss(),
                 )),

@@ -450,6 +450,9 @@ impl FilterConfig {
     }
 }
 
+/// Largest lever arm of the pose reference, m (a robot's length).
+pub const MAX_LEVER_ARM: f64 = 50.0;
+
 /// How the pose fixes' errors behave (`[measurement]`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -501,6 +504,13 @@ pub struct MeasurementConfig {
     /// heading error that persisted can come back; only where the scale is
     /// learned.
     pub gyro_scale_walk: f64,
+    /// Where the pose reference sits on the robot, m, body frame (REP-103:
+    /// x forward, y left of the wheel axle's centre): a position fix is of
+    /// that point. A GNSS antenna, a ceiling tag or a lidar frame off the
+    /// axle; 0 for a reference already of the body frame's origin.
+    pub lever_arm_x: f64,
+    /// See [`MeasurementConfig::lever_arm_x`], m.
+    pub lever_arm_y: f64,
 }
 
 impl Default for MeasurementConfig {
@@ -519,6 +529,8 @@ impl Default for MeasurementConfig {
             gyro_scale: 0.0,
             gyro_scale_std: 0.02,
             gyro_scale_walk: 3e-4,
+            lever_arm_x: 0.0,
+            lever_arm_y: 0.0,
         }
     }
 }
@@ -527,7 +539,7 @@ impl MeasurementConfig {
     /// Checks every setting; the error names the key.
     pub fn validate(&self) -> Result<(), FilterError> {
         let pos = |v: f64| v.is_finite() && v > 0.0;
-        let checks: [(&'static str, bool); 13] = [
+        let checks: [(&'static str, bool); 14] = [
             (
                 "measurement.std_xy must be finite and > 0",
                 pos(self.std_xy),
@@ -579,6 +591,10 @@ impl MeasurementConfig {
             (
                 "measurement.gyro_scale_walk must be in 0..=0.01 per sqrt(s)",
                 (0.0..=0.01).contains(&self.gyro_scale_walk),
+            ),
+            (
+                "measurement.lever_arm_x and lever_arm_y must be within +-50 m",
+                self.lever_arm_x.abs() <= MAX_LEVER_ARM && self.lever_arm_y.abs() <= MAX_LEVER_ARM,
             ),
         ];
         for (what, ok) in checks {

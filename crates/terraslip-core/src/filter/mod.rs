@@ -540,6 +540,12 @@ impl Filter {
         libm::sqrt((c[(0, 0)] + c[(1, 1)] - 2.0 * c[(0, 1)]).max(0.0))
     }
 
+    /// Where the pose reference sits on the robot (`lever_arm_x`,
+    /// `lever_arm_y`, m, body frame), as the fixes are compared with.
+    pub fn lever_arm(&self) -> (f64, f64) {
+        (self.meas.lever_arm_x, self.meas.lever_arm_y)
+    }
+
     /// Clock offset of the pose stream against the wheels and its std, s.
     pub fn clock_offset(&self) -> (f64, f64) {
         (self.x[CLOCK], libm::sqrt(self.P[(CLOCK, CLOCK)].max(0.0)))

@@ -7,10 +7,11 @@
 //! seconds (`history.rs`), plus the slow error of the position fixes:
 //!
 //! ```text
-//! h_pos = p - D(L) + b        h_yaw = yaw - Psi(L)
+//! h_pos = p - D(L) + R(yaw - Psi(L)) l + b        h_yaw = yaw - Psi(L)
 //! ```
 //!
-//! with `dh/dclock = -(velocity then)`. Each part (position, heading) is
+//! with `dh/dclock = -(velocity then)` and `l` the lever arm of the pose
+//! reference on the robot (body frame; once the heading is known). Each part (position, heading) is
 //! gated on its own chi-square with the noise as learned; the slip-change
 //! detector may first raise the slip uncertainty; the gain is the Kalman
 //! gain (or the papers' innovation-adaptive one) with the rows of whatever
@@ -423,20 +424,45 @@ impl Filter {
             H[(0, CLOCK)] = -m.v_east;
             H[(1, CLOCK)] = -m.v_north;
             if yaw_known {
-                // The motion of the lag turns with the heading and scales
-                // with the slip parameters.
-                H[(0, YAW)] = m.d_north;
-                H[(1, YAW)] = -m.d_east;
+                // The reference's point on the robot, turned with the
+                // heading then.
+                let (s, c) = libm::sincos(x[YAW] - m.d_yaw);
+                let (lx, ly) = self.lever_arm();
+                let (oe, on) = (c * lx - s * ly, s * lx + c * ly);
+                h[0] += oe;
+                h[1] += on;
+                // d(offset)/d(heading then) = (-on, oe); the heading then
+                // is yaw - Psi(L), Psi moving with the clock, slip and
+                // centripetal terms as the heading row below.
+                H[(0, YAW)] += -on;
+                H[(1, YAW)] += oe;
+                H[(0, CLOCK)] += on * m.omega;
+                H[(1, CLOCK)] += -oe * m.omega;
                 for k in 0..5 {
-                    H[(0, SLIP + k)] = -m.d_slip[(0, k)];
-                    H[(1, SLIP + k)] = -m.d_slip[(1, k)];
+                    H[(0, SLIP + k)] += on * m.d_slip[(2, k)];
+                    H[(1, SLIP + k)] += -oe * m.d_slip[(2, k)];
                 }
                 for (k, i) in [K_X_SPEED, K_SPREAD_SPEED, SPEED_LAW]
                     .into_iter()
                     .enumerate()
                 {
-                    H[(0, i)] = -m.d_centripetal[(0, k)];
-                    H[(1, i)] = -m.d_centripetal[(1, k)];
+                    H[(0, i)] += on * m.d_centripetal[(2, k)];
+                    H[(1, i)] += -oe * m.d_centripetal[(2, k)];
+                }
+                // The motion of the lag turns with the heading and scales
+                // with the slip parameters.
+                H[(0, YAW)] += m.d_north;
+                H[(1, YAW)] += -m.d_east;
+                for k in 0..5 {
+                    H[(0, SLIP + k)] += -m.d_slip[(0, k)];
+                    H[(1, SLIP + k)] += -m.d_slip[(1, k)];
+                }
+                for (k, i) in [K_X_SPEED, K_SPREAD_SPEED, SPEED_LAW]
+                    .into_iter()
+                    .enumerate()
+                {
+                    H[(0, i)] += -m.d_centripetal[(0, k)];
+                    H[(1, i)] += -m.d_centripetal[(1, k)];
                 }
             }
         }
@@ -483,22 +509,35 @@ impl Filter {
         self.x[i] = value;
     }
 
-    /// Takes a position fix `z` as the position: `p = z - b + D(lag)`.
+    /// Takes a position fix `z` as the position: `p = z - b + D(lag) -
+    /// R(yaw then) l` (the lever arm once the heading is known).
     fn anchor_position(&mut self, z: &Vector3<f64>, lag: f64, r: f64) {
         let m = self.motion(&self.x, lag);
         let turn = if self.anchored[1] { 1.0 } else { 0.0 };
-        let e = z[0] - self.x[BIAS_E] + m.d_east;
-        let n = z[1] - self.x[BIAS_N] + m.d_north;
+        let (s, c) = libm::sincos(self.x[YAW] - m.d_yaw);
+        let (lx, ly) = self.lever_arm();
+        let (lx, ly) = (turn * lx, turn * ly);
+        let (oe, on) = (c * lx - s * ly, s * lx + c * ly);
+        let e = z[0] - self.x[BIAS_E] + m.d_east - oe;
+        let n = z[1] - self.x[BIAS_N] + m.d_north - on;
         self.anchor(
             EAST,
             e,
-            &[(BIAS_E, -1.0), (CLOCK, m.v_east), (YAW, -turn * m.d_north)],
+            &[
+                (BIAS_E, -1.0),
+                (CLOCK, m.v_east),
+                (YAW, -turn * m.d_north + on),
+            ],
             r,
         );
         self.anchor(
             NORTH,
             n,
-            &[(BIAS_N, -1.0), (CLOCK, m.v_north), (YAW, turn * m.d_east)],
+            &[
+                (BIAS_N, -1.0),
+                (CLOCK, m.v_north),
+                (YAW, turn * m.d_east - oe),
+            ],
             r,
         );
         self.history.clear();

@@ -65,6 +65,10 @@ pub struct Gnss {
     pub jumps: Vec<Jump>,
     /// Outages: no position fixes in these windows.
     pub outages: Vec<Window>,
+    /// Where the antenna sits on the robot, `[x, y]` m, body frame
+    /// (REP-103: forward, left of the wheel axle's centre): its fixes are
+    /// of that point. Recorded in meta.toml's `[pose]` when not zero.
+    pub lever_arm: [f64; 2],
 }
 
 impl Default for Gnss {
@@ -81,6 +85,7 @@ impl Default for Gnss {
             multipath_duration: [1.0, 3.0],
             jumps: Vec::new(),
             outages: Vec::new(),
+            lever_arm: [0.0; 2],
         }
     }
 }
@@ -99,6 +104,7 @@ impl Gnss {
             multipath_duration: [1.0, 1.0],
             jumps: Vec::new(),
             outages: Vec::new(),
+            lever_arm: [0.0; 2],
         }
     }
 

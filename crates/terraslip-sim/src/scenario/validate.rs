@@ -128,6 +128,13 @@ impl Scenario {
         nonneg("gnss.multipath_rate", g.multipath_rate)?;
         nonneg("gnss.multipath_jump", g.multipath_jump)?;
         range("gnss.multipath_duration", g.multipath_duration)?;
+        for (i, v) in g.lever_arm.into_iter().enumerate() {
+            if !(v.is_finite() && v.abs() <= 50.0) {
+                return Err(format!(
+                    "`gnss.lever_arm[{i}]` = {v} must be within +-50 m (where the antenna sits on the robot)"
+                ));
+            }
+        }
         for (i, w) in g.outages.iter().enumerate() {
             nonneg(&format!("gnss.outages[{i}].start"), w.start)?;
             pos(&format!("gnss.outages[{i}].duration"), w.duration)?;

@@ -54,6 +54,26 @@ impl Decisions {
                 ));
                 (false, 0.0)
             }
+            GyroClock::Faulty {
+                wheels,
+                gyro_ref,
+                wheels_ref,
+            } => {
+                warning = Some(format!(
+                    "{dir}: the gyro (imu gyro_z) follows neither the tread speed difference (best correlation {wheels:.2}) nor the pose reference's yaw rate ({gyro_ref:.2}), which follows the wheels ({wheels_ref:.2}): the gyro is faulty or mounted wrongly and is not fused; check the IMU's mounting (for a bag, `[imu] mount_rpy_deg` in the topics file)"
+                ));
+                (false, 0.0)
+            }
+            GyroClock::Slipping {
+                wheels,
+                gyro_ref,
+                wheels_ref,
+            } => {
+                warning = Some(format!(
+                    "{dir}: the treads slip heavily: the gyro (imu gyro_z) follows the pose reference's yaw rate (correlation {gyro_ref:.2}) and the tread speed difference does not ({wheels_ref:.2}; against the gyro {wheels:.2}), so the gyro is fused as the body's yaw rate (its clock taken as the wheels') and the wheels' turn is read as slip"
+                ));
+                (seen.gyro, 0.0)
+            }
             GyroClock::Delay { wheels_late_by, .. } => (seen.gyro, wheels_late_by),
             GyroClock::Unknown => (seen.gyro, 0.0),
         };
@@ -93,6 +113,9 @@ impl Decisions {
                 "gyro fused, the wheels stamped {:.3} s late against it (the best correlation of its rate with the tread speed difference)",
                 self.gyro_delay
             ),
+            (true, GyroClock::Slipping { gyro_ref, .. }) => format!(
+                "gyro fused on the wheels' clock: the pose reference's yaw rate follows it (correlation {gyro_ref:.2}) and not the treads, which slip"
+            ),
             (true, GyroClock::Unknown) if self.gyro_delay == 0.0 => {
                 "gyro fused, no delay (the start turns too little to tell)".into()
             }
@@ -102,6 +125,9 @@ impl Decisions {
             ),
             (false, GyroClock::NotYaw(c)) => format!(
                 "gyro not fused: its rate does not follow the tread speed difference (best correlation {c:.2})"
+            ),
+            (false, GyroClock::Faulty { gyro_ref, .. }) => format!(
+                "gyro not fused: the pose reference's yaw rate follows the treads, not the gyro (correlation {gyro_ref:.2})"
             ),
             (false, _) => "no gyro fused".into(),
         };
@@ -124,6 +150,7 @@ impl Decisions {
     pub fn to_json(&self) -> serde_json::Value {
         let gyro = match (self.fuse_gyro, self.gyro_clock) {
             (false, GyroClock::NotYaw(_)) => "not the yaw rate",
+            (false, GyroClock::Faulty { .. }) => "faulty (the reference follows the treads)",
             (false, _) => "not fused",
             (true, _) => "fused",
         };

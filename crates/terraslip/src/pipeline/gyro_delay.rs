@@ -7,7 +7,7 @@
 
 use std::path::Path;
 
-use terraslip_io::{GyroStream, LogError, WheelSample, WheelStream};
+use terraslip_io::{GyroStream, LogError, PoseObs, PoseStream, WheelSample, WheelStream};
 
 /// Seconds of drive looked at.
 pub const SPAN: f64 = 300.0;
@@ -37,7 +37,30 @@ pub enum GyroClock {
     /// difference at any delay (its best correlation): not the yaw rate of
     /// the body (a mounting not applied, an axis or sign flipped).
     NotYaw(f64),
+    /// The gyro does not follow the tread speed difference (`wheels`, its
+    /// best correlation), but it follows the pose reference's yaw rate
+    /// (correlation `gyro_ref`) and the wheels do not (`wheels_ref`): the
+    /// treads slip (a robot held or dragged while its wheels spin). The
+    /// gyro is the body's yaw rate and is kept, its clock taken as the
+    /// wheels'.
+    Slipping {
+        wheels: f64,
+        gyro_ref: f64,
+        wheels_ref: f64,
+    },
+    /// The gyro does not follow the tread speed difference (`wheels`) and
+    /// the pose reference's yaw rate backs the wheels (`wheels_ref`), not
+    /// the gyro (`gyro_ref`): the gyro is faulty or mounted wrongly.
+    Faulty {
+        wheels: f64,
+        gyro_ref: f64,
+        wheels_ref: f64,
+    },
 }
+
+/// Seconds over which the pose reference's yaw rate is taken (a heading
+/// difference over this span; shorter spans are the heading noise's).
+const REFERENCE_RATE_SPAN: f64 = 0.5;
 
 /// How late the wheels are stamped against the gyro: the delay `tau`
 /// within +-[`MAX_DELAY`] for which the gyro's rate at `t - tau` best
@@ -47,6 +70,87 @@ pub fn gyro_delay(
     wheels: &mut dyn Iterator<Item = Result<WheelSample, LogError>>,
     gyro: &mut dyn Iterator<Item = Result<(f64, f64), LogError>>,
 ) -> GyroClock {
+    let (w, g) = first_minutes(wheels, gyro);
+    clock_of(&w, &g)
+}
+
+/// [`gyro_delay`], with the pose reference's headings as arbiter where the
+/// gyro does not follow the tread speed difference: the one of gyro and
+/// wheels whose turns the reference's yaw rate follows (correlation at
+/// least 0.5, and above the other's) is believed ([`GyroClock::Slipping`]
+/// or [`GyroClock::Faulty`]). Without headings in the reference the
+/// answer is [`gyro_delay`]'s.
+pub fn gyro_delay_referenced(
+    wheels: &mut dyn Iterator<Item = Result<WheelSample, LogError>>,
+    gyro: &mut dyn Iterator<Item = Result<(f64, f64), LogError>>,
+    pose: &mut dyn Iterator<Item = Result<PoseObs, LogError>>,
+) -> GyroClock {
+    let (w, g) = first_minutes(wheels, gyro);
+    let clock = clock_of(&w, &g);
+    let GyroClock::NotYaw(c) = clock else {
+        return clock;
+    };
+    let Some(&(t_end, _)) = w.last() else {
+        return clock;
+    };
+    let reference = reference_rate(pose, t_end);
+    let gyro_ref = fit(&reference, &g, 0.0).0;
+    let wheels_ref = fit(&reference, &w, 0.0).0;
+    let backs = |a: f64, b: f64| a >= MIN_CORRELATION && (a > b || !b.is_finite());
+    if backs(gyro_ref, wheels_ref) {
+        GyroClock::Slipping {
+            wheels: c,
+            gyro_ref,
+            wheels_ref,
+        }
+    } else if backs(wheels_ref, gyro_ref) {
+        GyroClock::Faulty {
+            wheels: c,
+            gyro_ref,
+            wheels_ref,
+        }
+    } else {
+        clock
+    }
+}
+
+/// The pose reference's yaw rate (rad/s) up to `t_end`: each heading's
+/// change to the first heading at least [`REFERENCE_RATE_SPAN`] s later,
+/// at the middle of the two stamps.
+fn reference_rate(
+    pose: &mut dyn Iterator<Item = Result<PoseObs, LogError>>,
+    t_end: f64,
+) -> Vec<(f64, f64)> {
+    let yaws: Vec<(f64, f64)> = pose
+        .flatten()
+        .take_while(|p| p.t <= t_end + MAX_DELAY)
+        .filter_map(|p| p.yaw.map(|y| (p.t, y)))
+        .filter(|(t, y)| t.is_finite() && y.is_finite())
+        .collect();
+    let mut out = Vec::new();
+    let mut j = 0;
+    for (i, &(t0, y0)) in yaws.iter().enumerate() {
+        j = j.max(i + 1);
+        while j < yaws.len() && yaws[j].0 - t0 < REFERENCE_RATE_SPAN {
+            j += 1;
+        }
+        let Some(&(t1, y1)) = yaws.get(j) else { break };
+        if t1 - t0 <= 2.0 * REFERENCE_RATE_SPAN {
+            let turn = terraslip_core::angle::wrap(y1 - y0);
+            out.push((0.5 * (t0 + t1), turn / (t1 - t0)));
+        }
+    }
+    out
+}
+
+/// The tread speed differences `(t, v_right - v_left)` of the first
+/// [`SPAN`] s and the gyro's rates up to their end (unreadable rows
+/// skipped).
+#[allow(clippy::type_complexity)]
+fn first_minutes(
+    wheels: &mut dyn Iterator<Item = Result<WheelSample, LogError>>,
+    gyro: &mut dyn Iterator<Item = Result<(f64, f64), LogError>>,
+) -> (Vec<(f64, f64)>, Vec<(f64, f64)>) {
     let w: Vec<(f64, f64)> = {
         let mut out = Vec::new();
         for s in wheels.flatten() {
@@ -58,19 +162,25 @@ pub fn gyro_delay(
         out
     };
     let Some(&(t_end, _)) = w.last() else {
-        return GyroClock::Unknown;
+        return (w, Vec::new());
     };
     let g: Vec<(f64, f64)> = gyro
         .flatten()
         .take_while(|&(t, _)| t <= t_end + MAX_DELAY)
         .filter(|(t, r)| t.is_finite() && r.is_finite())
         .collect();
+    (w, g)
+}
+
+/// What the tread speed differences `w` and the gyro's rates `g` say of
+/// the gyro (see [`gyro_delay`]).
+fn clock_of(w: &[(f64, f64)], g: &[(f64, f64)]) -> GyroClock {
     if g.len() < 10 || w.len() < 10 {
         return GyroClock::Unknown;
     }
     let n = (2.0 * MAX_DELAY / STEP).round() as usize + 1;
     let corr: Vec<f64> = (0..n)
-        .map(|i| fit(&w, &g, -MAX_DELAY + i as f64 * STEP).0)
+        .map(|i| fit(w, g, -MAX_DELAY + i as f64 * STEP).0)
         .collect();
     let Some((best, &c)) = corr
         .iter()
@@ -94,7 +204,7 @@ pub fn gyro_delay(
     }
     GyroClock::Delay {
         wheels_late_by: tau,
-        gyro_per_tread: fit(&w, &g, tau).1,
+        gyro_per_tread: fit(w, g, tau).1,
     }
 }
 
@@ -120,14 +230,18 @@ pub fn turn_disagreement(
     ))
 }
 
-/// [`gyro_delay`] of the log directory `dir`'s `wheels.csv` and `imu.csv`
-/// (a second read of their start; unreadable files tell nothing).
+/// [`gyro_delay_referenced`] of the log directory `dir`'s `wheels.csv`,
+/// `imu.csv` and `pose.csv` (a second read of their start; unreadable
+/// files tell nothing).
 pub fn gyro_delay_in(dir: &Path) -> GyroClock {
     match (
         WheelStream::open(&dir.join("wheels.csv")),
         GyroStream::open(&dir.join("imu.csv")),
     ) {
-        (Ok(mut w), Ok(mut g)) => gyro_delay(&mut w, &mut g),
+        (Ok(mut w), Ok(mut g)) => match PoseStream::open(&dir.join("pose.csv")) {
+            Ok(mut p) => gyro_delay_referenced(&mut w, &mut g, &mut p),
+            Err(_) => gyro_delay(&mut w, &mut g),
+        },
         _ => GyroClock::Unknown,
     }
 }
@@ -218,6 +332,154 @@ mod tests {
         let flipped = g.into_iter().map(|(t, r)| Ok((t, -r)));
         let c = gyro_delay(&mut w.into_iter().map(Ok), &mut flipped.into_iter());
         assert!(matches!(c, GyroClock::NotYaw(c) if c < 0.5), "{c:?}");
+    }
+
+    /// Wheels whose tread speed difference turns one way (`0.3 sin 0.7t`)
+    /// while the body turns another (`body(t)` rad/s): a gyro reading
+    /// `gyro(t)` and a pose reference at 10 Hz whose heading is the body's.
+    #[allow(clippy::type_complexity)]
+    fn held_robot(
+        body: fn(f64) -> f64,
+        gyro: fn(f64) -> f64,
+    ) -> (Vec<WheelSample>, Vec<(f64, f64)>, Vec<PoseObs>) {
+        let wheels = (0..1200)
+            .map(|i| {
+                let t = i as f64 * 0.1;
+                let dv = 0.3 * (0.7 * t).sin();
+                WheelSample {
+                    t,
+                    v_left: 0.5 - 0.5 * dv,
+                    v_right: 0.5 + 0.5 * dv,
+                }
+            })
+            .collect();
+        let g = (0..3600)
+            .map(|i| {
+                let t = i as f64 / 30.0;
+                (t, gyro(t))
+            })
+            .collect();
+        let mut yaw = 0.0;
+        let pose = (0..1200)
+            .map(|i| {
+                let t = i as f64 * 0.1;
+                // Heading noise of 0.005 rad on the integrated turn.
+                let noise = 0.005 * ((i * 7919 % 1000) as f64 / 500.0 - 1.0);
+                let p = PoseObs {
+                    t,
+                    east: Some(0.0),
+                    north: Some(0.0),
+                    yaw: Some(terraslip_core::angle::wrap(yaw + noise)),
+                    std_xy: None,
+                    std_yaw: None,
+                };
+                yaw += 0.1 * body(t + 0.05);
+                p
+            })
+            .collect();
+        (wheels, g, pose)
+    }
+
+    fn dragged(t: f64) -> f64 {
+        0.2 * (0.23 * t).sin() + 0.1 * (1.3 * t).cos()
+    }
+
+    fn wheels_turn(t: f64) -> f64 {
+        0.3 * (0.7 * t).sin()
+    }
+
+    fn check(body: fn(f64) -> f64, gyro: fn(f64) -> f64) -> GyroClock {
+        let (w, g, p) = held_robot(body, gyro);
+        gyro_delay_referenced(
+            &mut w.into_iter().map(Ok),
+            &mut g.into_iter().map(Ok),
+            &mut p.into_iter().map(Ok),
+        )
+    }
+
+    #[test]
+    fn the_reference_keeps_a_gyro_it_follows_when_the_treads_slip() {
+        // The body turns as it is dragged, not as its treads spin; the gyro
+        // reads the body.
+        let clock = check(dragged, dragged);
+        let GyroClock::Slipping {
+            wheels,
+            gyro_ref,
+            wheels_ref,
+        } = clock
+        else {
+            panic!("{clock:?}")
+        };
+        assert!(
+            wheels < 0.5 && gyro_ref > 0.9 && wheels_ref < 0.5,
+            "{clock:?}"
+        );
+        // Without the reference, the same gyro is not the yaw rate.
+        let (w, g, _) = held_robot(dragged, dragged);
+        let alone = gyro_delay(&mut w.into_iter().map(Ok), &mut g.into_iter().map(Ok));
+        assert!(matches!(alone, GyroClock::NotYaw(_)), "{alone:?}");
+    }
+
+    #[test]
+    fn the_reference_names_a_gyro_that_does_not_follow_it_or_the_wheels() {
+        // The body turns as its treads say; the gyro reads something else.
+        let clock = check(wheels_turn, dragged);
+        let GyroClock::Faulty {
+            gyro_ref,
+            wheels_ref,
+            ..
+        } = clock
+        else {
+            panic!("{clock:?}")
+        };
+        assert!(gyro_ref < 0.5 && wheels_ref > 0.9, "{clock:?}");
+        // A gyro that follows the wheels needs no arbiter.
+        let clock = check(wheels_turn, wheels_turn);
+        assert!(matches!(clock, GyroClock::Delay { .. }), "{clock:?}");
+    }
+
+    /// A run of a held robot keeps the gyro the reference backs and reports
+    /// slip; one whose gyro the reference does not back drops it, naming
+    /// the gyro.
+    #[test]
+    fn a_run_keeps_the_gyro_the_reference_backs() {
+        use crate::pipeline::{run, TerrainEvidence};
+        use crate::testkit::{drive, SynthSpec};
+        let cfg = crate::config::EstimatorConfig::default();
+        let warnings = |body: fn(f64) -> f64, gyro: fn(f64) -> f64| {
+            let (w, g, p) = held_robot(body, gyro);
+            let mut log = drive(&SynthSpec {
+                duration: 10.0,
+                ..Default::default()
+            });
+            log.wheels = w;
+            log.pose = p;
+            log.imu = g
+                .into_iter()
+                .map(|(t, r)| terraslip_io::ImuSample {
+                    t,
+                    accel_z: 9.81,
+                    accel_x: None,
+                    accel_y: None,
+                    gyro_x: None,
+                    gyro_y: None,
+                    gyro_z: Some(r),
+                })
+                .collect();
+            let run = run(&log, &cfg, &TerrainEvidence::None, None).unwrap();
+            (run.warnings, run.gyro_delay)
+        };
+        let (kept, _) = warnings(dragged, dragged);
+        assert!(
+            kept.iter().any(|w| w.contains("the treads slip heavily")),
+            "{kept:?}"
+        );
+        assert!(!kept.iter().any(|w| w.contains("not fused")), "{kept:?}");
+        let (dropped, _) = warnings(wheels_turn, dragged);
+        assert!(
+            dropped.iter().any(|w| w.contains("the gyro is faulty")),
+            "{dropped:?}"
+        );
     }
 
     #[test]

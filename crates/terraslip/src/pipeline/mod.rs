@@ -25,7 +25,7 @@ use crate::config::EstimatorConfig;
 /// Seconds of a drive's start its decisions are made from (the node's
 /// warm-up).
 pub use gyro_delay::SPAN as DECISION_SPAN;
-pub use gyro_delay::{gyro_delay, gyro_delay_in, GyroClock};
+pub use gyro_delay::{gyro_delay, gyro_delay_in, gyro_delay_referenced, GyroClock};
 use replay::{Context, Replay};
 pub use replay::{RowSink, Streams};
 pub use row::row;
@@ -216,6 +216,8 @@ pub struct EstimateRun {
     pub init_source: String,
     /// Final clock offset of the pose stream and its std, s.
     pub clock_offset: (f64, f64),
+    /// Where the pose reference sits on the robot, as used in the end.
+    pub lever_arm: LeverArm,
     /// The yaw-rate gyro as learned (all zero without one).
     pub gyro: terraslip_core::filter::GyroNoise,
     /// How late the wheels are stamped against the gyro, s.
@@ -243,6 +245,28 @@ impl EstimateRun {
         row.terrain
             .and_then(|i| self.terrains.get(i))
             .map(|s| s.as_str())
+    }
+}
+
+/// Where the pose reference sits on the robot (its lever arm from the
+/// wheel axle's centre, body frame), apart from the slip parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LeverArm {
+    /// m, forward and left.
+    pub x: f64,
+    pub y: f64,
+    /// `stated` (meta.toml's `[pose]`) or `config` (the configured
+    /// `measurement.lever_arm_x`, `_y`, 0 by default).
+    pub source: &'static str,
+}
+
+impl LeverArm {
+    /// The lever arm `filter` ended with, for a log whose meta.toml
+    /// states one or not.
+    fn of(filter: &terraslip_core::Filter, stated: bool) -> Self {
+        let (x, y) = filter.lever_arm();
+        let source = if stated { "stated" } else { "config" };
+        Self { x, y, source }
     }
 }
 
@@ -307,7 +331,11 @@ pub fn run_with(
             .filter_map(|s| s.gyro_z.map(|g| Ok((s.t, g))))
     };
     let gyro_clock = if cfg.measurement.std_gyro > 0.0 {
-        gyro_delay(&mut log.wheels.iter().copied().map(Ok), &mut gyro())
+        gyro_delay_referenced(
+            &mut log.wheels.iter().copied().map(Ok),
+            &mut gyro(),
+            &mut log.pose.iter().cloned().map(Ok),
+        )
     } else {
         GyroClock::Unknown
     };
@@ -547,6 +575,7 @@ fn finish(
         hold: f.config().hold,
         init_source,
         clock_offset: f.clock_offset(),
+        lever_arm: LeverArm::of(f, log.meta.pose.is_some()),
         gyro: f.gyro_noise(),
         gyro_delay,
         noise: NoiseUsed {

@@ -108,6 +108,11 @@ pub(super) fn setup(
     if let Some(g) = init.and_then(|pf| pf.extra.get("gyro_scale")) {
         meas.gyro_scale = init_gyro_scale(g)?;
     }
+    if let Some(m) = log.meta.pose {
+        // Where the log states the reference sits on the robot.
+        meas.lever_arm_x = m.lever_arm_x;
+        meas.lever_arm_y = m.lever_arm_y;
+    }
     if meas.encoder_tick == 0.0 {
         if let (Some(r), Some(n)) = (log.meta.wheel_radius, log.meta.ticks_per_rev) {
             if r.is_finite() && r > 0.0 && n.is_finite() && n >= 1.0 {

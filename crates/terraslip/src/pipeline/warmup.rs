@@ -165,9 +165,12 @@ impl<'a> WarmUp<'a> {
             })
         };
         let gyro_clock = if self.cfg.measurement.std_gyro > 0.0 {
-            gyro_delay::gyro_delay(
+            let mut fixes: Vec<_> = pose().cloned().collect();
+            fixes.sort_by(|a, b| a.t.total_cmp(&b.t));
+            gyro_delay::gyro_delay_referenced(
                 &mut wheels.iter().copied().map(Ok),
                 &mut gyro.iter().copied().map(Ok),
+                &mut fixes.into_iter().map(Ok),
             )
         } else {
             GyroClock::Unknown

@@ -426,7 +426,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .file("--out", &out)?
             .file("--ros2-params", p)?;
     }
-    let logs = read_logs(&args.logs)?;
+    let mut logs = read_logs(&args.logs)?;
+    // Fixes of a reference off the axle, moved onto it: x_c is slip only.
+    for log in &mut logs {
+        if let Some(w) = terraslip_calib::lever_arm::move_fixes_to_axle(log) {
+            eprintln!("warning: {w}");
+        }
+    }
     let bar = progress::Progress::new(0, "generations");
     let cal = calibrate(&logs, &cfg, &|p| match p {
         Progress::Stage(s) => bar.set_message(format!("calibrate: {s}")),
@@ -446,6 +452,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut pf = cal.params_file();
     if let Some(scale) = logs.first().and_then(|l| l.meta.separation_note()) {
         pf.extra.insert("separation".into(), scale);
+    }
+    if let Some(m) = logs.first().and_then(|l| l.meta.pose) {
+        pf.extra.insert(
+            "pose_lever_arm_m".into(),
+            serde_json::json!({"x": m.lever_arm_x, "y": m.lever_arm_y, "source": "stated"}),
+        );
     }
     pf.write(&out)
         .with_context(|| format!("writing {}", out.display()))?;

@@ -62,11 +62,10 @@ fn pose_cov(pc: &nalgebra::Matrix3<f64>, heading_known: bool) -> [[f64; 3]; 3] {
     let mut c: [[f64; 3]; 3] =
         std::array::from_fn(|r| std::array::from_fn(|k| 0.5 * (pc[(r, k)] + pc[(k, r)])));
     if !heading_known {
-        for k in 0..2 {
-            c[k][2] = 0.0;
-            c[2][k] = 0.0;
+        for row in c.iter_mut().take(2) {
+            row[2] = 0.0;
         }
-        c[2][2] = std::f64::consts::PI.powi(2);
+        c[2] = [0.0, 0.0, std::f64::consts::PI.powi(2)];
     }
     c
 }

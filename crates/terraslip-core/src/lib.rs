@@ -12,6 +12,7 @@
 //! * [`kinematics`]: the ICR model, tread speeds to body twist and back.
 //! * [`slip`]: the coordinates a filter carries the slip parameters in.
 //! * [`model`]: the filter's state and process model.
+//! * [`odometry`]: the covariance of the model's body twist.
 //! * [`filter`]: the EKF (predict, update, gates, noise learning, resets).
 //! * [`schedule`]: what terrain evidence does to the filter.
 //! * [`estimator`]: filter + schedule + stream timing: the online API.
@@ -26,6 +27,7 @@ pub mod estimator;
 pub mod filter;
 pub mod kinematics;
 pub mod model;
+pub mod odometry;
 pub mod rng;
 pub mod schedule;
 pub mod slip;

@@ -6,6 +6,7 @@
 //!     cargo run -p terraslip-lab --release -- family --worlds 50 --subset papers
 //!     cargo run -p terraslip-lab --release -- family --worlds 50 --gyro [--gyro-scale 0.03]
 //!     cargo run -p terraslip-lab --release -- drives
+//!     cargo run -p terraslip-lab --release -- odometry-nees
 //!
 //! Estimators are named presets (`terraslip`, `ekf-qmin`, `no-slip`, ...)
 //! or `config:FILE.toml` (the default overridden by that file's keys).
@@ -19,6 +20,7 @@ mod estimators;
 mod family;
 mod heldout;
 mod outage_table;
+mod odometry_nees;
 mod stats;
 
 /// The estimator's quality benchmarks.
@@ -41,6 +43,9 @@ enum Command {
     /// `calibrate`, each trained on data the score does not see: first half
     /// -> second half of every drive, and drive -> drive (`--across`).
     Heldout(heldout::Args),
+    /// Whether the odometry's published twist and pose covariances are
+    /// honest: their NEES against a pose reference, with the 95 % band.
+    OdometryNees(odometry_nees::Args),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -48,5 +53,6 @@ fn main() -> anyhow::Result<()> {
         Command::Family(a) => family::run(a),
         Command::Drives(a) => drives::run(a),
         Command::Heldout(a) => heldout::run(a),
+        Command::OdometryNees(a) => odometry_nees::run(a),
     }
 }

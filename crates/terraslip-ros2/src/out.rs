@@ -2,7 +2,8 @@
 //! plugin: every channel carries its `ros2msg` schema.
 //!
 //! Topics written by [`EstimateMcap`]: `/terraslip/odom` (nav_msgs/Odometry,
-//! frame `odom` → `base_link`), `/tf` (tf2_msgs/TFMessage), `/terraslip/icr`
+//! frame [`Frames::odom`] → [`Frames::base`], `odom` → `base_link` by
+//! default, REP-105), `/tf` (tf2_msgs/TFMessage), `/terraslip/icr`
 //! ([`ICR_TYPE`]), `/terraslip/terrain` (std_msgs/String),
 //! `/terraslip/innovation` ([`INNOVATION_TYPE`]); input topics may be copied
 //! through with [`EstimateMcap::pass_through`].
@@ -23,6 +24,42 @@ pub const INNOVATION_TYPE: &str = "terraslip_msgs/msg/Innovation";
 pub const INNOVATION_DEF: &str =
     "std_msgs/Header header\nfloat64 nis\nbool fused\nbool gated\nfloat64 q_scale\nbool change\n";
 
+/// The frames of the odometry (REP-105): the fixed frame the pose is in
+/// and the robot's body frame (the twist's frame).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Frames {
+    /// Header frame of the odometry and parent of the transform.
+    pub odom: String,
+    /// Child frame of the odometry and of the transform.
+    pub base: String,
+}
+
+impl Default for Frames {
+    fn default() -> Self {
+        Self {
+            odom: "odom".into(),
+            base: "base_link".into(),
+        }
+    }
+}
+
+/// Index in a row-major 6×6 ROS covariance `(x, y, z, roll, pitch, yaw)`
+/// of the planar component `k` (0: x, 1: y, 2: yaw).
+const PLANAR: [usize; 3] = [0, 1, 5];
+
+/// A 6×6 ROS covariance (row-major) holding the planar 3×3 block `c`; z,
+/// roll and pitch, which the robot does not observe, are left 0 (fusing
+/// filters are told not to use them, `two_d_mode`).
+pub fn planar_covariance(c: &[[f64; 3]; 3]) -> [f64; 36] {
+    let mut out = [0.0; 36];
+    for (r, row) in c.iter().enumerate() {
+        for (k, v) in row.iter().enumerate() {
+            out[6 * PLANAR[r] + PLANAR[k]] = *v;
+        }
+    }
+    out
+}
+
 /// One estimate row to publish; SI units, world ENU, body REP-103.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct EstimateSample {
@@ -31,10 +68,12 @@ pub struct EstimateSample {
     pub east: f64,
     pub north: f64,
     pub yaw: f64,
-    /// 1σ of east, north (m) and yaw (rad).
-    pub std_pose: [f64; 3],
+    /// Covariance of east, north (m) and yaw (rad), with cross terms.
+    pub pose_cov: [[f64; 3]; 3],
     /// Body twist: v_x, v_y (m/s), ω (rad/s).
     pub twist: [f64; 3],
+    /// Covariance of the body twist (v_x, v_y, ω).
+    pub twist_cov: [[f64; 3]; 3],
     /// y_l, y_r, x_c (m), alpha_l, alpha_r.
     pub icr: [f64; 5],
     pub std_icr: [f64; 5],
@@ -53,6 +92,7 @@ pub struct EstimateMcap {
     channels: BTreeMap<String, u16>,
     seq: u32,
     last_terrain: Option<String>,
+    frames: Frames,
 }
 
 fn err(path: &Path, e: impl std::fmt::Display) -> Ros2Error {
@@ -82,7 +122,14 @@ impl EstimateMcap {
             channels: BTreeMap::new(),
             seq: 0,
             last_terrain: None,
+            frames: Frames::default(),
         })
+    }
+
+    /// Writes the odometry and transform in `frames`.
+    pub fn with_frames(mut self, frames: Frames) -> Self {
+        self.frames = frames;
+        self
     }
 
     /// The channel of `topic`, registered with its type and definition on first use.
@@ -120,7 +167,8 @@ impl EstimateMcap {
 
     /// Publishes one estimate row on the terraslip topics.
     pub fn estimate(&mut self, s: &EstimateSample, terrain: Option<&str>) -> Result<(), Ros2Error> {
-        for m in estimate_messages(s, terrain, &mut self.last_terrain) {
+        let frames = self.frames.clone();
+        for m in estimate_messages(s, &frames, terrain, &mut self.last_terrain) {
             let c = self.channel(m.topic, m.ty, &m.definition())?;
             self.write(c, s.stamp_ns, &m.data)?;
         }
@@ -187,11 +235,13 @@ impl OutMessage {
     }
 }
 
-/// The messages of one estimate row: `/terraslip/odom`, `/tf`,
-/// `/terraslip/icr`, `/terraslip/innovation`, and `/terraslip/terrain`
-/// when the terrain differs from `last_terrain` (then updated).
+/// The messages of one estimate row: `/terraslip/odom`, `/tf` (both in
+/// `frames`), `/terraslip/icr`, `/terraslip/innovation`, and
+/// `/terraslip/terrain` when the terrain differs from `last_terrain` (then
+/// updated).
 pub fn estimate_messages(
     s: &EstimateSample,
+    frames: &Frames,
     terrain: Option<&str>,
     last_terrain: &mut Option<String>,
 ) -> Vec<OutMessage> {
@@ -199,13 +249,9 @@ pub fn estimate_messages(
     // Quaternion of a rotation by yaw about z: (0, 0, sin yaw/2, cos yaw/2).
     let (sz, cz) = (s.yaw / 2.0).sin_cos();
     let mut w = CdrWriter::new();
-    w.header(s.stamp_ns, "odom").string("base_link");
+    w.header(s.stamp_ns, &frames.odom).string(&frames.base);
     planar_pose(&mut w, s.east, s.north, sz, cz);
-    let mut cov = [0.0; 36];
-    cov[0] = s.std_pose[0].powi(2);
-    cov[7] = s.std_pose[1].powi(2);
-    cov[35] = s.std_pose[2].powi(2);
-    for c in cov {
+    for c in planar_covariance(&s.pose_cov) {
         w.f64(c);
     }
     w.f64(s.twist[0])
@@ -214,8 +260,8 @@ pub fn estimate_messages(
         .f64(0.0)
         .f64(0.0)
         .f64(s.twist[2]);
-    for _ in 0..36 {
-        w.f64(0.0);
+    for c in planar_covariance(&s.twist_cov) {
+        w.f64(c);
     }
     out.push(OutMessage {
         topic: "/terraslip/odom",
@@ -224,7 +270,9 @@ pub fn estimate_messages(
     });
 
     let mut w = CdrWriter::new();
-    w.u32(1).header(s.stamp_ns, "odom").string("base_link");
+    w.u32(1)
+        .header(s.stamp_ns, &frames.odom)
+        .string(&frames.base);
     planar_pose(&mut w, s.east, s.north, sz, cz);
     out.push(OutMessage {
         topic: "/tf",
@@ -233,7 +281,7 @@ pub fn estimate_messages(
     });
 
     let mut w = CdrWriter::new();
-    w.header(s.stamp_ns, "base_link");
+    w.header(s.stamp_ns, &frames.base);
     for v in s.icr.iter().chain(&s.std_icr) {
         w.f64(*v);
     }
@@ -244,7 +292,7 @@ pub fn estimate_messages(
     });
 
     let mut w = CdrWriter::new();
-    w.header(s.stamp_ns, "base_link");
+    w.header(s.stamp_ns, &frames.base);
     w.f64(s.nis)
         .u8(s.fused as u8)
         .u8(s.gated as u8)
@@ -362,6 +410,60 @@ mod tests {
         assert_eq!(easts, (0..10).map(|k| k as f64).collect::<Vec<_>>());
         let icr = bag.topic("/terraslip/icr").unwrap();
         assert!(crate::msg::Registry::parse(ICR_TYPE, &bag.topics[icr].definition, None).is_ok());
+    }
+
+    #[test]
+    fn odometry_carries_the_planar_covariances_and_its_frames() {
+        let s = EstimateSample {
+            stamp_ns: 1_700_000_000_000_000_000,
+            twist: [1.0, -0.02, 0.3],
+            pose_cov: [
+                [0.04, 0.01, 0.002],
+                [0.01, 0.09, -0.003],
+                [0.002, -0.003, 0.01],
+            ],
+            twist_cov: [[1e-3, 0.0, 2e-4], [0.0, 5e-4, -1e-4], [2e-4, -1e-4, 4e-4]],
+            ..Default::default()
+        };
+        let frames = Frames {
+            odom: "husky/odom".into(),
+            base: "husky/base_link".into(),
+        };
+        let msgs = estimate_messages(&s, &frames, None, &mut None);
+        let odom = msgs.iter().find(|m| m.topic == "/terraslip/odom").unwrap();
+        let (reg, root) = crate::msg::Registry::parse(odom.ty, &odom.definition(), None).unwrap();
+        let v = reg.decode(root, &odom.data).unwrap();
+        let flat = format!("{v:?}");
+        for f in ["husky/odom", "husky/base_link"] {
+            assert!(flat.contains(f), "{f} missing: {flat}");
+        }
+        let cov = |path: &str| -> Vec<f64> {
+            let p = reg.resolve(root, path).unwrap();
+            match v.at(&p) {
+                Some(crate::msg::Value::Nums(xs)) => xs.clone(),
+                other => panic!("{path}: {other:?}"),
+            }
+        };
+        let (pose, twist) = (cov("pose.covariance"), cov("twist.covariance"));
+        assert_eq!((pose.len(), twist.len()), (36, 36));
+        // Row-major (x, y, z, roll, pitch, yaw).
+        assert_eq!(
+            [pose[0], pose[1], pose[5], pose[7], pose[11], pose[35]],
+            [0.04, 0.01, 0.002, 0.09, -0.003, 0.01]
+        );
+        assert_eq!([pose[6], pose[30], pose[31]], [0.01, 0.002, -0.003]);
+        assert_eq!(
+            [twist[0], twist[5], twist[7], twist[11], twist[35]],
+            [1e-3, 2e-4, 5e-4, -1e-4, 4e-4]
+        );
+        assert_eq!(twist[14], 0.0, "z is not observed");
+        let tf = msgs.iter().find(|m| m.topic == "/tf").unwrap();
+        let (reg, root) = crate::msg::Registry::parse(tf.ty, &tf.definition(), None).unwrap();
+        let flat = format!("{:?}", reg.decode(root, &tf.data).unwrap());
+        assert!(
+            flat.contains("husky/odom") && flat.contains("husky/base_link"),
+            "{flat}"
+        );
     }
 
     #[test]

@@ -76,6 +76,14 @@ pub struct Args {
     /// Do not publish odom -> base_link on /tf (when another node does).
     #[arg(long)]
     pub no_tf: bool,
+    /// The odometry's fixed frame (REP-105): header of /terraslip/odom and
+    /// parent of the published transform.
+    #[arg(long, value_name = "FRAME", default_value = "odom")]
+    pub odom_frame: String,
+    /// The robot's body frame (REP-105): child frame of /terraslip/odom
+    /// (the twist's frame) and of the published transform.
+    #[arg(long, value_name = "FRAME", default_value = "base_link")]
+    pub base_frame: String,
     /// Node name.
     #[arg(long, default_value = "terraslip")]
     pub name: String,
@@ -94,8 +102,8 @@ ROS 2 conventions: --ros-args after the node's own flags takes -r from:=to
 (remaps of the topics named in --topics, a remap matching none of them is
 warned of; and __node:=, __ns:=), -p name:=value
 and --params-file FILE.yaml (`ros__parameters` of /** or of the node). The
-parameters lag, save_every, track_width, gyro_delay, publish_tf (bool) set the
-flags of the same name; any other is a key of the TOML configuration
+parameters lag, save_every, track_width, gyro_delay, odom_frame, base_frame,
+publish_tf (bool) set the flags of the same name; any other is a key of the TOML configuration
 (`filter.still_speed` is [filter] still_speed).
 
 Examples:
@@ -109,12 +117,14 @@ docs/user-guide.md \"Live on the robot\" has a launch file, a systemd unit and
 the Foxglove view.";
 
 /// Parameters of the node itself (the rest are configuration keys).
-const NODE_PARAMS: [&str; 5] = [
+const NODE_PARAMS: [&str; 7] = [
     "lag",
     "save_every",
     "track_width",
     "gyro_delay",
     "publish_tf",
+    "odom_frame",
+    "base_frame",
 ];
 
 pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
@@ -258,7 +268,11 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
         "warming up: the first {} s of stamp time are held back to decide from",
         args.warmup
     );
-    let mut out = Outputs::new(&graph, !args.no_tf)?;
+    let frames = terraslip_ros2::out::Frames {
+        odom: args.odom_frame.clone(),
+        base: args.base_frame.clone(),
+    };
+    let mut out = Outputs::new(&graph, !args.no_tf, frames)?;
     let mut bad = BadMessages::default();
     let subscribed = Instant::now();
     let mut warned_unmatched = false;
@@ -383,6 +397,20 @@ fn apply_node_params(args: &mut Args, table: &mut toml::Table) -> Result<()> {
             "save_every" => args.save_every = num()?,
             "track_width" => args.track_width = Some(num()?),
             "gyro_delay" => args.gyro_delay = Some(num()?),
+            "odom_frame" | "base_frame" => {
+                let frame = v
+                    .as_str()
+                    .filter(|f| !f.is_empty())
+                    .with_context(|| {
+                        format!("--ros-args parameter {key} = {v}: expected a frame name")
+                    })?
+                    .to_string();
+                if key == "odom_frame" {
+                    args.odom_frame = frame;
+                } else {
+                    args.base_frame = frame;
+                }
+            }
             "publish_tf" => {
                 args.no_tf = !v.as_bool().with_context(|| {
                     format!("--ros-args parameter publish_tf = {v}: expected true or false")
@@ -505,6 +533,7 @@ impl BadMessages {
 struct Outputs {
     writers: Vec<Writer>,
     publish_tf: bool,
+    frames: terraslip_ros2::out::Frames,
     origin_ns: u64,
     /// Tread speeds of the wheels rows not yet answered: `(t, left, right)`.
     wheels: VecDeque<(f64, f64, f64)>,
@@ -528,7 +557,7 @@ const OUTPUT_TOPICS: [(&str, &str); 6] = [
 ];
 
 impl Outputs {
-    fn new(graph: &Graph, publish_tf: bool) -> Result<Self> {
+    fn new(graph: &Graph, publish_tf: bool, frames: terraslip_ros2::out::Frames) -> Result<Self> {
         let mut writers = Vec::new();
         for (name, ty) in OUTPUT_TOPICS {
             if name == "/tf" && !publish_tf {
@@ -542,6 +571,7 @@ impl Outputs {
         Ok(Self {
             writers,
             publish_tf,
+            frames,
             origin_ns: 0,
             wheels: VecDeque::new(),
             last_terrain: None,
@@ -641,7 +671,7 @@ impl RowSink for Outputs {
             .map(|w| (w.1, w.2));
         let s = super::ros2out::sample(r, self.stamp(r.t), w);
         let terrain = r.terrain.and_then(|k| terrains.get(k)).map(String::as_str);
-        for m in estimate_messages(&s, terrain, &mut self.last_terrain) {
+        for m in estimate_messages(&s, &self.frames, terrain, &mut self.last_terrain) {
             if m.topic == "/tf" && !self.publish_tf {
                 continue;
             }

@@ -39,17 +39,23 @@ pub fn write_mcap(path: &Path, input: &Path, log: &DriveLog, est: &EstimateRun) 
 }
 
 /// The messages' content of estimate row `r` stamped `stamp_ns` (ns since
-/// the epoch); the body twist from the row's tread speeds `wheels` (m/s,
-/// left and right) when known.
+/// the epoch); the body twist and its covariance from the row's tread
+/// speeds `wheels` (m/s, left and right) when known (else a twist of 0 at
+/// standstill's covariance).
 pub fn sample(r: &EstimateRow, stamp_ns: u64, wheels: Option<(f64, f64)>) -> EstimateSample {
-    let tw = wheels.map(|(l, rr)| r.icr().twist(l, rr));
+    let (l, rr) = wheels.unwrap_or((0.0, 0.0));
+    let icr = r.icr();
+    let t = icr.twist(l, rr);
+    let icr_cov = terraslip_core::slip::SlipMat::from_fn(|i, k| r.icr_cov[i][k]);
+    let tc = terraslip_core::odometry::twist_covariance(&icr, &icr_cov, &r.model_noise, l, rr);
     EstimateSample {
         stamp_ns,
         east: r.east,
         north: r.north,
         yaw: r.yaw,
-        std_pose: [r.std[0], r.std[1], r.std[2]],
-        twist: tw.map_or([0.0; 3], |t| [t.v_x, t.v_y, t.omega]),
+        pose_cov: r.pose_cov,
+        twist: [t.v_x, t.v_y, t.omega],
+        twist_cov: std::array::from_fn(|i| std::array::from_fn(|k| tc[(i, k)])),
         icr: [r.y_l, r.y_r, r.x_c, r.alpha_l, r.alpha_r],
         std_icr: [r.std[3], r.std[4], r.std[5], r.std[6], r.std[7]],
         nis: r.nis,

@@ -89,6 +89,14 @@ pub struct EstimateRow {
     pub std: [f64; 8],
     /// Std of the spread y_l - y_r, m.
     pub std_spread: f64,
+    /// Covariance of (east, north, yaw) with its cross terms (m², m·rad,
+    /// rad²); a heading not yet found from any fix has variance π² and no
+    /// cross terms.
+    pub pose_cov: [[f64; 3]; 3],
+    /// Covariance of (y_l, y_r, x_c, alpha_l, alpha_r) in effect.
+    pub icr_cov: [[f64; 5]; 5],
+    /// The filter's model noise at this row.
+    pub model_noise: terraslip_core::odometry::ModelNoise,
     /// Index into [`EstimateRun::terrains`] of the believed terrain.
     pub terrain: Option<usize>,
     /// A pose fix part was fused since the previous row.

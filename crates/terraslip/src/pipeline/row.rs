@@ -42,6 +42,9 @@ pub fn row(est: &Estimator, t: f64, terrain: Option<usize>, s: &FixSummary) -> E
             sd(ic[(4, 4)]),
         ],
         std_spread: (ic[(0, 0)] + ic[(1, 1)] - 2.0 * ic[(0, 1)]).max(0.0).sqrt(),
+        pose_cov: pose_cov(&pc, f.anchored()[1]),
+        icr_cov: std::array::from_fn(|r| std::array::from_fn(|k| ic[(r, k)])),
+        model_noise: model_noise(f),
         terrain,
         fused: s.fused,
         gated: s.gated,
@@ -50,6 +53,32 @@ pub fn row(est: &Estimator, t: f64, terrain: Option<usize>, s: &FixSummary) -> E
         change: s.change,
         clock_offset: f.clock_offset().0,
         prediction_model: prediction_model(f),
+    }
+}
+
+/// The pose covariance `pc` as published: symmetric, and with an unknown
+/// heading (`heading_known` false) of variance π² and no cross terms.
+fn pose_cov(pc: &nalgebra::Matrix3<f64>, heading_known: bool) -> [[f64; 3]; 3] {
+    let mut c: [[f64; 3]; 3] =
+        std::array::from_fn(|r| std::array::from_fn(|k| 0.5 * (pc[(r, k)] + pc[(k, r)])));
+    if !heading_known {
+        for row in c.iter_mut().take(2) {
+            row[2] = 0.0;
+        }
+        c[2] = [0.0, 0.0, std::f64::consts::PI.powi(2)];
+    }
+    c
+}
+
+/// The model noise the filter's prediction adds (its learned factors on
+/// speed and turn, the configured floors).
+fn model_noise(f: &terraslip_core::filter::Filter) -> terraslip_core::odometry::ModelNoise {
+    let (q_speed, q_turn) = f.model_noise();
+    terraslip_core::odometry::ModelNoise {
+        q_pos: f.config().q_pos,
+        q_speed,
+        q_yaw: f.config().q_yaw,
+        q_turn,
     }
 }
 

@@ -1,0 +1,409 @@
+//! `terraslip-lab odometry-nees`: are the covariances the odometry
+//! publishes (`/terraslip/odom`, `estimate --mcap`) honest? The normalised
+//! estimation error squared (NEES) of the published twist and pose against
+//! a pose reference, with the 95 % band a consistent covariance keeps.
+//!
+//! - **Twist**: over consecutive windows of `--window` s, the published
+//!   twist integrated in the body frame (the displacement and turn it
+//!   claims) against the reference's displacement (rotated into the body
+//!   frame at the window's start) and turn. The covariance: the published
+//!   one's parts carried over the window (parameter uncertainty through the
+//!   kinematics at each step, the model noise's diffusion summed over the
+//!   steps, the floor), plus the reference's own noise at both ends (2σ²
+//!   per axis, σ the noise the run learned for the reference). Over 1 s this
+//!   is the published twist covariance times 1 s² (`TWIST_WINDOW_S`).
+//! - **Pose**: the run fuses one reference fix every `--fix-every` s; at
+//!   every row with a known heading (once a second) the published pose
+//!   against the full-rate reference, with the published planar covariance
+//!   plus the reference's noise.
+//!
+//! The band: the mean of N independent χ²(k) values lies in
+//! [χ²(kN; 2.5 %), χ²(kN; 97.5 %)] / N (Wilson–Hilferty quantiles); the
+//! windows (twist) and the 1 s rows (pose) are taken as independent.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use nalgebra::{Matrix2, Matrix3, SMatrix, Vector3};
+use terraslip::bag::Topics;
+use terraslip::pipeline::{self, EstimateRow, TerrainEvidence};
+use terraslip_core::odometry::{twist_jacobian, TWIST_VARIANCE_FLOOR};
+use terraslip_core::slip::SlipMat;
+use terraslip_io::{DriveLog, PoseObs};
+
+use crate::estimators;
+
+/// NEES of the published twist and pose covariances against a reference.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Logs or ROS 2 bags with a pose reference (default: every drive
+    /// under ../shared/data/drive).
+    logs: Vec<PathBuf>,
+    /// Topics file for a bag (as `estimate --topics`).
+    #[arg(long)]
+    topics: Option<PathBuf>,
+    /// Estimator preset or `config:FILE.toml`.
+    #[arg(long, default_value = "terraslip")]
+    estimator: String,
+    /// Window the twist is integrated over, s.
+    #[arg(long, default_value_t = terraslip_core::odometry::TWIST_WINDOW_S)]
+    window: f64,
+    /// Seconds between the reference fixes the run fuses (the rest are
+    /// held out for the pose NEES); 0 fuses every one.
+    #[arg(long, default_value_t = 1.0)]
+    fix_every: f64,
+}
+
+/// Mean NEES of `n` samples of `k` degrees of freedom, with the share
+/// above the χ²(k) 95 % quantile.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Nees {
+    pub n: usize,
+    pub k: usize,
+    pub sum: f64,
+    pub above: usize,
+}
+
+impl Nees {
+    fn add(&mut self, v: f64) {
+        if v.is_finite() {
+            self.n += 1;
+            self.sum += v;
+            self.above += usize::from(v > chi2_quantile(self.k as f64, 0.95));
+        }
+    }
+    pub fn mean(&self) -> f64 {
+        self.sum / self.n.max(1) as f64
+    }
+    /// The 95 % band of the mean of `n` χ²(k).
+    pub fn band(&self) -> (f64, f64) {
+        let dof = (self.k * self.n.max(1)) as f64;
+        let n = self.n.max(1) as f64;
+        (chi2_quantile(dof, 0.025) / n, chi2_quantile(dof, 0.975) / n)
+    }
+    fn row(&self) -> String {
+        let (lo, hi) = self.band();
+        let m = self.mean();
+        format!(
+            "{:5} | {:7.2} | {:5.2} – {:5.2} | {:5} | {:4.1} %",
+            self.n,
+            m,
+            lo,
+            hi,
+            if (lo..=hi).contains(&m) {
+                "in"
+            } else if m > hi {
+                "over"
+            } else {
+                "under"
+            },
+            100.0 * self.above as f64 / self.n.max(1) as f64
+        )
+    }
+}
+
+/// Quantile `p` of χ²(`dof`) (Wilson–Hilferty).
+pub fn chi2_quantile(dof: f64, p: f64) -> f64 {
+    let z = normal_quantile(p);
+    let a = 2.0 / (9.0 * dof);
+    dof * (1.0 - a + z * a.sqrt()).powi(3)
+}
+
+/// Quantile of the standard normal (Acklam's rational approximation,
+/// relative error < 1.2e-9).
+fn normal_quantile(p: f64) -> f64 {
+    const A: [f64; 6] = [
+        -3.969683028665376e1,
+        2.209460984245205e2,
+        -2.759285104469687e2,
+        1.38357751867269e2,
+        -3.066479806614716e1,
+        2.506628277459239,
+    ];
+    const B: [f64; 5] = [
+        -5.447609879822406e1,
+        1.615858368580409e2,
+        -1.556989798598866e2,
+        6.680131188771972e1,
+        -1.328068155288572e1,
+    ];
+    const C: [f64; 6] = [
+        -7.784894002430293e-3,
+        -3.223964580411365e-1,
+        -2.400758277161838,
+        -2.5496710104227,
+        4.374664141464968,
+        2.938163982698783,
+    ];
+    const D: [f64; 4] = [
+        7.784695709041462e-3,
+        3.224671290700398e-1,
+        2.445134137142996,
+        3.754408661907416,
+    ];
+    let tail = |q: f64| {
+        (((((C[0] * q + C[1]) * q + C[2]) * q + C[3]) * q + C[4]) * q + C[5])
+            / ((((D[0] * q + D[1]) * q + D[2]) * q + D[3]) * q + 1.0)
+    };
+    if p < 0.02425 {
+        tail((-2.0 * p.ln()).sqrt())
+    } else if p > 1.0 - 0.02425 {
+        -tail((-2.0 * (1.0 - p).ln()).sqrt())
+    } else {
+        let q = p - 0.5;
+        let r = q * q;
+        (((((A[0] * r + A[1]) * r + A[2]) * r + A[3]) * r + A[4]) * r + A[5]) * q
+            / (((((B[0] * r + B[1]) * r + B[2]) * r + B[3]) * r + B[4]) * r + 1.0)
+    }
+}
+
+/// The reference pose at `t` (linear; yaw along the shorter arc), `None`
+/// outside it or across a gap over 1 s.
+fn reference_at(pose: &[PoseObs], t: f64) -> Option<(f64, f64, Option<f64>)> {
+    let k = pose.partition_point(|p| p.t <= t);
+    let (a, b) = (pose.get(k.checked_sub(1)?)?, pose.get(k)?);
+    if b.t - a.t > 1.0 {
+        return None;
+    }
+    let s = (t - a.t) / (b.t - a.t).max(1e-9);
+    let lerp = |x: f64, y: f64| x + s * (y - x);
+    let yaw = match (a.yaw, b.yaw) {
+        (Some(x), Some(y)) => Some(x + s * wrap(y - x)),
+        _ => None,
+    };
+    Some((lerp(a.east?, b.east?), lerp(a.north?, b.north?), yaw))
+}
+
+fn wrap(a: f64) -> f64 {
+    let t = std::f64::consts::TAU;
+    a - t * ((a + std::f64::consts::PI) / t).floor()
+}
+
+/// The log with one fix kept every `every` s (all when 0).
+fn thinned(log: &DriveLog, every: f64) -> DriveLog {
+    let mut out = log.clone();
+    if every > 0.0 {
+        let mut next = f64::NEG_INFINITY;
+        out.pose.retain(|p| {
+            let keep = p.t >= next;
+            if keep {
+                next = p.t + every;
+            }
+            keep
+        });
+    }
+    out
+}
+
+/// Twist and pose NEES of one run. `wheels[k]` are row `k`'s tread speeds;
+/// `std_xy`, `std_yaw` the reference's noise (m, rad); `offset` the pose
+/// clock offset (a pose stamped `t + offset` is wheel time `t`).
+pub fn nees(
+    rows: &[EstimateRow],
+    wheels: &[(f64, f64)],
+    reference: &[PoseObs],
+    (std_xy, std_yaw): (f64, f64),
+    window: f64,
+) -> (Nees, Nees) {
+    // A reference with no heading (GNSS fixes): the position alone.
+    let k = if reference.iter().any(|p| p.yaw.is_some()) {
+        3
+    } else {
+        2
+    };
+    let mut twist = Nees {
+        k,
+        ..Default::default()
+    };
+    let mut pose = Nees {
+        k,
+        ..Default::default()
+    };
+    let unknown_heading = std::f64::consts::PI.powi(2);
+    // Pose: once a second.
+    let mut next = f64::NEG_INFINITY;
+    for r in rows {
+        if r.t < next || r.pose_cov[2][2] >= unknown_heading {
+            continue;
+        }
+        let Some((e, n, yaw)) = reference_at(reference, r.t + r.clock_offset) else {
+            continue;
+        };
+        next = r.t + 1.0;
+        let mut c = Matrix3::from_fn(|i, k| r.pose_cov[i][k]);
+        c[(0, 0)] += std_xy * std_xy;
+        c[(1, 1)] += std_xy * std_xy;
+        c[(2, 2)] += std_yaw * std_yaw;
+        let v = match yaw {
+            Some(yaw) => {
+                let err = Vector3::new(r.east - e, r.north - n, wrap(r.yaw - yaw));
+                c.try_inverse().map(|inv| (err.transpose() * inv * err)[0])
+            }
+            None => {
+                let err = nalgebra::Vector2::new(r.east - e, r.north - n);
+                let c2 = c.fixed_view::<2, 2>(0, 0).into_owned();
+                c2.try_inverse().map(|inv| (err.transpose() * inv * err)[0])
+            }
+        };
+        if let (Some(v), true) = (v, yaw.is_some() || k == 2) {
+            pose.add(v);
+        }
+    }
+    // Twist: consecutive windows.
+    let mut i = 0;
+    while i + 1 < rows.len() {
+        let t0 = rows[i].t;
+        let mut j = i;
+        while j + 1 < rows.len() && rows[j + 1].t <= t0 + window {
+            j += 1;
+        }
+        if j == i || rows[j].t - t0 < 0.9 * window {
+            i = j.max(i + 1);
+            continue;
+        }
+        let r0 = &rows[i];
+        let (Some(a), Some(b)) = (
+            reference_at(reference, t0 + r0.clock_offset),
+            reference_at(reference, rows[j].t + r0.clock_offset),
+        ) else {
+            i = j;
+            continue;
+        };
+        // The body frame at the start: the reference's heading, else the
+        // estimate's.
+        let yaw0 = a.2.unwrap_or(r0.yaw);
+        let (s, c) = yaw0.sin_cos();
+        let (de, dn) = (b.0 - a.0, b.1 - a.1);
+        let d_ref = [c * de + s * dn, -s * de + c * dn];
+        let turn_ref = match (a.2, b.2) {
+            (Some(x), Some(y)) => Some(wrap(y - x)),
+            _ => None,
+        };
+        // The published twist integrated; its covariance carried along.
+        let (mut th, mut d) = (0.0f64, [0.0f64; 2]);
+        let mut jac = SMatrix::<f64, 3, 5>::zeros();
+        let (mut q_xy, mut q_yaw) = (0.0, 0.0);
+        for k in i..j {
+            let r = &rows[k];
+            let dt = rows[k + 1].t - r.t;
+            let (vl, vr) = wheels.get(k).copied().unwrap_or((0.0, 0.0));
+            let p = r.icr();
+            let tw = p.twist(vl, vr);
+            let (sn, cs) = th.sin_cos();
+            d[0] += (cs * tw.v_x - sn * tw.v_y) * dt;
+            d[1] += (sn * tw.v_x + cs * tw.v_y) * dt;
+            th += tw.omega * dt;
+            let jk = twist_jacobian(&p, vl, vr);
+            let rot = Matrix2::new(cs, -sn, sn, cs);
+            let xy = rot * jk.fixed_rows::<2>(0) * dt;
+            for c in 0..5 {
+                jac[(0, c)] += xy[(0, c)];
+                jac[(1, c)] += xy[(1, c)];
+                jac[(2, c)] += jk[(2, c)] * dt;
+            }
+            let (qx, qy) = r.model_noise.diffusion(0.5 * (vl + vr), tw.omega);
+            q_xy += (qx + TWIST_VARIANCE_FLOOR) * dt;
+            q_yaw += (qy + TWIST_VARIANCE_FLOOR) * dt;
+        }
+        let sigma = SlipMat::from_fn(|a, b| r0.icr_cov[a][b]);
+        let mut cov = jac * sigma * jac.transpose();
+        cov[(0, 0)] += q_xy + 2.0 * std_xy * std_xy;
+        cov[(1, 1)] += q_xy + 2.0 * std_xy * std_xy;
+        cov[(2, 2)] += q_yaw + 2.0 * std_yaw * std_yaw;
+        let v = match turn_ref {
+            Some(tr) => {
+                let e = Vector3::new(d[0] - d_ref[0], d[1] - d_ref[1], wrap(th - tr));
+                cov.try_inverse().map(|inv| (e.transpose() * inv * e)[0])
+            }
+            None => {
+                // No reference heading: the displacement only, its NEES
+                // (2 dof) scaled to 3 dof's mean.
+                let e = nalgebra::Vector2::new(d[0] - d_ref[0], d[1] - d_ref[1]);
+                let c2 = cov.fixed_view::<2, 2>(0, 0).into_owned();
+                c2.try_inverse()
+                    .map(|inv| 1.5 * (e.transpose() * inv * e)[0])
+            }
+        };
+        if std::env::var_os("NEES_DEBUG").is_some() {
+            eprintln!(
+                "tw t {:.1} e {:+.3} {:+.3} {:+.4}  sd {:.3} {:.3} {:.4}  d {:.2} {:.2} {:.3} nees {:.1}",
+                t0,
+                d[0] - d_ref[0],
+                d[1] - d_ref[1],
+                turn_ref.map_or(0.0, |tr| wrap(th - tr)),
+                cov[(0, 0)].sqrt(),
+                cov[(1, 1)].sqrt(),
+                cov[(2, 2)].sqrt(),
+                d[0],
+                d[1],
+                th,
+                v.unwrap_or(f64::NAN)
+            );
+        }
+        if let Some(v) = v {
+            twist.add(v);
+        }
+        i = j;
+    }
+    (twist, pose)
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let logs = crate::drives::logs_or_default(&a.logs)?;
+    let (_, cfg) = estimators::resolve(std::slice::from_ref(&a.estimator))?
+        .pop()
+        .context("an estimator")?;
+    let topics = a.topics.clone().map_or(Topics::ByType, Topics::File);
+    println!(
+        "NEES of the published covariances; twist over {} s windows, pose with one fix fused every {} s",
+        a.window, a.fix_every
+    );
+    println!("log | what | n | mean NEES (k dof) | 95 % band | | share above χ²(k) 95 %");
+    println!("---|---|---:|---:|---|---|---:");
+    for path in &logs {
+        let input = terraslip::bag::read(path, &topics, terraslip::estimate::read_log)?;
+        let log = input.log;
+        let name = path
+            .file_name()
+            .map_or(String::new(), |n| n.to_string_lossy().into());
+        let run = pipeline::run(
+            &thinned(&log, a.fix_every),
+            &cfg,
+            &TerrainEvidence::None,
+            None,
+        )?;
+        let wheels: Vec<(f64, f64)> = log.wheels.iter().map(|w| (w.v_left, w.v_right)).collect();
+        // The reference's error as the run learned it: white and slowly
+        // wandering parts.
+        let std_xy = run.noise.std_xy.hypot(run.noise.correlated_std);
+        let noise = (std_xy, run.noise.std_yaw);
+        if std::env::var_os("NEES_DEBUG").is_some() {
+            eprintln!("{name}: reference noise {:?}", run.noise);
+        }
+        let (tw, po) = nees(&run.rows, &wheels, &log.pose, noise, a.window);
+        println!("{name} | twist (k = {}) | {}", tw.k, tw.row());
+        println!("{name} | pose (k = {}) | {}", po.k, po.row());
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chi2_quantiles_match_the_tables() {
+        // χ²(3): 0.216 (2.5 %), 7.815 (95 %), 9.348 (97.5 %).
+        for (p, want) in [(0.025, 0.216), (0.95, 7.815), (0.975, 9.348)] {
+            let q = chi2_quantile(3.0, p);
+            assert!((q - want).abs() < 0.05 * want, "{p}: {q} vs {want}");
+        }
+        let n = Nees {
+            n: 600,
+            k: 3,
+            ..Default::default()
+        };
+        let (lo, hi) = n.band();
+        assert!(lo < 3.0 && hi > 3.0 && hi - lo < 0.5, "{lo} {hi}");
+    }
+}

@@ -8,8 +8,10 @@ For every crate under crates/*/src, each file is one node: `lib.rs` /
 `use crate::b::...`, `crate::b::...`, `super::...`, `self::...`, or a
 child module's name in its parent. A path through a module that
 re-exports the item (`pub use`) is followed to the file that defines it.
-A module re-exporting its own submodules' items (a `mod.rs` or `lib.rs`
-facade) does not depend on them for that; using them in its code does.
+A `pub use` of a module's own submodule (a `mod.rs` or `lib.rs` facade),
+or of a name the file's own code does not use (a module re-exporting a
+helper's types), is an alias, not a dependency: who names the item
+through it depends on the defining file.
 Files and modules under `#[cfg(test)]` (`tests.rs`) are left out.
 
 Reports every strongly connected component of more than one file (a
@@ -203,15 +205,16 @@ class Crate:
     def edges(self):
         graph = {m: set() for m in self.files}
         for m, code in self.code.items():
+            body = re.sub(r"(?:^|[;{}\s])(pub(?:\([^)]*\))?\s+)?use\s+[^;]+;", " ", code)
             paths = []
             for public, parts in self.uses[m]:
                 absolute = self.absolute(m, parts)
                 if absolute is None:
                     continue
+                alias_only = public and not re.search(r"(?<![A-Za-z0-9_])" + re.escape(parts[-1]) + r"(?![A-Za-z0-9_])", body)
                 facade = public and len(absolute) > len(m) and absolute[: len(m)] == m
-                if not facade:
+                if not (alias_only or facade):
                     paths.append(absolute)
-            body = re.sub(r"(?:^|[;{}\s])(pub(?:\([^)]*\))?\s+)?use\s+[^;]+;", " ", code)
             for p in re.finditer(r"(?<![A-Za-z0-9_:])((?:" + IDENT + r"::)+" + IDENT + ")", body):
                 absolute = self.absolute(m, p.group(1).split("::"))
                 if absolute is not None:

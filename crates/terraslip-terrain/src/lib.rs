@@ -11,9 +11,15 @@
 //!   pruned decision tree; [`boost`]: gradient-boosted trees.
 //! - [`select`]: channels and the speed floor chosen from the training logs.
 //! - [`model`]: the serialisable [`TerrainModel`] and
-//!   [`TerrainModel::classify_log`], the call the estimator pipeline makes.
-//! - [`eval`]: confusion matrices, scored and spliced logs; [`crossval`]:
-//!   leave-runs-out cross-validation (parallel folds).
+//!   [`TerrainModel::classify_log`], the call the estimator pipeline makes;
+//!   `features` (what a model reads), `timeline` (class probabilities over
+//!   time and the belief filter's settings), `model_file` (the JSON file).
+//! - Training: `train_options` ([`TrainOptions`]), `fit` (the model fitted
+//!   to labelled logs), `train` ([`TerrainModel::train`]: fit, then
+//!   [`calibrate`] on inner folds).
+//! - [`eval`]: confusion matrices, scored and spliced logs;
+//!   [`crossval`](mod@crossval): leave-runs-out cross-validation (parallel
+//!   folds), the runs held out chosen by `folds`.
 //! - [`speed_norm`]: learnt per-feature speed slopes; [`envelope`]: the
 //!   speeds and turns each terrain was trained at.
 //! - [`calibrate`]: calibration on grouped inner folds; [`confidence`]: calibrated probabilities, the "unknown" verdict,

@@ -56,7 +56,7 @@ pub struct TerrainTimeline {
     /// distribution). Empty when the model has no envelope.
     pub outside_envelope: Vec<bool>,
     /// Per frame: distance from the training windows of the terrain it is
-    /// read as ([`ClassDistance::novelty`]). Empty when the model has none.
+    /// read as ([`crate::confidence::ClassDistance::novelty`]). Empty when the model has none.
     pub novelty: Vec<f64>,
     /// Confidence below which a frame's verdict is "unknown" (the model's
     /// calibration; 0 without one).

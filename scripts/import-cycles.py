@@ -18,8 +18,8 @@ Reports every strongly connected component of more than one file (a
 circle) and exits 1 if there is any.
 
 usage:
-  import-cycles.py [ROOT]          circles in ROOT/crates/*/src (ROOT: .)
-  import-cycles.py --long [ROOT]   files over 600 lines before their tests
+  import-cycles.py [--crate NAME] [ROOT]         circles in ROOT/crates/*/src (ROOT: .)
+  import-cycles.py --long [--crate NAME] [ROOT]  files over 600 lines before their tests
 """
 
 import re
@@ -261,9 +261,9 @@ def strongly_connected(graph):
     return comps
 
 
-def circles(root):
+def circles(root, only="*"):
     found = 0
-    for src_dir in sorted(root.glob("crates/*/src")):
+    for src_dir in sorted(root.glob(f"crates/{only}/src")):
         crate = Crate(src_dir)
         graph = crate.edges()
         for comp in strongly_connected(graph):
@@ -282,9 +282,9 @@ def circles(root):
     return 1 if found else 0
 
 
-def long_files(root):
+def long_files(root, only="*"):
     found = 0
-    for path in sorted(root.glob("crates/*/src/**/*.rs")):
+    for path in sorted(root.glob(f"crates/{only}/src/**/*.rs")):
         if path.name == "tests.rs":
             continue
         n = len(code_before_tests(path.read_text()))
@@ -301,8 +301,13 @@ def long_files(root):
 def main(argv):
     long = "--long" in argv
     rest = [a for a in argv if a != "--long"]
+    only = "*"
+    if "--crate" in rest:
+        k = rest.index("--crate")
+        only = rest[k + 1]
+        del rest[k : k + 2]
     root = Path(rest[0]) if rest else Path(".")
-    return long_files(root) if long else circles(root)
+    return long_files(root, only) if long else circles(root, only)
 
 
 if __name__ == "__main__":

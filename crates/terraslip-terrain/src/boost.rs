@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::classify::SplitMix64;
+use terraslip_core::rng::SplitMix64;
 
 /// Settings of the boosted trees.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

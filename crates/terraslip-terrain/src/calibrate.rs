@@ -6,14 +6,16 @@
 use terraslip_io::DriveLog;
 
 use crate::confidence::Calibration;
-use crate::crossval::run_folds;
 use crate::error::Result;
-use crate::model::{TerrainModel, TrainOptions};
+use crate::folds::run_folds;
+use crate::model::TerrainModel;
+use crate::train_options::TrainOptions;
 
 /// Held-out class probabilities and true classes of `logs` over `folds`
 /// grouped folds (whole runs out, dealt by terrain), each fold's runs
-/// classified by a model trained on the others with `opts`. A fold whose
-/// training runs lack a class is skipped.
+/// classified by a model fitted on the others with `opts` (not calibrated
+/// itself: `opts.calibration_folds` is not read). A fold whose training
+/// runs lack a class is skipped.
 pub fn held_out_windows(
     logs: &[DriveLog],
     classes: &[String],
@@ -32,7 +34,7 @@ pub fn held_out_windows(
             .filter(|i| !fold.contains(i))
             .map(|i| logs[i].clone())
             .collect();
-        let model = match TerrainModel::train_classes(&train, classes, opts) {
+        let model = match TerrainModel::fit(&train, classes, opts) {
             Ok(m) => m,
             Err(crate::TerrainError::Training(_)) => continue,
             Err(e) => return Err(e),

@@ -88,7 +88,7 @@ pub fn confidence_and_correct(probs: &[Vec<f64>], truth: &[usize]) -> (Vec<f64>,
     probs
         .iter()
         .zip(truth)
-        .map(|(p, &t)| (confidence(p), crate::model::argmax(p) == t))
+        .map(|(p, &t)| (confidence(p), crate::classify::argmax(p) == t))
         .unzip()
 }
 

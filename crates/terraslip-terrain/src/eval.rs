@@ -1,6 +1,6 @@
 //! Scoring: confusion matrices, scored logs and logs spliced from runs of
 //! different terrains (to test the Bayesian filter on terrain changes).
-//! Leave-runs-out cross-validation is in [`crate::crossval`].
+//! Leave-runs-out cross-validation is in [`crate::crossval`](mod@crate::crossval).
 
 use serde::Serialize;
 use terraslip_io::{DriveLog, TerrainLabel};

@@ -11,9 +11,15 @@
 //!   pruned decision tree; [`boost`]: gradient-boosted trees.
 //! - [`select`]: channels and the speed floor chosen from the training logs.
 //! - [`model`]: the serialisable [`TerrainModel`] and
-//!   [`TerrainModel::classify_log`], the call the estimator pipeline makes.
-//! - [`eval`]: confusion matrices, scored and spliced logs; [`crossval`]:
-//!   leave-runs-out cross-validation (parallel folds).
+//!   [`TerrainModel::classify_log`], the call the estimator pipeline makes;
+//!   `features` (what a model reads), `timeline` (class probabilities over
+//!   time and the belief filter's settings), `model_file` (the JSON file).
+//! - Training: `train_options` ([`TrainOptions`]), `fit` (the model fitted
+//!   to labelled logs), `train` ([`TerrainModel::train`]: fit, then
+//!   [`calibrate`] on inner folds).
+//! - [`eval`]: confusion matrices, scored and spliced logs;
+//!   [`crossval`](mod@crossval): leave-runs-out cross-validation (parallel
+//!   folds), the runs held out chosen by `folds`.
 //! - [`speed_norm`]: learnt per-feature speed slopes; [`envelope`]: the
 //!   speeds and turns each terrain was trained at.
 //! - [`calibrate`]: calibration on grouped inner folds; [`confidence`]: calibrated probabilities, the "unknown" verdict,
@@ -35,6 +41,9 @@ pub mod current;
 pub mod envelope;
 pub mod error;
 pub mod eval;
+mod features;
+mod fit;
+mod folds;
 pub mod model;
 mod model_file;
 pub mod motion;
@@ -42,6 +51,9 @@ mod samples;
 pub mod select;
 pub mod speed_norm;
 pub mod synth;
+mod timeline;
+mod train;
+mod train_options;
 pub mod tree;
 pub mod vibration;
 pub mod vision;

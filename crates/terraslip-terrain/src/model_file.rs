@@ -7,7 +7,8 @@ use terraslip_core::terrain_belief::MAX_TERRAINS;
 
 use crate::classify::Classifier;
 use crate::error::{Result, TerrainError};
-use crate::model::{Features, Source, TerrainModel, MODEL_FORMAT_VERSION};
+use crate::features::Features;
+use crate::model::{Source, TerrainModel, MODEL_FORMAT_VERSION};
 
 impl TerrainModel {
     /// Writes the model as JSON, atomically.

@@ -5,7 +5,7 @@ use terraslip_core::IcrParams;
 use terraslip_io::DriveLog;
 
 use crate::error::{Result, TerrainError};
-use crate::model::Features;
+use crate::features::Features;
 use crate::vibration;
 use crate::vision::{self, VisionConfig};
 

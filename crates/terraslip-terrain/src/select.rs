@@ -4,9 +4,8 @@
 
 use terraslip_io::DriveLog;
 
-use crate::classify::{Classifier, ClassifierKind, ClassifierParams, Standardizer};
+use crate::classify::{argmax, Classifier, ClassifierKind, ClassifierParams, Standardizer};
 use crate::error::{Result, TerrainError};
-use crate::model::argmax;
 use crate::speed_norm::SpeedNormalisation;
 use crate::vibration::{ChannelSet, VibrationConfig, SPEED_FLOOR_CANDIDATES};
 

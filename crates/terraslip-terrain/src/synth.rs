@@ -9,8 +9,8 @@ use terraslip_io::{
     DriveLog, ImageRef, ImuSample, LogError, MotorCurrent, TerrainLabel, WheelSample,
 };
 
-use crate::classify::SplitMix64;
 use crate::vibration::STANDARD_GRAVITY;
+use terraslip_core::rng::SplitMix64;
 
 /// Vibration signature of synthetic terrain `k`: (dominant frequency Hz,
 /// amplitude m/s², broadband noise m/s²).

@@ -14,6 +14,7 @@ mod config;
 mod course;
 mod decoder;
 mod evidence;
+mod frames;
 mod image;
 mod live;
 pub mod mount;
@@ -33,10 +34,10 @@ pub use config::{
     HeadingConfig, ImuConfig, PoseConfig, TfConfig, TimeConfig, TopicOnly, TopicsConfig,
     WheelsConfig,
 };
+pub use frames::yaw_of;
 pub use live::{LiveImport, LiveRow};
 pub use prior::{controller_model, CONTROLLER_FILE};
 pub use report::{ImportReport, StreamReport};
-pub use rows::yaw_of;
 pub use unphysical::SkippedMessage;
 
 use crate::msg::{self, short_type};

@@ -19,8 +19,8 @@ mod drives;
 mod estimators;
 mod family;
 mod heldout;
-mod outage_table;
 mod odometry_nees;
+mod outage_table;
 mod stats;
 
 /// The estimator's quality benchmarks.

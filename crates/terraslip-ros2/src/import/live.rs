@@ -17,9 +17,9 @@ use super::config::TopicsConfig;
 use super::frames::{heading_yaw, Quat};
 use super::mount::{self, Sensors};
 use super::report::ImportReport;
+use super::role::Role;
 use super::rows::{Msg, Rows};
 use super::topics::Decide;
-use super::topics::Role;
 use super::{choose_streams, receive_only, selections, stamp_ns, unphysical, wheel_scale, Sel};
 use crate::{Bag, Ros2Error, Topic};
 

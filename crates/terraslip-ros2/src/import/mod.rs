@@ -20,6 +20,7 @@ mod live;
 pub mod mount;
 mod prior;
 mod report;
+mod role;
 mod rows;
 pub mod scale;
 mod topics;
@@ -44,8 +45,9 @@ use crate::msg::{self, short_type};
 use crate::{Bag, Ros2Error};
 use decoder::{fields_for, Decoder};
 use report::stream_report;
+use role::Role;
 use rows::{Msg, Rows};
-use topics::{choose, list, wheel_twists, Decide, Role};
+use topics::{choose, list, wheel_twists, Decide};
 
 struct Sel {
     topic: usize,

@@ -8,7 +8,7 @@ use terraslip_io::{DriveLog, ImageRef, ImuSample, PoseObs, WheelSample};
 use super::config::{HeadingConfig, WheelsConfig};
 use super::decoder::Decoder;
 use super::frames::{heading_yaw, normalized, wrap, yaw_of, Quat, StaticTf};
-use super::topics::Role;
+use super::role::Role;
 use crate::msg::Value;
 use crate::{Bag, Ros2Error};
 

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use crate::read::read_csv_table;
+use crate::csv_table::read_csv_table;
 use crate::LogError;
 
 /// One row of `estimate.csv`: pose (ENU m, rad), the ICRs in effect (m)

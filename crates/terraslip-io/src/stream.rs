@@ -6,7 +6,8 @@
 
 use std::path::Path;
 
-use crate::read::{read_csv_table, wrap_angle, CsvTable};
+use crate::angle::wrap_angle;
+use crate::csv_table::{read_csv_table, CsvTable};
 use crate::types::*;
 
 /// Drops rows that repeat the previous timestamp (keeping the first) and

@@ -19,6 +19,9 @@ use crate::symmetric::{self, SymmetricMissing};
 use crate::CalibError;
 
 mod config;
+mod criterion;
+mod json;
+mod method_fit;
 mod offset_profile;
 mod position_only;
 mod rate;
@@ -30,9 +33,10 @@ use rate::choose_rate;
 use reduction::{choose_reduction, reduced_best};
 
 pub use config::{CalibConfig, GaSettings, Method, RateModel, TimeOffset};
+pub use method_fit::MethodFit;
 pub use rate::RateChoice;
 pub use reduction::ReductionChoice;
-pub use result::{Calibration, DroppedSegment, MethodFit, SetCalibration, TurnFigures};
+pub use result::{Calibration, DroppedSegment, SetCalibration, TurnFigures};
 
 /// Most chained segments the genetic algorithm scores each individual on;
 /// a longer drive gives it this many, evenly spread over the drive

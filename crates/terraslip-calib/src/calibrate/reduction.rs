@@ -3,8 +3,8 @@
 
 use serde_json::{json, Value};
 
-use super::rate::{bic, evidence};
-use super::MethodFit;
+use super::criterion::{bic, evidence};
+use super::method_fit::MethodFit;
 use crate::lm::{self, LmConfig, ReducedFit};
 use crate::model;
 use crate::reduction::Reduction;

@@ -2,27 +2,13 @@
 //! writes.
 
 use serde_json::{json, Value};
-use terraslip_core::IcrParams;
 use terraslip_io::{ParamEntry, ParamsFile};
 
-use super::{Method, RateChoice, ReductionChoice};
+use super::json::{finite_or_null, params_json};
+use super::method_fit::MethodFit;
+use super::{RateChoice, ReductionChoice};
 use crate::model::PARAM_NAMES;
 use crate::segment::SegmentStats;
-
-/// One method's answer for one set.
-#[derive(Debug, Clone, PartialEq)]
-pub struct MethodFit {
-    pub method: Method,
-    pub params: IcrParams,
-    /// Eq. 13 over the inlier segments.
-    pub cost: f64,
-    /// Cauchy-robust eq. 13 over the inlier segments (what the methods are
-    /// compared by).
-    pub robust_cost: f64,
-    /// 1-sigma uncertainties at `params`: the sandwich estimate of
-    /// [`crate::sandwich`] over the LM fit's segment weights.
-    pub std: [f64; 5],
-}
 
 /// A segment dropped as an outlier.
 #[derive(Debug, Clone, PartialEq)]
@@ -99,18 +85,6 @@ pub struct Calibration {
     pub sets: Vec<SetCalibration>,
     /// Warnings about the input (from the log reader and the segmenter).
     pub warnings: Vec<String>,
-}
-
-pub(super) fn finite_or_null(x: f64) -> Value {
-    if x.is_finite() {
-        json!(x)
-    } else {
-        Value::Null
-    }
-}
-
-pub(super) fn params_json(p: &IcrParams) -> Value {
-    json!({"y_l": p.y_l, "y_r": p.y_r, "x_c": p.x_c, "alpha_l": p.alpha_l, "alpha_r": p.alpha_r})
 }
 
 impl SetCalibration {

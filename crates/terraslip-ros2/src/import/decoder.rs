@@ -2,7 +2,7 @@
 
 use std::collections::HashMap;
 
-use super::topics::Role;
+use super::role::Role;
 use crate::msg::{Registry, Selection, Value};
 use crate::{Bag, Ros2Error};
 

@@ -14,11 +14,12 @@ use std::path::PathBuf;
 use terraslip_io::{ImuSample, PoseObs, WheelSample};
 
 use super::config::TopicsConfig;
-use super::mount::{self, Quat, Sensors};
+use super::frames::{heading_yaw, Quat};
+use super::mount::{self, Sensors};
 use super::report::ImportReport;
-use super::rows::{heading_yaw, Msg, Rows};
+use super::role::Role;
+use super::rows::{Msg, Rows};
 use super::topics::Decide;
-use super::topics::Role;
 use super::{choose_streams, receive_only, selections, stamp_ns, unphysical, wheel_scale, Sel};
 use crate::{Bag, Ros2Error, Topic};
 

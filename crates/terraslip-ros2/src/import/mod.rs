@@ -14,11 +14,13 @@ mod config;
 mod course;
 mod decoder;
 mod evidence;
+mod frames;
 mod image;
 mod live;
 pub mod mount;
 mod prior;
 mod report;
+mod role;
 mod rows;
 pub mod scale;
 mod topics;
@@ -33,18 +35,19 @@ pub use config::{
     HeadingConfig, ImuConfig, PoseConfig, TfConfig, TimeConfig, TopicOnly, TopicsConfig,
     WheelsConfig,
 };
+pub use frames::yaw_of;
 pub use live::{LiveImport, LiveRow};
 pub use prior::{controller_model, CONTROLLER_FILE};
 pub use report::{ImportReport, StreamReport};
-pub use rows::yaw_of;
 pub use unphysical::SkippedMessage;
 
 use crate::msg::{self, short_type};
 use crate::{Bag, Ros2Error};
 use decoder::{fields_for, Decoder};
 use report::stream_report;
+use role::Role;
 use rows::{Msg, Rows};
-use topics::{choose, list, wheel_twists, Decide, Role};
+use topics::{choose, list, wheel_twists, Decide};
 
 struct Sel {
     topic: usize,

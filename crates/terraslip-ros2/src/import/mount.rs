@@ -10,120 +10,12 @@ use std::collections::HashMap;
 use terraslip_io::{DriveLog, ImuSample, PoseObs, WheelSample};
 
 use super::config::TopicsConfig;
+use super::frames::heading_yaw;
+pub use super::frames::{
+    conj, from_rpy, mul, normalized, rotate, rpy_of, Quat, StaticTf, IDENTITY,
+};
 use super::report::ImportReport;
-use super::rows::heading_yaw;
 use crate::Bag;
-
-/// A unit quaternion `[x, y, z, w]`.
-pub type Quat = [f64; 4];
-
-pub const IDENTITY: Quat = [0.0, 0.0, 0.0, 1.0];
-
-/// The rotation of roll, pitch, yaw (rad) about fixed x, y, z in that order,
-/// `Rz(yaw) Ry(pitch) Rx(roll)`: the convention of URDF `<origin rpy>` and
-/// `static_transform_publisher`.
-pub fn from_rpy(roll: f64, pitch: f64, yaw: f64) -> Quat {
-    let (sr, cr) = (roll / 2.0).sin_cos();
-    let (sp, cp) = (pitch / 2.0).sin_cos();
-    let (sy, cy) = (yaw / 2.0).sin_cos();
-    [
-        sr * cp * cy - cr * sp * sy,
-        cr * sp * cy + sr * cp * sy,
-        cr * cp * sy - sr * sp * cy,
-        cr * cp * cy + sr * sp * sy,
-    ]
-}
-
-/// Roll, pitch, yaw (rad) of a rotation, the inverse of [`from_rpy`].
-pub fn rpy_of(q: Quat) -> [f64; 3] {
-    let [x, y, z, w] = q;
-    let roll = (2.0 * (w * x + y * z)).atan2(1.0 - 2.0 * (x * x + y * y));
-    let pitch = (2.0 * (w * y - z * x)).clamp(-1.0, 1.0).asin();
-    let yaw = (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z));
-    [roll, pitch, yaw]
-}
-
-/// `a ⊗ b`: first `b`, then `a`.
-pub fn mul(a: Quat, b: Quat) -> Quat {
-    let [ax, ay, az, aw] = a;
-    let [bx, by, bz, bw] = b;
-    [
-        aw * bx + ax * bw + ay * bz - az * by,
-        aw * by - ax * bz + ay * bw + az * bx,
-        aw * bz + ax * by - ay * bx + az * bw,
-        aw * bw - ax * bx - ay * by - az * bz,
-    ]
-}
-
-pub fn conj(q: Quat) -> Quat {
-    [-q[0], -q[1], -q[2], q[3]]
-}
-
-/// `q`, scaled to unit length (`None` when it has none).
-pub fn normalized(q: Quat) -> Option<Quat> {
-    let n = q.iter().map(|a| a * a).sum::<f64>().sqrt();
-    (n.is_finite() && n > 1e-9).then(|| q.map(|a| a / n))
-}
-
-/// `v` rotated by unit quaternion `q`.
-pub fn rotate(q: Quat, v: [f64; 3]) -> [f64; 3] {
-    let u = [q[0], q[1], q[2]];
-    let cross = |a: [f64; 3], b: [f64; 3]| {
-        [
-            a[1] * b[2] - a[2] * b[1],
-            a[2] * b[0] - a[0] * b[2],
-            a[0] * b[1] - a[1] * b[0],
-        ]
-    };
-    let t = cross(u, v).map(|c| 2.0 * c);
-    let ut = cross(u, t);
-    [
-        v[0] + q[3] * t[0] + ut[0],
-        v[1] + q[3] * t[1] + ut[1],
-        v[2] + q[3] * t[2] + ut[2],
-    ]
-}
-
-/// A frame name as tf2 compares them (no leading `/`).
-fn frame(name: &str) -> &str {
-    name.trim_start_matches('/')
-}
-
-/// The static transforms of a bag: each child frame's parent and the
-/// rotation parent ← child (translations do not matter for rotating
-/// accelerations, rates and orientations).
-#[derive(Debug, Clone, Default)]
-pub struct StaticTf {
-    parents: HashMap<String, (String, Quat)>,
-}
-
-impl StaticTf {
-    /// Adds `parent` ← `child`; a later transform of the same child wins, as in tf2.
-    pub fn add(&mut self, parent: &str, child: &str, q: Quat) {
-        self.parents
-            .insert(frame(child).to_string(), (frame(parent).to_string(), q));
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.parents.is_empty()
-    }
-
-    /// The rotation `base` ← `sensor`, following parents up from `sensor`;
-    /// `None` when the chain does not reach `base`.
-    pub fn rotation(&self, base: &str, sensor: &str) -> Option<Quat> {
-        let (base, mut cur) = (frame(base), frame(sensor));
-        let mut q = IDENTITY;
-        for _ in 0..64 {
-            if cur == base {
-                return Some(q);
-            }
-            let (parent, r) = self.parents.get(cur)?;
-            q = mul(*r, q);
-            cur = parent;
-        }
-        None
-    }
-}
 
 /// Rotates IMU samples into the base frame: accelerations when all three
 /// axes are present, rates likewise.

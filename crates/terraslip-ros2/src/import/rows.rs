@@ -7,8 +7,8 @@ use terraslip_io::{DriveLog, ImageRef, ImuSample, PoseObs, WheelSample};
 
 use super::config::{HeadingConfig, WheelsConfig};
 use super::decoder::Decoder;
-use super::mount::{Quat, StaticTf};
-use super::topics::Role;
+use super::frames::{heading_yaw, normalized, wrap, yaw_of, Quat, StaticTf};
+use super::role::Role;
 use crate::msg::Value;
 use crate::{Bag, Ros2Error};
 
@@ -121,7 +121,7 @@ impl Rows<'_> {
                 return Err(m.err(format!("transform {k}: no frame names")));
             };
             let r = [0, 1, 2, 3].map(|i| item.f64_at(&q[i]).unwrap_or(f64::NAN));
-            let Some(r) = super::mount::normalized(r) else {
+            let Some(r) = normalized(r) else {
                 return Err(m.err(format!(
                     "transform {k} ({parent} -> {child}): rotation {r:?} is not a quaternion"
                 )));
@@ -427,39 +427,3 @@ impl JointTrack {
 
 /// π with room for rounding: the bound of a wrapping joint's positions.
 const PI_WRAP: f64 = std::f64::consts::PI + 1e-6;
-
-/// Yaw (rad, counter-clockwise about z) of a quaternion.
-pub fn yaw_of(x: f64, y: f64, z: f64, w: f64) -> f64 {
-    (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z))
-}
-
-/// The logged heading of an orientation: its yaw with the configured offset
-/// and declination, wrapped.
-pub(super) fn heading_yaw(h: &HeadingConfig, q: Quat) -> f64 {
-    wrap(yaw_of(q[0], q[1], q[2], q[3]) + (h.yaw_offset_deg - h.declination_deg).to_radians())
-}
-
-/// An angle wrapped into (-π, π].
-pub(super) fn wrap(a: f64) -> f64 {
-    let mut a = a % std::f64::consts::TAU;
-    if a > std::f64::consts::PI {
-        a -= std::f64::consts::TAU;
-    } else if a <= -std::f64::consts::PI {
-        a += std::f64::consts::TAU;
-    }
-    a
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn quaternion_yaw_and_wrap() {
-        let a: f64 = 2.5;
-        let (s, c) = (a / 2.0).sin_cos();
-        assert!((yaw_of(0.0, 0.0, s, c) - a).abs() < 1e-12);
-        assert!((wrap(3.0 * std::f64::consts::PI) - std::f64::consts::PI).abs() < 1e-12);
-        assert!((wrap(-0.5) + 0.5).abs() < 1e-15);
-    }
-}

@@ -2,52 +2,9 @@
 //! choice is unique.
 
 use super::evidence::Evidence;
+use super::role::Role;
 use crate::msg::short_type;
 use crate::{Bag, Ros2Error};
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) enum Role {
-    Wheels,
-    Pose,
-    Heading,
-    Imu,
-    Images,
-    /// Static transforms: sensor mountings.
-    Tf,
-}
-
-impl Role {
-    pub(super) fn key(self) -> &'static str {
-        match self {
-            Role::Wheels => "wheels",
-            Role::Pose => "pose",
-            Role::Heading => "heading",
-            Role::Imu => "imu",
-            Role::Images => "images",
-            Role::Tf => "tf",
-        }
-    }
-    /// Accepted types, in order of preference when choosing by type.
-    pub(super) fn types(self) -> &'static [&'static [&'static str]] {
-        match self {
-            Role::Wheels => &[
-                &["sensor_msgs/JointState"],
-                &["nav_msgs/Odometry", "geometry_msgs/TwistStamped"],
-            ],
-            Role::Pose => &[
-                &["sensor_msgs/NavSatFix"],
-                &[
-                    "geometry_msgs/PoseWithCovarianceStamped",
-                    "geometry_msgs/PoseStamped",
-                ],
-                &["nav_msgs/Odometry"],
-            ],
-            Role::Heading | Role::Imu => &[&["sensor_msgs/Imu"]],
-            Role::Images => &[&["sensor_msgs/CompressedImage"], &["sensor_msgs/Image"]],
-            Role::Tf => &[&["tf2_msgs/TFMessage"]],
-        }
-    }
-}
 
 /// The decisions made while choosing, and the streams the evidence could
 /// not settle (each with the lines that settle it).

@@ -173,9 +173,15 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
             *n = ros.remap(n);
         }
     }
+    // As `estimate` starts: the track width, else the separation the
+    // tread speeds are made with (the controller's own scale).
     let track_width = args
         .track_width
         .or(topics_cfg.meta.track_width)
+        .or(topics_cfg
+            .wheels
+            .separation
+            .filter(|s| s.is_finite() && *s > 0.0))
         .unwrap_or(cfg.init.default_track_width);
     let recalled_delay = start
         .as_ref()

@@ -5,7 +5,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::config::MAX_WINDOW;
+use super::MAX_WINDOW;
 
 /// The last innovations, for the papers' innovation-adaptive gain.
 #[derive(Debug, Clone)]

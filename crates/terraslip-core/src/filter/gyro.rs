@@ -32,10 +32,12 @@
 
 use nalgebra::SVector;
 
+use super::ekf::finite_mat;
+use super::gyro_window::GyroWindow;
 use super::history::CAPACITY;
-use super::{finite_mat, Filter, FilterError};
+use super::{Filter, FilterError};
 use crate::model::{
-    centripetal_of, slip_of, State, GYRO_BIAS, GYRO_SCALE, K_SPREAD_SPEED, K_X_SPEED, N, SLIP, YAW,
+    centripetal_of, slip_of, GYRO_BIAS, GYRO_SCALE, K_SPREAD_SPEED, K_X_SPEED, N, SLIP, YAW,
 };
 
 /// Length of a gyro window, s.
@@ -70,71 +72,6 @@ pub struct GyroNoise {
     /// Of those, windows whose turn the model missed by more than the gate
     /// allows, fused with the model's heading error widened to fit.
     pub widened: u64,
-}
-
-/// The gyro window being integrated.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) struct GyroWindow {
-    open: bool,
-    /// Integral of the gyro's rate, rad.
-    angle: f64,
-    /// Gyro samples in it.
-    samples: f64,
-    /// Length, s, and prediction steps.
-    span: f64,
-    steps: usize,
-    /// Yaw variance the model's noise added over the window, rad^2.
-    model_var: f64,
-    /// Covariance of the state with the model's heading error `E`.
-    cross: State,
-}
-
-impl GyroWindow {
-    pub(super) fn new() -> Self {
-        Self {
-            open: false,
-            angle: 0.0,
-            samples: 0.0,
-            span: 0.0,
-            steps: 0,
-            model_var: 0.0,
-            cross: State::zeros(),
-        }
-    }
-
-    pub(super) fn is_open(&self) -> bool {
-        self.open
-    }
-
-    /// `cov(x, E)`, for a prediction step to propagate.
-    pub(super) fn cross_mut(&mut self) -> &mut State {
-        &mut self.cross
-    }
-
-    /// A prediction step's model heading error of variance `q_model`
-    /// (rad^2), of which the yaw took `q_yaw`.
-    pub(super) fn add_model_noise(&mut self, q_model: f64, q_yaw: f64) {
-        self.cross[YAW] += q_yaw;
-        self.model_var += q_model;
-    }
-
-    /// A fix's update `x += K nu` changes the cross-covariance to
-    /// `C - K (H C)`.
-    pub(super) fn after_update<const M: usize>(
-        &mut self,
-        K: &nalgebra::SMatrix<f64, N, M>,
-        H: &nalgebra::SMatrix<f64, M, N>,
-    ) {
-        if self.open {
-            let hc = H * self.cross;
-            self.cross -= K * hc;
-        }
-    }
-
-    /// The window is abandoned (a gap in the gyro, a re-anchored pose).
-    pub(super) fn close(&mut self) {
-        self.open = false;
-    }
 }
 
 impl Filter {

@@ -2,7 +2,8 @@
 
 use nalgebra::SMatrix;
 
-use super::{finite_mat, Filter, FilterError, SlipHold};
+use super::ekf::finite_mat;
+use super::{Filter, FilterError, SlipHold};
 use crate::model::{
     self, BIAS_E, BIAS_N, CLOCK, EAST, GYRO_BIAS, GYRO_SCALE, LAW, N, NORTH, SLIP, YAW,
 };

@@ -3,8 +3,11 @@
 
 use super::*;
 use crate::angle;
+use crate::kinematics::{IcrParams, Twist};
+use crate::model::{self, CLOCK, EAST, LAW, N, NORTH};
 use crate::rng::SplitMix64;
 use crate::slip::Chart;
+use crate::slip::TreadInput;
 
 mod centripetal;
 mod speed_law;

@@ -26,7 +26,7 @@
 //!
 //! A position-only reference (GNSS fixes, no heading on any row of any
 //! log) is fitted instead on windows of fixes, each window's start heading
-//! and position profiled out ([`track`]).
+//! and position profiled out ([`track`], fitted by [`track_fit`]).
 //!
 //! [`validate()`] scores a parameter file on other drives against the no-slip
 //! model, per segment (Mandow Table III), with the turn-rate model where the
@@ -44,12 +44,14 @@ pub mod offset;
 pub mod outage;
 pub mod position_prediction;
 pub mod prediction;
+mod prediction_stream;
 pub mod reduction;
 pub mod sandwich;
 pub mod segment;
 pub mod symmetric;
 pub mod synthetic;
 pub mod track;
+pub mod track_fit;
 pub mod validate;
 
 use std::path::PathBuf;

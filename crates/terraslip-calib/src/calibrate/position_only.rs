@@ -7,15 +7,18 @@
 use terraslip_core::IcrParams;
 use terraslip_io::DriveLog;
 
+use super::identify::{check_identified, hold_tread_icrs, unidentified_by_std};
+use super::offset_warnings::offset_at_edge;
+use super::per_terrain::terrain_sets;
 use super::result::TurnFigures;
+use super::robot::RobotFacts;
 use super::{
-    check_identified, hold_tread_icrs, offset_at_edge, terrain_sets, unidentified_by_std,
-    Calibration, DroppedSegment, Method, MethodFit, Progress, RateModel, RobotFacts,
-    SetCalibration, TimeOffset,
+    Calibration, DroppedSegment, Method, MethodFit, Progress, RateModel, SetCalibration, TimeOffset,
 };
 use crate::course::{self, CourseConfig, Odometry};
 use crate::segment::SegmentStats;
 use crate::track::{self, TrackConfig, Tracks};
+use crate::track_fit;
 use crate::{CalibConfig, CalibError};
 
 /// Fewest windows (counted as non-overlapping ones) a set needs.
@@ -156,7 +159,7 @@ fn search_offset(
         let o = i as f64 * step;
         let t = Tracks::build(&[log], &[o], tcfg);
         let all = vec![true; t.windows.len()];
-        let Some(f) = track::fit(&t, start, &track::DIFF_DRIVE, &all) else {
+        let Some(f) = track_fit::fit(&t, start, &track_fit::DIFF_DRIVE, &all) else {
             continue;
         };
         let m: usize = t.windows.iter().map(|w| 2 * w.fixes.len()).sum();
@@ -214,7 +217,7 @@ fn calibrate_set(
         tcfg.window
     )];
     let mut unidentified: Vec<&'static str> = Vec::new();
-    let mut free = track::ALL;
+    let mut free = track_fit::ALL;
     if turning < MIN_TURNING_WINDOWS {
         let reason = format!(
             "only {turning} of {} windows turn more than {TURNING_RAD} rad (need \
@@ -227,7 +230,7 @@ fn calibrate_set(
             &mut unidentified,
             &mut notes,
         )?;
-        free = track::SPEED_ONLY;
+        free = track_fit::SPEED_ONLY;
     }
     if cfg.rate_model != RateModel::Off || cfg.centripetal != RateModel::Off {
         notes.push(
@@ -236,11 +239,12 @@ fn calibrate_set(
                 .to_string(),
         );
     }
-    let fit =
-        |free: &track::Free| track::fit(t, start, free, &vec![true; n]).ok_or_else(|| too_few(0));
+    let fit = |free: &track_fit::Free| {
+        track_fit::fit(t, start, free, &vec![true; n]).ok_or_else(|| too_few(0))
+    };
     let mut f = fit(&free)?;
-    let weak = unidentified_by_std(&f.std, f.params.spread(), &track::moved(&free));
-    if free == track::ALL && weak.iter().any(|w| ["y_l", "y_r", "x_c"].contains(w)) {
+    let weak = unidentified_by_std(&f.std, f.params.spread(), &track_fit::moved(&free));
+    if free == track_fit::ALL && weak.iter().any(|w| ["y_l", "y_r", "x_c"].contains(w)) {
         // The fixes tell the spread but not where the ICRs sit: the
         // differential-drive model, which is what a controller holds.
         notes.push(format!(
@@ -249,7 +253,7 @@ fn calibrate_set(
              spread and the speed factors are fitted",
             f.std[0], f.std[1], f.std[2]
         ));
-        free = track::DIFF_DRIVE;
+        free = track_fit::DIFF_DRIVE;
         f = fit(&free)?;
     }
     notes.push(format!(
@@ -262,7 +266,7 @@ fn calibrate_set(
     check_identified(
         &f.std,
         f.params.spread(),
-        &track::moved(&free),
+        &track_fit::moved(&free),
         (label, cfg.allow_partial),
         &mut unidentified,
         &mut notes,
@@ -341,7 +345,7 @@ fn calibrate_set(
 /// to the combination (the speed factors and the ICRs' centre kept).
 /// `None`, with a note, when too few straight stretches pair up.
 fn course_check(
-    f: &mut track::TrackFit,
+    f: &mut track_fit::TrackFit,
     s: f64,
     logs: &[&DriveLog],
     offsets: &[f64],

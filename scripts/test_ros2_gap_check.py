@@ -1,15 +1,10 @@
 """Checks of scripts/ros2-gap-check.py (run: `python3 scripts/test_ros2_gap_check.py`
 or pytest)."""
-import importlib.util
 import math
-import os
 
-from logcsv import interp
+from logcsv import interp, script
 
-_spec = importlib.util.spec_from_file_location(
-    "gap_check", os.path.join(os.path.dirname(os.path.abspath(__file__)), "ros2-gap-check.py"))
-gap_check = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(gap_check)
+gap_check = script("ros2-gap-check.py")
 
 
 def test_gyro_moved_onto_the_wheels_clock():

@@ -1,13 +1,11 @@
 """Checks of scripts/ros2-gyro-state.py (run: `python3 scripts/test_ros2_gyro_state.py`
 or pytest)."""
-import importlib.util
 import os
 import tempfile
 
-_spec = importlib.util.spec_from_file_location(
-    "gyro_state", os.path.join(os.path.dirname(os.path.abspath(__file__)), "ros2-gyro-state.py"))
-gyro_state = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(gyro_state)
+from logcsv import script
+
+gyro_state = script("ros2-gyro-state.py")
 
 
 def test_a_log_cut_keeps_the_rows_up_to_the_time_and_every_other_file():

@@ -12,8 +12,12 @@ use terraslip_io::{DriveLog, ImageRef, ImuSample, PoseObs, WheelSample};
 
 use crate::motion::Motion;
 use crate::sensors::{gauss, GaussMarkov, Vibration};
+use crate::streams::stream;
 use crate::timeline::Timeline;
-use crate::{stream, FrameSpec, Scenario, TruthState, GRAVITY};
+use crate::{FrameSpec, Scenario, TruthState};
+
+/// Standard gravity, m/s^2.
+pub const GRAVITY: f64 = 9.80665;
 
 /// A sensor sampled at `k / rate`.
 struct Clock {

@@ -1,0 +1,67 @@
+//! What stands between the path follower and the drive controller.
+
+use terraslip::pipeline::EstimateRow;
+use terraslip_core::compensate::{CompensateConfig, Compensator, IcrModel};
+use terraslip_core::estimator::Estimator;
+use terraslip_core::kinematics::Twist;
+
+/// The estimate is confident when the spread's std is below this fraction
+/// of the spread ...
+pub const CONFIDENT_SPREAD: f64 = 0.05;
+/// ... each speed factor's std below this ...
+pub const CONFIDENT_ALPHA: f64 = 0.03;
+/// ... and the slip-change detector has not fired on this row.
+///
+/// How the row says it: see [`confident`].
+pub fn confident(row: &EstimateRow) -> bool {
+    let spread = row.y_l - row.y_r;
+    spread > 0.0
+        && row.std_spread < CONFIDENT_SPREAD * spread
+        && row.std[6] < CONFIDENT_ALPHA
+        && row.std[7] < CONFIDENT_ALPHA
+        && !row.change
+}
+
+/// How the follower's twist reaches the drive controller.
+#[derive(Debug, Clone)]
+pub enum Steering {
+    /// Unchanged.
+    None,
+    /// Through a drive controller whose `wheel_separation_multiplier` is
+    /// this: its tread speeds are those of the yaw rate times it.
+    Multiplier(f64),
+    /// Through the compensator, under the estimator's model now.
+    Live(Box<Compensator>),
+}
+
+impl Steering {
+    /// Live compensation for a drive controller of wheel separation
+    /// `separation` m, with the compensator's default rate, gate and
+    /// range.
+    pub fn live(separation: f64) -> anyhow::Result<Self> {
+        let c = Compensator::new(CompensateConfig::new(separation)).map_err(anyhow::Error::msg)?;
+        Ok(Steering::Live(Box::new(c)))
+    }
+
+    /// The twist the drive controller receives for the follower's
+    /// `desired` one at `t` s, with the estimator and its newest `row`.
+    pub fn command(
+        &mut self,
+        t: f64,
+        desired: Twist,
+        row: &EstimateRow,
+        estimator: &Estimator,
+    ) -> Twist {
+        match self {
+            Steering::None => desired,
+            Steering::Multiplier(m) => Twist {
+                omega: desired.omega * *m,
+                ..desired
+            },
+            Steering::Live(c) => {
+                let model = IcrModel::of_filter(estimator.filter());
+                c.command(t, desired, Some((model, confident(row)))).twist
+            }
+        }
+    }
+}

@@ -24,6 +24,9 @@ impl RowSink for Newest {
     }
 }
 
+/// Length of the course's GNSS outage, s.
+pub const OUTAGE_S: f64 = 30.0;
+
 /// A GNSS outage: no pose fix reaches the estimator for `duration` s from
 /// when the robot believes it has driven `from_s` m of the course.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -89,10 +92,10 @@ impl<'a> Follower<'a> {
     fn feed(&mut self, s: &Sensed<'_>) -> Result<(), PipelineError> {
         let mut samples: Vec<(f64, u8, Sample)> = Vec::new();
         for p in s.pose.iter().filter(|p| !self.lost(p.t)) {
-            samples.push((p.t, 0, Sample::Pose(p.clone())));
+            samples.push((p.t, 0, Sample::Pose(*p)));
         }
         for i in s.imu {
-            samples.push((i.t, 1, Sample::Imu(i.clone())));
+            samples.push((i.t, 1, Sample::Imu(*i)));
         }
         for w in s.wheels {
             samples.push((w.t, 2, Sample::Wheels(*w)));

@@ -16,13 +16,14 @@ mod world;
 
 use anyhow::Context;
 use terraslip::config::EstimatorConfig;
+use terraslip_core::compensate::CompensateConfig;
 use terraslip_sim::closed_loop::simulate_closed_loop;
 
 pub use course::Course;
-use driver::{Follower, Outage};
+use driver::{Follower, Outage, OUTAGE_S};
 use pursuit::Pursuit;
 pub use score::RunScore;
-use steering::Steering;
+pub use steering::{Steering, Variant};
 
 /// Follow a course over grounds of different slip, with and without slip
 /// compensation.
@@ -45,6 +46,18 @@ pub struct Args {
     /// The estimator the follower steers on (a preset or `config:FILE.toml`).
     #[arg(long, default_value = "terraslip")]
     estimator: String,
+    /// Live compensation: fastest the correction may change, per s (the
+    /// compensator's `max_correction_rate`).
+    #[arg(long, default_value_t = CompensateConfig::new(1.0).max_correction_rate)]
+    correction_rate: f64,
+    /// Live compensation: seconds the estimate must have been confident
+    /// before it is applied (the compensator's `engage_after`).
+    #[arg(long, default_value_t = CompensateConfig::new(1.0).engage_after)]
+    engage_after: f64,
+    /// Print one line per seed and variant (to stderr): cross-track RMS
+    /// per ground, cm, and the recovery after each change, s.
+    #[arg(long)]
+    verbose: bool,
     /// Print the table as JSON.
     #[arg(long)]
     json: bool,
@@ -52,31 +65,6 @@ pub struct Args {
 
 /// Control period of the follower, s (Nav2's controller at 20 Hz).
 pub const PERIOD: f64 = 0.05;
-/// Length of the GNSS outage, s.
-pub const OUTAGE_S: f64 = 30.0;
-
-/// How the follower's twist reaches the drive.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Variant {
-    /// As it is.
-    None,
-    /// Through a static multiplier from a turn test on the first ground.
-    Static,
-    /// Through live compensation under the estimator's model.
-    Live,
-}
-
-impl Variant {
-    pub const ALL: [Variant; 3] = [Variant::None, Variant::Static, Variant::Live];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Variant::None => "none",
-            Variant::Static => "static",
-            Variant::Live => "live",
-        }
-    }
-}
 
 /// The course of `grounds`, `laps` laps each.
 pub fn course(grounds: &[String], laps: usize) -> Course {
@@ -94,14 +82,24 @@ pub fn outage(course: &Course, laps: usize) -> Outage {
     }
 }
 
+/// The settings of a run besides the seed.
+pub struct Setup<'a> {
+    pub grounds: &'a [String],
+    /// Laps of the turn pattern per ground.
+    pub laps: usize,
+    pub estimator: &'a EstimatorConfig,
+    /// The compensator's correction rate (per s) and engage delay (s).
+    pub correction_rate: f64,
+    pub engage_after: f64,
+}
+
 /// One seed: the turn-test multiplier and the score of each variant.
 pub fn run_seed(
-    grounds: &[String],
-    laps: usize,
-    cfg: &EstimatorConfig,
+    setup: &Setup<'_>,
     variants: &[Variant],
     seed: u64,
 ) -> anyhow::Result<(f64, Vec<RunScore>)> {
+    let (grounds, laps, cfg) = (setup.grounds, setup.laps, setup.estimator);
     let sc = world::scenario(grounds, seed)?;
     let course = course(grounds, laps);
     let pursuit = Pursuit::default();
@@ -114,7 +112,12 @@ pub fn run_seed(
         let steering = match v {
             Variant::None => Steering::None,
             Variant::Static => Steering::Multiplier(multiplier),
-            Variant::Live => Steering::live(track_width)?,
+            Variant::Live => {
+                let mut c = CompensateConfig::new(track_width);
+                c.max_correction_rate = setup.correction_rate;
+                c.engage_after = setup.engage_after;
+                Steering::live(c)?
+            }
         };
         let mut f = Follower::new(
             &course,
@@ -145,9 +148,32 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .into_iter()
         .next()
         .context("one estimator")?;
+    let setup = Setup {
+        grounds: &a.grounds,
+        laps: a.laps,
+        estimator: &cfg,
+        correction_rate: a.correction_rate,
+        engage_after: a.engage_after,
+    };
     let mut runs = Vec::new();
     for seed in a.first_seed..a.first_seed + a.seeds {
-        let (m, scores) = run_seed(&a.grounds, a.laps, &cfg, &Variant::ALL, seed)?;
+        let (m, scores) = run_seed(&setup, &Variant::ALL, seed)?;
+        if a.verbose {
+            for (v, sc) in Variant::ALL.iter().zip(&scores) {
+                let g: Vec<String> = sc
+                    .grounds
+                    .iter()
+                    .map(|g| {
+                        format!(
+                            "{:5.1} ({:4.1} s)",
+                            100.0 * g.cross_track_rms_m,
+                            g.recovery_s
+                        )
+                    })
+                    .collect();
+                eprintln!("seed {seed:3} x{m:.3} {:6} {}", v.name(), g.join(" "));
+            }
+        }
         runs.push(table::SeedRuns {
             seed,
             multiplier: m,
@@ -162,3 +188,6 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests;

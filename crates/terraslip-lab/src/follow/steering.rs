@@ -35,11 +35,9 @@ pub enum Steering {
 }
 
 impl Steering {
-    /// Live compensation for a drive controller of wheel separation
-    /// `separation` m, with the compensator's default rate, gate and
-    /// range.
-    pub fn live(separation: f64) -> anyhow::Result<Self> {
-        let c = Compensator::new(CompensateConfig::new(separation)).map_err(anyhow::Error::msg)?;
+    /// Live compensation with the compensator's settings `cfg`.
+    pub fn live(cfg: CompensateConfig) -> anyhow::Result<Self> {
+        let c = Compensator::new(cfg).map_err(|e| anyhow::anyhow!("compensator: {e}"))?;
         Ok(Steering::Live(Box::new(c)))
     }
 
@@ -62,6 +60,29 @@ impl Steering {
                 let model = IcrModel::of_filter(estimator.filter());
                 c.command(t, desired, Some((model, confident(row)))).twist
             }
+        }
+    }
+}
+
+/// How the follower's twist reaches the drive.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Variant {
+    /// As it is.
+    None,
+    /// Through a static multiplier from a turn test on the first ground.
+    Static,
+    /// Through live compensation under the estimator's model.
+    Live,
+}
+
+impl Variant {
+    pub const ALL: [Variant; 3] = [Variant::None, Variant::Static, Variant::Live];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Variant::None => "none",
+            Variant::Static => "static",
+            Variant::Live => "live",
         }
     }
 }

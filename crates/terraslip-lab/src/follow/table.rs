@@ -5,8 +5,10 @@ use std::fmt::Write as _;
 
 use serde_json::json;
 
+use super::driver::OUTAGE_S;
 use super::score::{RunScore, RECOVERY_FACTOR};
-use super::{world, Variant, OUTAGE_S};
+use super::steering::Variant;
+use super::world;
 use crate::stats::quantile;
 
 /// Slippery: a nominal yaw gain (steering efficiency x speed factor)

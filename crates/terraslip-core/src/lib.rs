@@ -10,6 +10,7 @@
 //! `y_r` and longitudinal offset `x_c`. See [`kinematics`].
 //!
 //! * [`kinematics`]: the ICR model, tread speeds to body twist and back.
+//! * [`compensate`]: the command a drive controller must get for a desired twist.
 //! * [`slip`]: the coordinates a filter carries the slip parameters in.
 //! * [`model`]: the filter's state and process model.
 //! * [`odometry`]: the covariance of the model's body twist.
@@ -23,6 +24,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod angle;
+pub mod compensate;
 pub mod estimator;
 pub mod filter;
 pub mod kinematics;

@@ -7,6 +7,7 @@
 //!     cargo run -p terraslip-lab --release -- family --worlds 50 --gyro [--gyro-scale 0.03]
 //!     cargo run -p terraslip-lab --release -- drives
 //!     cargo run -p terraslip-lab --release -- odometry-nees
+//!     cargo run -p terraslip-lab --release -- follow --seeds 20
 //!
 //! Estimators are named presets (`terraslip`, `ekf-qmin`, `no-slip`, ...)
 //! or `config:FILE.toml` (the default overridden by that file's keys).
@@ -18,6 +19,7 @@ mod blr;
 mod drives;
 mod estimators;
 mod family;
+mod follow;
 mod heldout;
 mod odometry_nees;
 mod outage_table;
@@ -46,6 +48,13 @@ enum Command {
     /// Whether the odometry's published twist and pose covariances are
     /// honest: their NEES against a pose reference, with the 95 % band.
     OdometryNees(odometry_nees::Args),
+    /// A regulated pure pursuit follower over grounds of different slip,
+    /// steering on the online estimate in the closed-loop simulator:
+    /// without compensation, through a static wheel separation multiplier
+    /// tuned on the first ground, and through live compensation; cross-track
+    /// RMS, heading error at the end of turns, time to finish and recovery
+    /// after a ground change, median and worst over the seeds.
+    Follow(follow::Args),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -54,5 +63,6 @@ fn main() -> anyhow::Result<()> {
         Command::Drives(a) => drives::run(a),
         Command::Heldout(a) => heldout::run(a),
         Command::OdometryNees(a) => odometry_nees::run(a),
+        Command::Follow(a) => follow::run(a),
     }
 }

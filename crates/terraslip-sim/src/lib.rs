@@ -22,6 +22,7 @@
 // `!(x <= 0.5)` is meant: it is also true for NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 pub mod camera;
+pub mod closed_loop;
 mod error;
 pub mod family;
 mod motion;

@@ -67,10 +67,20 @@ impl Motion {
         sc: &Scenario,
         timeline: &Timeline,
     ) {
+        let (tv, tw) = operator.command(t, self.east, self.north, self.yaw);
+        let (nom, ti) = timeline.nominal_at(t);
+        self.drive(h, (tv, tw), (nom, ti), sc);
+    }
+
+    /// One step of `h` s under the target command `(forward m/s, yaw rate
+    /// rad/s)` sent to a nominal differential drive (tread set points from
+    /// the robot's track width), on ground `terrain` whose ICRs before the
+    /// slip model are `nominal`.
+    pub fn drive(&mut self, h: f64, target: (f64, f64), ground: (IcrParams, usize), sc: &Scenario) {
+        let (tv, tw) = target;
         let robot = &sc.robot;
         let w = robot.track_width;
-        // Operator -> rate-limited command -> wheel set points -> wheel lag.
-        let (tv, tw) = operator.command(t, self.east, self.north, self.yaw);
+        // Command -> rate limits -> wheel set points -> wheel lag.
         self.cmd_v = slew(self.cmd_v, tv, sc.drive.accel_limit * h);
         self.cmd_w = slew(self.cmd_w, tw, sc.drive.yaw_accel_limit * h);
         let (mut sl, mut sr) = (
@@ -106,7 +116,7 @@ impl Motion {
             } else {
                 1.0
             };
-        let (nom, ti) = timeline.nominal_at(t);
+        let (nom, ti) = ground;
         self.icr = scale_spread(&nom, self.slip_factor);
         self.terrain = ti;
 

@@ -35,18 +35,7 @@ pub fn simulate(scenario: &Scenario, seed: u64) -> Result<SimRun, SimError> {
     let mut recorder = Recorder::new(sc, seed, duration);
     let mut rec = Recording {
         log: DriveLog {
-            meta: Meta {
-                robot: Some(robot.name.clone()),
-                track_width: Some(robot.track_width),
-                wheel_radius: Some(robot.wheel_radius),
-                length: Some(robot.length),
-                ticks_per_rev: Some(sc.wheels.ticks_per_rev),
-                pose: (sc.gnss.lever_arm != [0.0; 2]).then_some(terraslip_io::PoseMount {
-                    lever_arm_x: sc.gnss.lever_arm[0],
-                    lever_arm_y: sc.gnss.lever_arm[1],
-                }),
-                ..Default::default()
-            },
+            meta: log_meta(sc),
             terrain: timeline.labels.clone(),
             ..DriveLog::default()
         },
@@ -84,18 +73,7 @@ pub fn simulate(scenario: &Scenario, seed: u64) -> Result<SimRun, SimError> {
         truth,
         frames,
     } = rec;
-    log.truth = truth
-        .iter()
-        .map(|s| TruthSample {
-            t: s.t,
-            east: s.east,
-            north: s.north,
-            yaw: s.yaw,
-            y_l: s.icr.y_l,
-            y_r: s.icr.y_r,
-            x_c: s.icr.x_c,
-        })
-        .collect();
+    log.truth = truth.iter().map(TruthSample::from).collect();
     let terrain_changes = timeline.changes();
     Ok(SimRun {
         scenario: sc.clone(),
@@ -106,4 +84,21 @@ pub fn simulate(scenario: &Scenario, seed: u64) -> Result<SimRun, SimError> {
         frames,
         terrain_changes,
     })
+}
+
+/// The log's `meta.toml` for the robot and sensors of `sc`.
+pub(crate) fn log_meta(sc: &Scenario) -> Meta {
+    let robot = &sc.robot;
+    Meta {
+        robot: Some(robot.name.clone()),
+        track_width: Some(robot.track_width),
+        wheel_radius: Some(robot.wheel_radius),
+        length: Some(robot.length),
+        ticks_per_rev: Some(sc.wheels.ticks_per_rev),
+        pose: (sc.gnss.lever_arm != [0.0; 2]).then_some(terraslip_io::PoseMount {
+            lever_arm_x: sc.gnss.lever_arm[0],
+            lever_arm_y: sc.gnss.lever_arm[1],
+        }),
+        ..Default::default()
+    }
 }

@@ -72,6 +72,16 @@ impl Timeline {
             .collect()
     }
 
+    /// The terrain index of scenario segment `i`.
+    pub fn segment_terrain(&self, i: usize) -> Option<usize> {
+        self.schedule.get(i).map(|s| s.1)
+    }
+
+    /// The nominal ICRs of terrain `i` (before the slip model).
+    pub fn nominal(&self, i: usize) -> IcrParams {
+        self.nominal[i]
+    }
+
     /// The nominal ICRs (terrain blend, before the slip model) and the
     /// terrain index at `t`.
     pub fn nominal_at(&self, t: f64) -> (IcrParams, usize) {
@@ -89,7 +99,7 @@ impl Timeline {
     }
 }
 
-fn blend(a: &IcrParams, b: &IcrParams, w: f64) -> IcrParams {
+pub(crate) fn blend(a: &IcrParams, b: &IcrParams, w: f64) -> IcrParams {
     let m = |x: f64, y: f64| x + (y - x) * w;
     IcrParams {
         y_l: m(a.y_l, b.y_l),

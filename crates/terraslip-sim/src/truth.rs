@@ -23,3 +23,17 @@ pub struct TruthState {
     /// Index into [`SimRun::terrains`].
     pub terrain: usize,
 }
+
+impl From<&TruthState> for terraslip_io::TruthSample {
+    fn from(s: &TruthState) -> Self {
+        terraslip_io::TruthSample {
+            t: s.t,
+            east: s.east,
+            north: s.north,
+            yaw: s.yaw,
+            y_l: s.icr.y_l,
+            y_r: s.icr.y_r,
+            x_c: s.icr.x_c,
+        }
+    }
+}

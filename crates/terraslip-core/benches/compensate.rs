@@ -50,7 +50,7 @@ fn bench(c: &mut Criterion) {
                 let desired = Twist {
                     v_x: 0.6,
                     v_y: 0.0,
-                    omega: if k % 2 == 0 { 0.8 } else { -0.5 },
+                    omega: if k.is_multiple_of(2) { 0.8 } else { -0.5 },
                 };
                 black_box(comp.command(t, black_box(desired), Some((model, true))))
             })

@@ -205,7 +205,9 @@ impl Belief {
         } else {
             f64::INFINITY
         };
-        self.verdict = if !(rel <= self.max_spread_std) {
+        // NaN is not believed.
+        let known = rel <= self.max_spread_std;
+        self.verdict = if !known {
             Err(format!(
                 "spread std {:.1} % of the spread (believed from {:.1} %)",
                 100.0 * rel,

@@ -21,6 +21,7 @@ pub mod import;
 pub mod metadata;
 pub mod msg;
 pub mod out;
+pub mod twist;
 
 pub use bag::{is_bag, Bag, RawMessage, Topic};
 pub use import::{import, ImportReport, TopicsConfig};

@@ -59,7 +59,7 @@ enum Command {
     Import(cmd::import::Args),
     /// Run the estimator live as a ROS 2 node (no ROS install needed).
     #[cfg(any(feature = "node", feature = "node-humble"))]
-    Node(cmd::node::Args),
+    Node(cmd::node_args::Args),
     /// Run the estimator live as a ROS 2 node: not in this build (install it
     /// with `--features node`, docs/user-guide.md §8).
     #[cfg(not(any(feature = "node", feature = "node-humble")))]

@@ -27,6 +27,12 @@ pub mod import;
 #[cfg(any(feature = "node", feature = "node-humble"))]
 pub mod node;
 #[cfg(any(feature = "node", feature = "node-humble"))]
+pub mod node_args;
+#[cfg(any(feature = "node", feature = "node-humble"))]
+mod node_compensate;
+#[cfg(any(feature = "node", feature = "node-humble"))]
+mod node_outputs;
+#[cfg(any(feature = "node", feature = "node-humble"))]
 mod node_state;
 pub mod report;
 #[cfg(feature = "ros2")]

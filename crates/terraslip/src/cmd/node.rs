@@ -3,129 +3,27 @@
 //! put back in stamp order by the live pipeline, and each estimate row
 //! published as `estimate --mcap` writes it.
 
-use std::collections::VecDeque;
-use std::path::{Path, PathBuf};
+//!
+//! The flags and parameters are [`super::node_args`]'s, the publishers
+//! [`super::node_outputs`]'s, `--compensate`'s command path
+//! [`super::node_compensate`]'s.
+
+use std::path::Path;
 use std::time::{Duration, Instant, SystemTime};
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use terraslip::pipeline::decide::Decisions;
 use terraslip::pipeline::live::Sample;
 use terraslip::pipeline::warmup::WarmUp;
-use terraslip::pipeline::{EstimateRow, EstimateRun, PipelineError, RowSink};
+use terraslip::pipeline::EstimateRun;
+use terraslip_core::compensate::IcrModel;
 use terraslip_io::ParamsFile;
-use terraslip_node::{Graph, GraphTopic, RosArgs, RosEnv, TopicQos, Wait, Writer};
+use terraslip_node::{Graph, GraphTopic, RosArgs, RosEnv, TopicQos, Wait};
 use terraslip_ros2::import::{LiveImport, LiveRow};
-use terraslip_ros2::out::{diagnostics_message, estimate_messages, DiagnosticLevel};
 
-/// Run the online estimator as a ROS 2 node on the live graph.
-///
-/// Joins the ROS 2 graph (domain ROS_DOMAIN_ID; ROS_LOCALHOST_ONLY=1 or
-/// ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST keep it on this host) with no
-/// ROS install, picks the wheel, pose, heading and IMU topics as `import`
-/// picks a bag's (by type when unique, or from --topics), and publishes for
-/// each wheels message /terraslip/odom (nav_msgs/Odometry with covariance,
-/// odom -> base_link), /tf, /terraslip/icr, /terraslip/innovation,
-/// /terraslip/terrain, and once a second /diagnostics (learned parameters,
-/// pose noise, clock offset, warnings). All timing comes from the header
-/// stamps: samples wait --lag seconds of stamp time for late ones, so a
-/// recording played in gives what `terraslip estimate` gives of it.
-///
-/// The first --warmup seconds of stamp time are held back while the node
-/// decides what `estimate` decides from a recording's start (the gyro's
-/// delay, whether it is the yaw rate, the slip parameters the sensors can
-/// teach; each printed as a `decided:` line), then answered.
-///
-/// The learned parameters are written (atomically) to --params (default:
-/// the user's state directory) at the end (SIGINT, SIGTERM) and every
-/// --save-every seconds of drive; the next start recalls them from there
-/// (--fresh: not).
-#[derive(clap::Args, Debug)]
-#[command(after_help = AFTER_HELP)]
-pub struct Args {
-    #[command(flatten)]
-    pub estimator: super::estimate::EstimatorArgs,
-    /// The node's parameters file: recalled at start when it exists (unless
-    /// --init or --fresh is given), written at the end and every
-    /// --save-every s [default: $XDG_STATE_HOME/terraslip/NODE_NAME.json,
-    /// else ~/.local/state/terraslip/NODE_NAME.json].
-    #[arg(long, value_name = "FILE")]
-    pub params: Option<PathBuf>,
-    /// Start clean: do not recall the parameters file (it is still written).
-    #[arg(long)]
-    pub fresh: bool,
-    /// Seconds of stamp time held back at the start to decide from, as
-    /// `estimate` decides from a recording's first 300 s; the held samples
-    /// are answered once decided.
-    #[arg(long, value_name = "S", default_value_t = terraslip::pipeline::DECISION_SPAN)]
-    pub warmup: f64,
-    /// Seconds of drive (stamp time) between writes of --params.
-    #[arg(long, value_name = "S", default_value_t = 300.0)]
-    pub save_every: f64,
-    /// Seconds of stamp time a sample waits for earlier ones of other topics.
-    #[arg(long, value_name = "S", default_value_t = 0.3)]
-    pub lag: f64,
-    /// Track width, m (else `[meta] track_width` of --topics, else the
-    /// configuration's `init.default_track_width`).
-    #[arg(long, value_name = "M")]
-    pub track_width: Option<f64>,
-    /// How late the wheels are stamped against the gyro, s (else what the
-    /// warm-up finds, else --init's or --params' `gyro_delay_s`, else 0;
-    /// `estimate` reports it as `gyro.wheels_late_by_s`).
-    #[arg(long, value_name = "S")]
-    pub gyro_delay: Option<f64>,
-    /// Do not publish odom -> base_link on /tf (when another node does).
-    #[arg(long)]
-    pub no_tf: bool,
-    /// The odometry's fixed frame (REP-105): header of /terraslip/odom and
-    /// parent of the published transform.
-    #[arg(long, value_name = "FRAME", default_value = "odom")]
-    pub odom_frame: String,
-    /// The robot's body frame (REP-105): child frame of /terraslip/odom
-    /// (the twist's frame) and of the published transform.
-    #[arg(long, value_name = "FRAME", default_value = "base_link")]
-    pub base_frame: String,
-    /// Node name.
-    #[arg(long, default_value = "terraslip")]
-    pub name: String,
-    /// Seconds (wall clock) to wait for the sensor topics to be discovered
-    /// before each new look at the graph.
-    #[arg(long, value_name = "S", default_value_t = 2.0)]
-    pub discovery_wait: f64,
-    /// End after this many seconds (wall clock) without a message, once
-    /// messages came (for replays; default: run until SIGINT/SIGTERM).
-    #[arg(long, value_name = "S")]
-    pub idle_exit: Option<f64>,
-}
-
-const AFTER_HELP: &str = "\
-ROS 2 conventions: --ros-args after the node's own flags takes -r from:=to
-(remaps of the topics named in --topics, a remap matching none of them is
-warned of; and __node:=, __ns:=), -p name:=value
-and --params-file FILE.yaml (`ros__parameters` of /** or of the node). The
-parameters lag, save_every, track_width, gyro_delay, odom_frame, base_frame,
-publish_tf (bool) set the flags of the same name; any other is a key of the TOML configuration
-(`filter.still_speed` is [filter] still_speed).
-
-Examples:
-  terraslip node --topics husky.toml
-  terraslip node --topics husky.toml --params /var/lib/terraslip/params.json
-  terraslip node --topics husky.toml --fresh --warmup 60
-  terraslip node --topics husky.toml --ros-args -p lag:=0.5 -r __node:=husky_slip
-  ROS_DOMAIN_ID=7 ROS_LOCALHOST_ONLY=1 terraslip node --no-tf
-
-docs/user-guide.md \"Live on the robot\" has a launch file, a systemd unit and
-the Foxglove view.";
-
-/// Parameters of the node itself (the rest are configuration keys).
-const NODE_PARAMS: [&str; 7] = [
-    "lag",
-    "save_every",
-    "track_width",
-    "gyro_delay",
-    "publish_tf",
-    "odom_frame",
-    "base_frame",
-];
+use super::node_args::{apply_node_params, warn_unmatched_remaps, with_params, Args};
+use super::node_compensate::{resolve, Belief, CommandThread, CMD_IN, CMD_OUT};
+use super::node_outputs::{BadMessages, Outputs, OUTPUT_TOPICS};
 
 pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
     let ros = RosArgs::parse(ros_args, &args.name)?;
@@ -133,6 +31,13 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
     let namespace = ros.namespace.clone().unwrap_or_else(|| "/".into());
     let mut table = ros.params_table();
     apply_node_params(&mut args, &mut table)?;
+    // The command topics of --compensate, remapped and resolved.
+    let cmd_topics = args.compensate.compensate.then(|| {
+        (
+            resolve(&ros, CMD_IN, &namespace),
+            resolve(&ros, CMD_OUT, &namespace),
+        )
+    });
     let params_path = match &args.params {
         Some(p) => p.clone(),
         None => super::node_state::default_path_from_env(&name)?,
@@ -161,7 +66,12 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
     };
     let driven_before = super::node_state::driven(start.as_ref().filter(|_| recall));
     let mut topics_cfg = super::bag::topics().config()?;
-    warn_unmatched_remaps(&ros, &topics_cfg);
+    let cmd_names: &[&str] = if cmd_topics.is_some() {
+        &[CMD_IN, CMD_OUT]
+    } else {
+        &[]
+    };
+    warn_unmatched_remaps(&ros, &topics_cfg, cmd_names);
     for t in [
         &mut topics_cfg.wheels.topic,
         &mut topics_cfg.pose.topic,
@@ -202,19 +112,46 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
         env.range,
         terraslip_node::DISTRO
     );
+    // Commands are answered from now on, before the sensors are found.
+    let commands = match &cmd_topics {
+        Some((cmd_in, cmd_out)) => {
+            let separation = args
+                .compensate
+                .wheel_separation
+                .or(topics_cfg
+                    .wheels
+                    .separation
+                    .filter(|s| s.is_finite() && *s > 0.0))
+                .unwrap_or(track_width);
+            Some(CommandThread::start(
+                &graph,
+                &args.compensate,
+                (cmd_in, cmd_out),
+                separation,
+                &args.base_frame,
+            )?)
+        }
+        None => None,
+    };
+    let ours = |topic: &str| {
+        OUTPUT_TOPICS.iter().any(|o| o.0 == topic)
+            || cmd_topics
+                .as_ref()
+                .is_some_and(|(i, o)| i == topic || o == topic)
+    };
 
     // The streams, once the graph shows them.
     let mut said = String::new();
     let (topics, mut import) = loop {
         if stop.asked() {
-            return Ok(());
+            return commands.map_or(Ok(()), CommandThread::finish);
         }
         std::thread::sleep(Duration::from_secs_f64(args.discovery_wait.max(0.1)));
         // Topics someone writes, other than ours.
         let found: Vec<GraphTopic> = graph
             .topics()
             .into_iter()
-            .filter(|(t, writers)| *writers > 0 && !OUTPUT_TOPICS.iter().any(|o| o.0 == t.name))
+            .filter(|(t, writers)| *writers > 0 && !ours(&t.name))
             .map(|(t, _)| t)
             .collect();
         let bag_topics: Vec<terraslip_ros2::Topic> = found
@@ -279,6 +216,11 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
         base: args.base_frame.clone(),
     };
     let mut out = Outputs::new(&graph, !args.no_tf, frames)?;
+    if commands.is_some() {
+        let c = &args.compensate;
+        out.belief = Some(Belief::new(c.confident_spread_std, c.hold_after_change));
+    }
+    let mut handed = 0;
     let mut bad = BadMessages::default();
     let subscribed = Instant::now();
     let mut warned_unmatched = false;
@@ -320,6 +262,16 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
             last_message = Some(Instant::now());
         }
         out.failed()?;
+        // The command thread takes the model of each new estimate.
+        if let (Some(c), Some(l), Some(b)) = (&commands, live.live(), &out.belief) {
+            if out.published > handed {
+                handed = out.published;
+                c.update(
+                    IcrModel::of_filter(l.estimator().filter()),
+                    b.verdict.clone(),
+                );
+            }
+        }
         // Diagnostics once a second and the parameters every
         // --save-every s, of stamp time.
         if let (Some(t), Some(summary)) = (out.last_t, live.summary()) {
@@ -386,52 +338,7 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
             )
         }
     );
-    Ok(())
-}
-
-/// Moves the node's own parameters out of `table` into `args`.
-fn apply_node_params(args: &mut Args, table: &mut toml::Table) -> Result<()> {
-    for key in NODE_PARAMS {
-        let Some(v) = table.remove(key) else { continue };
-        let num = || {
-            v.as_float()
-                .or(v.as_integer().map(|i| i as f64))
-                .with_context(|| format!("--ros-args parameter {key} = {v}: expected a number"))
-        };
-        match key {
-            "lag" => args.lag = num()?,
-            "save_every" => args.save_every = num()?,
-            "track_width" => args.track_width = Some(num()?),
-            "gyro_delay" => args.gyro_delay = Some(num()?),
-            "odom_frame" | "base_frame" => {
-                let frame = v
-                    .as_str()
-                    .filter(|f| !f.is_empty())
-                    .with_context(|| {
-                        format!("--ros-args parameter {key} = {v}: expected a frame name")
-                    })?
-                    .to_string();
-                if key == "odom_frame" {
-                    args.odom_frame = frame;
-                } else {
-                    args.base_frame = frame;
-                }
-            }
-            "publish_tf" => {
-                args.no_tf = !v.as_bool().with_context(|| {
-                    format!("--ros-args parameter publish_tf = {v}: expected true or false")
-                })?
-            }
-            _ => {}
-        }
-    }
-    if !(args.lag.is_finite() && args.lag >= 0.0) {
-        bail!("lag = {}: expected seconds >= 0", args.lag);
-    }
-    if !(args.save_every.is_finite() && args.save_every > 0.0) {
-        bail!("save_every = {}: expected seconds > 0", args.save_every);
-    }
-    Ok(())
+    commands.map_or(Ok(()), CommandThread::finish)
 }
 
 /// Writes the learned parameters atomically, with the decisions; `false`
@@ -448,285 +355,8 @@ fn say_decided(d: &Decisions) {
     }
 }
 
-/// The configuration with the `--ros-args` parameters that are not the
-/// node's own over it; an unknown name's error lists the node's own too.
-fn with_params(
-    cfg: terraslip::config::EstimatorConfig,
-    table: &toml::Table,
-) -> Result<terraslip::config::EstimatorConfig> {
-    let text = toml::to_string(table).context("--ros-args parameters")?;
-    let cfg = terraslip::estimate::overlay(cfg, &text, "--ros-args parameters").with_context(|| {
-        format!(
-            "the node's own parameters are {}; any other name is a key of the configuration (`terraslip estimate --print-config`)",
-            NODE_PARAMS.join(", ")
-        )
-    })?;
-    cfg.validate()?;
-    Ok(cfg)
-}
-
-/// Warns of each `-r` remap that names no topic the topics file names.
-fn warn_unmatched_remaps(ros: &RosArgs, topics: &terraslip_ros2::TopicsConfig) {
-    for w in unmatched_remaps(ros, topics) {
-        eprintln!("warning: {w}");
-    }
-}
-
-/// The `-r` remaps that name no topic the topics file names (only those
-/// are remapped; a topic chosen by its type is not), each explained.
-fn unmatched_remaps(ros: &RosArgs, topics: &terraslip_ros2::TopicsConfig) -> Vec<String> {
-    let named: Vec<&str> = [
-        &topics.wheels.topic,
-        &topics.pose.topic,
-        &topics.heading.topic,
-        &topics.imu.topic,
-        &topics.tf.topic,
-    ]
-    .into_iter()
-    .filter_map(|t| t.as_deref().filter(|n| !n.is_empty()))
-    .collect();
-    ros.remaps
-        .iter()
-        .filter(|(from, _)| !named.iter().any(|n| ros_matches(from, n)))
-        .map(|(from, to)| {
-            format!(
-                "--ros-args -r {from}:={to} matches no topic this node reads: remaps apply to the topics the topics file names ({}); name the topic there (`[wheels] topic = \"{from}\"`) to remap it",
-                if named.is_empty() {
-                    "it names none".to_string()
-                } else {
-                    named.join(", ")
-                }
-            )
-        })
-        .collect()
-}
-
-/// Whether remap source `from` names `topic` (with or without the
-/// leading slash), as [`RosArgs::remap`] matches.
-fn ros_matches(from: &str, topic: &str) -> bool {
-    RosArgs {
-        remaps: vec![(from.to_string(), String::new())],
-        ..Default::default()
-    }
-    .remap(topic)
-    .is_empty()
-}
-
 fn now_ns() -> u64 {
     SystemTime::now()
         .duration_since(SystemTime::UNIX_EPOCH)
         .map_or(0, |d| d.as_nanos() as u64)
-}
-
-/// Messages that could not be decoded: counted, the first few printed.
-#[derive(Default)]
-struct BadMessages {
-    count: u64,
-    last: Option<String>,
-}
-
-impl BadMessages {
-    fn note(&mut self, e: &str) {
-        self.count += 1;
-        if self.count <= 5 {
-            eprintln!("warning: message skipped: {e}");
-        }
-        self.last = Some(e.to_string());
-    }
-}
-
-/// The node's publishers, fed the estimate rows.
-struct Outputs {
-    writers: Vec<Writer>,
-    publish_tf: bool,
-    frames: terraslip_ros2::out::Frames,
-    origin_ns: u64,
-    /// Tread speeds of the wheels rows not yet answered: `(t, left, right)`.
-    wheels: VecDeque<(f64, f64, f64)>,
-    last_terrain: Option<String>,
-    last_t: Option<f64>,
-    diagnostics_due: Option<f64>,
-    published: u64,
-    error: Option<anyhow::Error>,
-}
-
-const OUTPUT_TOPICS: [(&str, &str); 6] = [
-    ("/terraslip/odom", "nav_msgs/msg/Odometry"),
-    ("/tf", "tf2_msgs/msg/TFMessage"),
-    ("/terraslip/icr", terraslip_ros2::out::ICR_TYPE),
-    (
-        "/terraslip/innovation",
-        terraslip_ros2::out::INNOVATION_TYPE,
-    ),
-    ("/terraslip/terrain", "std_msgs/msg/String"),
-    ("/diagnostics", "diagnostic_msgs/msg/DiagnosticArray"),
-];
-
-impl Outputs {
-    fn new(graph: &Graph, publish_tf: bool, frames: terraslip_ros2::out::Frames) -> Result<Self> {
-        let mut writers = Vec::new();
-        for (name, ty) in OUTPUT_TOPICS {
-            if name == "/tf" && !publish_tf {
-                continue;
-            }
-            writers.push(graph.writer(&GraphTopic {
-                name: name.into(),
-                ty: ty.into(),
-            })?);
-        }
-        Ok(Self {
-            writers,
-            publish_tf,
-            frames,
-            origin_ns: 0,
-            wheels: VecDeque::new(),
-            last_terrain: None,
-            last_t: None,
-            diagnostics_due: None,
-            published: 0,
-            error: None,
-        })
-    }
-
-    fn send(&self, topic: &str, data: Vec<u8>) -> Result<()> {
-        if let Some(w) = self.writers.iter().find(|w| w.topic.name == topic) {
-            w.write(data)?;
-        }
-        Ok(())
-    }
-
-    fn stamp(&self, t: f64) -> u64 {
-        (self.origin_ns as i128 + (t * 1e9).round() as i128).max(0) as u64
-    }
-
-    /// A publishing error met inside the sink, now.
-    fn failed(&mut self) -> Result<()> {
-        match self.error.take() {
-            Some(e) => Err(e),
-            None => Ok(()),
-        }
-    }
-
-    fn diagnostics(&self, run: &EstimateRun, live: &WarmUp, bad: &BadMessages) -> Result<()> {
-        let Some(t) = self.last_t else { return Ok(()) };
-        let p = run.final_icr;
-        let f = |x: f64| format!("{x:.6}");
-        let mut values: Vec<(String, String)> = vec![
-            ("y_l_m".into(), f(p.y_l)),
-            ("y_r_m".into(), f(p.y_r)),
-            ("x_c_m".into(), f(p.x_c)),
-            ("alpha_l".into(), f(p.alpha_l)),
-            ("alpha_r".into(), f(p.alpha_r)),
-            ("turn_law_s_per_m".into(), f(run.turn_law.0)),
-            ("pose_noise_std_xy_m".into(), f(run.noise.std_xy)),
-            ("pose_noise_std_yaw_rad".into(), f(run.noise.std_yaw)),
-            ("clock_offset_s".into(), f(run.clock_offset.0)),
-            ("gyro_delay_s".into(), f(run.gyro_delay)),
-            ("rows".into(), run.row_count.to_string()),
-            ("fixes_used".into(), run.stats.fixes_used.to_string()),
-            ("late_samples".into(), format!("{:?}", live.late())),
-            ("held_samples".into(), live.held().to_string()),
-            ("bad_messages".into(), bad.count.to_string()),
-        ];
-        if let Some(e) = &bad.last {
-            values.push(("last_bad_message".into(), e.clone()));
-        }
-        for (k, line) in live
-            .decisions()
-            .map(|d| d.lines())
-            .unwrap_or_default()
-            .into_iter()
-            .enumerate()
-        {
-            values.push((format!("decided_{k}"), line));
-        }
-        for (k, w) in run.warnings.iter().enumerate() {
-            values.push((format!("warning_{k}"), w.clone()));
-        }
-        let (level, message) = if run.warnings.is_empty() && bad.count == 0 {
-            (DiagnosticLevel::Ok, "estimating".to_string())
-        } else {
-            (
-                DiagnosticLevel::Warn,
-                run.warnings
-                    .first()
-                    .cloned()
-                    .unwrap_or_else(|| format!("{} messages could not be read", bad.count)),
-            )
-        };
-        let m = diagnostics_message(
-            self.stamp(t),
-            "terraslip: slip estimator",
-            level,
-            &message,
-            &values,
-        );
-        self.send(m.topic, m.data)
-    }
-}
-
-impl RowSink for Outputs {
-    fn row(&mut self, terrains: &[String], r: &EstimateRow) -> Result<(), PipelineError> {
-        while self.wheels.front().is_some_and(|w| w.0 < r.t) {
-            self.wheels.pop_front();
-        }
-        let w = self
-            .wheels
-            .front()
-            .filter(|w| w.0 == r.t)
-            .map(|w| (w.1, w.2));
-        let s = super::ros2out::sample(r, self.stamp(r.t), w);
-        let terrain = r.terrain.and_then(|k| terrains.get(k)).map(String::as_str);
-        for m in estimate_messages(&s, &self.frames, terrain, &mut self.last_terrain) {
-            if m.topic == "/tf" && !self.publish_tf {
-                continue;
-            }
-            if let Err(e) = self.send(m.topic, m.data) {
-                self.error.get_or_insert(e);
-            }
-        }
-        self.published += 1;
-        self.last_t = Some(r.t);
-        Ok(())
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_remap_that_matches_no_named_topic_is_named() {
-        let topics: terraslip_ros2::TopicsConfig =
-            toml::from_str("[wheels]\nseparation = 1.04\n[imu]\ntopic = \"/imu/data\"\n").unwrap();
-        let ros = RosArgs::parse(
-            &[
-                "-r".into(),
-                "/odom:=/husky_velocity_controller/odom".into(),
-                "-r".into(),
-                "imu/data:=/imu2".into(),
-            ],
-            "terraslip",
-        )
-        .unwrap();
-        let w = unmatched_remaps(&ros, &topics);
-        assert_eq!(w.len(), 1, "{w:?}");
-        assert!(
-            w[0].contains("/odom:=") && w[0].contains("/imu/data"),
-            "{}",
-            w[0]
-        );
-    }
-
-    #[test]
-    fn an_unknown_parameter_lists_the_nodes_own() {
-        let mut table = toml::Table::new();
-        table.insert("lagg".into(), toml::Value::Float(0.5));
-        let e = with_params(Default::default(), &table).unwrap_err();
-        let text = format!("{e:#}");
-        assert!(text.contains("lagg"), "{text}");
-        for p in NODE_PARAMS {
-            assert!(text.contains(p), "{p} missing from: {text}");
-        }
-    }
 }

@@ -2,6 +2,7 @@
 //! from, for the demo, tests and other programs.
 //!
 //! * [`bag`]: a LOG argument read, a log directory or a ROS 2 bag;
+//! * [`belief`]: whether the live estimate is believed enough to drive on;
 //! * [`config`]: the estimator's TOML configuration and named presets;
 //! * [`glossary`]: the presets' and the papers' names, for `--help` and outputs;
 //! * [`pipeline`]: runs the online estimator over a [`terraslip_io::DriveLog`];
@@ -14,6 +15,7 @@
 //! * [`validation`]: what `calibrate validate --json` reports, as values.
 
 pub mod bag;
+pub mod belief;
 pub mod config;
 pub mod estimate;
 pub mod glossary;

@@ -1,44 +1,10 @@
 //! What stands between the path follower and the drive controller.
 
+use terraslip::belief::Belief;
 use terraslip::pipeline::EstimateRow;
 use terraslip_core::compensate::{CompensateConfig, Compensator, IcrModel};
 use terraslip_core::estimator::Estimator;
 use terraslip_core::kinematics::Twist;
-
-/// Believed when the spread's std is at most this fraction of the spread
-/// ...
-pub const CONFIDENT_SPREAD: f64 = 0.05;
-/// ... and no slip change was detected in the last this many seconds (the
-/// defaults of `terraslip node --compensate`'s `confident_spread_std` and
-/// `hold_after_change`, judged as the node judges them).
-pub const HOLD_AFTER_CHANGE: f64 = 3.0;
-
-/// Whether the estimate is believed, row by row.
-#[derive(Debug, Clone, Default)]
-pub struct Belief {
-    last_change: Option<f64>,
-}
-
-impl Belief {
-    /// Takes the newest row; true when its model may be applied.
-    pub fn confident(&mut self, row: &EstimateRow) -> bool {
-        self.judge(row.t, row.y_l - row.y_r, row.std_spread, row.change)
-    }
-
-    /// A row at `t` s of spread `spread` with std `std_spread` (m), a
-    /// change detected since the previous row (`change`).
-    fn judge(&mut self, t: f64, spread: f64, std_spread: f64, change: bool) -> bool {
-        if change {
-            self.last_change = Some(t);
-        }
-        let rel = if spread > 0.0 {
-            std_spread / spread
-        } else {
-            f64::INFINITY
-        };
-        rel <= CONFIDENT_SPREAD && !self.last_change.is_some_and(|c| t - c < HOLD_AFTER_CHANGE)
-    }
-}
 
 /// How the follower's twist reaches the drive controller.
 #[derive(Debug, Clone)]
@@ -76,7 +42,8 @@ impl Steering {
             },
             Steering::Live(c, belief) => {
                 let model = IcrModel::of_filter(estimator.filter());
-                let confident = belief.confident(row);
+                belief.row(row, &[]);
+                let confident = belief.verdict.is_ok();
                 c.command(t, desired, Some((model, confident))).twist
             }
         }
@@ -103,22 +70,5 @@ impl Variant {
             Variant::Static => "static",
             Variant::Live => "live",
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn belief_needs_a_narrow_spread_and_no_change_for_the_hold() {
-        let mut b = Belief::default();
-        // (t s, spread m, its std m, change)
-        assert!(b.judge(0.0, 0.4, 0.01, false));
-        assert!(!b.judge(0.1, 0.4, 0.03, false));
-        assert!(!b.judge(1.0, 0.4, 0.01, true));
-        assert!(!b.judge(3.9, 0.4, 0.01, false));
-        assert!(b.judge(4.0, 0.4, 0.01, false));
-        assert!(!b.judge(5.0, -0.1, 0.0, false));
     }
 }

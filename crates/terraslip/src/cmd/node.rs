@@ -22,8 +22,9 @@ use terraslip_node::{Graph, GraphTopic, RosArgs, RosEnv, TopicQos, Wait};
 use terraslip_ros2::import::{LiveImport, LiveRow};
 
 use super::node_args::{apply_node_params, warn_unmatched_remaps, with_params, Args};
-use super::node_compensate::{resolve, Belief, CommandThread, CMD_IN, CMD_OUT};
+use super::node_compensate::{resolve, CommandThread, CMD_IN, CMD_OUT};
 use super::node_outputs::{BadMessages, Outputs, OUTPUT_TOPICS};
+use terraslip::belief::Belief;
 
 pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
     let ros = RosArgs::parse(ros_args, &args.name)?;

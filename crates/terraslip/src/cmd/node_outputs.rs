@@ -41,7 +41,7 @@ pub struct Outputs {
     pub published: u64,
     pub error: Option<anyhow::Error>,
     /// Whether the estimate is believed, for `--compensate`.
-    pub belief: Option<super::node_compensate::Belief>,
+    pub belief: Option<terraslip::belief::Belief>,
 }
 
 pub const OUTPUT_TOPICS: [(&str, &str); 6] = [

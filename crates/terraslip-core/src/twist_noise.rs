@@ -390,8 +390,8 @@ mod tests {
             }
         }
         for k in 0..3 {
-            for j in 0..3 {
-                let (got, want) = (fit[k].coef[j], truth[k][j]);
+            for (j, want) in truth[k].iter().copied().enumerate() {
+                let got = fit[k].coef[j];
                 assert!(
                     (got - want).abs() < 0.2 * want.max(2e-3),
                     "component {k} term {j}: {got} vs {want}"

@@ -25,7 +25,9 @@
 //! works.
 
 use crate::filter::{Fate, Filter, FilterError, PoseFix, UpdateReport};
+use crate::odometry::{ModelNoise, TwistNoise};
 use crate::schedule::{ChangeAction, NoiseSchedule};
+use crate::twist_noise::{FixSeen, TwistNoiseLearner};
 
 /// Pose fixes that can wait for the wheels.
 pub const MAX_PENDING: usize = 32;
@@ -135,6 +137,8 @@ pub struct Estimator {
     counts: FixCounts,
     summary: FixSummary,
     gyro: GyroIntegral,
+    /// The model's twist error learned at the published horizon.
+    twist_noise: TwistNoiseLearner,
 }
 
 impl Estimator {
@@ -156,6 +160,7 @@ impl Estimator {
             counts: FixCounts::default(),
             summary: FixSummary::default(),
             gyro: GyroIntegral::default(),
+            twist_noise: TwistNoiseLearner::new(),
         }
     }
 
@@ -297,6 +302,11 @@ impl Estimator {
                 .inflate_pose(reach * reach, core::f64::consts::PI * core::f64::consts::PI);
         }
         self.filter.predict(vl, vr, dt)?;
+        if gap {
+            self.twist_noise.break_window();
+        } else {
+            self.twist_noise.step(&self.filter.icr_now(), vl, vr, dt);
+        }
         self.schedule.on_predict(&self.filter, dt);
         self.counts.predictions += 1;
         Ok(())
@@ -343,9 +353,53 @@ impl Estimator {
                 self.schedule.on_detected_change(&mut self.filter)?;
             }
         }
+        let fused = r.is_ok();
         self.count_refused(r.map(|_| ()))?;
         self.schedule.on_update(&mut self.filter);
+        if fused {
+            self.learn_twist_noise(&p.fix);
+        }
         Ok(())
+    }
+
+    /// The variance of the model's twist error averaged over
+    /// [`crate::odometry::TWIST_WINDOW_S`], as learned from the fixes so far
+    /// (the filter's model noise before any).
+    pub fn twist_noise(&self) -> TwistNoise {
+        self.twist_noise.noise(&ModelNoise::of(&self.filter))
+    }
+
+    /// Twist-noise windows learned from so far.
+    pub fn twist_noise_windows(&self) -> u64 {
+        self.twist_noise.windows()
+    }
+
+    /// Hands a fix just taken to the twist noise learner.
+    fn learn_twist_noise(&mut self, fix: &PoseFix) {
+        let f = &self.filter;
+        // A sensor's stated noise is its own; a configured guess is
+        // replaced by what the filter learned (between fixes a tenth of a
+        // second apart it cannot tell a steady slip from the sensor's
+        // noise, so a stated std is not replaced here).
+        let (learned_xy, learned_yaw, bias_std) = f.noise(fix.std_xy, fix.std_yaw);
+        let (std_xy, std_yaw) = if fix.stated {
+            (fix.std_xy, fix.std_yaw)
+        } else {
+            (learned_xy, learned_yaw)
+        };
+        let seen = FixSeen {
+            position: fix.position,
+            yaw: fix.yaw,
+            std_xy,
+            std_yaw,
+            bias_std,
+            bias_time: f.measurement().correlation_time,
+            filter_yaw: f.pose().2,
+            heading_known: f.anchored()[1],
+            lever_arm: f.lever_arm(),
+        };
+        self.twist_noise
+            .on_fix(&seen, &f.icr_now_covariance(), &ModelNoise::of(f));
     }
 
     fn record(&mut self, rep: &UpdateReport) {

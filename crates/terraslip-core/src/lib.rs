@@ -14,6 +14,7 @@
 //! * [`slip`]: the coordinates a filter carries the slip parameters in.
 //! * [`model`]: the filter's state and process model.
 //! * [`odometry`]: the covariance of the model's body twist.
+//! * [`twist_noise`]: the twist error learned at the published horizon.
 //! * [`filter`]: the EKF (predict, update, gates, noise learning, resets).
 //! * [`schedule`]: what terrain evidence does to the filter.
 //! * [`estimator`]: filter + schedule + stream timing: the online API.
@@ -34,6 +35,7 @@ pub mod rng;
 pub mod schedule;
 pub mod slip;
 pub mod terrain_belief;
+pub mod twist_noise;
 
 pub use estimator::Estimator;
 pub use filter::{

@@ -7,10 +7,12 @@
 //!   factors `(y_l, y_r, x_c, alpha_l, alpha_r)` carried through the
 //!   kinematics ([`twist_jacobian`]) at the current tread speeds. It does
 //!   not average out over time (a wrong spread is wrong at every step);
-//! * **model noise**: the filter's process noise on the pose, a random
-//!   walk of diffusion `q_xy` (m²/s per axis) and `q_yaw` (rad²/s). A
-//!   random walk has no finite instantaneous rate, so the twist's share is
-//!   stated for the twist averaged over [`TWIST_WINDOW_S`]: `q / window`.
+//! * **slip noise** ([`TwistNoise`]): the variance of the model's twist
+//!   error averaged over [`TWIST_WINDOW_S`], per body component a quadratic
+//!   form of the motion, learned from the pose fixes at that horizon
+//!   ([`crate::twist_noise`]); before any is learned, the filter's process
+//!   noise on the pose (a random walk of diffusion `q`) averaged over the
+//!   window, `q / window`.
 //!
 //! Frames: body REP-103 (x forward, y left); the twist is `(v_x, v_y, ω)`
 //! in m/s, m/s, rad/s.
@@ -44,6 +46,18 @@ pub struct ModelNoise {
 }
 
 impl ModelNoise {
+    /// The model noise filter `f` adds at a step: its learned factors on
+    /// speed and turn, its configured floors.
+    pub fn of(f: &crate::filter::Filter) -> Self {
+        let (q_speed, q_turn) = f.model_noise();
+        Self {
+            q_pos: f.config().q_pos,
+            q_speed,
+            q_yaw: f.config().q_yaw,
+            q_turn,
+        }
+    }
+
     /// Diffusion `(q_xy, q_yaw)` at mean tread speed `v` (m/s) and yaw rate
     /// `omega` (rad/s), as the filter's prediction adds it.
     pub fn diffusion(&self, v: f64, omega: f64) -> (f64, f64) {
@@ -51,6 +65,44 @@ impl ModelNoise {
             self.q_pos + self.q_speed * v * v,
             self.q_yaw + self.q_turn * omega * omega,
         )
+    }
+}
+
+/// Variance of the model's twist error averaged over [`TWIST_WINDOW_S`],
+/// per body component `k` (`v_x` in (m/s)², `v_y` in (m/s)², `ω` in
+/// (rad/s)²): `coef[k][0] + coef[k][1] v² + coef[k][2] ω²` at mean tread
+/// speed `v` (m/s) and yaw rate `ω` (rad/s). The components are taken as
+/// uncorrelated.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct TwistNoise {
+    /// Per component: the constant part, the part per (m/s)² of speed and
+    /// the part per (rad/s)² of yaw rate.
+    pub coef: [[f64; 3]; 3],
+}
+
+impl TwistNoise {
+    /// The filter's model noise `n` as the twist's error averaged over
+    /// [`TWIST_WINDOW_S`] (its diffusion over the window, `q / window`).
+    pub fn from_model_noise(n: &ModelNoise) -> Self {
+        let w = TWIST_WINDOW_S;
+        let xy = [n.q_pos / w, n.q_speed / w, 0.0];
+        Self {
+            coef: [xy, xy, [n.q_yaw / w, 0.0, n.q_turn / w]],
+        }
+    }
+
+    /// Variances of `(v_x, v_y, ω)` at mean tread speed `v` (m/s) and yaw
+    /// rate `omega` (rad/s); non-finite or negative parts count as 0.
+    pub fn variance(&self, v: f64, omega: f64) -> [f64; 3] {
+        core::array::from_fn(|k| {
+            let c = self.coef[k];
+            let q = c[0] + c[1] * v * v + c[2] * omega * omega;
+            if q.is_finite() && q > 0.0 {
+                q
+            } else {
+                0.0
+            }
+        })
     }
 }
 
@@ -86,14 +138,14 @@ pub fn twist_jacobian(p: &IcrParams, v_left: f64, v_right: f64) -> SMatrix<f64, 
 
 /// Covariance of the body twist `(v_x, v_y, ω)` at tread speeds `v_left`,
 /// `v_right` (m/s): parameters `p` with covariance `icr_cov` carried
-/// through the kinematics, plus the model noise `noise` as the error of
-/// the twist averaged over [`TWIST_WINDOW_S`], plus
+/// through the kinematics, plus the slip noise `noise` (the error of the
+/// twist averaged over [`TWIST_WINDOW_S`]), plus
 /// [`TWIST_VARIANCE_FLOOR`] on the diagonal. Symmetric positive definite
 /// and finite for finite inputs; non-finite parts are dropped.
 pub fn twist_covariance(
     p: &IcrParams,
     icr_cov: &SlipMat,
-    noise: &ModelNoise,
+    noise: &TwistNoise,
     v_left: f64,
     v_right: f64,
 ) -> Matrix3<f64> {
@@ -104,17 +156,10 @@ pub fn twist_covariance(
         c = Matrix3::zeros();
     }
     let omega = p.twist(v_left, v_right).omega;
-    let (q_xy, q_yaw) = noise.diffusion(0.5 * (v_left + v_right), omega);
-    let add = |q: f64| {
-        if q.is_finite() && q > 0.0 {
-            q / TWIST_WINDOW_S
-        } else {
-            0.0
-        }
-    };
-    c[(0, 0)] += add(q_xy) + TWIST_VARIANCE_FLOOR;
-    c[(1, 1)] += add(q_xy) + TWIST_VARIANCE_FLOOR;
-    c[(2, 2)] += add(q_yaw) + TWIST_VARIANCE_FLOOR;
+    let q = noise.variance(0.5 * (v_left + v_right), omega);
+    for k in 0..3 {
+        c[(k, k)] += q[k] + TWIST_VARIANCE_FLOOR;
+    }
     c
 }
 
@@ -180,7 +225,8 @@ mod tests {
             q_yaw: 1e-6,
             q_turn: 1e-3,
         };
-        let still = twist_covariance(&p(), &SlipMat::zeros(), &ModelNoise::default(), 0.0, 0.0);
+        let noise = TwistNoise::from_model_noise(&noise);
+        let still = twist_covariance(&p(), &SlipMat::zeros(), &TwistNoise::default(), 0.0, 0.0);
         assert!(still.cholesky().is_some(), "{still}");
         let straight = twist_covariance(&p(), &cov, &noise, 1.0, 1.0);
         let turning = twist_covariance(&p(), &cov, &noise, 0.0, 2.0);

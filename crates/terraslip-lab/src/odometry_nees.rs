@@ -27,7 +27,7 @@ use anyhow::Context;
 use nalgebra::{Matrix2, Matrix3, SMatrix, Vector3};
 use terraslip::bag::Topics;
 use terraslip::pipeline::{self, EstimateRow, TerrainEvidence};
-use terraslip_core::odometry::{twist_jacobian, TWIST_VARIANCE_FLOOR};
+use terraslip_core::odometry::{twist_jacobian, TwistNoise, TWIST_VARIANCE_FLOOR, TWIST_WINDOW_S};
 use terraslip_core::slip::SlipMat;
 use terraslip_io::{DriveLog, PoseObs};
 
@@ -52,6 +52,9 @@ pub struct Args {
     /// held out for the pose NEES); 0 fuses every one.
     #[arg(long, default_value_t = 1.0)]
     fix_every: f64,
+    /// Also print each twist component's mean normalised error squared.
+    #[arg(long)]
+    components: bool,
 }
 
 /// Mean NEES of `n` samples of `k` degrees of freedom, with the share
@@ -62,6 +65,9 @@ pub struct Nees {
     pub k: usize,
     pub sum: f64,
     pub above: usize,
+    /// Sum of each component's own normalised error squared (`e_k² /
+    /// C_kk`: along-track or east, cross-track or north, heading).
+    pub parts: [f64; 3],
 }
 
 impl Nees {
@@ -71,6 +77,10 @@ impl Nees {
             self.sum += v;
             self.above += usize::from(v > chi2_quantile(self.k as f64, 0.95));
         }
+    }
+    /// Each component's mean normalised error squared (1 is right).
+    pub fn part_means(&self) -> [f64; 3] {
+        self.parts.map(|p| p / self.n.max(1) as f64)
     }
     pub fn mean(&self) -> f64 {
         self.sum / self.n.max(1) as f64
@@ -197,30 +207,66 @@ fn thinned(log: &DriveLog, every: f64) -> DriveLog {
     out
 }
 
-/// Twist and pose NEES of one run. `wheels[k]` are row `k`'s tread speeds;
-/// `std_xy`, `std_yaw` the reference's noise (m, rad); `offset` the pose
-/// clock offset (a pose stamped `t + offset` is wheel time `t`).
+/// The reference's noise as the run learned it: the white position std
+/// per axis (m), the heading std (rad), the slow position error's std (m)
+/// and correlation time (s).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReferenceNoise {
+    pub std_xy: f64,
+    pub std_yaw: f64,
+    pub slow_std: f64,
+    pub slow_time: f64,
+}
+
+impl ReferenceNoise {
+    /// Variance per axis of the reference's position at one time, m².
+    fn position_var(&self) -> f64 {
+        self.std_xy * self.std_xy + self.slow_std * self.slow_std
+    }
+
+    /// Variance per axis of the reference's displacement over `span` s:
+    /// both ends' white noise and how far the slow error moved, m².
+    fn displacement_var(&self, span: f64) -> f64 {
+        let moved = if self.slow_time > 0.0 {
+            1.0 - (-span / self.slow_time).exp()
+        } else {
+            1.0
+        };
+        2.0 * self.std_xy * self.std_xy + 2.0 * self.slow_std * self.slow_std * moved
+    }
+}
+
+/// Which slip noise the twist covariance states.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stated {
+    /// The filter's model noise, `q / window` (the pose's random walk).
+    ModelNoise,
+    /// The noise learned at the published horizon (what is published).
+    Learned,
+}
+
+/// Twist and pose NEES of one run: the twist's with each of `stated`.
+/// `wheels[k]` are row `k`'s tread speeds.
 pub fn nees(
     rows: &[EstimateRow],
     wheels: &[(f64, f64)],
     reference: &[PoseObs],
-    (std_xy, std_yaw): (f64, f64),
+    noise: &ReferenceNoise,
     window: f64,
-) -> (Nees, Nees) {
+    stated: &[Stated],
+) -> (Vec<Nees>, Nees) {
     // A reference with no heading (GNSS fixes): the position alone.
     let k = if reference.iter().any(|p| p.yaw.is_some()) {
         3
     } else {
         2
     };
-    let mut twist = Nees {
+    let empty = Nees {
         k,
         ..Default::default()
     };
-    let mut pose = Nees {
-        k,
-        ..Default::default()
-    };
+    let mut twist = vec![empty; stated.len()];
+    let mut pose = empty;
     let unknown_heading = std::f64::consts::PI.powi(2);
     // Pose: once a second.
     let mut next = f64::NEG_INFINITY;
@@ -233,9 +279,9 @@ pub fn nees(
         };
         next = r.t + 1.0;
         let mut c = Matrix3::from_fn(|i, k| r.pose_cov[i][k]);
-        c[(0, 0)] += std_xy * std_xy;
-        c[(1, 1)] += std_xy * std_xy;
-        c[(2, 2)] += std_yaw * std_yaw;
+        c[(0, 0)] += noise.position_var();
+        c[(1, 1)] += noise.position_var();
+        c[(2, 2)] += noise.std_yaw * noise.std_yaw;
         let v = match yaw {
             Some(yaw) => {
                 let err = Vector3::new(r.east - e, r.north - n, wrap(r.yaw - yaw));
@@ -281,73 +327,104 @@ pub fn nees(
             (Some(x), Some(y)) => Some(wrap(y - x)),
             _ => None,
         };
-        // The published twist integrated; its covariance carried along.
-        let (mut th, mut d) = (0.0f64, [0.0f64; 2]);
-        let mut jac = SMatrix::<f64, 3, 5>::zeros();
-        let (mut q_xy, mut q_yaw) = (0.0, 0.0);
-        for k in i..j {
-            let r = &rows[k];
-            let dt = rows[k + 1].t - r.t;
-            let (vl, vr) = wheels.get(k).copied().unwrap_or((0.0, 0.0));
-            let p = r.icr();
-            let tw = p.twist(vl, vr);
-            let (sn, cs) = th.sin_cos();
-            d[0] += (cs * tw.v_x - sn * tw.v_y) * dt;
-            d[1] += (sn * tw.v_x + cs * tw.v_y) * dt;
-            th += tw.omega * dt;
-            let jk = twist_jacobian(&p, vl, vr);
-            let rot = Matrix2::new(cs, -sn, sn, cs);
-            let xy = rot * jk.fixed_rows::<2>(0) * dt;
-            for c in 0..5 {
-                jac[(0, c)] += xy[(0, c)];
-                jac[(1, c)] += xy[(1, c)];
-                jac[(2, c)] += jk[(2, c)] * dt;
-            }
-            let (qx, qy) = r.model_noise.diffusion(0.5 * (vl + vr), tw.omega);
-            q_xy += (qx + TWIST_VARIANCE_FLOOR) * dt;
-            q_yaw += (qy + TWIST_VARIANCE_FLOOR) * dt;
-        }
+        let span = rows[j].t - t0;
+        let claim = integrate(&rows[i..=j], &wheels[i.min(wheels.len())..]);
         let sigma = SlipMat::from_fn(|a, b| r0.icr_cov[a][b]);
-        let mut cov = jac * sigma * jac.transpose();
-        cov[(0, 0)] += q_xy + 2.0 * std_xy * std_xy;
-        cov[(1, 1)] += q_xy + 2.0 * std_xy * std_xy;
-        cov[(2, 2)] += q_yaw + 2.0 * std_yaw * std_yaw;
-        let v = match turn_ref {
-            Some(tr) => {
-                let e = Vector3::new(d[0] - d_ref[0], d[1] - d_ref[1], wrap(th - tr));
+        let param = claim.jac * sigma * claim.jac.transpose();
+        let e = Vector3::new(
+            claim.d[0] - d_ref[0],
+            claim.d[1] - d_ref[1],
+            turn_ref.map_or(0.0, |tr| wrap(claim.turn - tr)),
+        );
+        for (out, which) in twist.iter_mut().zip(stated) {
+            let mut cov = param
+                + match which {
+                    Stated::ModelNoise => claim.model_noise,
+                    Stated::Learned => claim.learned,
+                };
+            let r = noise.displacement_var(span);
+            cov[(0, 0)] += r;
+            cov[(1, 1)] += r;
+            cov[(2, 2)] += 2.0 * noise.std_yaw * noise.std_yaw;
+            let v = if turn_ref.is_some() {
                 cov.try_inverse().map(|inv| (e.transpose() * inv * e)[0])
-            }
-            None => {
-                // No reference heading: the displacement only, its NEES
-                // (2 dof) scaled to 3 dof's mean.
-                let e = nalgebra::Vector2::new(d[0] - d_ref[0], d[1] - d_ref[1]);
+            } else {
+                let e2 = e.fixed_rows::<2>(0).into_owned();
                 let c2 = cov.fixed_view::<2, 2>(0, 0).into_owned();
-                c2.try_inverse()
-                    .map(|inv| 1.5 * (e.transpose() * inv * e)[0])
+                c2.try_inverse().map(|inv| (e2.transpose() * inv * e2)[0])
+            };
+            if let Some(v) = v {
+                out.add(v);
+                for (p, k) in out.parts.iter_mut().zip(0..3) {
+                    *p += e[k] * e[k] / cov[(k, k)];
+                }
             }
-        };
-        if std::env::var_os("NEES_DEBUG").is_some() {
-            eprintln!(
-                "tw t {:.1} e {:+.3} {:+.3} {:+.4}  sd {:.3} {:.3} {:.4}  d {:.2} {:.2} {:.3} nees {:.1}",
-                t0,
-                d[0] - d_ref[0],
-                d[1] - d_ref[1],
-                turn_ref.map_or(0.0, |tr| wrap(th - tr)),
-                cov[(0, 0)].sqrt(),
-                cov[(1, 1)].sqrt(),
-                cov[(2, 2)].sqrt(),
-                d[0],
-                d[1],
-                th,
-                v.unwrap_or(f64::NAN)
-            );
-        }
-        if let Some(v) = v {
-            twist.add(v);
         }
         i = j;
     }
     (twist, pose)
+}
+
+/// What the published twist claims over consecutive rows: the displacement
+/// (m) and turn (rad) in the body frame at the first row, their derivative
+/// with respect to the ICR parameters, and the covariance its slip noise
+/// adds (both the filter's model noise and the learned noise, carried as
+/// the one-second figures they are: variance per second of the window).
+struct Claim {
+    d: [f64; 2],
+    turn: f64,
+    jac: SMatrix<f64, 3, 5>,
+    model_noise: Matrix3<f64>,
+    learned: Matrix3<f64>,
+}
+
+fn integrate(rows: &[EstimateRow], wheels: &[(f64, f64)]) -> Claim {
+    let mut c = Claim {
+        d: [0.0; 2],
+        turn: 0.0,
+        jac: SMatrix::zeros(),
+        model_noise: Matrix3::zeros(),
+        learned: Matrix3::zeros(),
+    };
+    for (k, r) in rows.iter().enumerate().take(rows.len().saturating_sub(1)) {
+        let dt = rows[k + 1].t - r.t;
+        let (vl, vr) = wheels.get(k).copied().unwrap_or((0.0, 0.0));
+        let p = r.icr();
+        let tw = p.twist(vl, vr);
+        let (sn, cs) = c.turn.sin_cos();
+        c.d[0] += (cs * tw.v_x - sn * tw.v_y) * dt;
+        c.d[1] += (sn * tw.v_x + cs * tw.v_y) * dt;
+        c.turn += tw.omega * dt;
+        let jk = twist_jacobian(&p, vl, vr);
+        let rot = Matrix2::new(cs, -sn, sn, cs);
+        let xy = rot * jk.fixed_rows::<2>(0) * dt;
+        for m in 0..5 {
+            c.jac[(0, m)] += xy[(0, m)];
+            c.jac[(1, m)] += xy[(1, m)];
+            c.jac[(2, m)] += jk[(2, m)] * dt;
+        }
+        let v = 0.5 * (vl + vr);
+        let step = |q: [f64; 3]| {
+            // A one-second variance as a diffusion over dt, turned into
+            // the start's frame.
+            let w = TWIST_WINDOW_S * dt;
+            let b =
+                rot * Matrix2::new(
+                    q[0] + TWIST_VARIANCE_FLOOR,
+                    0.0,
+                    0.0,
+                    q[1] + TWIST_VARIANCE_FLOOR,
+                ) * rot.transpose()
+                    * w;
+            let mut m = Matrix3::zeros();
+            m.fixed_view_mut::<2, 2>(0, 0).copy_from(&b);
+            m[(2, 2)] = (q[2] + TWIST_VARIANCE_FLOOR) * w;
+            m
+        };
+        c.model_noise += step(TwistNoise::from_model_noise(&r.model_noise).variance(v, tw.omega));
+        c.learned += step(r.twist_noise.variance(v, tw.omega));
+    }
+    c
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -377,14 +454,35 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let wheels: Vec<(f64, f64)> = log.wheels.iter().map(|w| (w.v_left, w.v_right)).collect();
         // The reference's error as the run learned it: white and slowly
         // wandering parts.
-        let std_xy = run.noise.std_xy.hypot(run.noise.correlated_std);
-        let noise = (std_xy, run.noise.std_yaw);
-        if std::env::var_os("NEES_DEBUG").is_some() {
-            eprintln!("{name}: reference noise {:?}", run.noise);
-        }
-        let (tw, po) = nees(&run.rows, &wheels, &log.pose, noise, a.window);
-        println!("{name} | twist (k = {}) | {}", tw.k, tw.row());
+        let noise = ReferenceNoise {
+            std_xy: run.noise.std_xy,
+            std_yaw: run.noise.std_yaw,
+            slow_std: run.noise.correlated_std,
+            slow_time: cfg.measurement.correlation_time,
+        };
+        let (tw, po) = nees(
+            &run.rows,
+            &wheels,
+            &log.pose,
+            &noise,
+            a.window,
+            &[Stated::Learned, Stated::ModelNoise],
+        );
+        println!("{name} | twist (k = {}) | {}", tw[0].k, tw[0].row());
+        println!(
+            "{name} | twist, model noise q/window (k = {}) | {}",
+            tw[1].k,
+            tw[1].row()
+        );
         println!("{name} | pose (k = {}) | {}", po.k, po.row());
+        if a.components {
+            for (what, n) in [("twist", &tw[0]), ("twist, model noise", &tw[1])] {
+                let [x, y, h] = n.part_means();
+                println!(
+                    "{name} | {what}: mean e²/σ² along {x:.2}, across {y:.2}, heading {h:.2} |"
+                );
+            }
+        }
     }
     Ok(())
 }

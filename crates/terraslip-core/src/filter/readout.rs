@@ -159,6 +159,11 @@ impl Filter {
         (self.meas.lever_arm_x, self.meas.lever_arm_y)
     }
 
+    /// The measurement settings in use.
+    pub fn measurement(&self) -> &super::MeasurementConfig {
+        &self.meas
+    }
+
     /// Clock offset of the pose stream against the wheels and its std, s.
     pub fn clock_offset(&self) -> (f64, f64) {
         (self.x[CLOCK], libm::sqrt(self.P[(CLOCK, CLOCK)].max(0.0)))

@@ -47,7 +47,7 @@ pub fn sample(r: &EstimateRow, stamp_ns: u64, wheels: Option<(f64, f64)>) -> Est
     let icr = r.icr();
     let t = icr.twist(l, rr);
     let icr_cov = terraslip_core::slip::SlipMat::from_fn(|i, k| r.icr_cov[i][k]);
-    let tc = terraslip_core::odometry::twist_covariance(&icr, &icr_cov, &r.model_noise, l, rr);
+    let tc = terraslip_core::odometry::twist_covariance(&icr, &icr_cov, &r.twist_noise, l, rr);
     EstimateSample {
         stamp_ns,
         east: r.east,

@@ -97,6 +97,9 @@ pub struct EstimateRow {
     pub icr_cov: [[f64; 5]; 5],
     /// The filter's model noise at this row.
     pub model_noise: terraslip_core::odometry::ModelNoise,
+    /// The model's twist error averaged over one second, as learned from
+    /// the fixes so far (what the published twist covariance states).
+    pub twist_noise: terraslip_core::odometry::TwistNoise,
     /// Index into [`EstimateRun::terrains`] of the believed terrain.
     pub terrain: Option<usize>,
     /// A pose fix part was fused since the previous row.

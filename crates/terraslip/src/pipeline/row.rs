@@ -44,7 +44,8 @@ pub fn row(est: &Estimator, t: f64, terrain: Option<usize>, s: &FixSummary) -> E
         std_spread: (ic[(0, 0)] + ic[(1, 1)] - 2.0 * ic[(0, 1)]).max(0.0).sqrt(),
         pose_cov: pose_cov(&pc, f.anchored()[1]),
         icr_cov: std::array::from_fn(|r| std::array::from_fn(|k| ic[(r, k)])),
-        model_noise: model_noise(f),
+        model_noise: terraslip_core::odometry::ModelNoise::of(f),
+        twist_noise: est.twist_noise(),
         terrain,
         fused: s.fused,
         gated: s.gated,
@@ -68,18 +69,6 @@ fn pose_cov(pc: &nalgebra::Matrix3<f64>, heading_known: bool) -> [[f64; 3]; 3] {
         c[2] = [0.0, 0.0, std::f64::consts::PI.powi(2)];
     }
     c
-}
-
-/// The model noise the filter's prediction adds (its learned factors on
-/// speed and turn, the configured floors).
-fn model_noise(f: &terraslip_core::filter::Filter) -> terraslip_core::odometry::ModelNoise {
-    let (q_speed, q_turn) = f.model_noise();
-    terraslip_core::odometry::ModelNoise {
-        q_pos: f.config().q_pos,
-        q_speed,
-        q_yaw: f.config().q_yaw,
-        q_turn,
-    }
 }
 
 /// What the 2 s prediction from a start takes of the filter: the ICRs at

@@ -111,7 +111,7 @@ struct Figures {
 
 /// The world's log as the family runs it: the pose stream on its own
 /// clock, the std columns only where the world states them.
-fn simulate_world(w: &World, seed: u64) -> anyhow::Result<SimRun> {
+pub(crate) fn simulate_world(w: &World, seed: u64) -> anyhow::Result<SimRun> {
     let mut sim = simulate(&w.scenario, seed)?;
     for p in &mut sim.log.pose {
         p.t += w.clock_offset;
@@ -125,7 +125,7 @@ fn simulate_world(w: &World, seed: u64) -> anyhow::Result<SimRun> {
 
 /// World `seed` of `subset`, with a gyro if asked (`gyro_scale` > 0:
 /// one whose scale is off by up to that fraction).
-fn draw(seed: u64, subset: Subset, gyro: bool, gyro_scale: f64) -> World {
+pub(crate) fn draw(seed: u64, subset: Subset, gyro: bool, gyro_scale: f64) -> World {
     let w = world(seed, subset);
     if gyro_scale > 0.0 {
         w.with_gyro(seed).with_gyro_scale(seed, gyro_scale)
@@ -143,7 +143,7 @@ fn truth_at(sim: &SimRun, t: f64) -> &terraslip_sim::TruthState {
 
 /// 2 s prediction error against the true pose (starts every second after
 /// 60 s), with the ICRs the run reported at each start.
-fn prediction(run: &EstimateRun, sim: &SimRun) -> f64 {
+pub(crate) fn prediction(run: &EstimateRun, sim: &SimRun) -> f64 {
     let w = &sim.log.wheels;
     let end = sim.truth.last().map_or(0.0, |s| s.t) - 2.0;
     let (mut sum, mut n) = (0.0, 0usize);

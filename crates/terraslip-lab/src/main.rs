@@ -7,6 +7,7 @@
 //!     cargo run -p terraslip-lab --release -- family --worlds 50 --gyro [--gyro-scale 0.03]
 //!     cargo run -p terraslip-lab --release -- drives
 //!     cargo run -p terraslip-lab --release -- odometry-nees
+//!     cargo run -p terraslip-lab --release -- terrain-trust [--borealtc DIR]
 //!
 //! Estimators are named presets (`terraslip`, `ekf-qmin`, `no-slip`, ...)
 //! or `config:FILE.toml` (the default overridden by that file's keys).
@@ -15,13 +16,16 @@
 use clap::{Parser, Subcommand};
 
 mod blr;
+mod borealtc_trust;
 mod drives;
 mod estimators;
 mod family;
 mod heldout;
+mod misread;
 mod odometry_nees;
 mod outage_table;
 mod stats;
+mod terrain_trust;
 
 /// The estimator's quality benchmarks.
 #[derive(Parser)]
@@ -46,6 +50,10 @@ enum Command {
     /// Whether the odometry's published twist and pose covariances are
     /// honest: their NEES against a pose reference, with the 95 % band.
     OdometryNees(odometry_nees::Args),
+    /// The estimator given terrain labels, a classifier or nothing: on
+    /// simulated worlds whose classifier misreads a ground (confidently or
+    /// unsure), and on BorealTC with models trained without each run.
+    TerrainTrust(terrain_trust::Args),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -54,5 +62,6 @@ fn main() -> anyhow::Result<()> {
         Command::Drives(a) => drives::run(a),
         Command::Heldout(a) => heldout::run(a),
         Command::OdometryNees(a) => odometry_nees::run(a),
+        Command::TerrainTrust(a) => terrain_trust::run(a),
     }
 }

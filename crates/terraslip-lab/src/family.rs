@@ -27,6 +27,7 @@ use terraslip_sim::family::{world, Subset, World};
 use terraslip_sim::{simulate, SimRun};
 
 use crate::estimators;
+use crate::seeds::SeedQueue;
 use crate::stats::summary;
 
 /// Run every estimator over a family of simulated worlds.
@@ -306,21 +307,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let seeds: Vec<u64> = (a.first_seed..a.first_seed + a.worlds).collect();
     let results: Mutex<Vec<(u64, usize, Figures)>> = Mutex::new(Vec::new());
-    let next = Mutex::new(0usize);
+    let queue = SeedQueue::new(seeds.clone());
     let started = std::time::Instant::now();
     let threads = std::thread::available_parallelism().map_or(2, |n| n.get());
     std::thread::scope(|s| {
         for _ in 0..threads {
             s.spawn(|| -> anyhow::Result<()> {
-                loop {
-                    let k = {
-                        let mut g = next.lock().unwrap_or_else(|e| e.into_inner());
-                        *g += 1;
-                        *g - 1
-                    };
-                    let Some(&seed) = seeds.get(k) else {
-                        return Ok(());
-                    };
+                while let Some(seed) = queue.take() {
                     let w = draw(seed, subset, a.gyro, a.gyro_scale);
                     let sim = simulate_world(&w, seed)?;
                     // The outage on the pose stream's clock.
@@ -369,6 +362,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                     let done = results.lock().map_or(0, |r| r.len()) / cfgs.len();
                     eprint!("\r{done}/{} worlds", seeds.len());
                 }
+                Ok(())
             });
         }
     });

@@ -24,6 +24,7 @@ mod heldout;
 mod misread;
 mod odometry_nees;
 mod outage_table;
+mod seeds;
 mod stats;
 mod terrain_trust;
 

@@ -16,6 +16,7 @@ use terraslip_sim::family::Subset;
 
 use crate::family::{draw, prediction, simulate_world};
 use crate::misread::{self, Reading};
+use crate::seeds::SeedQueue;
 use crate::stats::quantile;
 
 /// The estimator given labels, a classifier or nothing, on simulated
@@ -114,24 +115,17 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let seeds: Vec<u64> = (a.first_seed..a.first_seed + a.worlds).collect();
     let results: Mutex<Vec<WorldFigures>> = Mutex::new(Vec::new());
-    let next = Mutex::new(0usize);
+    let queue = SeedQueue::new(seeds.clone());
     let threads = std::thread::available_parallelism().map_or(2, |n| n.get());
     std::thread::scope(|s| -> anyhow::Result<()> {
         let handles: Vec<_> = (0..threads)
             .map(|_| {
                 s.spawn(|| -> anyhow::Result<()> {
-                    loop {
-                        let k = {
-                            let mut g = next.lock().unwrap_or_else(|e| e.into_inner());
-                            *g += 1;
-                            *g - 1
-                        };
-                        let Some(&seed) = seeds.get(k) else {
-                            return Ok(());
-                        };
+                    while let Some(seed) = queue.take() {
                         let f = world_figures(seed, a.confidence)?;
                         results.lock().unwrap_or_else(|e| e.into_inner()).push(f);
                     }
+                    Ok(())
                 })
             })
             .collect();

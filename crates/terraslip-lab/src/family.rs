@@ -27,6 +27,7 @@ use terraslip_sim::family::{world, Subset, World};
 use terraslip_sim::{simulate, SimRun};
 
 use crate::estimators;
+use crate::seeds::SeedQueue;
 use crate::stats::summary;
 
 /// Run every estimator over a family of simulated worlds.
@@ -111,7 +112,7 @@ struct Figures {
 
 /// The world's log as the family runs it: the pose stream on its own
 /// clock, the std columns only where the world states them.
-fn simulate_world(w: &World, seed: u64) -> anyhow::Result<SimRun> {
+pub(crate) fn simulate_world(w: &World, seed: u64) -> anyhow::Result<SimRun> {
     let mut sim = simulate(&w.scenario, seed)?;
     for p in &mut sim.log.pose {
         p.t += w.clock_offset;
@@ -125,7 +126,7 @@ fn simulate_world(w: &World, seed: u64) -> anyhow::Result<SimRun> {
 
 /// World `seed` of `subset`, with a gyro if asked (`gyro_scale` > 0:
 /// one whose scale is off by up to that fraction).
-fn draw(seed: u64, subset: Subset, gyro: bool, gyro_scale: f64) -> World {
+pub(crate) fn draw(seed: u64, subset: Subset, gyro: bool, gyro_scale: f64) -> World {
     let w = world(seed, subset);
     if gyro_scale > 0.0 {
         w.with_gyro(seed).with_gyro_scale(seed, gyro_scale)
@@ -143,7 +144,7 @@ fn truth_at(sim: &SimRun, t: f64) -> &terraslip_sim::TruthState {
 
 /// 2 s prediction error against the true pose (starts every second after
 /// 60 s), with the ICRs the run reported at each start.
-fn prediction(run: &EstimateRun, sim: &SimRun) -> f64 {
+pub(crate) fn prediction(run: &EstimateRun, sim: &SimRun) -> f64 {
     let w = &sim.log.wheels;
     let end = sim.truth.last().map_or(0.0, |s| s.t) - 2.0;
     let (mut sum, mut n) = (0.0, 0usize);
@@ -306,21 +307,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let seeds: Vec<u64> = (a.first_seed..a.first_seed + a.worlds).collect();
     let results: Mutex<Vec<(u64, usize, Figures)>> = Mutex::new(Vec::new());
-    let next = Mutex::new(0usize);
+    let queue = SeedQueue::new(seeds.clone());
     let started = std::time::Instant::now();
     let threads = std::thread::available_parallelism().map_or(2, |n| n.get());
     std::thread::scope(|s| {
         for _ in 0..threads {
             s.spawn(|| -> anyhow::Result<()> {
-                loop {
-                    let k = {
-                        let mut g = next.lock().unwrap_or_else(|e| e.into_inner());
-                        *g += 1;
-                        *g - 1
-                    };
-                    let Some(&seed) = seeds.get(k) else {
-                        return Ok(());
-                    };
+                while let Some(seed) = queue.take() {
                     let w = draw(seed, subset, a.gyro, a.gyro_scale);
                     let sim = simulate_world(&w, seed)?;
                     // The outage on the pose stream's clock.
@@ -369,6 +362,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                     let done = results.lock().map_or(0, |r| r.len()) / cfgs.len();
                     eprint!("\r{done}/{} worlds", seeds.len());
                 }
+                Ok(())
             });
         }
     });

@@ -8,6 +8,7 @@
 //!     cargo run -p terraslip-lab --release -- drives
 //!     cargo run -p terraslip-lab --release -- odometry-nees
 //!     cargo run -p terraslip-lab --release -- follow --seeds 20
+//!     cargo run -p terraslip-lab --release -- terrain-trust [--borealtc DIR]
 //!
 //! Estimators are named presets (`terraslip`, `ekf-qmin`, `no-slip`, ...)
 //! or `config:FILE.toml` (the default overridden by that file's keys).
@@ -16,14 +17,18 @@
 use clap::{Parser, Subcommand};
 
 mod blr;
+mod borealtc_trust;
 mod drives;
 mod estimators;
 mod family;
 mod follow;
 mod heldout;
+mod misread;
 mod odometry_nees;
 mod outage_table;
+mod seeds;
 mod stats;
+mod terrain_trust;
 
 /// The estimator's quality benchmarks.
 #[derive(Parser)]
@@ -55,6 +60,10 @@ enum Command {
     /// RMS, heading error at the end of turns, time to finish and recovery
     /// after a ground change, median and worst over the seeds.
     Follow(follow::Args),
+    /// The estimator given terrain labels, a classifier or nothing: on
+    /// simulated worlds whose classifier misreads a ground (confidently or
+    /// unsure), and on BorealTC with models trained without each run.
+    TerrainTrust(terrain_trust::Args),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -64,5 +73,6 @@ fn main() -> anyhow::Result<()> {
         Command::Heldout(a) => heldout::run(a),
         Command::OdometryNees(a) => odometry_nees::run(a),
         Command::Follow(a) => follow::run(a),
+        Command::TerrainTrust(a) => terrain_trust::run(a),
     }
 }

@@ -58,7 +58,7 @@ pub struct CrossvalReport {
     /// the first window whose filtered label is the new terrain, s (`None`
     /// when none is before the next change or the end).
     pub change_latency_s: Vec<Option<f64>>,
-    /// Calibration, risk–coverage, "unknown" and the AUROC of a misread
+    /// Expected calibration error, risk–coverage, "unknown" and the AUROC of a misread
     /// window over every held-out window (each scored by its fold's model).
     pub confidence: ConfidenceScore,
 }

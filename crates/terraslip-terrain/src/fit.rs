@@ -1,8 +1,7 @@
 //! A model fitted to labelled logs: the features read (channels and speed
 //! floor chosen from the logs), the labelled windows with their speed
 //! copies, the speed normalisation and scaling, the manoeuvre envelope,
-//! the classifier and the spread of each class. Calibration is a later
-//! step ([`crate::train`]).
+//! the classifier and the spread of each class.
 
 use terraslip_core::terrain_belief::MAX_TERRAINS;
 use terraslip_io::DriveLog;
@@ -21,7 +20,7 @@ use crate::vibration::{self, VibrationFeatureSet};
 
 impl TerrainModel {
     /// Fits a model for the given classes (labels outside them are
-    /// ignored), without calibration.
+    /// ignored).
     pub(crate) fn fit(logs: &[DriveLog], classes: &[String], opts: &TrainOptions) -> Result<Self> {
         if logs.is_empty() {
             return Err(TerrainError::Training("no logs given".into()));
@@ -224,7 +223,6 @@ impl TerrainModel {
             envelope,
             classifier_settings: opts.classifier.clone(),
             classifier,
-            calibration: None,
             class_distance,
             belief: opts.belief,
             training: TrainingInfo {

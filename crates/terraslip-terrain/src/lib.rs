@@ -15,15 +15,14 @@
 //!   `features` (what a model reads), `timeline` (class probabilities over
 //!   time and the belief filter's settings), `model_file` (the JSON file).
 //! - Training: `train_options` ([`TrainOptions`]), `fit` (the model fitted
-//!   to labelled logs), `train` ([`TerrainModel::train`]: fit, then
-//!   [`calibrate`] on inner folds).
+//!   to labelled logs), `train` ([`TerrainModel::train`]).
 //! - [`eval`]: confusion matrices, scored and spliced logs;
 //!   [`crossval`](mod@crossval): leave-runs-out cross-validation (parallel
 //!   folds), the runs held out chosen by `folds`.
 //! - [`speed_norm`]: learnt per-feature speed slopes; [`envelope`]: the
 //!   speeds and turns each terrain was trained at.
-//! - [`calibrate`]: calibration on grouped inner folds; [`confidence`]: calibrated probabilities, the "unknown" verdict,
-//!   novelty, and their scores (ECE, risk–coverage, AUROC).
+//! - [`confidence`]: the "unknown" verdict, novelty, and their scores
+//!   (ECE, risk–coverage, AUROC).
 //! - [`augment`]: speed copies of training logs (driven faster or slower).
 //! - [`synth`]: small synthetic labelled logs for tests and benchmarks.
 //!
@@ -33,7 +32,6 @@
 
 pub mod augment;
 pub mod boost;
-pub mod calibrate;
 pub mod classify;
 pub mod confidence;
 pub mod crossval;

@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 use terraslip_io::DriveLog;
 
 use crate::classify::{argmax, Classifier, ClassifierParams, Standardizer};
-use crate::confidence::{Calibration, ClassDistance};
+use crate::confidence::ClassDistance;
 use crate::envelope::{lower_confidence, Envelope};
 use crate::error::{Result, TerrainError};
 pub use crate::features::Features;
@@ -23,8 +23,9 @@ use crate::vibration::{ChannelSet, VibrationFeatureSet};
 /// settings record the motor-current channels (`currents`); the spatial
 /// bands are gone. 6: the manoeuvre envelope (`envelope`). 7: the current
 /// in excess of the robot's baseline at the window's speed and turn
-/// (`current_excess`, `speed_normalisation.current_baseline`).
-pub const MODEL_FORMAT_VERSION: u32 = 7;
+/// (`current_excess`, `speed_normalisation.current_baseline`). 8: no
+/// `calibration` (the probabilities are the classifier's own).
+pub const MODEL_FORMAT_VERSION: u32 = 8;
 
 /// The sensor a model reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -81,10 +82,6 @@ pub struct TerrainModel {
     pub envelope: Option<Envelope>,
     pub classifier_settings: ClassifierParams,
     pub classifier: Classifier,
-    /// Temperature and unknown threshold fitted on inner folds of the
-    /// training runs (`null`: raw probabilities, never "unknown").
-    #[serde(default)]
-    pub calibration: Option<Calibration>,
     /// Per-class spread of the training windows in standardised feature
     /// space, for the novelty of a window (`null` in older files).
     #[serde(default)]
@@ -105,17 +102,13 @@ impl TerrainModel {
     /// class probabilities floored by the model's `prob_floor`, without the
     /// vibration windows in which the robot was nearly still (mean tread
     /// speed below [`MIN_INFORMATIVE_SPEED`]) and without the frames whose
-    /// calibrated verdict is "unknown" (confidence below the model's
-    /// `calibration.unknown_below`): an unsure terrain is no evidence, the
+    /// verdict is "unknown" (confidence below
+    /// [`crate::confidence::UNKNOWN_BELOW`]): an unsure terrain is no evidence, the
     /// belief keeps what it had and the estimator's own innovation-driven
     /// change detection decides. Camera frames are kept at any speed.
     pub fn estimator_evidence(&self, log: &DriveLog) -> Result<TerrainTimeline> {
         let mut timeline = self.classify_log(log)?;
-        let mut keep: Vec<bool> = timeline
-            .frames
-            .iter()
-            .map(|(_, p)| !self.calibration.as_ref().is_some_and(|c| c.is_unknown(p)))
-            .collect();
+        let mut keep = vec![true; timeline.frames.len()];
         if let Features::Vibration { config, .. } = &self.features {
             let w = &log.wheels;
             for ((t, _), k) in timeline.frames.iter().zip(keep.iter_mut()) {
@@ -129,9 +122,8 @@ impl TerrainModel {
                 *k &= n > 0 && sum / n.max(1) as f64 >= MIN_INFORMATIVE_SPEED;
             }
         }
-        timeline.frames = timeline.floored(self.belief.prob_floor);
         timeline.retain_frames(&keep);
-        Ok(timeline)
+        Ok(timeline.sure_evidence(self.belief.prob_floor))
     }
     /// What the model reads from a log, for messages: e.g. `imu.csv (all
     /// six channels), wheels.csv tread speeds and motor currents`.
@@ -179,7 +171,6 @@ impl TerrainModel {
             changes: Vec::new(),
             outside_envelope: Vec::new(),
             novelty: Vec::new(),
-            unknown_below: self.calibration.as_ref().map_or(0.0, |c| c.unknown_below),
         };
         let manoeuvre = manoeuvre_indices(&self.features);
         for (t, mut x, phi) in samples {
@@ -204,9 +195,6 @@ impl TerrainModel {
                     lower_confidence(&mut p);
                 }
                 tl.outside_envelope.push(outside);
-            }
-            if let Some(c) = &self.calibration {
-                c.apply(&mut p);
             }
             if let Some(cd) = &self.class_distance {
                 tl.novelty.push(cd.novelty(&xs, argmax(&p)));

@@ -107,9 +107,6 @@ impl TerrainModel {
             (None, _) => {}
             (Some(_), _) => return Err("a manoeuvre envelope in a camera model".into()),
         }
-        if let Some(c) = &self.calibration {
-            c.check()?;
-        }
         if let Some(cd) = &self.class_distance {
             cd.check(k, d)?;
         }

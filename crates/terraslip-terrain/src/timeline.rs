@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 use terraslip_core::terrain_belief::{BeliefConfig, TerrainBelief};
 
 use crate::classify::argmax;
-use crate::confidence::{confidence, ScoredWindow};
+use crate::confidence::{confidence, is_unknown, ScoredWindow, UNKNOWN_BELOW};
 
 /// How classifier outputs are smoothed (wang2018's Bayesian filter + λ-vote).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -58,9 +58,6 @@ pub struct TerrainTimeline {
     /// Per frame: distance from the training windows of the terrain it is
     /// read as ([`crate::confidence::ClassDistance::novelty`]). Empty when the model has none.
     pub novelty: Vec<f64>,
-    /// Confidence below which a frame's verdict is "unknown" (the model's
-    /// calibration; 0 without one).
-    pub unknown_below: f64,
 }
 
 /// One frame after the Bayesian filter.
@@ -100,7 +97,7 @@ impl TerrainTimeline {
                     predicted: argmax(p),
                     confidence,
                     correct: argmax(p) == truth,
-                    unknown: confidence < self.unknown_below,
+                    unknown: confidence < UNKNOWN_BELOW,
                     outside_envelope: self.outside_envelope.get(i).copied(),
                     novelty: self.novelty.get(i).copied(),
                 })
@@ -128,6 +125,17 @@ impl TerrainTimeline {
                 )
             })
             .collect()
+    }
+
+    /// What a belief may fuse: the frames whose verdict is not "unknown"
+    /// ([`crate::confidence::is_unknown`]: an unsure terrain is no
+    /// evidence, the belief keeps what it had), each floored by `floor`
+    /// ([`Self::floored`]).
+    pub fn sure_evidence(mut self, floor: f64) -> Self {
+        let keep: Vec<bool> = self.frames.iter().map(|(_, p)| !is_unknown(p)).collect();
+        self.frames = self.floored(floor);
+        self.retain_frames(&keep);
+        self
     }
 
     /// Runs the HMM filter and λ-vote over the frames. A camera change

@@ -1,11 +1,8 @@
-//! Training a terrain model: fitted to the labelled logs, then calibrated
-//! on grouped inner folds of its training runs when asked.
+//! Training a terrain model on labelled logs.
 
 use terraslip_io::DriveLog;
 
-use crate::calibrate::inner_calibration;
 use crate::error::Result;
-use crate::features::Features;
 use crate::model::TerrainModel;
 use crate::train_options::TrainOptions;
 
@@ -24,15 +21,6 @@ impl TerrainModel {
         classes: &[String],
         opts: &TrainOptions,
     ) -> Result<Self> {
-        let mut model = Self::fit(logs, classes, opts)?;
-        if opts.calibration_folds >= 2 {
-            let mut inner = opts.clone();
-            inner.calibration_folds = 0;
-            if let Features::Vibration { config, .. } = &model.features {
-                inner.speed_floor = Some(config.speed_norm_min);
-            }
-            model.calibration = inner_calibration(logs, classes, &inner, opts.calibration_folds)?;
-        }
-        Ok(model)
+        Self::fit(logs, classes, opts)
     }
 }

@@ -1,6 +1,6 @@
 //! Everything training needs besides the logs: the source, the feature
 //! and classifier settings, and the optional steps (channel and speed
-//! floor choice, speed copies, calibration).
+//! floor choice, speed copies).
 
 use crate::augment::SpeedAugmentation;
 use crate::classify::ClassifierParams;
@@ -31,10 +31,6 @@ pub struct TrainOptions {
     /// vibration features with speed normalisation only; ignored
     /// otherwise); `None`: the recorded windows only.
     pub speed_augmentation: Option<SpeedAugmentation>,
-    /// Grouped inner folds (whole training runs out) on which the class
-    /// probabilities are calibrated and the unknown threshold chosen
-    /// ([`crate::confidence`]); below 2: no calibration.
-    pub calibration_folds: usize,
 }
 
 impl Default for TrainOptions {
@@ -49,7 +45,6 @@ impl Default for TrainOptions {
             currents: None,
             speed_floor: None,
             speed_augmentation: Some(SpeedAugmentation::default()),
-            calibration_folds: 0,
         }
     }
 }

@@ -1,8 +1,9 @@
-//! Calibrated confidence on synthetic logs: the model stores a temperature
-//! and an unknown threshold fitted on inner folds, an unsure window is no
-//! evidence for the estimator, and a model file without them still loads.
+//! Confidence on synthetic logs: a verdict below [`UNKNOWN_BELOW`] is
+//! "unknown" and no evidence for the estimator; a model file keeps the
+//! spread of each class for the novelty, and one without it still loads.
 
 use terraslip_io::DriveLog;
+use terraslip_terrain::confidence::{confidence, UNKNOWN_BELOW};
 use terraslip_terrain::synth::vibration_log;
 use terraslip_terrain::*;
 
@@ -17,47 +18,37 @@ fn runs() -> Vec<DriveLog> {
         .collect()
 }
 
-fn calibrated_opts() -> TrainOptions {
+fn opts() -> TrainOptions {
     let mut o = TrainOptions::default();
     o.vibration.window_s = 1.0;
     o.classifier.boost.rounds = 30;
     o.speed_augmentation = None;
-    o.calibration_folds = 3;
     o
 }
 
 #[test]
-fn calibrated_model_answers_unknown_below_its_threshold_and_gives_the_estimator_no_evidence() {
-    let logs = runs();
-    let mut model = TerrainModel::train(&logs, &calibrated_opts()).unwrap();
-    let cal = model
-        .calibration
-        .clone()
-        .expect("calibrated on inner folds");
-    assert!(
-        cal.temperature > 0.0 && cal.folds == 3 && cal.windows > 100,
-        "{cal:?}"
-    );
-    assert!((0.0..=1.0).contains(&cal.unknown_below));
-    assert!(model.class_distance.is_some());
-    // Round trip through the file keeps the calibration.
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("m.json");
-    model.save(&path).unwrap();
-    assert_eq!(
-        TerrainModel::load(&path).unwrap().calibration,
-        Some(cal.clone())
-    );
-
-    let test = vibration_log(&NAMES, &[(0, 15.0), (2, 15.0)], 99, 0.0);
-    let all = model.classify_log(&test).unwrap().frames.len();
-    assert!(all > 10);
-    // Nothing is sure enough (a temperature that flattens every output
-    // below the threshold): every verdict is unknown, no evidence at all.
-    let c = model.calibration.as_mut().unwrap();
-    c.temperature = 1e3;
-    c.unknown_below = 0.9;
+fn an_unsure_window_is_unknown_and_no_evidence_for_the_estimator() {
+    // Few boosting rounds: the probabilities have moved only part of the
+    // way from the prior, sure on some windows, unsure on others.
+    let mut o = opts();
+    o.classifier.boost.rounds = 8;
+    let model = TerrainModel::train(&runs(), &o).unwrap();
+    // Terrain changes every 1.2 s: most 1 s windows straddle two grounds.
+    let segments: Vec<(usize, f64)> = (0..30).map(|i| (i % 3, 1.2)).collect();
+    let test = vibration_log(&NAMES, &segments, 99, 0.0);
     let tl = model.classify_log(&test).unwrap();
+    let sure: Vec<f64> = tl
+        .frames
+        .iter()
+        .filter(|(_, p)| confidence(p) >= UNKNOWN_BELOW)
+        .map(|(t, _)| *t)
+        .collect();
+    let unsure = tl.frames.len() - sure.len();
+    assert!(
+        unsure > 0 && !sure.is_empty(),
+        "{unsure} of {}",
+        tl.frames.len()
+    );
     let truth: Vec<Option<usize>> = tl
         .frames
         .iter()
@@ -66,31 +57,26 @@ fn calibrated_model_answers_unknown_below_its_threshold_and_gives_the_estimator_
                 .and_then(|n| NAMES.iter().position(|c| *c == n))
         })
         .collect();
-    assert!(tl.scored_windows(&truth).iter().all(|w| w.unknown));
-    assert_eq!(model.estimator_evidence(&test).unwrap().frames.len(), 0);
-    // Everything is sure enough: every window is evidence again.
-    model.calibration.as_mut().unwrap().unknown_below = 0.0;
+    let scored = tl.scored_windows(&truth);
+    assert_eq!(scored.iter().filter(|w| w.unknown).count(), unsure);
+    // The robot drives at 0.5 m/s throughout: only the unsure windows go.
     let ev = model.estimator_evidence(&test).unwrap();
-    assert_eq!(ev.frames.len(), all);
-    assert_eq!(ev.novelty.len(), all);
+    let kept: Vec<f64> = ev.frames.iter().map(|(t, _)| *t).collect();
+    assert_eq!(kept, sure);
+    assert_eq!(ev.novelty.len(), sure.len());
 }
 
 #[test]
-fn a_model_file_without_calibration_still_loads_and_is_never_unknown() {
-    let mut o = calibrated_opts();
-    o.calibration_folds = 0;
-    let model = TerrainModel::train(&runs()[..3], &o).unwrap();
-    assert!(model.calibration.is_none());
+fn a_model_file_without_the_class_spread_still_loads() {
+    let model = TerrainModel::train(&runs()[..3], &opts()).unwrap();
+    assert!(model.class_distance.is_some());
     let mut v = serde_json::to_value(&model).unwrap();
-    let obj = v.as_object_mut().unwrap();
-    obj.remove("calibration");
-    obj.remove("class_distance");
+    v.as_object_mut().unwrap().remove("class_distance");
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("old.json");
     std::fs::write(&path, serde_json::to_vec(&v).unwrap()).unwrap();
     let old = TerrainModel::load(&path).unwrap();
-    assert!(old.calibration.is_none() && old.class_distance.is_none());
+    assert!(old.class_distance.is_none());
     let tl = old.classify_log(&runs()[3]).unwrap();
-    assert_eq!(tl.unknown_below, 0.0);
     assert!(tl.novelty.is_empty());
 }

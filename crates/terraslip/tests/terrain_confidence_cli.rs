@@ -1,5 +1,5 @@
 //! `terraslip terrain eval` and `crossval` on small synthetic logs: the
-//! calibrated confidence (risk–coverage, 80 % coverage, ECE), the per-window
+//! confidence (risk–coverage, 80 % coverage, ECE), the per-window
 //! CSV, and the outer-fold headline beside the plain baseline.
 
 use std::path::Path;
@@ -30,14 +30,14 @@ fn terraslip() -> Command {
 const SMALL: [&str; 5] = ["--window", "1", "--rounds", "30", "--no-speed-copies"];
 
 #[test]
-fn eval_windows_writes_one_row_per_window_and_reports_calibration() {
+fn eval_windows_writes_one_row_per_window_and_reports_the_unknown_threshold() {
     let dir = tempfile::tempdir().unwrap();
     let runs = write_runs(dir.path());
     let model = dir.path().join("model.json");
     terraslip()
         .args(["terrain", "train"])
         .args(&runs)
-        .args(["--out", model.to_str().unwrap(), "--calibration-folds", "3"])
+        .args(["--out", model.to_str().unwrap()])
         .args(SMALL)
         .assert()
         .success();
@@ -61,10 +61,7 @@ fn eval_windows_writes_one_row_per_window_and_reports_calibration() {
     assert!((0.0..=1.0).contains(&ece), "{v}");
     assert!(c["accuracy_at_80"].as_f64().unwrap() > 0.8, "{v}");
     assert_eq!(c["risk_coverage"].as_array().unwrap().len(), 10, "{v}");
-    assert!(
-        v["calibration"]["temperature"].as_f64().unwrap() > 0.0,
-        "{v}"
-    );
+    assert_eq!(v["unknown_below"].as_f64(), Some(0.5), "{v}");
     assert!(stderr.contains("expected calibration error"), "{stderr}");
 
     let text = std::fs::read_to_string(&csv).unwrap();
@@ -77,8 +74,10 @@ fn eval_windows_writes_one_row_per_window_and_reports_calibration() {
         assert_eq!(r[0], "test");
         assert!(r[1].parse::<f64>().unwrap() > 0.0);
         assert!(NAMES.contains(&r[2]));
+        let conf = r[4].parse::<f64>().unwrap();
+        assert!((0.0..=1.0).contains(&conf));
+        assert_eq!(r[3] == "unknown", conf < 0.5, "{r:?}");
         assert!(NAMES.contains(&r[3]) || r[3] == "unknown", "{r:?}");
-        assert!((0.0..=1.0).contains(&r[4].parse::<f64>().unwrap()));
     }
     // Never written over an input.
     let out = terraslip()
@@ -101,7 +100,7 @@ fn crossval_headline_is_the_outer_fold_figure_beside_the_plain_baseline() {
     let out = terraslip()
         .args(["terrain", "crossval"])
         .args(&runs)
-        .args(["--folds", "2", "--calibration-folds", "0", "--json"])
+        .args(["--folds", "2", "--json"])
         .args(SMALL)
         .output()
         .unwrap();

@@ -34,8 +34,8 @@ pub(super) struct CrossvalArgs {
     #[arg(long)]
     json: bool,
     /// Skip the plain baseline (boosted trees with default settings on the
-    /// measured features: no speed normalisation, slip terms, speed copies
-    /// or calibration) cross-validated on the same folds beside the model.
+    /// measured features: no speed normalisation, slip terms or speed
+    /// copies) cross-validated on the same folds beside the model.
     #[arg(long)]
     no_baseline: bool,
 }

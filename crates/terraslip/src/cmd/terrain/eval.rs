@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context};
 use terraslip_io::DriveLog;
 use terraslip_report::{Heatmap, LinePlot, Series, SeriesStyle};
-use terraslip_terrain::confidence::{ConfidenceScore, ScoredWindow};
+use terraslip_terrain::confidence::{ConfidenceScore, ScoredWindow, UNKNOWN_BELOW};
 use terraslip_terrain::{score_log, ChangeScore, Confusion, LogScore, Source, TerrainModel};
 
 use super::{read_logs, Progress};
@@ -31,8 +31,8 @@ pub(super) struct EvalArgs {
     #[arg(long)]
     json: bool,
     /// Write one CSV row per scored window: log,t,truth,predicted,confidence
-    /// (t the window's end, s; predicted `unknown` when the calibrated
-    /// confidence is below the model's threshold). Written atomically.
+    /// (t the window's end, s; predicted `unknown` when the confidence is
+    /// below 0.5). Written atomically.
     #[arg(long, value_name = "FILE.csv")]
     windows: Option<PathBuf>,
 }
@@ -150,15 +150,9 @@ pub(super) fn run(a: EvalArgs) -> anyhow::Result<()> {
     if let Some(path) = &a.windows {
         write_windows(path, &scores, &model.classes)?;
     }
-    let calibration_text = match &model.calibration {
-        Some(c) => format!(
-            "calibration: temperature {:.2}, unknown below confidence {:.2} (fitted on {} held-out windows of {} inner folds)\n",
-            c.temperature, c.unknown_below, c.windows, c.folds
-        ),
-        None => "calibration: none (raw probabilities; never unknown)\n".into(),
-    };
+    let unknown_text = format!("unknown: confidence below {UNKNOWN_BELOW}\n");
     let text = format!(
-        "{} windows from {} logs\nsingle windows: accuracy {:.1} % (balanced {:.1} %)\n{}\nafter the Bayesian filter: accuracy {:.1} % (balanced {:.1} %)\n{}{change_text}{envelope_text}{calibration_text}{}plots in {}",
+        "{} windows from {} logs\nsingle windows: accuracy {:.1} % (balanced {:.1} %)\n{}\nafter the Bayesian filter: accuracy {:.1} % (balanced {:.1} %)\n{}{change_text}{envelope_text}{unknown_text}{}plots in {}",
         raw.total(),
         logs.len(),
         100.0 * raw.accuracy(),
@@ -195,7 +189,7 @@ pub(super) fn run(a: EvalArgs) -> anyhow::Result<()> {
             "change_detection": change,
             "outside_envelope_share": outside_share,
             "confidence": confidence,
-            "calibration": model.calibration,
+            "unknown_below": UNKNOWN_BELOW,
             "logs": per_log,
             "plots": plots,
         });

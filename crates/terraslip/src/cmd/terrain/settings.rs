@@ -95,14 +95,6 @@ pub(super) struct TrainSettings {
     /// imu, full features: train on the recorded windows only (no speed copies).
     #[arg(long)]
     no_speed_copies: bool,
-    /// Grouped inner folds (whole training runs out) on which the class
-    /// probabilities are calibrated (temperature) and the confidence below
-    /// which the verdict is "unknown" is chosen; 0 (default) for none.
-    /// Training takes about this many times longer. On BorealTC (5 outer
-    /// folds) it raises the expected calibration error from 0.047 to 0.120
-    /// and answers "unknown" on 39 % of the windows (docs/figures/terrain.md).
-    #[arg(long, default_value_t = 0)]
-    calibration_folds: usize,
     /// Neighbours of the KNN classifier.
     #[arg(long, default_value_t = 5)]
     k: usize,
@@ -205,10 +197,6 @@ pub(super) fn options(s: &TrainSettings) -> anyhow::Result<TrainOptions> {
         }
         aug.factors = s.speed_copies.clone();
     }
-    if s.calibration_folds == 1 {
-        bail!("--calibration-folds needs at least 2 folds (0 for no calibration)");
-    }
-    o.calibration_folds = s.calibration_folds;
     if let Some(p) = &s.roi {
         let text =
             std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
@@ -233,7 +221,7 @@ pub(super) fn options(s: &TrainSettings) -> anyhow::Result<TrainOptions> {
 /// The plain baseline beside every cross-validated figure: the same
 /// source, window, channels and currents, boosted trees with their default
 /// settings on the `full` features as measured (no speed normalisation,
-/// slip terms, speed copies or calibration: nothing chosen on the runs).
+/// slip terms or speed copies: nothing chosen on the runs).
 pub(super) fn baseline_options(o: &TrainOptions) -> TrainOptions {
     let mut b = TrainOptions {
         source: o.source,
@@ -241,7 +229,6 @@ pub(super) fn baseline_options(o: &TrainOptions) -> TrainOptions {
         imu_channels: o.imu_channels,
         currents: o.currents,
         speed_augmentation: None,
-        calibration_folds: 0,
         ..TrainOptions::default()
     };
     b.vibration.window_s = o.vibration.window_s;

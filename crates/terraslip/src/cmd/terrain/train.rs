@@ -76,13 +76,6 @@ pub(super) fn run(a: TrainArgs) -> anyhow::Result<()> {
                 .join(", ")
         );
     }
-    if let Some(c) = &model.calibration {
-        eprintln!(
-            "calibrated on {} held-out windows of {} inner folds (whole runs out): temperature {:.2}, \
-             expected calibration error {:.3} -> {:.3}; unknown below confidence {:.2}",
-            c.windows, c.folds, c.temperature, c.ece_before, c.ece_after, c.unknown_below
-        );
-    }
     eprintln!(
         "reads {}; wrote {} ({:.0} s)",
         model.channels_description(),

@@ -1,0 +1,139 @@
+//! `terrain-trust --borealtc DIR`: the estimator on the BorealTC runs given
+//! the labels, no terrain, and a terrain model trained without the run's
+//! fold of runs (`estimate --terrain-model` as the estimator sees it:
+//! `TerrainModel::estimator_evidence`, the model's belief settings). The
+//! runs have no pose, so no prediction or outage figure: per run, the share
+//! of its time the estimator held a terrain other than the label, and how
+//! far the spread it learned from the gyro ends from the labels' run.
+
+use std::path::Path;
+
+use anyhow::Context;
+use terraslip::config::EstimatorConfig;
+use terraslip::pipeline::{self, EstimateRun, RunOptions, TerrainEvidence};
+use terraslip_io::DriveLog;
+use terraslip_terrain::{run_folds, TerrainModel, TrainOptions};
+
+use crate::stats::quantile;
+
+/// Share of `[first wheel sample, last]` in which the terrain the run
+/// declared (its `changes`) is not `truth`; before the first declaration
+/// no terrain is held, which is not counted as wrong.
+fn wrong_share(run: &EstimateRun, log: &DriveLog, truth: &str) -> f64 {
+    let (Some(a), Some(b)) = (log.wheels.first(), log.wheels.last()) else {
+        return f64::NAN;
+    };
+    let (t0, t1) = (a.t, b.t);
+    let mut wrong = 0.0;
+    for (i, c) in run.changes.iter().enumerate() {
+        let end = run.changes.get(i + 1).map_or(t1, |n| n.t).min(t1);
+        if run.terrains.get(c.terrain).map(String::as_str) != Some(truth) {
+            wrong += (end - c.t.max(t0)).max(0.0);
+        }
+    }
+    wrong / (t1 - t0).max(1e-9)
+}
+
+fn estimate(
+    log: &DriveLog,
+    cfg: &EstimatorConfig,
+    ev: &TerrainEvidence,
+) -> anyhow::Result<EstimateRun> {
+    Ok(pipeline::run_with(
+        log,
+        cfg,
+        ev,
+        None,
+        RunOptions::default(),
+        &mut |_, _| {},
+    )?)
+}
+
+/// Per run: `(name, wrong share, |spread − labels' spread| / labels', declared changes)`
+/// for the model, and the spread difference without terrain.
+struct RunTrust {
+    name: String,
+    wrong: f64,
+    spread_model: f64,
+    spread_none: f64,
+    changes: usize,
+}
+
+pub fn run(dir: &Path, folds: usize) -> anyhow::Result<()> {
+    let mut paths: Vec<_> = std::fs::read_dir(dir)
+        .with_context(|| format!("{}: cannot list", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.join("terrain.csv").exists())
+        .collect();
+    paths.sort();
+    let logs: Vec<DriveLog> = paths
+        .iter()
+        .map(|p| DriveLog::read(p).with_context(|| p.display().to_string()))
+        .collect::<anyhow::Result<_>>()?;
+    if logs.len() < 2 {
+        anyhow::bail!("{}: fewer than 2 labelled runs", dir.display());
+    }
+    let base = EstimatorConfig::default();
+    let mut rows = Vec::new();
+    for (f, fold) in run_folds(&logs, folds).iter().enumerate() {
+        let train: Vec<DriveLog> = (0..logs.len())
+            .filter(|i| !fold.contains(i))
+            .map(|i| logs[i].clone())
+            .collect();
+        eprintln!("fold {}: training on {} runs", f + 1, train.len());
+        let model = TerrainModel::train(&train, &TrainOptions::default())?;
+        drop(train);
+        let mut cfg = base.clone();
+        cfg.belief.stay_prob = model.belief.stay_prob;
+        cfg.belief.stay_prob_on_jump = model.belief.stay_prob_on_jump;
+        cfg.belief.vote_lambda = model.belief.vote_lambda;
+        for &i in fold {
+            let log = &logs[i];
+            let Some(truth) = log.terrain.first().map(|l| l.terrain.clone()) else {
+                continue;
+            };
+            let labels = estimate(log, &base, &TerrainEvidence::Labels(log.terrain.clone()))?;
+            let none = estimate(log, &base, &TerrainEvidence::None)?;
+            let ev = TerrainEvidence::from(model.estimator_evidence(log)?);
+            let with = estimate(log, &cfg, &ev)?;
+            let d0 = labels.final_icr.spread();
+            rows.push(RunTrust {
+                name: log.name(),
+                wrong: wrong_share(&with, log, &truth),
+                spread_model: 100.0 * (with.final_icr.spread() - d0).abs() / d0.abs().max(1e-9),
+                spread_none: 100.0 * (none.final_icr.spread() - d0).abs() / d0.abs().max(1e-9),
+                changes: with.changes.len().saturating_sub(1),
+            });
+        }
+    }
+    rows.sort_by(|a, b| a.name.cmp(&b.name));
+    println!(
+        "\nBorealTC, {} runs, {folds} outer folds (each run classified by a model trained without its fold); no pose, so:",
+        rows.len()
+    );
+    println!(
+        "{:28} {:>8} {:>16} {:>16} {:>8}",
+        "run", "wrong %", "spread vs labels %", "none vs labels %", "changes"
+    );
+    for r in &rows {
+        println!(
+            "{:28} {:8.1} {:16.2} {:16.2} {:8}",
+            r.name,
+            100.0 * r.wrong,
+            r.spread_model,
+            r.spread_none,
+            r.changes
+        );
+    }
+    let col = |f: fn(&RunTrust) -> f64| -> (f64, f64) {
+        let v: Vec<f64> = rows.iter().map(f).collect();
+        (quantile(&v, 0.5), quantile(&v, 1.0))
+    };
+    let (wm, ww) = col(|r| 100.0 * r.wrong);
+    let (sm, sw) = col(|r| r.spread_model);
+    let (nm, nw) = col(|r| r.spread_none);
+    println!(
+        "median / worst: time on a wrong terrain {wm:.1} / {ww:.1} %; final spread off the labels' run: model {sm:.2} / {sw:.2} %, no terrain {nm:.2} / {nw:.2} %"
+    );
+    Ok(())
+}

@@ -1,0 +1,189 @@
+//! `terraslip-lab terrain-trust`: how far the estimator can trust a
+//! terrain classifier. On the family of simulated worlds, the default
+//! estimator given no terrain, the labels, and a simulated classifier
+//! ([`crate::misread`]) that reads every ground right, or the world's first
+//! ground as the next one confidently (always, or half the time), or
+//! unsure of it; figures per world:
+//! the 2 s prediction error and the drift over the world's 30 s outage,
+//! against the true pose (as `family`). With `--borealtc DIR`, also the
+//! BorealTC runs (no pose: [`crate::borealtc_trust`]).
+
+use std::sync::Mutex;
+
+use terraslip::metrics;
+use terraslip::pipeline::{self, RunOptions, TerrainEvidence};
+use terraslip_sim::family::Subset;
+
+use crate::family::{draw, prediction, simulate_world};
+use crate::misread::{self, Reading};
+use crate::seeds::SeedQueue;
+use crate::stats::quantile;
+
+/// The estimator given labels, a classifier or nothing, on simulated
+/// worlds whose classifier misreads a ground, and on BorealTC.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Number of worlds.
+    #[arg(long, default_value_t = 20)]
+    worlds: u64,
+    /// Seed of the first world.
+    #[arg(long, default_value_t = 1)]
+    first_seed: u64,
+    /// Confidence of the confident misread (the probability the classifier
+    /// gives the wrong ground).
+    #[arg(long, default_value_t = 0.9)]
+    confidence: f64,
+    /// Also the BorealTC runs in DIR (one log per run), each classified
+    /// by a model trained without its fold of runs.
+    #[arg(long, value_name = "DIR")]
+    borealtc: Option<std::path::PathBuf>,
+    /// Outer folds of whole runs on BorealTC.
+    #[arg(long, default_value_t = 5)]
+    folds: usize,
+}
+
+/// The evidence each run of a world is given, in report order.
+fn evidences(confidence: f64) -> Vec<(String, Option<Reading>)> {
+    vec![
+        ("no terrain".into(), None),
+        ("labels".into(), None),
+        (Reading::Right.name(), Some(Reading::Right)),
+        (
+            Reading::Confident(confidence).name(),
+            Some(Reading::Confident(confidence)),
+        ),
+        (
+            Reading::Stretches(confidence).name(),
+            Some(Reading::Stretches(confidence)),
+        ),
+        (Reading::Unsure.name(), Some(Reading::Unsure)),
+    ]
+}
+
+/// Per world: `(seed, [(prediction m, outage drift %) per evidence])`.
+type WorldFigures = (u64, Vec<(f64, f64)>);
+
+fn world_figures(seed: u64, confidence: f64) -> anyhow::Result<WorldFigures> {
+    let cfg = terraslip::config::EstimatorConfig::default();
+    let w = draw(seed, Subset::All, false, 0.0);
+    let sim = simulate_world(&w, seed)?;
+    let outage = (w.outage.0 + w.clock_offset, w.outage.1 + w.clock_offset);
+    let labels = &sim.log.terrain;
+    let (t0, t1) = (
+        sim.log.wheels.first().map_or(0.0, |s| s.t),
+        sim.log.wheels.last().map_or(0.0, |s| s.t),
+    );
+    let mut out = Vec::new();
+    for (name, reading) in evidences(confidence) {
+        let evidence = match reading {
+            None if name == "labels" => TerrainEvidence::Labels(labels.clone()),
+            None => TerrainEvidence::None,
+            Some(r) => misread::timeline(labels, t0, t1, r)
+                .map_or(TerrainEvidence::None, misread::evidence),
+        };
+        let opts = RunOptions {
+            outage: Some(outage),
+        };
+        let run = pipeline::run_with(&sim.log, &cfg, &evidence, None, opts, &mut |_, _| {})?;
+        let drift = metrics::outage_drift(&run, &sim.log.truth, w.outage.0, w.outage.1);
+        out.push((
+            prediction(&run, &sim),
+            drift.map_or(f64::NAN, |d| d.percent),
+        ));
+    }
+    Ok((seed, out))
+}
+
+/// `median / worst (world)` of one figure over worlds.
+fn median_worst(v: &[(u64, f64)]) -> (f64, f64, u64) {
+    let vals: Vec<f64> = v.iter().map(|x| x.1).collect();
+    let worst = v
+        .iter()
+        .filter(|x| !x.1.is_nan())
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .copied()
+        .unwrap_or((0, f64::NAN));
+    (quantile(&vals, 0.5), worst.1, worst.0)
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    if !(a.confidence > 0.5 && a.confidence < 1.0) {
+        anyhow::bail!(
+            "--confidence {}: expected a probability in (0.5, 1)",
+            a.confidence
+        );
+    }
+    let seeds: Vec<u64> = (a.first_seed..a.first_seed + a.worlds).collect();
+    let results: Mutex<Vec<WorldFigures>> = Mutex::new(Vec::new());
+    let queue = SeedQueue::new(seeds.clone());
+    let threads = std::thread::available_parallelism().map_or(2, |n| n.get());
+    std::thread::scope(|s| -> anyhow::Result<()> {
+        let handles: Vec<_> = (0..threads)
+            .map(|_| {
+                s.spawn(|| -> anyhow::Result<()> {
+                    while let Some(seed) = queue.take() {
+                        let f = world_figures(seed, a.confidence)?;
+                        results.lock().unwrap_or_else(|e| e.into_inner()).push(f);
+                    }
+                    Ok(())
+                })
+            })
+            .collect();
+        for h in handles {
+            h.join()
+                .map_err(|_| anyhow::anyhow!("a world's thread panicked"))??;
+        }
+        Ok(())
+    })?;
+    let mut results = results.into_inner().unwrap_or_else(|e| e.into_inner());
+    results.sort_by_key(|r| r.0);
+    println!(
+        "{} worlds (seeds {}-{}), default estimator; 2 s prediction (m) and 30 s outage drift (% of the distance) against the true pose",
+        seeds.len(),
+        a.first_seed,
+        a.first_seed + a.worlds - 1
+    );
+    println!(
+        "{:28} {:>21} {:>21} {:>17}",
+        "terrain evidence", "prediction med/worst", "outage med/worst", "x labels med/worst"
+    );
+    let labels_at = 1;
+    for (i, (name, _)) in evidences(a.confidence).iter().enumerate() {
+        let pick = |j: usize| -> Vec<(u64, f64)> {
+            results
+                .iter()
+                .map(|(s, f)| (*s, if j == 0 { f[i].0 } else { f[i].1 }))
+                .collect()
+        };
+        let labels = |j: usize| -> Vec<(u64, f64)> {
+            results
+                .iter()
+                .map(|(s, f)| {
+                    (
+                        *s,
+                        if j == 0 {
+                            f[labels_at].0
+                        } else {
+                            f[labels_at].1
+                        },
+                    )
+                })
+                .collect()
+        };
+        let (pm, pw, ps) = median_worst(&pick(0));
+        let (om, ow, os) = median_worst(&pick(1));
+        let (lpm, lpw, _) = median_worst(&labels(0));
+        let (lom, low, _) = median_worst(&labels(1));
+        println!(
+            "{name:28} {pm:6.3} {pw:6.3} (w {ps:3}) {om:6.2} {ow:6.2} (w {os:3})   pred {:.2}/{:.2} outage {:.2}/{:.2}",
+            pm / lpm,
+            pw / lpw,
+            om / lom,
+            ow / low
+        );
+    }
+    if let Some(dir) = &a.borealtc {
+        crate::borealtc_trust::run(dir, a.folds)?;
+    }
+    Ok(())
+}

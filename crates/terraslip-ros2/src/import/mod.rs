@@ -151,6 +151,12 @@ pub fn import(
         rows.log.meta.separation = Some(s.value);
         rows.log.meta.separation_source = Some(s.source.to_string());
     }
+    if short_type(&bag.topics[wheels].ty) == "sensor_msgs/JointState" {
+        // The radius the joint rates are made tread speeds with.
+        let r = scale::wheel_radius(cfg, urdf.as_ref());
+        rows.log.meta.wheel_radius = Some(r.value);
+        rows.log.meta.wheel_radius_source = Some(r.source.to_string());
+    }
     let mut origin: Option<u64> = None;
     let want: Vec<bool> = (0..bag.topics.len())
         .map(|i| sels.iter().any(|s| s.topic == i))

@@ -222,10 +222,11 @@ pub fn read_truth(path: &Path) -> Result<Vec<TruthSample>, LogError> {
 
 /// The keys of `meta.toml`: the robot description, then the provenance
 /// `terraslip simulate` records.
-const META_KEYS: [&str; 10] = [
+const META_KEYS: [&str; 11] = [
     "robot",
     "track_width",
     "wheel_radius",
+    "wheel_radius_source",
     "length",
     "ticks_per_rev",
     "separation",

@@ -83,6 +83,12 @@ pub struct Meta {
     /// m
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub wheel_radius: Option<f64>,
+    /// Where [`Meta::wheel_radius`] came from when `terraslip import` made
+    /// the tread speeds of `wheels.csv` from joint rates with it: `given`
+    /// (the topics file), `urdf`, `meta` or `default` (a radius assumed:
+    /// the speed factors are relative to it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wheel_radius_source: Option<String>,
     /// m
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub length: Option<f64>,

@@ -1,5 +1,6 @@
 //! An IMU not mounted z-up: rotated into base_link by the bag's /tf_static
-//! or by the topics file, on synthetic bags.
+//! or by the topics file, on synthetic bags; a pose reference placed on
+//! the robot (its lever arm) by /tf_static.
 
 use std::path::Path;
 
@@ -82,6 +83,17 @@ fn tf_wrong(w: &mut CdrWriter, ns: u64) {
     quat(w, from_rpy(0.0, 0.0, std::f64::consts::PI));
 }
 
+/// A JointState of `left_wheel`, `right_wheel` with velocities `v` (rad/s).
+fn joint_state(ns: u64, v: [f64; 2]) -> Vec<u8> {
+    let mut w = CdrWriter::new();
+    w.header(ns, "base_link");
+    w.u32(2).string("left_wheel").string("right_wheel");
+    w.u32(0);
+    w.u32(2).f64(v[0]).f64(v[1]);
+    w.u32(0);
+    w.finish()
+}
+
 /// JointState wheels and an Imu mounted as [`mounting`], 20 samples from
 /// `T0`; `tf`, when given, writes a /tf_static message recorded 1.5 s
 /// before them.
@@ -100,13 +112,7 @@ fn write_bag(p: &Path, tf: Option<fn(&mut CdrWriter, u64)>) {
     }
     for k in 0..20u64 {
         let ns = T0 + k * 100_000_000;
-        let mut w = CdrWriter::new();
-        w.header(ns, "base_link");
-        w.u32(2).string("left_wheel").string("right_wheel");
-        w.u32(0);
-        w.u32(2).f64(1.0).f64(1.2);
-        w.u32(0);
-        m.write(js, ns, &w.finish()).unwrap();
+        m.write(js, ns, &joint_state(ns, [1.0, 1.2])).unwrap();
         let mut w = CdrWriter::new();
         imu(&mut w, ns, mounting());
         m.write(i, ns, &w.finish()).unwrap();
@@ -204,5 +210,82 @@ fn a_frame_missing_from_tf_static_is_named() {
     assert!(
         w.contains("`imu_link` has no static transform to base_footprint in /tf_static"),
         "{w}"
+    );
+}
+
+// The pose reference's lever arm: an Odometry whose child frame is a
+// lidar's (a lidar localisation's output), placed by /tf_static.
+
+/// JointState wheels and an Odometry of `os_sensor` in `map`, 20 samples;
+/// `/tf_static` places `os_sensor` at `origin` from base_link.
+fn write_lidar_bag(p: &Path, origin: [f64; 3]) {
+    let mut m = EstimateMcap::create(p).unwrap();
+    let ch = |m: &mut EstimateMcap, topic: &str, ty: &str| {
+        m.channel(topic, ty, &definition_of(ty).unwrap()).unwrap()
+    };
+    let js = ch(&mut m, "/joint_states", "sensor_msgs/msg/JointState");
+    let odom = ch(&mut m, "/lidar/odometry", "nav_msgs/msg/Odometry");
+    let tf = ch(&mut m, "/tf_static", "tf2_msgs/msg/TFMessage");
+    let mut w = CdrWriter::new();
+    w.u32(1).header(T0, "base_link").string("os_sensor");
+    for c in origin.into_iter().chain([0.0, 0.0, 0.0, 1.0]) {
+        w.f64(c);
+    }
+    m.write(tf, T0, &w.finish()).unwrap();
+    for k in 0..20u64 {
+        let ns = T0 + k * 100_000_000;
+        m.write(js, ns, &joint_state(ns, [1.0, 1.0])).unwrap();
+        let mut w = CdrWriter::new();
+        w.header(ns, "map").string("os_sensor");
+        for c in [0.01 * k as f64, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0] {
+            w.f64(c);
+        }
+        for _ in 0..36 {
+            w.f64(0.0);
+        }
+        for _ in 0..6 {
+            w.f64(0.0);
+        }
+        for _ in 0..36 {
+            w.f64(0.0);
+        }
+        m.write(odom, ns, &w.finish()).unwrap();
+    }
+    m.finish().unwrap();
+}
+
+fn imported_lidar(origin: [f64; 3]) -> (terraslip_io::DriveLog, terraslip_ros2::ImportReport) {
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path().join("b.mcap");
+    write_lidar_bag(&p, origin);
+    import(&p, &TopicsConfig::default(), None).unwrap()
+}
+
+#[test]
+fn a_lidar_odometry_is_placed_by_its_child_frame() {
+    let (log, report) = imported_lidar([-0.25, 0.1, 0.6]);
+    let pose = log.meta.pose.expect("a lever arm from /tf_static");
+    assert_eq!((pose.lever_arm_x, pose.lever_arm_y), (-0.25, 0.1));
+    assert!(
+        report
+            .decisions
+            .iter()
+            .any(|d| d.contains("/lidar/odometry (frame `os_sensor`)") && d.contains("/tf_static")),
+        "{:?}",
+        report.decisions
+    );
+}
+
+#[test]
+fn a_frame_beyond_a_robots_size_is_not_a_lever_arm() {
+    let (log, report) = imported_lidar([120.0, 0.0, 0.0]);
+    assert_eq!(log.meta.pose, None);
+    assert!(
+        report
+            .warnings
+            .iter()
+            .any(|w| w.contains("beyond a robot's size")),
+        "{:?}",
+        report.warnings
     );
 }

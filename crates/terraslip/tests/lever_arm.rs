@@ -1,6 +1,7 @@
 //! A pose reference mounted off the wheel axle (a GNSS antenna 0.3 m
-//! ahead of it): stated in meta.toml's `[pose]`, it is reported as the
-//! reference's lever arm and x_c stays near its true value.
+//! ahead of it): stated in meta.toml's `[pose]`, or recorded in a bag's
+//! `/tf_static`, it is reported as the reference's lever arm and x_c stays
+//! near its true value.
 
 use terraslip::config::EstimatorConfig;
 use terraslip::pipeline::{run, EstimateRun, TerrainEvidence};
@@ -148,4 +149,256 @@ fn calibrate_sees_the_axle_of_a_simulated_antenna_off_it() {
     );
     let after = off(&log);
     assert!(before > 0.25 && after < 0.05, "{before} -> {after}");
+}
+
+/// The same antenna recorded in a bag, placed by its `/tf_static` (through
+/// an intermediate mast frame) or by the topics file: `import` writes it to
+/// meta.toml's `[pose]` with a `decided:` line, and `estimate` and
+/// `calibrate` on the bag keep x_c at its value.
+#[cfg(feature = "ros2")]
+mod recorded {
+    use std::path::Path;
+
+    use super::{spec, TRUE_X_C};
+
+    use assert_cmd::Command;
+    use terraslip::testkit::drive;
+    use terraslip_ros2::defs::definition_of;
+    use terraslip_ros2::msg::CdrWriter;
+    use terraslip_ros2::out::EstimateMcap;
+
+    const T0: u64 = 1_700_000_000_000_000_000;
+    /// The wheel radius `import` assumes when nothing tells it, m: joint
+    /// velocities are written in its scale so that the tread speeds are true.
+    const DEFAULT_RADIUS: f64 = 0.1;
+
+    fn vec3(w: &mut CdrWriter, v: [f64; 3]) {
+        for c in v {
+            w.f64(c);
+        }
+    }
+
+    /// base_link -> mast (0.1 m ahead, 0.4 m up, yawed 90°) -> gps_link (0.2 m
+    /// to the mast's right, 0.3 m up): the antenna at (0.3, 0, 0.7) m.
+    fn tf_static(w: &mut CdrWriter, ns: u64) {
+        let (s, c) = (std::f64::consts::FRAC_PI_4).sin_cos();
+        w.u32(2);
+        w.header(ns, "base_link").string("mast");
+        vec3(w, [0.1, 0.0, 0.4]);
+        vec3(w, [0.0, 0.0, s]);
+        w.f64(c);
+        w.header(ns, "mast").string("gps_link");
+        vec3(w, [0.0, -0.2, 0.3]);
+        vec3(w, [0.0, 0.0, 0.0]);
+        w.f64(1.0);
+    }
+
+    /// East, north (m) to latitude, longitude (degrees) about (0, 0): WGS-84's
+    /// radii of curvature at the equator (millimetres over the drive).
+    fn geodetic(east: f64, north: f64) -> (f64, f64) {
+        let a = 6_378_137.0;
+        let e2 = 6.694_379_990_14e-3;
+        (
+            (north / (a * (1.0 - e2))).to_degrees(),
+            (east / a).to_degrees(),
+        )
+    }
+
+    /// The drive as a bag: JointState wheel velocities (50 Hz), NavSatFix of
+    /// `gps_link` and an Imu heading 3 ms after each (10 Hz), and `/tf_static`
+    /// when `tf`.
+    fn write_bag(p: &Path, tf: bool) {
+        let log = drive(&spec());
+        let mut m = EstimateMcap::create(p).unwrap();
+        let ch = |m: &mut EstimateMcap, topic: &str, ty: &str| {
+            m.channel(topic, ty, &definition_of(ty).unwrap()).unwrap()
+        };
+        let js = ch(&mut m, "/joint_states", "sensor_msgs/msg/JointState");
+        let fix = ch(&mut m, "/fix", "sensor_msgs/msg/NavSatFix");
+        let imu = ch(&mut m, "/imu/data", "sensor_msgs/msg/Imu");
+        let ns = |t: f64| T0 + (t * 1e9).round() as u64;
+        if tf {
+            let c = ch(&mut m, "/tf_static", "tf2_msgs/msg/TFMessage");
+            let mut w = CdrWriter::new();
+            tf_static(&mut w, T0);
+            m.write(c, T0, &w.finish()).unwrap();
+        }
+        for s in &log.wheels {
+            let mut w = CdrWriter::new();
+            w.header(ns(s.t), "base_link");
+            w.u32(2).string("left_wheel").string("right_wheel");
+            w.u32(0);
+            w.u32(2)
+                .f64(s.v_left / DEFAULT_RADIUS)
+                .f64(s.v_right / DEFAULT_RADIUS);
+            w.u32(0);
+            m.write(js, ns(s.t), &w.finish()).unwrap();
+        }
+        for p in &log.pose {
+            let t = ns(p.t);
+            let (lat, lon) = geodetic(p.east.unwrap(), p.north.unwrap());
+            let mut w = CdrWriter::new();
+            w.header(t, "gps_link");
+            // status 2 (GBAS fix) at an odd offset (after "gps_link"), then
+            // uint16 service 1, already aligned to 2.
+            w.u8(2).u8(1).u8(0);
+            w.f64(lat).f64(lon).f64(0.0);
+            let v = 0.02f64.powi(2);
+            for c in [v, 0.0, 0.0, 0.0, v, 0.0, 0.0, 0.0, 4.0 * v] {
+                w.f64(c);
+            }
+            w.u8(2);
+            m.write(fix, t, &w.finish()).unwrap();
+
+            // The heading and the true yaw rate, in base_link, 3 ms after the
+            // fix (a row of pose.csv per stamp).
+            let t = t + 3_000_000;
+            let k = log
+                .truth
+                .partition_point(|r| r.t < p.t)
+                .clamp(1, log.truth.len() - 1);
+            let (a, b) = (&log.truth[k - 1], &log.truth[k]);
+            let rate = terraslip_core::angle::wrap(b.yaw - a.yaw) / (b.t - a.t);
+            let (s, c) = (p.yaw.unwrap() / 2.0).sin_cos();
+            let mut w = CdrWriter::new();
+            w.header(t, "base_link");
+            vec3(&mut w, [0.0, 0.0, s]);
+            w.f64(c);
+            for k in 0..9 {
+                w.f64(if k == 8 { 1e-4 } else { 0.0 });
+            }
+            vec3(&mut w, [0.0, 0.0, rate]);
+            for _ in 0..9 {
+                w.f64(0.0);
+            }
+            vec3(&mut w, [0.0, 0.0, 9.81]);
+            for _ in 0..9 {
+                w.f64(0.0);
+            }
+            m.write(imu, t, &w.finish()).unwrap();
+        }
+        m.finish().unwrap();
+    }
+
+    fn terraslip(args: &[&str]) -> String {
+        let out = Command::cargo_bin("terraslip")
+            .unwrap()
+            .args(args)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert!(out.status.success(), "{args:?}: {err}");
+        err
+    }
+
+    /// What `import`, `estimate` and `calibrate` made of the bag: import's
+    /// terminal output, the log's meta.toml, estimate's summary.json and
+    /// calibrate's parameters file.
+    struct Made {
+        said: String,
+        meta: terraslip_io::Meta,
+        summary: serde_json::Value,
+        params: serde_json::Value,
+    }
+
+    fn run(tf: bool, topics: Option<&str>) -> Made {
+        let d = tempfile::tempdir().unwrap();
+        let bag = d.path().join("drive.mcap");
+        write_bag(&bag, tf);
+        let s = |p: &Path| p.to_str().unwrap().to_string();
+        let mut pre: Vec<String> = Vec::new();
+        if let Some(text) = topics {
+            let f = d.path().join("topics.toml");
+            std::fs::write(&f, text).unwrap();
+            pre = vec!["--topics".into(), s(&f)];
+        }
+        let args = |rest: &[String]| pre.iter().chain(rest).cloned().collect::<Vec<_>>();
+        let (log, est) = (d.path().join("log"), d.path().join("est"));
+        let call = |a: Vec<String>| terraslip(&a.iter().map(String::as_str).collect::<Vec<_>>());
+        let said = call(args(&["import".into(), s(&bag), "--out".into(), s(&log)]));
+        call(args(&["estimate".into(), s(&bag), "--out".into(), s(&est)]));
+        let cal = d.path().join("params.json");
+        call(args(&[
+            "calibrate".into(),
+            s(&bag),
+            "--out".into(),
+            s(&cal),
+        ]));
+        // No meta.toml: nothing to say of the robot.
+        let meta_file = log.join("meta.toml");
+        let meta = match meta_file.exists() {
+            true => terraslip_io::read_meta(&meta_file).unwrap(),
+            false => terraslip_io::Meta::default(),
+        };
+        let json = |p: &Path| -> serde_json::Value {
+            serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+        };
+        Made {
+            said,
+            meta,
+            summary: json(&est.join("summary.json")),
+            params: json(&cal),
+        }
+    }
+
+    /// Estimate's final x_c.
+    fn x_c(m: &Made) -> f64 {
+        m.summary["icr"]["x_c"].as_f64().unwrap()
+    }
+
+    /// Calibrate's x_c.
+    fn calibrated_x_c(m: &Made) -> f64 {
+        m.params["params"]["x_c"].as_f64().unwrap()
+    }
+
+    #[test]
+    fn an_antenna_placed_by_tf_static_is_a_lever_arm_not_x_c() {
+        let m = run(true, None);
+        let pose = m.meta.pose.expect("meta.toml [pose] from /tf_static");
+        assert!((pose.lever_arm_x - 0.3).abs() < 1e-9, "{pose:?}");
+        assert!(pose.lever_arm_y.abs() < 1e-9, "{pose:?}");
+        assert!(
+            m.said.lines().any(|l| l.contains("decided:")
+                && l.contains("gps_link")
+                && l.contains("/tf_static")
+                && l.contains("[pose] lever_arm")),
+            "{}",
+            m.said
+        );
+        assert_eq!(m.summary["pose_lever_arm_m"]["source"], "stated");
+        assert_eq!(m.params["pose_lever_arm_m"]["x"], 0.3);
+        // Measured: estimate -0.001, calibrate 0.0095 (truth 0.01); with no
+        // transform -0.25 (its limit) and -0.290.
+        assert!((x_c(&m) - TRUE_X_C).abs() < 0.05, "x_c {}", x_c(&m));
+        let cal = calibrated_x_c(&m);
+        assert!((cal - TRUE_X_C).abs() < 0.02, "calibrated x_c {cal}");
+    }
+
+    #[test]
+    fn the_topics_file_states_the_lever_arm_and_wins_over_tf_static() {
+        let m = run(false, Some("[pose]\nlever_arm = [0.3, 0.0]\n"));
+        assert_eq!(m.meta.pose.map(|p| p.lever_arm_x), Some(0.3));
+        assert!((x_c(&m) - TRUE_X_C).abs() < 0.05, "x_c {}", x_c(&m));
+        // Stated at the axle, the recorded mount is not used: x_c absorbs it.
+        let m = run(true, Some("[pose]\nlever_arm = [0.0, 0.0]\n"));
+        assert!(m.said.contains("the topics file"), "{}", m.said);
+        assert!((x_c(&m) - TRUE_X_C).abs() > 0.2, "x_c {}", x_c(&m));
+    }
+
+    #[test]
+    fn with_no_transform_the_antenna_is_taken_at_the_axle_and_said_so() {
+        let m = run(false, None);
+        assert_eq!(m.meta.pose, None);
+        assert!(
+            m.said
+                .lines()
+                .any(|l| l.contains("decided:") && l.contains("gps_link") && l.contains("axle")),
+            "{}",
+            m.said
+        );
+        // What the lever arm is for: unstated, the offset pins x_c.
+        assert!((x_c(&m) - TRUE_X_C).abs() > 0.2, "x_c {}", x_c(&m));
+        let cal = calibrated_x_c(&m);
+        assert!((cal - TRUE_X_C).abs() > 0.2, "calibrated x_c {cal}");
+    }
 }

@@ -327,6 +327,22 @@ fn a_turtlebot3_with_joint_positions_only() {
         r.said
     );
     assert!(r.said.contains("from its joint positions"), "{}", r.said);
+    // No URDF: the tread speeds are made with an assumed wheel radius
+    // (0.1 m, three times the TurtleBot 3's), so the radius multipliers are
+    // relative to it. The controller file names that radius, so that
+    // applied as written the wheels' radius is their product (the 0.033 m
+    // of the recording: fuse's turtlebot3.bag, docs/figures/robots.md).
+    let yaml = std::fs::read_to_string(r._dir.path().join("ddc.yaml")).unwrap();
+    let value = |key: &str| -> f64 {
+        let line = yaml
+            .lines()
+            .find(|l| l.trim_start().starts_with(key))
+            .unwrap_or_else(|| panic!("no {key} in\n{yaml}"));
+        line.split(':').nth(1).unwrap().trim().parse().unwrap()
+    };
+    let radius = value("wheel_radius:") * value("left_wheel_radius_multiplier:");
+    assert!((radius - WHEEL_R).abs() < 0.002, "{radius}\n{yaml}");
+    assert!(yaml.contains("assumed"), "{yaml}");
 }
 
 /// A TurtleBot 4 (Create 3 base): the URDF's wheels on prismatic

@@ -77,6 +77,11 @@ pub struct PoseConfig {
     /// sensor_msgs/NavSatFix, nav_msgs/Odometry, geometry_msgs/PoseStamped or
     /// PoseWithCovarianceStamped; `""` for none.
     pub topic: Option<String>,
+    /// Where the reference sits on the robot: its lever arm `[x, y]` from
+    /// the base frame's origin (the wheel axle's centre), m, base frame
+    /// (x forward, y left). Overrides the bag's static transforms; written
+    /// to the log's meta.toml `[pose]`.
+    pub lever_arm: Option<[f64; 2]>,
 }
 
 /// `[heading]`: yaw from an IMU's orientation, for a GNSS pose source.

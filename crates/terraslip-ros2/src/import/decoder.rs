@@ -86,6 +86,7 @@ pub(super) fn fields_for(ty: &str, role: Role) -> Vec<&'static str> {
             f.extend(p)
         }
         ("nav_msgs/Odometry", _) | ("geometry_msgs/PoseWithCovarianceStamped", _) => f.extend([
+            "?child_frame_id",
             "pose.pose.position.x",
             "pose.pose.position.y",
             "pose.pose.orientation.x",
@@ -103,6 +104,7 @@ pub(super) fn fields_for(ty: &str, role: Role) -> Vec<&'static str> {
             "pose.orientation.w",
         ]),
         ("sensor_msgs/NavSatFix", _) => f.extend([
+            "?header.frame_id",
             "status.status",
             "latitude",
             "longitude",

@@ -84,39 +84,55 @@ fn frame(name: &str) -> &str {
     name.trim_start_matches('/')
 }
 
-/// The static transforms of a bag: each child frame's parent and the
-/// rotation parent ← child (translations do not matter for rotating
-/// accelerations, rates and orientations).
+/// The static transforms of a bag: each child frame's parent, the rotation
+/// parent ← child and the child's origin in the parent, m.
 #[derive(Debug, Clone, Default)]
 pub struct StaticTf {
-    parents: HashMap<String, (String, Quat)>,
+    parents: HashMap<String, (String, Quat, [f64; 3])>,
 }
 
 impl StaticTf {
-    /// Adds `parent` ← `child`; a later transform of the same child wins, as in tf2.
+    /// Adds the rotation `parent` ← `child` (the child's origin at the
+    /// parent's); a later transform of the same child wins, as in tf2.
     pub fn add(&mut self, parent: &str, child: &str, q: Quat) {
-        self.parents
-            .insert(frame(child).to_string(), (frame(parent).to_string(), q));
+        self.add_transform(parent, child, q, [0.0; 3]);
+    }
+
+    /// Adds `parent` ← `child`: rotation `q`, the child's origin at `origin`
+    /// (m, parent frame).
+    pub fn add_transform(&mut self, parent: &str, child: &str, q: Quat, origin: [f64; 3]) {
+        self.parents.insert(
+            frame(child).to_string(),
+            (frame(parent).to_string(), q, origin),
+        );
     }
 
     pub fn is_empty(&self) -> bool {
         self.parents.is_empty()
     }
 
-    /// The rotation `base` ← `sensor`, following parents up from `sensor`;
-    /// `None` when the chain does not reach `base`.
-    pub fn rotation(&self, base: &str, sensor: &str) -> Option<Quat> {
+    /// The rotation `base` ← `sensor` and the sensor's origin in `base` (m),
+    /// following parents up from `sensor`; `None` when the chain does not
+    /// reach `base`.
+    pub fn transform(&self, base: &str, sensor: &str) -> Option<(Quat, [f64; 3])> {
         let (base, mut cur) = (frame(base), frame(sensor));
-        let mut q = IDENTITY;
+        let (mut q, mut p) = (IDENTITY, [0.0; 3]);
         for _ in 0..64 {
             if cur == base {
-                return Some(q);
+                return Some((q, p));
             }
-            let (parent, r) = self.parents.get(cur)?;
+            let (parent, r, t) = self.parents.get(cur)?;
             q = mul(*r, q);
+            let rp = rotate(*r, p);
+            p = [rp[0] + t[0], rp[1] + t[1], rp[2] + t[2]];
             cur = parent;
         }
         None
+    }
+
+    /// The rotation `base` ← `sensor` (see [`StaticTf::transform`]).
+    pub fn rotation(&self, base: &str, sensor: &str) -> Option<Quat> {
+        self.transform(base, sensor).map(|(q, _)| q)
     }
 }
 
@@ -153,5 +169,28 @@ mod tests {
         assert!((yaw_of(0.0, 0.0, s, c) - a).abs() < 1e-12);
         assert!((wrap(3.0 * std::f64::consts::PI) - std::f64::consts::PI).abs() < 1e-12);
         assert!((wrap(-0.5) + 0.5).abs() < 1e-15);
+    }
+
+    #[test]
+    fn a_chain_of_static_transforms_places_a_frame() {
+        // base -> mast: 0.1 m ahead, 0.4 m up, yawed 90°; mast -> gps: 0.2 m
+        // to the mast's right (base's forward), 0.3 m up.
+        let mut tf = StaticTf::default();
+        tf.add_transform(
+            "base_link",
+            "mast",
+            from_rpy(0.0, 0.0, std::f64::consts::FRAC_PI_2),
+            [0.1, 0.0, 0.4],
+        );
+        tf.add_transform("/mast", "gps_link", IDENTITY, [0.0, -0.2, 0.3]);
+        let (_, p) = tf.transform("base_link", "gps_link").unwrap();
+        for (a, b) in p.iter().zip([0.3, 0.0, 0.7]) {
+            assert!((a - b).abs() < 1e-12, "{p:?}");
+        }
+        assert_eq!(
+            tf.transform("base_link", "base_link"),
+            Some((IDENTITY, [0.0; 3]))
+        );
+        assert!(tf.transform("odom", "gps_link").is_none());
     }
 }

@@ -16,6 +16,7 @@ mod decoder;
 mod evidence;
 mod frames;
 mod image;
+mod lever;
 mod live;
 pub mod mount;
 mod prior;
@@ -150,6 +151,12 @@ pub fn import(
         rows.log.meta.separation = Some(s.value);
         rows.log.meta.separation_source = Some(s.source.to_string());
     }
+    if short_type(&bag.topics[wheels].ty) == "sensor_msgs/JointState" {
+        // The radius the joint rates are made tread speeds with.
+        let r = scale::wheel_radius(cfg, urdf.as_ref());
+        rows.log.meta.wheel_radius = Some(r.value);
+        rows.log.meta.wheel_radius_source = Some(r.source.to_string());
+    }
     let mut origin: Option<u64> = None;
     let want: Vec<bool> = (0..bag.topics.len())
         .map(|i| sels.iter().any(|s| s.topic == i))
@@ -251,7 +258,7 @@ pub fn import(
                 Role::Heading => report::HEADING_FILE,
                 Role::Imu => "imu.csv",
                 Role::Images => "images.csv",
-                Role::Tf => "sensor mountings",
+                Role::Tf => "sensor mountings and lever arms",
             };
             report
                 .streams
@@ -288,6 +295,18 @@ pub fn import(
             heading_rows: &rows.heading_rows,
         },
         &mut log,
+        &mut report,
+    );
+    lever::apply(
+        &lever::PoseFrame {
+            bag: &bag,
+            cfg,
+            pose: chosen.pose,
+            tf,
+            frames: &rows.frames,
+            tf_tree: &rows.tf,
+        },
+        &mut log.meta,
         &mut report,
     );
     if heading.is_some() && cfg.heading.topic.is_none() {
@@ -387,7 +406,8 @@ struct Chosen {
     pose: Option<usize>,
     heading: Option<usize>,
     imu: Option<usize>,
-    /// Static transforms, for the IMUs' mountings.
+    /// Static transforms, for the IMUs' mountings and the pose
+    /// reference's lever arm.
     tf: Option<usize>,
 }
 
@@ -415,9 +435,9 @@ fn choose_streams(
         None
     };
     let imu = choose(bag, Role::Imu, &cfg.imu.topic, &[], d)?;
-    // Static transforms, for the IMUs' mountings.
+    // Static transforms, for the IMUs' mountings and the pose's lever arm.
     let tf = match &cfg.tf.topic {
-        _ if imu.is_none() && heading.is_none() => None,
+        _ if imu.is_none() && heading.is_none() && pose.is_none() => None,
         Some(_) => choose(bag, Role::Tf, &cfg.tf.topic, &[], d)?,
         None => bag
             .topic("/tf_static")

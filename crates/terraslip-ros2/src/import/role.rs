@@ -9,7 +9,7 @@ pub(super) enum Role {
     Heading,
     Imu,
     Images,
-    /// Static transforms: sensor mountings.
+    /// Static transforms: sensor mountings and the pose reference's lever arm.
     Tf,
 }
 

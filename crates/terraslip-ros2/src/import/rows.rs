@@ -57,7 +57,9 @@ pub(super) struct Rows<'c> {
     pub heading: &'c HeadingConfig,
     /// Where camera frames go (`LOG/images`).
     pub images_dir: Option<PathBuf>,
-    /// Each IMU topic's frame (its first message's `header.frame_id`).
+    /// Each IMU topic's frame (its first message's `header.frame_id`), and
+    /// the pose topic's: the frame on the robot whose position it gives (a
+    /// NavSatFix's `header.frame_id`, an Odometry's `child_frame_id`).
     pub frames: HashMap<usize, String>,
     /// The bag's static transforms.
     pub tf: StaticTf,
@@ -92,14 +94,19 @@ impl Rows<'_> {
 
     /// Keeps the first `header.frame_id` of the topic.
     fn note_frame(&mut self, m: &Msg) {
+        self.note_frame_of(m, "header.frame_id");
+    }
+
+    /// Keeps the first frame named by field `name` of the topic.
+    fn note_frame_of(&mut self, m: &Msg, name: &str) {
         if let (std::collections::hash_map::Entry::Vacant(e), Some(Value::Str(f))) =
-            (self.frames.entry(m.topic), m.get("header.frame_id"))
+            (self.frames.entry(m.topic), m.get(name))
         {
             e.insert(f.clone());
         }
     }
 
-    /// tf2_msgs/TFMessage: each transform's rotation parent ← child.
+    /// tf2_msgs/TFMessage: each transform parent ← child.
     fn static_tf(&mut self, m: &Msg) -> Result<bool, Ros2Error> {
         let Some(Value::List(items)) = m.get("transforms") else {
             return Err(m.err("no field `transforms`"));
@@ -114,6 +121,10 @@ impl Rows<'_> {
             .iter()
             .map(|c| path(&format!("transform.rotation.{c}")))
             .collect::<Result<_, _>>()?;
+        let o: Vec<Vec<usize>> = ["x", "y", "z"]
+            .iter()
+            .map(|c| path(&format!("transform.translation.{c}")))
+            .collect::<Result<_, _>>()?;
         for (k, item) in items.iter().enumerate() {
             let (Some(Value::Str(parent)), Some(Value::Str(child))) =
                 (item.at(&parent), item.at(&child))
@@ -126,7 +137,13 @@ impl Rows<'_> {
                     "transform {k} ({parent} -> {child}): rotation {r:?} is not a quaternion"
                 )));
             };
-            self.tf.add(parent, child, r);
+            let origin = [0, 1, 2].map(|i| item.f64_at(&o[i]).unwrap_or(f64::NAN));
+            if !origin.iter().all(|c| c.is_finite()) {
+                return Err(m.err(format!(
+                    "transform {k} ({parent} -> {child}): translation {origin:?} is not finite"
+                )));
+            }
+            self.tf.add_transform(parent, child, r, origin);
         }
         Ok(true)
     }
@@ -228,6 +245,7 @@ impl Rows<'_> {
             m.d.f(m.v, "altitude")
                 .filter(|a| a.is_finite())
                 .unwrap_or(0.0);
+        self.note_frame_of(m, "header.frame_id");
         if status < 0.0 {
             self.dropped_fixes += 1;
             return Ok(false);
@@ -274,6 +292,9 @@ impl Rows<'_> {
         } else {
             "pose.pose"
         };
+        if ty == "nav_msgs/Odometry" {
+            self.note_frame_of(m, "child_frame_id");
+        }
         let x = m.need(&format!("{pre}.position.x"))?;
         let y = m.need(&format!("{pre}.position.y"))?;
         let q = m.quaternion(&format!("{pre}.orientation"))?;

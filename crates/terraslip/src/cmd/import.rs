@@ -48,6 +48,9 @@ The topics file (--topics, a global option; every key optional):
                              # (default: a nominal one; results then in its scale)
   [pose]
   topic = \"/fix\"             # NavSatFix, Odometry, PoseStamped, PoseWithCovarianceStamped; \"\" for none
+  lever_arm = [0.3, 0.0]     # m, where it sits from base_link's origin (x forward, y left);
+                             # default: /tf_static's chain to the fix's frame_id (an
+                             # Odometry's child_frame_id); written to meta.toml [pose]
   [heading]
   topic = \"/imu/data\"        # Imu orientation; \"\" for none
   yaw_offset_deg = 0.0       # yaw = imu_yaw + yaw_offset - declination
@@ -59,7 +62,8 @@ The topics file (--topics, a global option; every key optional):
   mount_rpy_deg = [90, 0, -90]  # roll, pitch, yaw (deg) of the IMU frame in base_link,
                              # URDF rpy; overrides /tf_static
   [tf]
-  topic = \"/tf_static\"       # static transforms for the IMU's mounting; \"\" for none
+  topic = \"/tf_static\"       # static transforms for the IMU's mounting and the pose's
+                             # lever arm; \"\" for none
   base_frame = \"base_link\"
   [images]
   topic = \"\"

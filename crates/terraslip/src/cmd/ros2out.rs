@@ -149,14 +149,45 @@ pub fn write_params(
         .filter(|t| t.ends_with("/odom"))
         .find_map(|t| terraslip_ros2::diffdrive::controller_name(&t).map(str::to_string))
         .unwrap_or_else(|| "diff_drive_controller".to_string());
-    let text = params_yaml(
+    let mut text = params_yaml(
         &name,
         &blocks,
         nominal.as_ref().map(|(s, src)| (*s, src.as_str())),
     );
+    if let Some(note) = assumed_radius_note(meta, &blocks) {
+        // After the header's comments.
+        let at = text.find("\n\n").unwrap_or(text.len());
+        text.insert_str(at, &note);
+    }
     terraslip_io::write_atomic(path, text.as_bytes())?;
     eprintln!("wrote {}", path.display());
     Ok(())
+}
+
+/// When the tread speeds were made from joint rates with a wheel radius
+/// the recording does not state as the robot's (`meta.toml`'s
+/// `wheel_radius_source` other than `given`), comment lines saying that the
+/// radius multipliers are relative to it and what radius each side then
+/// has: applied as written, `wheel_radius` x multiplier.
+fn assumed_radius_note(meta: &terraslip_io::Meta, blocks: &[ParamsBlock]) -> Option<String> {
+    let r = meta.wheel_radius?;
+    let source = meta.wheel_radius_source.as_deref()?;
+    if source == "given" {
+        return None;
+    }
+    let mut s = format!(
+        "\n# wheel_radius {r} m is the radius assumed for the recording's joint rates ({source}: the\n# recording does not state the robot's), and the radius multipliers are relative to it:\n# applied as written, each wheel's radius is wheel_radius x its multiplier:"
+    );
+    for b in blocks {
+        let p = &b.params;
+        s.push_str(&format!(
+            "\n#   {}: left {:.4} m, right {:.4} m",
+            b.terrain,
+            r * p.left_wheel_radius_multiplier,
+            r * p.right_wheel_radius_multiplier
+        ));
+    }
+    Some(s)
 }
 
 /// The non-zero terms of a set's selected variable model (`rate_model`),

@@ -50,6 +50,10 @@ pub struct IcrModel {
 
 /// Most steps [`IcrModel::tread_speeds`] takes.
 const MAX_ITERATIONS: usize = 40;
+/// Times a Newton step is halved before a plain fixed-point step is taken.
+const NEWTON_HALVINGS: usize = 8;
+/// Steps from standstill to a command the direct search missed.
+const CONTINUATION_STEPS: usize = 16;
 /// Relative residual (m/s per m/s) below which the fixed point is found.
 const CONVERGED: f64 = 1e-12;
 
@@ -131,15 +135,32 @@ impl IcrModel {
     /// (m/s) and yaw rate `omega` (rad/s): the fixed point of
     /// [`IcrParams::tread_speeds`] under the ICRs those speeds put in
     /// effect, found by Newton steps (a plain fixed-point step where
-    /// Newton's does not shrink the residual). `None` when it does not
+    /// Newton's does not shrink the residual; from standstill in steps
+    /// where the first search fails). `None` when it does not
     /// converge (a law steeper than the turn it answers) or is not finite.
     pub fn tread_speeds(&self, v_x: f64, omega: f64) -> Option<(f64, f64)> {
+        let start = self.icr.tread_speeds(v_x, omega);
+        if let Some(z) = self.solve_from(start, v_x, omega) {
+            return Some(z);
+        }
+        // Continuation: the command reached in steps from standstill, each
+        // solved from the last (the laws bend the map too far for one).
+        let mut z = (0.0, 0.0);
+        for k in 1..=CONTINUATION_STEPS {
+            let f = k as f64 / CONTINUATION_STEPS as f64;
+            z = self.solve_from(z, f * v_x, f * omega)?;
+        }
+        Some(z)
+    }
+
+    /// Newton's search for [`Self::tread_speeds`] from the guess `start`.
+    fn solve_from(&self, start: (f64, f64), v_x: f64, omega: f64) -> Option<(f64, f64)> {
         let residual = |z: (f64, f64)| {
             let n = self.at(z.0, z.1).tread_speeds(v_x, omega);
             (n.0 - z.0, n.1 - z.1)
         };
         let size = |r: (f64, f64)| libm::fabs(r.0).max(libm::fabs(r.1));
-        let mut z = self.icr.tread_speeds(v_x, omega);
+        let mut z = start;
         let mut r = residual(z);
         for _ in 0..MAX_ITERATIONS {
             if !(size(r).is_finite() && z.0.is_finite() && z.1.is_finite()) {
@@ -156,13 +177,24 @@ impl IcrModel {
                 [(a.1 - r.1) / h, (b.1 - r.1) / h],
             ];
             let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
-            let newton = (
-                z.0 - (j[1][1] * r.0 - j[0][1] * r.1) / det,
-                z.1 - (j[0][0] * r.1 - j[1][0] * r.0) / det,
+            let step = (
+                -(j[1][1] * r.0 - j[0][1] * r.1) / det,
+                -(j[0][0] * r.1 - j[1][0] * r.0) / det,
             );
-            let rn = residual(newton);
-            if size(rn) < size(r) {
-                (z, r) = (newton, rn);
+            // The Newton step, halved until it shrinks the residual.
+            let mut shrunk = None;
+            let mut fraction = 1.0;
+            for _ in 0..NEWTON_HALVINGS {
+                let candidate = (z.0 + fraction * step.0, z.1 + fraction * step.1);
+                let rc = residual(candidate);
+                if size(rc) < size(r) {
+                    shrunk = Some((candidate, rc));
+                    break;
+                }
+                fraction *= 0.5;
+            }
+            if let Some(found) = shrunk {
+                (z, r) = found;
             } else {
                 z = (z.0 + r.0, z.1 + r.1);
                 r = residual(z);
@@ -667,6 +699,55 @@ mod tests {
         }
     }
 
+    /// The least `|v_x - vx| + |omega - w|` of `m`'s twist over tread
+    /// speeds within `bound` (m/s): a grid, then a shrinking pattern search
+    /// from its best point.
+    fn closest_reach(m: &IcrModel, vx: f64, w: f64, bound: f64) -> f64 {
+        let miss = |vl: f64, vr: f64| {
+            let t = m.twist(vl, vr);
+            (t.v_x - vx).abs() + (t.omega - w).abs()
+        };
+        let n = 150;
+        let step = 2.0 * bound / n as f64;
+        let mut best = (f64::INFINITY, 0.0, 0.0);
+        for i in 0..=n {
+            for j in 0..=n {
+                let (vl, vr) = (-bound + i as f64 * step, -bound + j as f64 * step);
+                let e = miss(vl, vr);
+                if e < best.0 {
+                    best = (e, vl, vr);
+                }
+            }
+        }
+        let mut h = step;
+        while h > 1e-9 {
+            let mut moved = false;
+            for (dl, dr) in [
+                (h, 0.0),
+                (-h, 0.0),
+                (0.0, h),
+                (0.0, -h),
+                (h, h),
+                (-h, -h),
+                (h, -h),
+                (-h, h),
+            ] {
+                let (vl, vr) = (best.1 + dl, best.2 + dr);
+                if vl.abs() <= bound && vr.abs() <= bound {
+                    let e = miss(vl, vr);
+                    if e < best.0 {
+                        best = (e, vl, vr);
+                        moved = true;
+                    }
+                }
+            }
+            if !moved {
+                h *= 0.5;
+            }
+        }
+        best.0
+    }
+
     proptest! {
         #[test]
         fn command_drives_the_desired_twist(
@@ -684,6 +765,12 @@ mod tests {
             cfg.max_correction = 100.0;
             let mut c = engaged(cfg, m);
             let out = c.command(0.0, twist(vx, w), Some((m, true)));
+            if out.status == Status::PassThrough(PassReason::NotInvertible) {
+                // Only a command no tread speeds within 3 m/s reach may be refused.
+                let closest = closest_reach(&m, vx, w, 3.0);
+                prop_assert!(closest > 1e-3, "refused, yet {closest} from ({vx}, {w})");
+                return Ok(());
+            }
             prop_assert_eq!(out.status, Status::Compensating);
             let got = driven(&m, out.twist);
             prop_assert!((got.v_x - vx).abs() < 1e-9 && (got.omega - w).abs() < 1e-9,

@@ -6,6 +6,18 @@ import csv
 import os
 
 
+def script(name):
+    """The script `name` beside this module (a file name with hyphens, which
+    `import` cannot name) loaded as a module, for its tests."""
+    import importlib.util
+
+    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), name)
+    spec = importlib.util.spec_from_file_location(name.replace("-", "_")[:-3], path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
 def rows(log, name):
     """`log/name` as a list of dicts, one per row, keyed by the header."""
     with open(os.path.join(log, name)) as f:

@@ -1,15 +1,10 @@
 """Checks of scripts/ros2-gap-check.py (run: `python3 scripts/test_ros2_gap_check.py`
 or pytest)."""
-import importlib.util
 import math
-import os
 
-from logcsv import interp
+from logcsv import interp, script
 
-_spec = importlib.util.spec_from_file_location(
-    "gap_check", os.path.join(os.path.dirname(os.path.abspath(__file__)), "ros2-gap-check.py"))
-gap_check = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(gap_check)
+gap_check = script("ros2-gap-check.py")
 
 
 def test_gyro_moved_onto_the_wheels_clock():
@@ -32,6 +27,45 @@ def test_gyro_moved_onto_the_wheels_clock():
     assert end < 0.05, end
 
 
+def test_a_track_split_into_its_heading_and_its_distance():
+    """A track driven at a known speed and yaw rate gives them back: its
+    heading changes as rates (across the +-pi wrap) and its steps as speeds
+    along its own heading, so that the swapped dead reckonings rebuild it."""
+    tw = [i * 0.1 for i in range(400)]
+    speed = lambda i: 1.0 + 0.3 * math.sin(tw[i] / 4.0)
+    rate = lambda i: 0.4 * math.cos(tw[i] / 3.0) + 0.2
+    track = gap_check.dead_reckon(tw, speed, rate, 0, 40.0, (0.0, 0.0, 3.0))
+    ts = [0.0] + [p[0] for p in track]
+    east = [0.0] + [p[1] for p in track]
+    north = [0.0] + [p[2] for p in track]
+    yaw = [3.0]
+    for i in range(len(ts) - 1):
+        yaw.append(math.atan2(math.sin(yaw[-1] + rate(i) * 0.1), math.cos(yaw[-1] + rate(i) * 0.1)))
+    rates = gap_check.heading_rates(ts, yaw)
+    speeds = gap_check.along_speeds(ts, east, north, yaw)
+    assert max(abs(r - rate(i)) for i, r in enumerate(rates)) < 1e-9
+    assert max(abs(v - speed(i)) for i, v in enumerate(speeds)) < 1e-3
+    again = gap_check.dead_reckon(tw, lambda i: speeds[i], lambda i: rates[i], 0, 40.0, (0.0, 0.0, 3.0))
+    assert math.hypot(again[-1][1] - track[-1][1], again[-1][2] - track[-1][2]) < 0.05
+
+
+def test_the_paired_rule_calls_a_tie_only_when_its_interval_holds_zero():
+    """Windows every 10 s, resampled in 20 s blocks: a difference of one
+    sign throughout is ahead (or behind), one that changes sign around zero
+    block by block is a tie, and the mean is the plain mean."""
+    starts = [40.0 + 10 * k for k in range(33)]
+    ahead = [-0.3 + 0.1 * (k % 3) for k in range(33)]
+    m, lo, hi = gap_check.paired(starts, ahead)
+    assert abs(m - sum(ahead) / 33) < 1e-12 and hi < 0, (m, lo, hi)
+    assert gap_check.verdict(lo, hi) == "ahead"
+    noise = [0.5 * (1 if (k // 2) % 2 else -1) for k in range(33)]
+    m, lo, hi = gap_check.paired(starts, noise)
+    assert lo < 0 < hi and gap_check.verdict(lo, hi) == "tie", (m, lo, hi)
+    assert gap_check.verdict(0.1, 0.4) == "behind"
+
+
 if __name__ == "__main__":
     test_gyro_moved_onto_the_wheels_clock()
+    test_a_track_split_into_its_heading_and_its_distance()
+    test_the_paired_rule_calls_a_tie_only_when_its_interval_holds_zero()
     print("ok")

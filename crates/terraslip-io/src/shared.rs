@@ -20,9 +20,7 @@ pub const REQUIRE_SHARED: &str = "TERRASLIP_REQUIRE_SHARED";
 /// # Panics
 /// When it is missing (the checkout is incomplete).
 pub fn repo_data(name: &str) -> PathBuf {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../data")
-        .join(name);
+    let path = repo_root().join("data").join(name);
     assert!(
         path.exists(),
         "{}: missing from the repository's data/",
@@ -39,13 +37,26 @@ pub fn repo_data(name: &str) -> PathBuf {
 /// When the path is missing and [`REQUIRE_SHARED`] is `1`: the test fails
 /// and says what it needed.
 pub fn shared_data(rel: &str) -> Option<PathBuf> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
+    let root = shared_root();
     let required = std::env::var(REQUIRE_SHARED).is_ok_and(|v| v == "1");
     match locate(root.join(rel), required) {
         Ok(Some(path)) => Some(path),
         Ok(None) => None,
         Err(message) => panic!("{message}"),
     }
+}
+
+/// The repository's root: two levels above a crate's manifest
+/// (`crates/<name>/Cargo.toml`), with no `..` in the path a message shows.
+fn repo_root() -> &'static Path {
+    let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
+    manifest.parent().and_then(Path::parent).unwrap_or(manifest)
+}
+
+/// `shared/data` beside the repository's root.
+fn shared_root() -> PathBuf {
+    let root = repo_root();
+    root.parent().unwrap_or(root).join("shared/data")
 }
 
 /// `path` when it exists; else `Ok(None)` after printing why the test is
@@ -86,6 +97,18 @@ mod tests {
         );
         let here = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
         assert_eq!(locate(here.clone(), true), Ok(Some(here)));
+    }
+
+    #[test]
+    fn a_skipped_test_names_the_shared_path_without_dot_dot() {
+        let root = shared_root();
+        assert!(root.ends_with("shared/data"), "{}", root.display());
+        assert!(
+            root.components()
+                .all(|c| c != std::path::Component::ParentDir),
+            "{}",
+            root.display()
+        );
     }
 
     #[test]

@@ -7,9 +7,11 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 fn main() {
-    const SOURCES: [&str; 3] = [
+    const SOURCES: [&str; 5] = [
         "src/config/mod.rs",
         "../terraslip-core/src/filter/config.rs",
+        "../terraslip-core/src/filter/band.rs",
+        "../terraslip-core/src/filter/measurement.rs",
         "../terraslip-core/src/terrain_belief.rs",
     ];
     let mut src = String::new();

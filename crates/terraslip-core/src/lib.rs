@@ -28,6 +28,7 @@ pub mod angle;
 pub mod compensate;
 pub mod estimator;
 pub mod filter;
+pub mod icr_model;
 pub mod kinematics;
 pub mod model;
 pub mod odometry;

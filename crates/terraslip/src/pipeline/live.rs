@@ -15,9 +15,8 @@ use terraslip_io::{DriveLog, ImuSample, ParamsFile, PoseObs, WheelSample};
 
 use super::decide::Decisions;
 use super::replay::Feed;
-use super::{
-    finish, setup, EstimateRun, PipelineError, RowSink, RunInfo, RunOptions, TerrainEvidence,
-};
+use super::run::{finish, RunInfo};
+use super::{setup, EstimateRun, PipelineError, RowSink, RunOptions, TerrainEvidence};
 use crate::config::EstimatorConfig;
 
 /// One sample of a live stream; times in s on the wheels' clock (the pose

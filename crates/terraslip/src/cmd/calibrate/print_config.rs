@@ -6,7 +6,7 @@
 use anyhow::Context;
 use clap::{Args as _, Command};
 
-use super::Args;
+use super::args::Args;
 
 /// Flags that are not settings: inputs, outputs, and what to print.
 const NOT_SETTINGS: &[&str] = &["logs", "out", "json", "print_config"];

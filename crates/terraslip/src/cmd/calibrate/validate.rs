@@ -10,7 +10,8 @@ use terraslip_calib::{ModelChoice, ValidateConfig, Validation};
 use terraslip_io::ParamsFile;
 use terraslip_report::{Figure, LinePlot, Series, SeriesStyle};
 
-use super::{parse_offset, read_logs, SegmentArgs};
+use super::logs::read_logs;
+use super::segment_args::{parse_offset, SegmentArgs};
 
 #[derive(clap::ValueEnum, Clone, Copy)]
 enum ModelArg {

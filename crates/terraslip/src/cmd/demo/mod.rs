@@ -2,75 +2,28 @@
 //! estimator variant over it, print the comparison table, write plots and a
 //! report page.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use anyhow::{Context, Result};
 use terraslip::config::EstimatorConfig;
-use terraslip::glossary;
-use terraslip::metrics::{self, Scorecard};
-use terraslip::pipeline::{self, EstimateRun, RunOptions, TerrainEvidence};
+use terraslip::metrics::{self};
+use terraslip::pipeline::{self, RunOptions, TerrainEvidence};
 use terraslip_io::TerrainLabel;
-use terraslip_report::markdown_table;
 use terraslip_sim::{simulate, Scenario, SimRun};
 
 use super::simulate::{check_target, replace_dir, staging_dir};
 use crate::progress::Progress;
 
+mod args;
 mod notes;
+mod outcome;
 mod pages;
 mod plots;
+mod table;
 
-const DETAILS: &str = "\
-Simulates the drive of lv2019 §IV (soil -> grass -> asphalt, 1 Hz GNSS with
-2 m correlated error, 1° compass, 540-tick encoders, ICRs that vary with the
-turn rate, a 30 s GNSS outage), runs every estimator variant over it with the
-log's terrain labels as evidence, and compares them:
-
-  re-convergence   seconds after each terrain change until the spread
-                   d = y_l - y_r stays within 2 cm of the truth (5 s means)
-  steady RMS       ICR errors after the first 20 s on each terrain
-  outage drift     dead reckoning on the estimated ICRs through the outage
-                   (every pose fix dropped), end-point error in % of the path
-
-DIR gets: report.html and report.md (table + plots), table.md, summary.json,
-the plots as SVG, and the simulated log in DIR/log (try
-`terraslip estimate DIR/log --out est --terrain-labels`).
-
-Examples:
-  terraslip demo
-  terraslip demo --out /tmp/demo --seed 7
-  terraslip demo --scenario papers-rtk     # the same drive, RTK-grade reference";
-
-/// Simulate the papers' drive, compare every estimator variant, write a report.
-#[derive(clap::Args, Debug)]
-#[command(after_long_help = DETAILS)]
-pub struct Args {
-    /// Output directory (replaced if it holds an earlier demo).
-    #[arg(long, default_value = "demo-out")]
-    pub out: PathBuf,
-    /// Seed of the simulated drive.
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
-    /// Scenario to drive (built-in name or TOML file); it should have terrain
-    /// changes and one GNSS outage.
-    #[arg(long, default_value = "papers")]
-    pub scenario: String,
-}
-
-/// Who each variant is, in a few words (the glossary's short form).
-fn short(name: &str) -> &'static str {
-    glossary::short(name).unwrap_or("")
-}
-
-/// One variant's run and scores.
-pub(super) struct Outcome {
-    name: String,
-    run: EstimateRun,
-    card: Scorecard,
-}
-
-/// Seconds after a change in which the steady-state error is not counted.
-const SETTLE: f64 = 20.0;
+pub use args::Args;
+use outcome::{short, Outcome, SETTLE};
+use table::Table;
 
 pub fn run(args: Args) -> Result<()> {
     let started = std::time::Instant::now();
@@ -168,116 +121,6 @@ fn change_labels(labels: &[TerrainLabel]) -> Vec<(f64, String)> {
         .filter(|w| w[0].terrain != w[1].terrain)
         .map(|w| (w[1].t, w[1].terrain.clone()))
         .collect()
-}
-
-fn cm(v: f64) -> String {
-    if v.is_finite() {
-        format!("{:.1}", 100.0 * v)
-    } else {
-        "-".into()
-    }
-}
-
-/// The comparison table: one row per variant.
-pub(super) struct Table {
-    pub headers: Vec<String>,
-    pub rows: Vec<Vec<String>>,
-    pub markdown: String,
-}
-
-impl Table {
-    fn new(outcomes: &[Outcome], changes: &[(f64, String)]) -> Self {
-        let (headers, rows) = cells(outcomes, changes);
-        let header_refs: Vec<&str> = headers.iter().map(String::as_str).collect();
-        let markdown = markdown_table(&header_refs, &rows);
-        Self {
-            headers,
-            rows,
-            markdown,
-        }
-    }
-
-    /// The table with aligned columns, for the terminal.
-    fn text(&self) -> String {
-        text_table(&self.headers, &self.rows)
-    }
-}
-
-fn cells(outcomes: &[Outcome], changes: &[(f64, String)]) -> (Vec<String>, Vec<Vec<String>>) {
-    let mut headers = vec!["variant".to_string()];
-    for (t, name) in changes {
-        headers.push(format!("re-conv. to {name} @{t:.0}s [s]"));
-    }
-    for h in [
-        "RMS d [cm]",
-        "RMS y_l [cm]",
-        "RMS y_r [cm]",
-        "RMS x_c [cm]",
-        "outage drift [%]",
-    ] {
-        headers.push(h.to_string());
-    }
-    let rows = outcomes
-        .iter()
-        .map(|o| {
-            let mut r = vec![o.name.clone()];
-            for (t, _) in changes {
-                let rec = o
-                    .card
-                    .reconvergence
-                    .iter()
-                    .find(|c| (c.t_change - t).abs() < 1e-6);
-                r.push(match rec {
-                    Some(c) => match c.seconds {
-                        Some(s) => format!("{s:.1}"),
-                        None => format!("> {:.0}", c.segment),
-                    },
-                    None => "-".into(),
-                });
-            }
-            let rms = &o.card.rms;
-            r.extend([cm(rms.d), cm(rms.y_l), cm(rms.y_r), cm(rms.x_c)]);
-            r.push(match &o.card.drift {
-                Some(d) => format!("{:.2} ({:.2} m of {:.1} m)", d.percent, d.error, d.distance),
-                None => "-".into(),
-            });
-            r
-        })
-        .collect();
-    (headers, rows)
-}
-
-/// The table with aligned columns, for the terminal.
-fn text_table(headers: &[String], rows: &[Vec<String>]) -> String {
-    let mut width: Vec<usize> = headers.iter().map(|h| h.chars().count()).collect();
-    for r in rows {
-        for (w, c) in width.iter_mut().zip(r) {
-            *w = (*w).max(c.chars().count());
-        }
-    }
-    let line = |cells: &[String]| {
-        cells
-            .iter()
-            .zip(&width)
-            .enumerate()
-            .map(|(i, (c, w))| {
-                if i == 0 {
-                    format!("{c:<w$}")
-                } else {
-                    format!("{c:>w$}")
-                }
-            })
-            .collect::<Vec<_>>()
-            .join("  ")
-    };
-    let mut out = line(headers);
-    out.push('\n');
-    out.push_str(&"-".repeat(out.chars().count().saturating_sub(1)));
-    for r in rows {
-        out.push('\n');
-        out.push_str(&line(r));
-    }
-    out
 }
 
 /// Every figure, the pages and the simulated log into `dir`.

@@ -7,7 +7,7 @@
 use terraslip::metrics::{self, ReconvergenceSpec};
 use terraslip_io::TruthSample;
 
-use super::Outcome;
+use super::outcome::Outcome;
 
 /// One sentence per notable figure of each variant, computed from the runs.
 pub(super) fn notes(outcomes: &[Outcome], truth: &[TruthSample]) -> Vec<String> {

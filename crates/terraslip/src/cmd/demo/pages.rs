@@ -8,8 +8,10 @@ use terraslip_io::write_atomic;
 use terraslip_report::{html_page, Section};
 use terraslip_sim::SimRun;
 
+use super::args::Args;
+use super::outcome::{short, Outcome, SETTLE};
 use super::plots::Written;
-use super::{short, Args, Outcome, Table, SETTLE};
+use super::table::Table;
 
 const TITLE: &str = "terraslip demo: ICR estimators on the papers' drive";
 

@@ -9,7 +9,7 @@ use terraslip_io::{DriveLog, TruthSample};
 use terraslip_report::{Figure, LinePlot, Series, SeriesStyle};
 use terraslip_sim::SimRun;
 
-use super::{short, Outcome};
+use super::outcome::{short, Outcome};
 
 /// Every 10th sample: plots need ~5 Hz, not 50.
 const DECIMATE: usize = 10;

@@ -6,8 +6,9 @@ use std::path::PathBuf;
 use anyhow::{bail, Context};
 use terraslip_terrain::{crossval, crossval_manoeuvre, CrossvalReport, Source, TrainOptions};
 
+use super::logs::read_logs;
+use super::progress::Progress;
 use super::settings::{baseline_options, options, TrainSettings};
-use super::{read_logs, Progress};
 
 #[derive(clap::Args)]
 pub(super) struct CrossvalArgs {

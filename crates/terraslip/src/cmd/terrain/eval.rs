@@ -10,7 +10,8 @@ use terraslip_report::{Heatmap, LinePlot, Series, SeriesStyle};
 use terraslip_terrain::confidence::{ConfidenceScore, ScoredWindow, UNKNOWN_BELOW};
 use terraslip_terrain::{score_log, ChangeScore, Confusion, LogScore, Source, TerrainModel};
 
-use super::{read_logs, Progress};
+use super::logs::read_logs;
+use super::progress::Progress;
 
 #[derive(clap::Args)]
 pub(super) struct EvalArgs {

@@ -7,16 +7,12 @@
 
 mod crossval;
 mod eval;
+mod logs;
+mod progress;
 mod settings;
 mod train;
 
-use std::io::IsTerminal;
-use std::path::PathBuf;
-use std::time::{Duration, Instant};
-
 use clap::Subcommand;
-use indicatif::{ProgressBar, ProgressStyle};
-use terraslip_io::DriveLog;
 
 /// Train and evaluate terrain classifiers.
 ///
@@ -51,88 +47,5 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Command::Train(a) => train::run(a),
         Command::Eval(a) => eval::run(a),
         Command::Crossval(a) => crossval::run(a),
-    }
-}
-
-fn read_logs(paths: &[PathBuf], quiet: bool) -> anyhow::Result<Vec<DriveLog>> {
-    let mut bar = Progress::new(paths.len() as u64, "reading logs", quiet);
-    let mut logs = Vec::with_capacity(paths.len());
-    for p in paths {
-        let log = super::bag::read_full(p)?;
-        logs.push(log);
-        bar.inc();
-    }
-    bar.finish();
-    Ok(logs)
-}
-
-/// Progress on stderr: a bar on a terminal; elsewhere (logs, CI) one line
-/// `what: done/total (elapsed)` at most every TERRASLIP_PROGRESS_SECS
-/// seconds (10 by default) and at the end of a step that took that long;
-/// nothing when `quiet`.
-struct Progress {
-    bar: Option<ProgressBar>,
-    what: &'static str,
-    n: u64,
-    done: u64,
-    plain: bool,
-    every: Duration,
-    start: Instant,
-    last: Instant,
-}
-
-impl Progress {
-    fn new(n: u64, what: &'static str, quiet: bool) -> Self {
-        let plain = !quiet && !std::io::stderr().is_terminal();
-        let bar = (!quiet && !plain).then(|| {
-            let bar = ProgressBar::new(n);
-            bar.set_style(
-                ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} {elapsed}")
-                    .unwrap_or_else(|_| ProgressStyle::default_bar()),
-            );
-            bar.set_message(what);
-            bar
-        });
-        let every = std::env::var("TERRASLIP_PROGRESS_SECS")
-            .ok()
-            .and_then(|v| v.parse::<f64>().ok())
-            .filter(|v| v.is_finite() && *v >= 0.0)
-            .map_or(Duration::from_secs(10), Duration::from_secs_f64);
-        let now = Instant::now();
-        Self {
-            bar,
-            what,
-            n,
-            done: 0,
-            plain,
-            every,
-            start: now,
-            last: now,
-        }
-    }
-
-    fn set(&mut self, done: u64) {
-        self.done = done;
-        if let Some(bar) = &self.bar {
-            bar.set_position(done);
-        } else if self.plain && self.last.elapsed() >= self.every {
-            self.last = Instant::now();
-            eprintln!(
-                "{}: {done}/{} ({:.0} s)",
-                self.what,
-                self.n,
-                self.start.elapsed().as_secs_f64()
-            );
-        }
-    }
-
-    fn inc(&mut self) {
-        self.set(self.done + 1);
-    }
-
-    fn finish(self) {
-        if let Some(bar) = &self.bar {
-            bar.finish_and_clear();
-        }
     }
 }

@@ -9,7 +9,7 @@ use anyhow::Context;
 use indicatif::ProgressBar;
 use terraslip_terrain::TerrainModel;
 
-use super::read_logs;
+use super::logs::read_logs;
 use super::settings::{options, TrainSettings};
 
 #[derive(clap::Args)]

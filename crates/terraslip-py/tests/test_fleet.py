@@ -56,6 +56,11 @@ def _in_netns(args, timeout, by_address=False):
     return proc
 
 
+# The data sets the figures below are of (other recordings kept beside
+# them in ../shared/data would add groups of their own).
+FLEET_SETS = [SHARED / "borealtc", SHARED / "drive", SHARED / "ros2"]
+
+
 def _q(s):
     s = str(s)
     return "'" + s.replace("'", "'\\''") + "'"
@@ -70,12 +75,12 @@ def fleet_run(tmp_path_factory):
     topics = tmp / "husky.toml"
     topics.write_text(HUSKY_TOPICS)
     out = tmp / "out"
-    est = _in_netns(["estimate", SHARED, "--topics", topics, "--out", out, "--scheduler", "local:2", "--rows", "--report"], CLUSTER_TIMEOUT_S)
+    est = _in_netns(["estimate", *FLEET_SETS, "--topics", topics, "--out", out, "--scheduler", "local:2", "--rows", "--report"], CLUSTER_TIMEOUT_S)
     assert est.returncode == 0, est.stderr
     # Calibration groups: the Warthog's drives (lidar pose) per terrain and
     # the Husky bags (GNSS fixes, a position-only reference) calibrate; the
     # BorealTC Husky's, without a pose, fail: as rows.
-    cal = _in_netns(["calibrate", SHARED, "--topics", topics, "--out", out], CLUSTER_TIMEOUT_S, by_address=True)
+    cal = _in_netns(["calibrate", *FLEET_SETS, "--topics", topics, "--out", out], CLUSTER_TIMEOUT_S, by_address=True)
     assert cal.returncode == 0, cal.stderr
     assert "2 Dask worker(s)" in cal.stderr and "6 of 11 robot and terrain groups" in cal.stderr, cal.stderr
     return {"out": out, "topics": topics, "estimate": est, "calibrate": cal}

@@ -176,11 +176,7 @@ pub fn simulate_closed_loop(
             .next_time()
             .min(k_control as f64 * period)
             .min(max_duration);
-        let t_next = if t + sc.integration.dt < next - 1e-6 {
-            t + sc.integration.dt
-        } else {
-            next
-        };
+        let t_next = crate::simulate::step_end(t, next, sc.integration.dt);
         let h = t_next - t;
         if h <= 0.0 {
             t = t_next + 1e-9;

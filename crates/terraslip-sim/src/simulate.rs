@@ -48,15 +48,7 @@ pub fn simulate(scenario: &Scenario, seed: u64) -> Result<SimRun, SimError> {
         if t >= duration - 1e-9 {
             break;
         }
-        // Integrate up to the next sample time, in steps of at most dt.
-        // Sample times are exact (k / rate): a step that would stop just
-        // short of one (rounding in the running sum) goes to it instead.
-        let next_sample = recorder.next_time().min(duration);
-        let t_next = if t + sc.integration.dt < next_sample - 1e-6 {
-            t + sc.integration.dt
-        } else {
-            next_sample
-        };
+        let t_next = step_end(t, recorder.next_time().min(duration), sc.integration.dt);
         let h = t_next - t;
         if h <= 0.0 {
             // A sample time at t that was not consumed cannot happen (every
@@ -100,5 +92,16 @@ pub(crate) fn log_meta(sc: &Scenario) -> Meta {
             lever_arm_y: sc.gnss.lever_arm[1],
         }),
         ..Default::default()
+    }
+}
+
+/// Where an integration step from `t` ends: at most `dt` later, and at the
+/// next sample time `next` (s) when it would stop just short of it (sample
+/// times are exact, k / rate; the running sum of steps rounds).
+pub(crate) fn step_end(t: f64, next: f64, dt: f64) -> f64 {
+    if t + dt < next - 1e-6 {
+        t + dt
+    } else {
+        next
     }
 }

@@ -21,6 +21,7 @@ mod borealtc_trust;
 mod drives;
 mod estimators;
 mod family;
+mod family_target;
 mod follow;
 mod heldout;
 mod misread;

@@ -3,13 +3,14 @@
 //! whether the model's own uncertainty says so.
 //!
 //! Starts lie every `stride` seconds after a `warmup` on the wheels'
-//! clock (`t0 + warmup + k * stride`, `t0` the first wheels row). A model
-//! dead-reckons from the pose (and covariance) it had at the start: a
-//! filter from its own estimate, a fixed slip model or odometry from the
-//! reference pose at the start (as [`crate::prediction`] does). At each
-//! horizon its end position is compared with the reference position
-//! (linear interpolation of the pose stream, read with the model's clock
-//! offset): the error (m), the distance the reference travelled (m), the
+//! clock (`t0 + warmup + k * stride`, `t0` the first wheels row). Every
+//! model dead-reckons from the same [`Start`]: the online filter's pose and
+//! heading at the start, what a robot losing its fixes would go on from
+//! (the reference pose there would hand the other models a pose the robot
+//! never had: a GNSS fix is metres from the filter's). At each horizon its
+//! end position is compared with the reference position (linear
+//! interpolation of the pose stream, read with the start's clock offset):
+//! the error (m), the distance the reference travelled (m), the
 //! error's along-track and cross-track parts (along the reference's
 //! heading at the end, or its direction of travel when it has none), and,
 //! for a model with a propagated covariance, the normalised estimation
@@ -52,6 +53,62 @@ impl OutageSpec {
         (0..)
             .map(move |k| first + k as f64 * self.stride)
             .take_while(move |t| *t <= t_end)
+    }
+}
+
+/// Where every model dead-reckons from at a start: the online filter's
+/// pose there (east, north m; yaw rad) and its clock offset (s: the
+/// reference is read that much later than the wheels' clock).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Start {
+    /// Start, s (wheels' clock).
+    pub t: f64,
+    pub east: f64,
+    pub north: f64,
+    pub yaw: f64,
+    pub clock: f64,
+}
+
+impl Start {
+    /// The point `(x, y)` m of a start's frame (x along its heading, y to
+    /// its left), in east and north.
+    pub fn place(&self, x: f64, y: f64) -> (f64, f64) {
+        let (s, c) = self.yaw.sin_cos();
+        (self.east + x * c - y * s, self.north + x * s + y * c)
+    }
+}
+
+/// A filter's end of an outage, unscored, with the start it went from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FilterEnd {
+    pub start: Start,
+    pub horizon: f64,
+    pub end: End,
+}
+
+impl FilterEnd {
+    /// The end as if the filter had set out from `to` (same time) rather
+    /// than from its own start: its motion (and covariance) carried into
+    /// `to`'s frame. Dead reckoning without fixes moves rigidly with its
+    /// start pose.
+    pub fn from_start(&self, to: &Start) -> End {
+        let (de, dn) = (
+            self.end.east - self.start.east,
+            self.end.north - self.start.north,
+        );
+        let (s, c) = (-self.start.yaw).sin_cos();
+        let (x, y) = (de * c - dn * s, de * s + dn * c);
+        let (east, north) = to.place(x, y);
+        let cov = self.end.cov.map(|[a, b, d]| {
+            let (s, c) = (to.yaw - self.start.yaw).sin_cos();
+            // R P R^T, R the rotation by the change of heading.
+            [
+                c * c * a - 2.0 * c * s * b + s * s * d,
+                c * s * (a - d) + (c * c - s * s) * b,
+                s * s * a + 2.0 * c * s * b + c * c * d,
+            ]
+        });
+        End { east, north, cov }
     }
 }
 
@@ -140,19 +197,6 @@ impl Track {
         heading_at(&self.headings, t, max_gap)
     }
 
-    /// The start pose (east, north, yaw) at `t`; without a reference
-    /// heading there, `fallback_yaw`.
-    pub fn start(
-        &self,
-        t: f64,
-        max_gap: f64,
-        fallback_yaw: Option<f64>,
-    ) -> Option<(f64, f64, f64)> {
-        let [e, n, _] = self.position(t, max_gap)?;
-        let yaw = self.heading(t, max_gap).or(fallback_yaw)?;
-        Some((e, n, yaw))
-    }
-
     /// Scores `end`, a model's position after the outage from `t`
     /// (wheels' clock) of `horizon` s, against the reference read
     /// `clock_offset` s later.
@@ -198,33 +242,45 @@ impl Track {
     }
 
     /// The outage ends of a fixed model `twist` (a wheels row's body
-    /// twist for a start `t`), dead-reckoned from the reference pose at
-    /// each start, the reference read `clock_at(t)` s later.
+    /// twist for a start `t`), dead-reckoned from each start's pose.
     pub fn fixed_model(
         &self,
         wheels: &[WheelSample],
         twist: &dyn Fn(f64, &WheelSample) -> Twist,
-        clock_at: &dyn Fn(f64) -> f64,
-        starts: &[f64],
+        starts: &[Start],
         max_gap: f64,
     ) -> Vec<OutageEnd> {
         let mut out = Vec::new();
-        for &t in starts {
-            let c = clock_at(t);
-            let Some(a) = self.start(t + c, max_gap, None) else {
-                continue;
-            };
+        for s in starts {
+            let a = (s.east, s.north, s.yaw);
             for h in HORIZONS {
-                let (east, north) = predict_with(wheels, &|w| twist(t, w), t, t + h, a);
+                let (east, north) = predict_with(wheels, &|w| twist(s.t, w), s.t, s.t + h, a);
                 let end = End {
                     east,
                     north,
                     cov: None,
                 };
-                out.extend(self.score(t, h, c, end, max_gap));
+                out.extend(self.score(s.t, h, s.clock, end, max_gap));
             }
         }
         out
+    }
+
+    /// A filter's ends, each carried to the start of `starts` at its time
+    /// ([`FilterEnd::from_start`]) and scored; ends with no such start are
+    /// left out.
+    pub fn filter_from(
+        &self,
+        ends: &[FilterEnd],
+        starts: &[Start],
+        max_gap: f64,
+    ) -> Vec<OutageEnd> {
+        ends.iter()
+            .filter_map(|e| {
+                let to = starts.iter().find(|s| s.t == e.start.t)?;
+                self.score(to.t, e.horizon, to.clock, e.from_start(to), max_gap)
+            })
+            .collect()
     }
 }
 
@@ -292,6 +348,11 @@ pub struct OutageScore {
     pub spec: Option<OutageSpec>,
     /// Model name and its scored ends.
     pub models: Vec<(String, Vec<OutageEnd>)>,
+    /// Where every model set out from at each start.
+    pub starts: Vec<Start>,
+    /// The online filter's own ends, unscored (to carry into another
+    /// run's starts: [`Track::filter_from`]).
+    pub filter_ends: Vec<FilterEnd>,
 }
 
 impl OutageScore {
@@ -359,7 +420,7 @@ mod tests {
     }
 
     #[test]
-    fn a_fixed_model_is_scored_from_the_reference_at_each_start() {
+    fn a_fixed_model_dead_reckons_from_each_start_s_pose() {
         let p: Vec<PoseObs> = (0..=1500)
             .map(|k| pose(k as f64 * 0.1, k as f64 * 0.1, 0.0, Some(0.0)))
             .collect();
@@ -383,12 +444,61 @@ mod tests {
             v_y: 0.0,
             omega: 0.0,
         };
-        let ends = track.fixed_model(&wheels, &slow, &|_| 0.0, &starts, 1.0);
+        let on_track = |t: f64| Start {
+            t,
+            east: t,
+            north: 0.0,
+            yaw: 0.0,
+            clock: 0.0,
+        };
+        let at: Vec<Start> = starts.iter().map(|&t| on_track(t)).collect();
+        let ends = track.fixed_model(&wheels, &slow, &at, 1.0);
         let s = OutageStats::of(&ends, 30.0).unwrap();
         // Starts up to 120 s end inside the 150 s reference.
         assert_eq!(s.segments, 7);
         assert!((s.m_per_km - 100.0).abs() < 0.5, "{s:?}");
         assert!(s.cross_rms_m < 1e-9 && (s.along_rms_m - 3.0).abs() < 0.02);
         assert!(s.nees_median.is_none());
+        // Set out 2 m to the left of the track, heading along it: 2 m
+        // cross-track at every horizon (the reference's start is not used).
+        let left: Vec<Start> = at.iter().map(|s| Start { north: 2.0, ..*s }).collect();
+        let ends = track.fixed_model(&wheels, &slow, &left, 1.0);
+        let s = OutageStats::of(&ends, 10.0).unwrap();
+        assert!((s.cross_rms_m - 2.0).abs() < 1e-9, "{s:?}");
+    }
+
+    #[test]
+    fn a_filter_s_end_is_carried_into_another_start() {
+        // A filter set out from (10, 0) heading north and ended 3 m ahead,
+        // 1 m to its left, with 1 m^2 along and 4 m^2 across its heading.
+        let own = Start {
+            t: 60.0,
+            east: 10.0,
+            north: 0.0,
+            yaw: std::f64::consts::FRAC_PI_2,
+            clock: 0.1,
+        };
+        let e = FilterEnd {
+            start: own,
+            horizon: 10.0,
+            end: End {
+                east: 9.0,
+                north: 3.0,
+                cov: Some([4.0, 0.0, 1.0]),
+            },
+        };
+        // From the origin heading east: 3 m east, 1 m north.
+        let to = Start {
+            east: 0.0,
+            yaw: 0.0,
+            ..own
+        };
+        let end = e.from_start(&to);
+        assert!((end.east - 3.0).abs() < 1e-12 && (end.north - 1.0).abs() < 1e-12);
+        let [a, b, d] = end.cov.unwrap();
+        assert!((a - 1.0).abs() < 1e-12 && b.abs() < 1e-12 && (d - 4.0).abs() < 1e-12);
+        // Into its own start: unchanged.
+        let back = e.from_start(&own);
+        assert!((back.east - 9.0).abs() < 1e-12 && (back.north - 3.0).abs() < 1e-12);
     }
 }

@@ -290,11 +290,12 @@ fn online_configs<'a>(
     Ok((out, outages))
 }
 
-/// The outage table's columns on `target` from starts in `[from, to)`:
-/// the online runs' own dead reckoning (`runs`: name and the run's
-/// yardstick, the first the default's), `calibrate` selected and DRIVE's
-/// model from the reference pose, and the default run's no-slip and
-/// odometry + gyro.
+/// The outage table's columns on `target` from starts in `[from, to)`,
+/// every model setting out from the online default's pose at each start
+/// (`runs`: name and the run's yardstick, the first the default's): the
+/// default, the other online runs carried into its starts, `calibrate`
+/// selected, DRIVE's model, and the default run's no-slip and odometry +
+/// gyro.
 fn outage_columns(
     target: &DriveLog,
     models: &[Model],
@@ -303,29 +304,29 @@ fn outage_columns(
     to: f64,
 ) -> Vec<outage_table::Column> {
     use terraslip::pipeline::outage::{NO_SLIP, ODOMETRY_GYRO, ONLINE};
-    let mut cols: Vec<outage_table::Column> = runs
-        .iter()
-        .map(|(name, o)| outage_table::from_run(name, o.as_ref(), ONLINE, from))
-        .collect();
+    let Some((default, score)) = runs.first() else {
+        return Vec::new();
+    };
+    let starts = outage_table::starts(score.as_ref(), from, to);
+    let mut cols = vec![outage_table::from_run(
+        default,
+        score.as_ref(),
+        ONLINE,
+        from,
+    )];
+    for (name, o) in &runs[1..] {
+        cols.push(outage_table::carried(target, name, o.as_ref(), &starts));
+    }
     for m in models
         .iter()
         .filter(|m| m.name == "calibrate selected" || m.name == "DRIVE's model")
     {
-        cols.push(outage_table::fixed(
-            target,
-            &m.name,
-            &*m.twist,
-            &*m.clock_at,
-            from,
-            to,
-        ));
+        cols.push(outage_table::fixed(target, &m.name, &*m.twist, &starts));
     }
-    if let Some((_, o)) = runs.first() {
-        for model in [NO_SLIP, ODOMETRY_GYRO] {
-            let c = outage_table::from_run(model, o.as_ref(), model, from);
-            if !c.ends.is_empty() {
-                cols.push(c);
-            }
+    for model in [NO_SLIP, ODOMETRY_GYRO] {
+        let c = outage_table::from_run(model, score.as_ref(), model, from);
+        if !c.ends.is_empty() {
+            cols.push(c);
         }
     }
     cols

@@ -3,7 +3,7 @@
 //! scored span, and at 30 s the online default against half the no-slip
 //! odometry's error and against DRIVE's model by a paired block bootstrap.
 
-use terraslip_calib::outage::{OutageEnd, OutageSpec, OutageStats, Track, HORIZONS};
+use terraslip_calib::outage::{OutageEnd, OutageScore, OutageStats, Start, Track, HORIZONS};
 use terraslip_core::rng::SplitMix64;
 use terraslip_io::DriveLog;
 
@@ -13,42 +13,56 @@ pub struct Column {
     pub ends: Vec<OutageEnd>,
 }
 
-/// The fixed models' ends: dead-reckoned from the reference pose at each
-/// start in `[from, to)`.
+/// The starts every model sets out from: the online default's (`score`,
+/// its run's yardstick) in `[from, to)`.
+pub fn starts(score: Option<&OutageScore>, from: f64, to: f64) -> Vec<Start> {
+    score.map_or_else(Vec::new, |s| {
+        s.starts
+            .iter()
+            .filter(|s| s.t >= from && s.t < to)
+            .copied()
+            .collect()
+    })
+}
+
+/// A fixed model's ends: dead-reckoned from each of `starts`.
 pub fn fixed(
     log: &DriveLog,
     name: &str,
     twist: &dyn Fn(f64, &terraslip_io::WheelSample) -> terraslip_core::Twist,
-    clock_at: &dyn Fn(f64) -> f64,
-    from: f64,
-    to: f64,
+    starts: &[Start],
 ) -> Column {
-    let spec = OutageSpec::default();
-    let Some(t0) = log.wheels.first().map(|w| w.t) else {
-        return Column {
-            name: name.into(),
-            ends: Vec::new(),
-        };
-    };
-    let starts: Vec<f64> = spec.starts(t0, to).filter(|t| *t >= from).collect();
-    let track = Track::of(&log.pose);
+    let gap = terraslip_calib::outage::OutageSpec::default().max_gap;
     Column {
         name: name.into(),
-        ends: track.fixed_model(&log.wheels, twist, clock_at, &starts, spec.max_gap),
+        ends: Track::of(&log.pose).fixed_model(&log.wheels, twist, starts, gap),
     }
 }
 
 /// A run's ends of `model` from starts in `[from, to)`.
-pub fn from_run(
-    name: &str,
-    score: Option<&terraslip_calib::outage::OutageScore>,
-    model: &str,
-    from: f64,
-) -> Column {
+pub fn from_run(name: &str, score: Option<&OutageScore>, model: &str, from: f64) -> Column {
     let ends = score
         .and_then(|s| s.ends(model))
         .map(|e| e.iter().filter(|e| e.t >= from).copied().collect())
         .unwrap_or_default();
+    Column {
+        name: name.into(),
+        ends,
+    }
+}
+
+/// Another online run's own dead reckoning, carried from its starts into
+/// `starts` (the default's).
+pub fn carried(
+    log: &DriveLog,
+    name: &str,
+    score: Option<&OutageScore>,
+    starts: &[Start],
+) -> Column {
+    let gap = terraslip_calib::outage::OutageSpec::default().max_gap;
+    let ends = score.map_or_else(Vec::new, |s| {
+        Track::of(&log.pose).filter_from(&s.filter_ends, starts, gap)
+    });
     Column {
         name: name.into(),
         ends,

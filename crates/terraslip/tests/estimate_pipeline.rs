@@ -324,3 +324,54 @@ fn the_outage_yardstick_dead_reckons_the_estimate_beside_no_slip() {
     let js = o.to_json();
     assert_eq!(js["models"]["online"][1]["horizon_s"], 30.0);
 }
+
+#[test]
+fn every_outage_model_sets_out_from_the_estimate_not_the_reference() {
+    // One wild reference fix at the first start: the robot never was
+    // there, so no model dead-reckons from it. Every model sets out from
+    // the estimate's pose, so its end from that start moves no more than
+    // the estimate's start did.
+    let log = drive(&SynthSpec::default());
+    let plain = run_plain(&log);
+    let s0 = plain.outage.as_ref().expect("an outage score").starts[0];
+    let k = log
+        .pose
+        .iter()
+        .enumerate()
+        .min_by(|a, b| {
+            let d = |p: &terraslip_io::PoseObs| (p.t - s0.t - s0.clock).abs();
+            d(a.1).total_cmp(&d(b.1))
+        })
+        .map(|(k, _)| k)
+        .unwrap();
+    let mut wild = log.clone();
+    wild.pose[k].north = wild.pose[k].north.map(|n| n + 10.0);
+    let wild = run_plain(&wild);
+    let s1 = wild.outage.as_ref().unwrap().starts[0];
+    assert_eq!(s0.t, s1.t);
+    let moved = (s1.east - s0.east).hypot(s1.north - s0.north);
+    assert!(
+        moved < 5.0,
+        "the estimate followed the wild fix {moved:.2} m"
+    );
+    let end = |run: &terraslip::EstimateRun, model: &str| {
+        run.outage
+            .as_ref()
+            .unwrap()
+            .ends(model)
+            .unwrap()
+            .iter()
+            .find(|e| e.t == s0.t && e.horizon == 10.0)
+            .copied()
+            .expect("an end 10 s after the first start")
+    };
+    for model in ["online", "no-slip"] {
+        let (e0, e1) = (end(&plain, model), end(&wild, model));
+        assert!(
+            (e1.error - e0.error).abs() <= moved + 0.05,
+            "{model}: the estimate's start moved {moved:.2} m, the end error {:.2} -> {:.2} m",
+            e0.error,
+            e1.error
+        );
+    }
+}

@@ -2,11 +2,14 @@
 //! start a copy of the estimator dead-reckons on the wheels (and the gyro)
 //! with no pose fix, and reports its pose and covariance at each horizon;
 //! beside it, no-slip odometry and, where the log has a gyro, odometry
-//! with the gyro's turn rate, each from the reference pose at the start.
+//! with the gyro's turn rate, each from the estimate's pose and heading at
+//! the start, as the copy of the estimator sets out.
 //! The ends are scored against the reference when the run is over (the
 //! reference's positions are kept: 32 bytes per pose row).
 
-use terraslip_calib::outage::{End, OutageEnd, OutageScore, OutageSpec, Track, HORIZONS};
+use terraslip_calib::outage::{
+    End, FilterEnd, OutageEnd, OutageScore, OutageSpec, Start, Track, HORIZONS,
+};
 use terraslip_calib::prediction::advance;
 use terraslip_core::estimator::Estimator;
 use terraslip_core::{IcrParams, Twist};
@@ -23,12 +26,9 @@ type Relative = (f64, f64, f64);
 /// An outage under way.
 #[derive(Clone)]
 struct Open {
-    /// Start, s (wheels' clock).
-    t: f64,
+    /// The estimate's pose and clock offset at the start.
+    start: Start,
     est: Box<Estimator>,
-    /// The estimate's clock offset and heading at the start.
-    clock: f64,
-    yaw: f64,
     /// No-slip odometry and odometry + gyro in the start's frame.
     no_slip: Relative,
     odometry_gyro: Option<Relative>,
@@ -40,18 +40,12 @@ struct Open {
 /// An end waiting for the reference.
 #[derive(Clone)]
 enum Pending {
-    Filter {
-        t: f64,
-        h: f64,
-        clock: f64,
-        end: End,
-    },
+    Filter(FilterEnd),
     Relative {
         model: usize,
-        t: f64,
+        start: Start,
         h: f64,
         pose: Relative,
-        yaw: f64,
     },
 }
 
@@ -63,6 +57,7 @@ pub(super) struct OutageRun {
     no_slip: IcrParams,
     next_start: Option<f64>,
     open: Vec<Open>,
+    starts: Vec<Start>,
     pending: Vec<Pending>,
     /// The latest gyro rate, rad/s, once the log has given one.
     gyro: Option<f64>,
@@ -76,6 +71,7 @@ impl OutageRun {
             no_slip: IcrParams::no_slip(track_width),
             next_start: None,
             open: Vec::new(),
+            starts: Vec::new(),
             pending: Vec::new(),
             gyro: None,
         }
@@ -114,29 +110,27 @@ impl OutageRun {
                 };
                 advance(p, dt, tw);
             }
-            while o.next < HORIZONS.len() && w.t >= o.t + HORIZONS[o.next] {
+            while o.next < HORIZONS.len() && w.t >= o.start.t + HORIZONS[o.next] {
                 let h = HORIZONS[o.next];
                 let (east, north, _) = o.est.filter().pose();
                 let c = o.est.filter().pose_covariance();
-                self.pending.push(Pending::Filter {
-                    t: o.t,
-                    h,
-                    clock: o.clock,
+                self.pending.push(Pending::Filter(FilterEnd {
+                    start: o.start,
+                    horizon: h,
                     end: End {
                         east,
                         north,
                         cov: Some([c[(0, 0)], c[(0, 1)], c[(1, 1)]]),
                     },
-                });
+                }));
                 let rel = [Some(o.no_slip), o.odometry_gyro];
                 for (model, pose) in rel.into_iter().enumerate() {
                     if let Some(pose) = pose {
                         self.pending.push(Pending::Relative {
                             model,
-                            t: o.t,
+                            start: o.start,
                             h,
                             pose,
-                            yaw: o.yaw,
                         });
                     }
                 }
@@ -151,12 +145,18 @@ impl OutageRun {
         }
         let next = *self.next_start.get_or_insert(w.t + self.spec.warmup);
         if w.t >= next {
-            let (_, _, yaw) = estimator.filter().pose();
-            self.open.push(Open {
+            let (east, north, yaw) = estimator.filter().pose();
+            let start = Start {
                 t: next,
-                est: Box::new(estimator.clone()),
-                clock,
+                east,
+                north,
                 yaw,
+                clock,
+            };
+            self.starts.push(start);
+            self.open.push(Open {
+                start,
+                est: Box::new(estimator.clone()),
                 no_slip: (0.0, 0.0, 0.0),
                 odometry_gyro: self.gyro.map(|_| (0.0, 0.0, 0.0)),
                 t_prev: w.t,
@@ -174,28 +174,28 @@ impl OutageRun {
     pub fn finish(&self) -> Option<OutageScore> {
         let gap = self.spec.max_gap;
         let mut online: Vec<OutageEnd> = Vec::new();
+        let mut filter_ends = Vec::new();
         let mut relative: [Vec<OutageEnd>; 2] = [Vec::new(), Vec::new()];
         for p in &self.pending {
             match *p {
-                Pending::Filter { t, h, clock, end } => {
-                    online.extend(self.track.score(t, h, clock, end, gap));
+                Pending::Filter(f) => {
+                    let s = f.start;
+                    online.extend(self.track.score(s.t, f.horizon, s.clock, f.end, gap));
+                    filter_ends.push(f);
                 }
                 Pending::Relative {
                     model,
-                    t,
+                    start: s,
                     h,
                     pose: (x, y, _),
-                    yaw,
                 } => {
-                    let Some((e0, n0, y0)) = self.track.start(t, gap, Some(yaw)) else {
-                        continue;
-                    };
+                    let (east, north) = s.place(x, y);
                     let end = End {
-                        east: e0 + x * y0.cos() - y * y0.sin(),
-                        north: n0 + x * y0.sin() + y * y0.cos(),
+                        east,
+                        north,
                         cov: None,
                     };
-                    relative[model].extend(self.track.score(t, h, 0.0, end, gap));
+                    relative[model].extend(self.track.score(s.t, h, s.clock, end, gap));
                 }
             }
         }
@@ -210,6 +210,8 @@ impl OutageRun {
         Some(OutageScore {
             spec: Some(self.spec),
             models,
+            starts: self.starts.clone(),
+            filter_ends,
         })
     }
 }

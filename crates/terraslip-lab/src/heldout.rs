@@ -61,7 +61,15 @@ pub struct Args {
     /// default: the defaults).
     #[arg(long, value_name = "FILE.toml")]
     online_config: Option<PathBuf>,
+    /// Also dead-reckon each drive's outages with `calibrate` fitted on the
+    /// scored half itself (`hindsight selected`, outage table only): the
+    /// best constant slip model for those outages, a bound for its class.
+    #[arg(long)]
+    hindsight: bool,
 }
+
+/// `calibrate` fitted on the scored half itself (`--hindsight`).
+const HINDSIGHT: &str = "hindsight selected";
 
 /// A twist of a wheels row for a segment starting at `t` (s).
 type TwistFn<'a> = Box<dyn Fn(f64, &WheelSample) -> Twist + 'a>;
@@ -319,9 +327,16 @@ fn outage_columns(
     }
     for m in models
         .iter()
-        .filter(|m| m.name == "calibrate selected" || m.name == "DRIVE's model")
+        .filter(|m| ["calibrate selected", "DRIVE's model", HINDSIGHT].contains(&m.name.as_str()))
     {
         cols.push(outage_table::fixed(target, &m.name, &*m.twist, &starts));
+        if m.name == HINDSIGHT {
+            if let Some(((a, c), ends)) = crate::hindsight::best_scaled(target, &*m.twist, &starts)
+            {
+                let name = format!("hindsight best (speed x{a:.2}, turn x{c:.2})");
+                cols.push(outage_table::Column { name, ends });
+            }
+        }
     }
     for model in [NO_SLIP, ODOMETRY_GYRO] {
         let c = outage_table::from_run(model, score.as_ref(), model, from);
@@ -448,6 +463,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         cc.segment.t_max = mid;
         let cal = calibrate(std::slice::from_ref(&log), &cc, &|_| {})?;
         let pf = cal.params_file();
+        let hindsight = if a.hindsight {
+            let mut cc = CalibConfig::default();
+            cc.segment.t_min = mid;
+            Some(calibrate(std::slice::from_ref(&log), &cc, &|_| {})?.params_file())
+        } else {
+            None
+        };
         let [selected, constant] = calibrated(&pf, &log, &acc)?;
         let cal_clock = stored_offset(&pf).unwrap_or(0.0);
         let (default_init, mut runs) = default_and_init(&log, &cfg, &pf)?;
@@ -466,13 +488,22 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let (more, more_runs) = online_configs(&log, &extra)?;
         models.extend(more);
         runs.extend(more_runs);
+        let scored = models.len();
+        if let Some(h) = &hindsight {
+            let [m, _] = calibrated(h, &log, &acc)?;
+            models.push(Model {
+                name: HINDSIGHT.into(),
+                ..m
+            });
+        }
         outages.push((name_of(dir), outage_columns(&log, &models, &runs, mid, t1)));
-        let (cols, n) = row(&log, &models, mid, t1 + 1.0 - spec.horizon);
+        let models = &models[..scored];
+        let (cols, n) = row(&log, models, mid, t1 + 1.0 - spec.horizon);
         if let Some(out) = &a.diagnose {
-            let (_, _, segs) = score_segments(&log, &models, mid, t1 + 1.0 - spec.horizon);
+            let (_, _, segs) = score_segments(&log, models, mid, t1 + 1.0 - spec.horizon);
             std::fs::create_dir_all(out)?;
             let mut text = String::from("t");
-            for m in &models {
+            for m in models {
                 text += &format!(",{}", m.name);
             }
             text.push('\n');

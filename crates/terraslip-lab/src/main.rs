@@ -24,6 +24,7 @@ mod family;
 mod family_target;
 mod follow;
 mod heldout;
+mod hindsight;
 mod misread;
 mod odometry_nees;
 mod outage_table;

@@ -96,23 +96,33 @@ pub fn print(drive: &str, cols: &[Column]) {
         });
         println!("| {} | {} | {split} |", c.name, cells.join(" | "));
     }
-    let find = |n: &str| cols.iter().find(|c| c.name == n);
-    if let Some(online) = find("online default") {
-        for (other, k) in [("no-slip", 0.5), ("DRIVE's model", 1.0)] {
-            if let Some(o) = find(other) {
-                if let Some((m, lo, hi)) = paired(&online.ends, &o.ends, k, 30.0) {
-                    println!(
-                        "30 s: online default - {k} x {other}: mean {m:+.2} m, 95 % [{lo:+.2}, {hi:+.2}] ({})",
-                        if hi < 0.0 {
-                            "ahead"
-                        } else if lo > 0.0 {
-                            "behind"
-                        } else {
-                            "tie"
-                        }
-                    );
-                }
-            }
+    // A name, or a name with its settings in brackets after it.
+    let find = |n: &str| {
+        cols.iter()
+            .find(|c| c.name == n || c.name.starts_with(&format!("{n} (")))
+    };
+    let pairs = [
+        ("online default", "no-slip", 0.5),
+        ("online default", "DRIVE's model", 1.0),
+        ("hindsight selected", "no-slip", 0.5),
+        ("hindsight best", "no-slip", 0.5),
+    ];
+    for (lead, other, k) in pairs {
+        let (Some(a), Some(b)) = (find(lead), find(other)) else {
+            continue;
+        };
+        if let Some((m, lo, hi)) = paired(&a.ends, &b.ends, k, 30.0) {
+            let verdict = if hi < 0.0 {
+                "ahead"
+            } else if lo > 0.0 {
+                "behind"
+            } else {
+                "tie"
+            };
+            println!(
+                "30 s: {} - {k} x {other}: mean {m:+.2} m, 95 % [{lo:+.2}, {hi:+.2}] ({verdict})",
+                a.name
+            );
         }
     }
 }

@@ -17,10 +17,10 @@
 //! that predicts its training data best.
 //!
 //! Then, on the same spans, the outage table ([`crate::outage_table`]):
-//! each model dead-reckoned through 10, 30 and 60 s without the pose, the
-//! online runs from their own pose and covariance (with the end's NEES),
-//! `calibrate` selected, DRIVE's model, no-slip and odometry + gyro from
-//! the reference pose.
+//! each model dead-reckoned through 10, 30 and 60 s without the pose, all
+//! from the online default's pose at each start (the other online runs'
+//! own dead reckoning, and its covariance for the end's NEES, carried
+//! there).
 
 use std::path::{Path, PathBuf};
 

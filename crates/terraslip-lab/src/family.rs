@@ -112,6 +112,10 @@ struct Figures {
     clock_err_ms: f64,
     /// Its NEES at the end (NaN where the clock was held: std 0).
     nees_clock: f64,
+    /// At the outage's start: the common speed factor's error (%), the
+    /// spread's (cm) and the heading's (degrees), what the dead reckoning
+    /// sets out with.
+    at_outage: [f64; 3],
 }
 
 /// The world's log as the family runs it: the pose stream on its own
@@ -188,6 +192,15 @@ fn figures(run: &EstimateRun, sim: &SimRun, w: &World) -> Figures {
         .map(|r| r.from_turn.unwrap_or(f64::INFINITY))
         .fold(0.0f64, f64::max);
     let drift = metrics::outage_drift(run, &log.truth, outage.0, outage.1);
+    let at_outage = {
+        let k = run.rows.partition_point(|r| r.t <= outage.0).max(1) - 1;
+        let (r, s) = (&run.rows[k], truth_at(sim, run.rows[k].t));
+        [
+            50.0 * (r.alpha_l + r.alpha_r - s.icr.alpha_l - s.icr.alpha_r),
+            100.0 * ((r.y_l - r.y_r) - s.icr.spread()),
+            terraslip_core::angle::wrap(r.yaw - s.yaw).to_degrees(),
+        ]
+    };
     let changes: Vec<f64> = log
         .terrain
         .windows(2)
@@ -240,6 +253,7 @@ fn figures(run: &EstimateRun, sim: &SimRun, w: &World) -> Figures {
             .filter(|_| run.gyro.bias_std > 0.0)
             .map_or(f64::NAN, |e| (e / run.gyro.bias_std).powi(2)),
         clock_err_ms: 1000.0 * (run.clock_offset.0 - w.clock_offset).abs(),
+        at_outage,
         nees_clock: if run.clock_offset.1 > 0.0 {
             ((run.clock_offset.0 - w.clock_offset) / run.clock_offset.1).powi(2)
         } else {

@@ -78,6 +78,20 @@ impl LiveChoice {
             .filter(|&i| accepted(&topics[i]))
             .collect();
         let bag = Bag::live(label.clone(), topics.clone());
+        let wheels = Role::Wheels.types().concat();
+        if !topics
+            .iter()
+            .any(|t| wheels.contains(&short_type(&t.ty).as_str()))
+        {
+            return Err(Ros2Error::Bag {
+                bag: label,
+                reason: format!(
+                    "no usable wheel source: no {} topic (the graph has: {})",
+                    wheels.join(", "),
+                    super::topics::list(&bag, &(0..topics.len()).collect::<Vec<_>>())
+                ),
+            });
+        }
         let mut stamps = HashMap::new();
         for &i in &candidates {
             let d = Decoder::new(&bag, i, &["?header.stamp.sec", "?header.stamp.nanosec"])?;

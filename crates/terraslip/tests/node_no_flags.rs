@@ -17,7 +17,7 @@ use terraslip_ros2::import::LiveRow;
 use terraslip_ros2::{import, Bag, TopicsConfig};
 
 mod twin;
-use twin::{wheel_odom, write_twin, Odom, Twin};
+use twin::{wheel_odom, write_twin, Joints, Odom, Twin, TB4_URDF};
 
 /// The reorder lag the node waits by default, s.
 const LAG: f64 = 0.3;
@@ -157,28 +157,78 @@ fn the_husky_recording_played_with_no_flags_gives_its_estimate() {
 /// other reports a lateral velocity a wheeled base's odometry never does).
 #[test]
 fn a_twin_whose_odometries_only_the_data_tells_apart() {
-    let d = tempfile::tempdir().unwrap();
-    let bag = d.path().join("drive.mcap");
-    write_twin(
-        &bag,
-        &Twin {
-            odoms: vec![
-                Odom {
-                    lateral: 0.4,
-                    ..wheel_odom("/robot/odom_local")
-                },
-                wheel_odom("/robot/odom"),
-            ],
-            imu: Some("/imu/data"),
-            gyro_scale: 1.0,
-            ..Default::default()
-        },
-    );
-    let c = live_against_offline(&bag);
+    let c = twin(&Twin {
+        odoms: vec![
+            Odom {
+                lateral: 0.4,
+                ..wheel_odom("/robot/odom_local")
+            },
+            wheel_odom("/robot/odom"),
+        ],
+        imu: Some("/imu/data"),
+        gyro_scale: 1.0,
+        ..Default::default()
+    });
     assert!(
         c.decided
             .iter()
             .any(|d| d.starts_with("wheels from /robot/odom (")),
+        "{:?}",
+        c.decided
+    );
+    assert_close(&c);
+}
+
+/// The twin `k` played with no flags, against its estimate.
+fn twin(k: &Twin) -> Compared {
+    let d = tempfile::tempdir().unwrap();
+    let bag = d.path().join("drive.mcap");
+    write_twin(&bag, k);
+    live_against_offline(&bag)
+}
+
+/// A TurtleBot 4: the scale comes from the URDF on `/robot_description`.
+#[test]
+fn a_twin_whose_scale_is_in_its_urdf() {
+    let c = twin(&Twin {
+        odoms: vec![wheel_odom("/odom")],
+        imu: Some("/imu"),
+        gyro_scale: 1.0,
+        urdf: Some(TB4_URDF),
+        ..Default::default()
+    });
+    assert!(
+        c.decided
+            .iter()
+            .any(|d| d.starts_with("separation S = 0.233 m")),
+        "{:?}",
+        c.decided
+    );
+    assert_close(&c);
+}
+
+/// Joint states that carry neither rates nor positions: the wheels come
+/// from the odometry, as `import` falls back.
+#[test]
+fn a_twin_whose_joint_states_carry_no_tread_speeds() {
+    let c = twin(&Twin {
+        odoms: vec![wheel_odom("/odom")],
+        joints: Some(Joints {
+            left: "wheel_left_joint",
+            right: "wheel_right_joint",
+            velocity: false,
+            position: false,
+            wrapped: false,
+            jitter: 0.0,
+        }),
+        imu: Some("/imu"),
+        gyro_scale: 1.0,
+        ..Default::default()
+    });
+    assert!(
+        c.decided
+            .iter()
+            .any(|d| d.starts_with("wheels from /odom (") && d.contains("no tread speeds")),
         "{:?}",
         c.decided
     );

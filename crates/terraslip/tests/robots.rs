@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use assert_cmd::Command;
 
 mod twin;
-use twin::{filter_odom, wheel_odom, write_twin, Joints, Twin, WHEEL_R};
+use twin::{filter_odom, wheel_odom, write_twin, Joints, Twin, TB4_URDF, WHEEL_R};
 
 fn run(args: &[&str]) -> std::process::Output {
     Command::cargo_bin("terraslip")
@@ -159,21 +159,12 @@ fn a_turtlebot3_with_joint_positions_only() {
 /// wheel-drop joints, `/odom`, `/imu`.
 #[test]
 fn a_turtlebot4_with_wheel_drops_in_its_urdf() {
-    const URDF: &str = r#"<robot name="tb4">
-  <link name="base_footprint"/><link name="base_link"/><link name="wheel_drop_left"/><link name="wheel_drop_right"/>
-  <link name="left_wheel"/><link name="right_wheel"/>
-  <joint name="base_joint" type="fixed"><parent link="base_footprint"/><child link="base_link"/><origin xyz="0 0 0.0061"/></joint>
-  <joint name="wheel_drop_left_joint" type="prismatic"><parent link="base_link"/><child link="wheel_drop_left"/><origin xyz="0 0.1165 0.0402"/></joint>
-  <joint name="wheel_drop_right_joint" type="prismatic"><parent link="base_link"/><child link="wheel_drop_right"/><origin xyz="0 -0.1165 0.0402"/></joint>
-  <joint name="left_wheel_joint" type="continuous"><parent link="wheel_drop_left"/><child link="left_wheel"/><origin xyz="0 0 0" rpy="-1.5708 0 0"/></joint>
-  <joint name="right_wheel_joint" type="continuous"><parent link="wheel_drop_right"/><child link="right_wheel"/><origin xyz="0 0 0" rpy="-1.5708 0 0"/></joint>
-</robot>"#;
     let r = runs(
         &Twin {
             odoms: vec![wheel_odom("/odom")],
             imu: Some("/imu"),
             gyro_scale: 1.0,
-            urdf: Some(URDF),
+            urdf: Some(TB4_URDF),
             ..Default::default()
         },
         false,

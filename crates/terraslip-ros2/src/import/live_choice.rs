@@ -184,3 +184,56 @@ impl LiveChoice {
             .collect()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn topic(name: &str, ty: &str) -> Topic {
+        Topic {
+            name: name.into(),
+            ty: ty.into(),
+            definition: String::new(),
+            count: 0,
+        }
+    }
+
+    #[test]
+    fn a_graph_without_a_wheel_source_is_named() {
+        let t = vec![topic("/imu", "sensor_msgs/msg/Imu")];
+        let e = LiveChoice::new("graph", t, &TopicsConfig::default())
+            .err()
+            .expect("no wheel source")
+            .to_string();
+        assert!(
+            e.contains("no usable wheel source") && e.contains("/imu"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn candidates_leave_cameras_and_transforms_other_than_the_static_ones_out() {
+        let t = vec![
+            topic("/odom", "nav_msgs/msg/Odometry"),
+            topic("/camera/image", "sensor_msgs/msg/Image"),
+            topic("/tf", "tf2_msgs/msg/TFMessage"),
+            topic("/tf_static", "tf2_msgs/msg/TFMessage"),
+            topic("/robot_description", "std_msgs/msg/String"),
+            topic("/chatter", "std_msgs/msg/String"),
+        ];
+        let c = LiveChoice::new("graph", t, &TopicsConfig::default()).unwrap();
+        assert_eq!(c.candidates(), &[0, 3, 4]);
+    }
+
+    #[test]
+    fn a_held_message_of_no_topic_is_an_error() {
+        let m = HeldMessage {
+            topic: 3,
+            recv_ns: 0,
+            data: Vec::new(),
+        };
+        let mut bag = Bag::held("graph", Vec::new(), vec![m]);
+        let r = bag.for_each(&|_| true, &mut |_, _| Ok(()));
+        assert!(r.is_err());
+    }
+}

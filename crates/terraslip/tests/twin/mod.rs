@@ -198,3 +198,15 @@ pub const fn filter_odom(topic: &'static str, frame: &'static str) -> Odom {
         yaw_scale: 1.0,
     }
 }
+
+/// A TurtleBot 4's URDF (Create 3 base): its wheels on prismatic
+/// wheel-drop joints, 0.233 m apart.
+pub const TB4_URDF: &str = r#"<robot name="tb4">
+  <link name="base_footprint"/><link name="base_link"/><link name="wheel_drop_left"/><link name="wheel_drop_right"/>
+  <link name="left_wheel"/><link name="right_wheel"/>
+  <joint name="base_joint" type="fixed"><parent link="base_footprint"/><child link="base_link"/><origin xyz="0 0 0.0061"/></joint>
+  <joint name="wheel_drop_left_joint" type="prismatic"><parent link="base_link"/><child link="wheel_drop_left"/><origin xyz="0 0.1165 0.0402"/></joint>
+  <joint name="wheel_drop_right_joint" type="prismatic"><parent link="base_link"/><child link="wheel_drop_right"/><origin xyz="0 -0.1165 0.0402"/></joint>
+  <joint name="left_wheel_joint" type="continuous"><parent link="wheel_drop_left"/><child link="left_wheel"/><origin xyz="0 0 0" rpy="-1.5708 0 0"/></joint>
+  <joint name="right_wheel_joint" type="continuous"><parent link="wheel_drop_right"/><child link="right_wheel"/><origin xyz="0 0 0" rpy="-1.5708 0 0"/></joint>
+</robot>"#;

@@ -23,7 +23,7 @@ pub mod msg;
 pub mod out;
 pub mod twist;
 
-pub use bag::{is_bag, Bag, RawMessage, Topic};
+pub use bag::{is_bag, Bag, HeldMessage, RawMessage, Topic};
 pub use import::{import, ImportReport, TopicsConfig};
 
 use std::path::PathBuf;

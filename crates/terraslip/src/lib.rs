@@ -19,6 +19,8 @@ pub mod belief;
 pub mod config;
 pub mod estimate;
 pub mod glossary;
+#[cfg(feature = "ros2")]
+pub mod live_streams;
 pub mod metrics;
 pub mod pipeline;
 pub mod report;

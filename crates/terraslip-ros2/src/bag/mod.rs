@@ -12,4 +12,4 @@ mod stream;
 mod tables;
 
 pub use files::is_bag;
-pub use reader::{Bag, RawMessage, Topic};
+pub use reader::{Bag, HeldMessage, RawMessage, Topic};

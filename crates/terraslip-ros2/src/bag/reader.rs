@@ -31,6 +31,17 @@ pub struct RawMessage<'a> {
     pub index: u64,
 }
 
+/// A message held in memory: a live graph's warm-up, read as a bag.
+#[derive(Debug, Clone)]
+pub struct HeldMessage {
+    /// Index into [`Bag::topics`].
+    pub topic: usize,
+    /// Receive time, ns since the epoch.
+    pub recv_ns: u64,
+    /// CDR bytes.
+    pub data: Vec<u8>,
+}
+
 /// A rosbag2 recording opened for reading.
 #[derive(Debug, Clone)]
 pub struct Bag {
@@ -44,6 +55,8 @@ pub struct Bag {
     /// What reading found that costs data (an MCAP file cut short), one
     /// line each, naming the file; filled while streaming.
     pub warnings: Vec<String>,
+    /// Messages held in memory, in arrival order, read instead of files.
+    pub(super) held: Option<std::sync::Arc<[HeldMessage]>>,
 }
 
 impl Bag {
@@ -60,6 +73,7 @@ impl Bag {
             files: Vec::new(),
             message_zstd: false,
             warnings: Vec::new(),
+            held: None,
         };
         if path.is_dir() && !path.join("metadata.yaml").exists() {
             // No metadata: the storage files themselves name their topics.
@@ -129,6 +143,17 @@ impl Bag {
             files: Vec::new(),
             message_zstd: false,
             warnings: Vec::new(),
+            held: None,
+        }
+    }
+
+    /// Messages received from a live graph, held in memory, as a bag
+    /// (`label` names the graph in errors): reading it streams `messages`
+    /// in their order, so that `import` decides from them as from a file.
+    pub fn held(label: impl Into<PathBuf>, topics: Vec<Topic>, messages: Vec<HeldMessage>) -> Self {
+        Bag {
+            held: Some(messages.into()),
+            ..Self::live(label, topics)
         }
     }
 

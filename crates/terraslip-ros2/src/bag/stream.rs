@@ -22,6 +22,26 @@ impl Bag {
         for t in &mut self.topics {
             t.count = 0;
         }
+        if let Some(held) = self.held.clone() {
+            let n = self.topics.len();
+            for (i, m) in held.iter().enumerate() {
+                let t = self.topics.get_mut(m.topic).ok_or_else(|| Ros2Error::Bag {
+                    bag: self.path.clone(),
+                    reason: format!("a held message names topic {}, of {} topics", m.topic, n),
+                })?;
+                t.count += 1;
+                if want(m.topic) {
+                    let raw = RawMessage {
+                        topic: m.topic,
+                        recv_ns: m.recv_ns,
+                        data: &m.data,
+                        index: i as u64,
+                    };
+                    f(self, raw)?;
+                }
+            }
+            return Ok(());
+        }
         let mut index = 0u64;
         for k in 0..self.files.len() {
             let (p, s, w) = self.files[k].clone();

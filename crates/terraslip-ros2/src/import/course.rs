@@ -86,15 +86,19 @@ pub(super) fn differences(pose: &[PoseObs]) -> Vec<f64> {
 
 /// Leaves the heading rows of `pose` out (their yaw, and rows left with
 /// nothing) when the heading disagrees with the fixes' course; says what
-/// was decided either way.
-pub(super) fn check_heading(pose: &mut Vec<PoseObs>, topic: &str, report: &mut ImportReport) {
+/// was decided either way. Returns whether the heading is kept.
+pub(super) fn check_heading(
+    pose: &mut Vec<PoseObs>,
+    topic: &str,
+    report: &mut ImportReport,
+) -> bool {
     let mut d = differences(pose);
     if d.len() < 3 {
         report.decisions.push(format!(
             "{topic} heading kept unchecked: {} straight stretches of {STRETCH_S} s over {MIN_CHORD_M} m to compare it with the GNSS course (3 needed)",
             d.len()
         ));
-        return;
+        return true;
     }
     let offset = median(&mut d.clone());
     let mut dev: Vec<f64> = d.iter().map(|x| wrap(x - offset).abs()).collect();
@@ -106,7 +110,7 @@ pub(super) fn check_heading(pose: &mut Vec<PoseObs>, topic: &str, report: &mut I
         report.decisions.push(format!(
             "{topic} heading used: on {n} straight stretches it is {offset_deg:.1}° from the GNSS course (scatter {scatter:.1}°)"
         ));
-        return;
+        return true;
     }
     // With a GNSS pose, every yaw of pose.csv is the heading topic's.
     pose.retain_mut(|p| {
@@ -132,6 +136,7 @@ pub(super) fn check_heading(pose: &mut Vec<PoseObs>, topic: &str, report: &mut I
     report
         .decisions
         .push(format!("{topic} heading left out: {summary}"));
+    false
 }
 
 #[cfg(test)]

@@ -44,11 +44,11 @@ impl LiveRow {
 }
 
 /// The streams of a live graph being turned into rows.
-pub struct LiveImport<'c> {
+pub struct LiveImport {
     bag: Bag,
-    cfg: &'c TopicsConfig,
+    cfg: TopicsConfig,
     sels: Vec<Sel>,
-    rows: Rows<'c>,
+    rows: Rows,
     imu: Option<usize>,
     heading: Option<usize>,
     tf: Option<usize>,
@@ -62,14 +62,14 @@ pub struct LiveImport<'c> {
     pub report: ImportReport,
 }
 
-impl<'c> LiveImport<'c> {
+impl LiveImport {
     /// Chooses the topics of `topics` (the graph as discovered, named
     /// `graph` in errors) for each stream, as `import` chooses a bag's:
     /// named in `cfg`, or by type when the choice is unique.
     pub fn new(
         graph: impl Into<PathBuf>,
         topics: Vec<Topic>,
-        cfg: &'c TopicsConfig,
+        cfg: &TopicsConfig,
     ) -> Result<Self, Ros2Error> {
         let bag = Bag::live(graph, topics);
         let mut decide = Decide::default();
@@ -85,7 +85,7 @@ impl<'c> LiveImport<'c> {
             enu: None,
             dropped_fixes: 0,
             wheels: wheels_cfg,
-            heading: &cfg.heading,
+            heading: cfg.heading.clone(),
             images_dir: None,
             frames: HashMap::new(),
             tf: Default::default(),
@@ -101,7 +101,7 @@ impl<'c> LiveImport<'c> {
         };
         Ok(Self {
             bag,
-            cfg,
+            cfg: cfg.clone(),
             sels,
             rows,
             imu,
@@ -267,7 +267,7 @@ impl<'c> LiveImport<'c> {
                 .is_some();
         let s = Sensors {
             bag: &self.bag,
-            cfg: self.cfg,
+            cfg: &self.cfg,
             imu: self.imu,
             heading: self.heading,
             tf: self.tf,

@@ -18,12 +18,14 @@ mod frames;
 mod image;
 mod lever;
 mod live;
+mod live_choice;
 pub mod mount;
 mod prior;
 mod report;
 mod role;
 mod rows;
 pub mod scale;
+mod settled;
 mod topics;
 mod unphysical;
 
@@ -38,6 +40,7 @@ pub use config::{
 };
 pub use frames::yaw_of;
 pub use live::{LiveImport, LiveRow};
+pub use live_choice::{LiveChoice, Settled};
 pub use prior::{controller_model, CONTROLLER_FILE};
 pub use report::{ImportReport, StreamReport};
 pub use unphysical::SkippedMessage;
@@ -68,7 +71,19 @@ pub fn import(
     cfg: &TopicsConfig,
     out_dir: Option<&Path>,
 ) -> Result<(DriveLog, ImportReport), Ros2Error> {
-    let mut bag = Bag::open(bag_path)?;
+    import_bag(Bag::open(bag_path)?, cfg, out_dir).map(|(log, report, _)| (log, report))
+}
+
+/// [`import`] of an opened bag (a file, or messages held in memory), with
+/// the topics file that states what it settled: each stream's topic, the
+/// tread speeds' scale, an IMU mounting found from the data, a heading
+/// left out.
+pub fn import_bag(
+    mut bag: Bag,
+    cfg: &TopicsConfig,
+    out_dir: Option<&Path>,
+) -> Result<(DriveLog, ImportReport, TopicsConfig), Ros2Error> {
+    let unread = bag.clone();
     let mut decide = Decide {
         evidence: topic_evidence(&mut bag)?,
         ..Default::default()
@@ -129,7 +144,7 @@ pub fn import(
         enu: None,
         dropped_fixes: 0,
         wheels: wheels_cfg,
-        heading: &cfg.heading,
+        heading: cfg.heading.clone(),
         images_dir: out_dir.map(|d| d.join("images")),
         frames: HashMap::new(),
         tf: Default::default(),
@@ -278,12 +293,13 @@ pub fn import(
         ));
     }
     let wheels_unusable = rows.wheels_unusable.take();
+    let rows_wheels = rows.wheels.clone();
     let mut log = rows.log;
     let by_t = |a: f64, b: f64| a.total_cmp(&b);
     log.wheels.sort_by(|a, b| by_t(a.t, b.t));
     log.imu.sort_by(|a, b| by_t(a.t, b.t));
     log.images.sort_by(|a, b| by_t(a.t, b.t));
-    mount::apply(
+    let imu_mount = mount::apply(
         &mount::Sensors {
             bag: &bag,
             cfg,
@@ -309,13 +325,12 @@ pub fn import(
         &mut log.meta,
         &mut report,
     );
-    if heading.is_some() && cfg.heading.topic.is_none() {
-        course::check_heading(
-            &mut log.pose,
-            &bag.topics[heading.unwrap_or(0)].name,
-            &mut report,
-        );
-    }
+    let heading_kept = match heading {
+        Some(h) if cfg.heading.topic.is_none() => {
+            course::check_heading(&mut log.pose, &bag.topics[h].name, &mut report)
+        }
+        _ => true,
+    };
     log.pose.sort_by(|a, b| by_t(a.t, b.t));
     if log.wheels.is_empty() {
         let why = wheels_unusable.unwrap_or_else(|| "no message had them".into());
@@ -330,7 +345,7 @@ pub fn import(
             let i = topics::decide(&bag, Role::Wheels, &next, &mut d);
             let mut cfg = cfg.clone();
             cfg.wheels.topic = Some(bag.topics[i].name.clone());
-            let (log, mut report) = import(bag_path, &cfg, out_dir)?;
+            let (log, mut report, settled) = import_bag(unread, &cfg, out_dir)?;
             report.decisions.insert(
                 0,
                 format!(
@@ -339,14 +354,27 @@ pub fn import(
                 ),
             );
             report.decisions.splice(1..1, d.decisions);
-            return Ok((log, report));
+            return Ok((log, report, settled));
         }
         return Err(Ros2Error::Bag {
             bag: bag.path.clone(),
             reason: format!("no usable wheel source: topic {name} gave no tread speeds ({why})"),
         });
     }
-    Ok((log, report))
+    let name = |t: Option<usize>| t.map(|i| bag.topics[i].name.as_str());
+    let settled = settled::topics_file(
+        cfg,
+        &settled::Streams {
+            wheels: &bag.topics[wheels].name,
+            wheels_cfg: &rows_wheels,
+            pose: name(chosen.pose),
+            heading: name(heading.filter(|_| heading_kept)),
+            imu: name(imu),
+            imu_mount,
+            tf: name(tf),
+        },
+    );
+    Ok((log, report, settled))
 }
 
 /// The URDF of the bag's `/robot_description` (std_msgs/String, the first

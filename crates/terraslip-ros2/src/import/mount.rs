@@ -307,8 +307,9 @@ pub fn mounting_from_data(imu: &[ImuSample], wheels: &[WheelSample]) -> Option<(
 
 /// Rotates the IMU's accelerations and rates, and the heading's
 /// orientation, into the base frame; warns when gravity is then not along
-/// +z (an IMU not mounted z-up, with no mounting given).
-pub(super) fn apply(s: &Sensors, log: &mut DriveLog, report: &mut ImportReport) {
+/// +z (an IMU not mounted z-up, with no mounting given). Returns the IMU's
+/// mounting when it was found from the data.
+pub(super) fn apply(s: &Sensors, log: &mut DriveLog, report: &mut ImportReport) -> Option<Quat> {
     let cfg = s.cfg;
     let mut found = None;
     if let Some(t) = s.imu {
@@ -350,6 +351,7 @@ pub(super) fn apply(s: &Sensors, log: &mut DriveLog, report: &mut ImportReport) 
             });
         }
     }
+    found
 }
 
 #[cfg(test)]

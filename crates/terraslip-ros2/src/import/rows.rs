@@ -47,14 +47,14 @@ impl Msg<'_> {
 }
 
 /// The log being made, and what the streams need besides their messages.
-pub(super) struct Rows<'c> {
+pub(super) struct Rows {
     pub log: DriveLog,
     /// ENU origin: the first good fix (latitude, longitude in degrees, altitude).
     pub enu: Option<(f64, f64, f64)>,
     /// Fixes dropped for a status < 0 or no position.
     pub dropped_fixes: u64,
     pub wheels: WheelsConfig,
-    pub heading: &'c HeadingConfig,
+    pub heading: HeadingConfig,
     /// Where camera frames go (`LOG/images`).
     pub images_dir: Option<PathBuf>,
     /// Each IMU topic's frame (its first message's `header.frame_id`), and
@@ -76,7 +76,7 @@ pub(super) struct Rows<'c> {
     pub wheels_unusable: Option<String>,
 }
 
-impl Rows<'_> {
+impl Rows {
     /// Adds the rows stream `role` makes of message `m` of type `ty`; false
     /// when it makes none (a dropped fix, a missing value).
     pub fn add(&mut self, role: Role, ty: &str, m: &Msg) -> Result<bool, Ros2Error> {
@@ -332,7 +332,7 @@ impl Rows<'_> {
         if cov.is_some_and(|c| c.0 == -1.0) || (qn.is_finite() && !(0.5..1.5).contains(&qn)) {
             return Ok(false);
         }
-        let h = self.heading;
+        let h = &self.heading;
         let std = cov
             .map(|c| c.1)
             .filter(|s| *s > 0.0 && s.is_finite())

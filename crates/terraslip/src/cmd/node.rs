@@ -12,6 +12,7 @@ use std::path::Path;
 use std::time::{Duration, Instant, SystemTime};
 
 use anyhow::{Context, Result};
+use terraslip::live_streams::{start_width, LiveStreams};
 use terraslip::pipeline::decide::Decisions;
 use terraslip::pipeline::live::Sample;
 use terraslip::pipeline::warmup::WarmUp;
@@ -19,7 +20,7 @@ use terraslip::pipeline::EstimateRun;
 use terraslip_core::compensate::IcrModel;
 use terraslip_io::ParamsFile;
 use terraslip_node::{Graph, GraphTopic, RosArgs, RosEnv, TopicQos, Wait};
-use terraslip_ros2::import::{LiveImport, LiveRow};
+use terraslip_ros2::import::{LiveRow, Settled};
 
 use super::node_args::{apply_node_params, warn_unmatched_remaps, with_params, Args};
 use super::node_compensate::{resolve, CommandThread, CMD_IN, CMD_OUT};
@@ -67,6 +68,9 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
     };
     let driven_before = super::node_state::driven(start.as_ref().filter(|_| recall));
     let mut topics_cfg = super::bag::topics().config()?;
+    // With no topics file the streams are chosen as `import` chooses them,
+    // from the data of the warm-up window.
+    let choose = matches!(super::bag::topics(), terraslip::bag::Topics::ByType);
     let cmd_names: &[&str] = if cmd_topics.is_some() {
         &[CMD_IN, CMD_OUT]
     } else {
@@ -86,14 +90,7 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
     }
     // As `estimate` starts: the track width, else the separation the
     // tread speeds are made with (the controller's own scale).
-    let track_width = args
-        .track_width
-        .or(topics_cfg.meta.track_width)
-        .or(topics_cfg
-            .wheels
-            .separation
-            .filter(|s| s.is_finite() && *s > 0.0))
-        .unwrap_or(cfg.init.default_track_width);
+    let track_width = start_width(args.track_width, &topics_cfg, cfg.init.default_track_width);
     let recalled_delay = start
         .as_ref()
         .and_then(|p| p.extra.get("gyro_delay_s")?.as_f64());
@@ -143,7 +140,8 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
 
     // The streams, once the graph shows them.
     let mut said = String::new();
-    let (topics, mut import) = loop {
+    let window = WarmUp::window(args.warmup, args.lag);
+    let (topics, mut streams) = loop {
         if stop.asked() {
             return commands.map_or(Ok(()), CommandThread::finish);
         }
@@ -164,7 +162,7 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
                 count: 0,
             })
             .collect();
-        match LiveImport::new(&label, bag_topics, &topics_cfg) {
+        match LiveStreams::new(&label, bag_topics, &topics_cfg, choose, window) {
             Ok(i) => break (found, i),
             Err(e) => {
                 let e = e.to_string();
@@ -176,20 +174,21 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
         }
     };
     let mut readers = Vec::new();
-    for (t, roles) in import.subscriptions() {
-        let gt = GraphTopic {
-            name: t.name.clone(),
-            ty: t.ty.clone(),
-        };
-        let qos = if roles == ["tf"] {
+    if choose {
+        eprintln!(
+            "no topics file: every candidate topic is read over the first {window} s of stamp time, and `import` decides from them which feeds which stream"
+        );
+    }
+    for (idx, roles) in streams.subscriptions() {
+        let gt = topics[idx].clone();
+        // Static transforms and the URDF are published once, latched.
+        let qos = if roles == ["tf"]
+            || ["/tf_static", "/robot_description"].contains(&gt.name.as_str())
+        {
             TopicQos::Latched
         } else {
             TopicQos::Sensor
         };
-        let idx = topics
-            .iter()
-            .position(|x| *x == gt)
-            .context("a chosen topic vanished")?;
         eprintln!("reading {} ({}) for {}", gt.name, gt.ty, roles.join(", "));
         readers.push((idx, graph.reader(&gt, qos)?, 0u64, qos));
     }
@@ -198,16 +197,28 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
         wait.register(&mut r.1, k).context("event poll")?;
     }
 
-    let mut live = WarmUp::new(
-        &label,
-        &cfg,
-        track_width,
-        start,
-        args.lag,
-        args.warmup,
-        args.gyro_delay,
-        recalled_delay,
-    )?;
+    let (name_ref, cfg_ref) = (label.as_str(), &cfg);
+    let (lag, span, gyro_delay) = (args.lag, args.warmup, args.gyro_delay);
+    let warm_up = move |track_width: f64, start: Option<ParamsFile>| {
+        WarmUp::new(
+            name_ref,
+            cfg_ref,
+            track_width,
+            start,
+            lag,
+            span,
+            gyro_delay,
+            recalled_delay,
+        )
+    };
+    // Built once the streams are known (with no topics file, at the end
+    // of the window, from what it settled).
+    let mut start = Some(start);
+    let mut live = match choose {
+        true => None,
+        false => Some(warm_up(track_width, start.take().flatten())?),
+    };
+    let widths = (args.track_width, cfg.init.default_track_width);
     eprintln!(
         "warming up: the first {} s of stamp time are held back to decide from",
         args.warmup
@@ -238,24 +249,28 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
                 got = true;
                 *count += 1;
                 let recv_ns = if source_ns > 0 { source_ns } else { now_ns() };
-                match import.message(*idx, recv_ns, &raw.0) {
+                match streams.message(*idx, recv_ns, &raw.0) {
                     Ok(rows) => batch.extend(rows),
                     Err(e) => bad.note(&e.to_string()),
                 }
             }
         }
-        out.origin_ns = import.origin_ns().unwrap_or(0);
+        if streams.due() {
+            batch.extend(streams.decide()?);
+        }
+        if let Some(width) = settle(&mut streams, &mut out, &mut bad, widths) {
+            live = Some(warm_up(width, start.take().flatten())?);
+        }
+        out.origin_ns = streams.origin_ns().unwrap_or(0);
         batch.sort_by(|a, b| a.t().total_cmp(&b.t()));
         for r in batch {
-            let s = match r {
-                LiveRow::Wheels(w) => {
-                    out.wheels.push_back((w.t, w.v_left, w.v_right));
-                    Sample::Wheels(w)
-                }
-                LiveRow::Pose(p) => Sample::Pose(p),
-                LiveRow::Imu(i) => Sample::Imu(i),
-            };
-            if let Some(d) = live.push(s, &mut out)? {
+            if let LiveRow::Wheels(w) = &r {
+                out.wheels.push_back((w.t, w.v_left, w.v_right));
+            }
+            let live = live
+                .as_mut()
+                .context("rows before the streams were chosen")?;
+            if let Some(d) = live.push(sample(r), &mut out)? {
                 say_decided(&d);
             }
         }
@@ -264,7 +279,9 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
         }
         out.failed()?;
         // The command thread takes the model of each new estimate.
-        if let (Some(c), Some(l), Some(b)) = (&commands, live.live(), &out.belief) {
+        if let (Some(c), Some(l), Some(b)) =
+            (&commands, live.as_ref().and_then(WarmUp::live), &out.belief)
+        {
             if out.published > handed {
                 handed = out.published;
                 c.update(
@@ -275,15 +292,17 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
         }
         // Diagnostics once a second and the parameters every
         // --save-every s, of stamp time.
-        if let (Some(t), Some(summary)) = (out.last_t, live.summary()) {
-            if out.diagnostics_due.is_none_or(|d| t >= d) {
-                out.diagnostics_due = Some(t + 1.0);
-                out.diagnostics(&summary, &live, &bad)?;
-            }
-            let due = *next_save.get_or_insert(t + args.save_every);
-            if t >= due {
-                next_save = Some(t + args.save_every);
-                save(&params_path, &summary, driven_before, &live)?;
+        if let (Some(t), Some(live)) = (out.last_t, &live) {
+            if let Some(summary) = live.summary() {
+                if out.diagnostics_due.is_none_or(|d| t >= d) {
+                    out.diagnostics_due = Some(t + 1.0);
+                    out.diagnostics(&summary, live, &bad)?;
+                }
+                let due = *next_save.get_or_insert(t + args.save_every);
+                if t >= due {
+                    next_save = Some(t + args.save_every);
+                    save(&params_path, &summary, driven_before, live)?;
+                }
             }
         }
         if !warned_unmatched && subscribed.elapsed() > Duration::from_secs(5) {
@@ -314,22 +333,35 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
                 .context("event poll")?;
         }
     }
-    if let Some(d) = live.flush(&mut out)? {
-        say_decided(&d);
+    // A run shorter than the window: decided from what came.
+    let mut rest = streams.decide()?;
+    if let Some(width) = settle(&mut streams, &mut out, &mut bad, widths) {
+        live = Some(warm_up(width, start.take().flatten())?);
     }
-    out.failed()?;
-    let saved = match live.summary() {
-        Some(summary) => {
-            out.diagnostics(&summary, &live, &bad)?;
-            save(&params_path, &summary, driven_before, &live)?
+    out.origin_ns = streams.origin_ns().unwrap_or(0);
+    rest.sort_by(|a, b| a.t().total_cmp(&b.t()));
+    let mut saved = false;
+    if let Some(live) = &mut live {
+        for r in rest {
+            if let LiveRow::Wheels(w) = &r {
+                out.wheels.push_back((w.t, w.v_left, w.v_right));
+            }
+            live.push(sample(r), &mut out)?;
         }
-        None => false,
-    };
+        if let Some(d) = live.flush(&mut out)? {
+            say_decided(&d);
+        }
+        out.failed()?;
+        if let Some(summary) = live.summary() {
+            out.diagnostics(&summary, live, &bad)?;
+            saved = save(&params_path, &summary, driven_before, live)?;
+        }
+    }
     eprintln!(
         "node: {} estimates published, {} bad messages, late samples {:?}; {}",
         out.published,
         bad.count,
-        live.late(),
+        live.as_ref().map(WarmUp::late).unwrap_or_default(),
         if saved {
             format!("parameters saved to {}", params_path.display())
         } else {
@@ -347,6 +379,43 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
 fn save(path: &Path, run: &EstimateRun, driven_before: f64, live: &WarmUp) -> Result<bool> {
     let decided = live.decisions().map(|d| d.to_json());
     super::node_state::save(path, run, driven_before, decided)
+}
+
+/// Once the warm-up window has settled the streams (with no topics file):
+/// prints what it settled as `import` says it, keeps the lines for the
+/// diagnostics, notes the held messages that made no row, and returns the
+/// track width the model starts from (`widths`: `--track-width` and the
+/// default).
+fn settle(
+    streams: &mut LiveStreams,
+    out: &mut Outputs,
+    bad: &mut BadMessages,
+    widths: (Option<f64>, f64),
+) -> Option<f64> {
+    for e in streams.take_bad() {
+        bad.note(&e);
+    }
+    let s: Settled = streams.take_settled()?;
+    eprint!("{}", s.report.to_text());
+    for w in &s.report.warnings {
+        eprintln!("warning: {w}");
+    }
+    let lines = s
+        .report
+        .streams
+        .iter()
+        .map(|r| format!("{} ({}) -> {}", r.topic, r.ty, r.file));
+    out.settled = lines.chain(s.report.decisions.iter().cloned()).collect();
+    Some(start_width(widths.0, &s.topics, widths.1))
+}
+
+/// A live row as the estimator's sample.
+fn sample(r: LiveRow) -> Sample {
+    match r {
+        LiveRow::Wheels(w) => Sample::Wheels(w),
+        LiveRow::Pose(p) => Sample::Pose(p),
+        LiveRow::Imu(i) => Sample::Imu(i),
+    }
 }
 
 /// Prints the warm-up's decisions.

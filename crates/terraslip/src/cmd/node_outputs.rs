@@ -42,6 +42,9 @@ pub struct Outputs {
     pub error: Option<anyhow::Error>,
     /// Whether the estimate is believed, for `--compensate`.
     pub belief: Option<terraslip::belief::Belief>,
+    /// What the warm-up settled about the streams (with no topics file:
+    /// each stream's topic, the scale, the mountings), one line each.
+    pub settled: Vec<String>,
 }
 
 pub const OUTPUT_TOPICS: [(&str, &str); 6] = [
@@ -84,6 +87,7 @@ impl Outputs {
             published: 0,
             error: None,
             belief: None,
+            settled: Vec::new(),
         })
     }
 
@@ -138,6 +142,9 @@ impl Outputs {
             .enumerate()
         {
             values.push((format!("decided_{k}"), line));
+        }
+        for (k, line) in self.settled.iter().enumerate() {
+            values.push((format!("streams_{k}"), line.clone()));
         }
         for (k, w) in run.warnings.iter().enumerate() {
             values.push((format!("warning_{k}"), w.clone()));

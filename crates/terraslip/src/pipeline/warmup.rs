@@ -66,6 +66,12 @@ impl<'a> WarmUp<'a> {
         })
     }
 
+    /// Stamp time a warm-up of `span` s with reorder lag `lag` s holds
+    /// before it decides: the span, the gyro's look beyond it, and the lag.
+    pub fn window(span: f64, lag: f64) -> f64 {
+        span + MAX_DELAY + lag
+    }
+
     /// Takes a sample and hands `sink` the rows now due; returns the
     /// decisions when this sample ended the warm-up.
     pub fn push(
@@ -89,7 +95,7 @@ impl<'a> WarmUp<'a> {
         // past the span, the gyro's look beyond it, and the lag.
         let due = self
             .first_wheels
-            .is_some_and(|f| self.newest >= f + self.span + MAX_DELAY + self.lag);
+            .is_some_and(|f| self.newest >= f + Self::window(self.span, self.lag));
         if due {
             return self.decide(sink).map(Some);
         }

@@ -1,0 +1,236 @@
+//! Recordings played message by message through the node's live path
+//! (candidate topics held over the warm-up, the choice, the live import,
+//! the warm-up and the live estimator; no DDS) with no topics file and no
+//! other setting give the odometry `estimate` gives of the same recording
+//! with no topics file: the node decides the topics, the scale, the IMU's
+//! mounting and the heading as `import` does, with its code.
+#![cfg(feature = "ros2")]
+
+use std::path::Path;
+
+use terraslip::config::EstimatorConfig;
+use terraslip::live_streams::{start_width, LiveStreams};
+use terraslip::pipeline::live::Sample;
+use terraslip::pipeline::warmup::WarmUp;
+use terraslip::pipeline::{run, EstimateRow, TerrainEvidence, DECISION_SPAN};
+use terraslip_ros2::import::LiveRow;
+use terraslip_ros2::{import, Bag, TopicsConfig};
+
+mod twin;
+use twin::{wheel_odom, write_twin, Joints, Odom, Twin, TB4_URDF};
+
+/// The reorder lag the node waits by default, s.
+const LAG: f64 = 0.3;
+
+fn quantile(mut x: Vec<f64>, q: f64) -> f64 {
+    x.sort_by(f64::total_cmp);
+    x[((x.len() - 1) as f64 * q).round() as usize]
+}
+
+fn sample(r: LiveRow) -> Sample {
+    match r {
+        LiveRow::Wheels(w) => Sample::Wheels(w),
+        LiveRow::Pose(p) => Sample::Pose(p),
+        LiveRow::Imu(i) => Sample::Imu(i),
+    }
+}
+
+/// What the live path said it decided, and its odometry's distance from
+/// the offline estimate's, row for row: median and p99, m.
+struct Compared {
+    decided: Vec<String>,
+    median: f64,
+    p99: f64,
+}
+
+/// Hands the estimator the rows `made`, building it once the choice is
+/// made, as the node does.
+fn feed<'a>(
+    made: Vec<LiveRow>,
+    cfg: &'a EstimatorConfig,
+    streams: &mut LiveStreams,
+    node: &mut Option<WarmUp<'a>>,
+    rows: &mut Vec<EstimateRow>,
+    decided: &mut Vec<String>,
+) {
+    if let Some(s) = streams.take_settled() {
+        decided.extend(s.report.decisions.iter().cloned());
+        decided.extend(s.report.streams.iter().map(|r| r.topic.clone()));
+        let width = start_width(None, &s.topics, cfg.init.default_track_width);
+        *node =
+            Some(WarmUp::new("graph", cfg, width, None, LAG, DECISION_SPAN, None, None).unwrap());
+    }
+    if made.is_empty() {
+        return;
+    }
+    let node = node.as_mut().expect("rows come once the choice is made");
+    for r in made {
+        node.push(sample(r), rows).unwrap();
+    }
+}
+
+fn live_against_offline(path: &Path) -> Compared {
+    let topics = TopicsConfig::default();
+    let cfg = EstimatorConfig::default();
+    let (log, report) = import(path, &topics, None).unwrap();
+    let offline = run(&log, &cfg, &TerrainEvidence::None, None).unwrap();
+
+    let mut bag = Bag::open(path).unwrap();
+    let mut messages = Vec::new();
+    bag.for_each(&|_| true, &mut |_, m| {
+        messages.push((m.topic, m.recv_ns, m.data.to_vec()));
+        Ok(())
+    })
+    .unwrap();
+    let window = WarmUp::window(DECISION_SPAN, LAG);
+    let mut streams = LiveStreams::new("graph", bag.topics.clone(), &topics, true, window).unwrap();
+    let mut rows: Vec<EstimateRow> = Vec::new();
+    let mut node: Option<WarmUp> = None;
+    let mut decided = Vec::new();
+    for (topic, recv_ns, data) in messages {
+        let mut made = streams.message(topic, recv_ns, &data).unwrap();
+        if streams.due() {
+            made = streams.decide().unwrap();
+        }
+        feed(made, &cfg, &mut streams, &mut node, &mut rows, &mut decided);
+    }
+    let made = streams.decide().unwrap();
+    feed(made, &cfg, &mut streams, &mut node, &mut rows, &mut decided);
+    node.as_mut().expect("decided").flush(&mut rows).unwrap();
+
+    // Row for row on the import's clock (the two origins differ by whole
+    // seconds).
+    let shift = (streams.origin_ns().unwrap() as f64 - report.time_origin_ns as f64) * 1e-9;
+    assert_eq!(rows.len(), offline.rows.len(), "{decided:?}");
+    let gaps: Vec<f64> = rows
+        .iter()
+        .zip(&offline.rows)
+        .map(|(a, b)| {
+            assert!((a.t + shift - b.t).abs() < 1e-6);
+            (a.east - b.east).hypot(a.north - b.north)
+        })
+        .collect();
+    Compared {
+        decided,
+        median: quantile(gaps.clone(), 0.5),
+        p99: quantile(gaps, 0.99),
+    }
+}
+
+fn assert_close(c: &Compared) {
+    eprintln!(
+        "live against offline: median {:.6} m, p99 {:.6} m; decided {:?}",
+        c.median, c.p99, c.decided
+    );
+    assert!(
+        c.median <= 0.01 && c.p99 <= 0.10,
+        "median {} m, p99 {} m",
+        c.median,
+        c.p99
+    );
+}
+
+/// The Husky recording (395 s: the warm-up ends before it does), played
+/// with no flags: its IMU is mounted on its side (found from gravity) and
+/// its heading disagrees with the GNSS course (left out), as `estimate`
+/// decides.
+#[test]
+fn the_husky_recording_played_with_no_flags_gives_its_estimate() {
+    let c = live_against_offline(&terraslip_io::shared::repo_data("husky_test1"));
+    assert!(
+        c.decided
+            .iter()
+            .any(|d| d.contains("mounting from the data")),
+        "{:?}",
+        c.decided
+    );
+    assert!(
+        c.decided.iter().any(|d| d.contains("heading left out")),
+        "{:?}",
+        c.decided
+    );
+    assert_close(&c);
+}
+
+/// Two odometries whose names tell nothing (neither a filter's nor a
+/// drive controller's): only the data says which is the wheels' (the
+/// other reports a lateral velocity a wheeled base's odometry never does).
+#[test]
+fn a_twin_whose_odometries_only_the_data_tells_apart() {
+    let c = twin(&Twin {
+        odoms: vec![
+            Odom {
+                lateral: 0.4,
+                ..wheel_odom("/robot/odom_local")
+            },
+            wheel_odom("/robot/odom"),
+        ],
+        imu: Some("/imu/data"),
+        gyro_scale: 1.0,
+        ..Default::default()
+    });
+    assert!(
+        c.decided
+            .iter()
+            .any(|d| d.starts_with("wheels from /robot/odom (")),
+        "{:?}",
+        c.decided
+    );
+    assert_close(&c);
+}
+
+/// The twin `k` played with no flags, against its estimate.
+fn twin(k: &Twin) -> Compared {
+    let d = tempfile::tempdir().unwrap();
+    let bag = d.path().join("drive.mcap");
+    write_twin(&bag, k);
+    live_against_offline(&bag)
+}
+
+/// A TurtleBot 4: the scale comes from the URDF on `/robot_description`.
+#[test]
+fn a_twin_whose_scale_is_in_its_urdf() {
+    let c = twin(&Twin {
+        odoms: vec![wheel_odom("/odom")],
+        imu: Some("/imu"),
+        gyro_scale: 1.0,
+        urdf: Some(TB4_URDF),
+        ..Default::default()
+    });
+    assert!(
+        c.decided
+            .iter()
+            .any(|d| d.starts_with("separation S = 0.233 m")),
+        "{:?}",
+        c.decided
+    );
+    assert_close(&c);
+}
+
+/// Joint states that carry neither rates nor positions: the wheels come
+/// from the odometry, as `import` falls back.
+#[test]
+fn a_twin_whose_joint_states_carry_no_tread_speeds() {
+    let c = twin(&Twin {
+        odoms: vec![wheel_odom("/odom")],
+        joints: Some(Joints {
+            left: "wheel_left_joint",
+            right: "wheel_right_joint",
+            velocity: false,
+            position: false,
+            wrapped: false,
+            jitter: 0.0,
+        }),
+        imu: Some("/imu"),
+        gyro_scale: 1.0,
+        ..Default::default()
+    });
+    assert!(
+        c.decided
+            .iter()
+            .any(|d| d.starts_with("wheels from /odom (") && d.contains("no tread speeds")),
+        "{:?}",
+        c.decided
+    );
+    assert_close(&c);
+}

@@ -245,6 +245,12 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
             }
         }
         out.origin_ns = import.origin_ns().unwrap_or(0);
+        if live.decisions().is_none() {
+            // Where the pose reference sits, as `import` reads it.
+            let (mount, said) = import.lever_arm();
+            said.into_iter().for_each(|l| eprintln!("decided: {l}"));
+            live.set_pose_mount(mount);
+        }
         batch.sort_by(|a, b| a.t().total_cmp(&b.t()));
         for r in batch {
             let s = match r {

@@ -139,7 +139,7 @@ pub fn params_yaml(
     if let Some((sep, source)) = nominal {
         let _ = writeln!(
             s,
-            "# The recording's controller separation was not given: the tread speeds were made\n# with a nominal S = {sep} m ({source}), so the ICRs below are in that scale. Multiply\n# the controller's own wheel_separation_multiplier by the factor of each block."
+            "# The recording's controller separation was not given: the tread speeds were made\n# with a nominal S = {sep} m ({source}), so the ICRs below are in that scale. As written\n# the blocks set nothing: multiply the controller's own wheel_separation_multiplier\n# and radius multipliers by the factors each block names, all three together."
         );
     }
     for b in blocks {
@@ -176,19 +176,19 @@ pub fn params_yaml(
             );
         }
         if nominal.is_some() {
+            let f = b
+                .separation_factor
+                .map_or("(not known)".to_string(), |f| format!("{f:.6}"));
+            // The recording does not state the controller's separation, so
+            // the block cannot set it; the radius multipliers alone would
+            // scale the turn by their mean, the wrong way. As written it
+            // sets nothing: each line says which value to multiply by what.
+            let alpha = 0.5 * (p.left_wheel_radius_multiplier + p.right_wheel_radius_multiplier);
             let _ = write!(
                 s,
-                "{name}:\n  ros__parameters:\n    left_wheel_radius_multiplier: {:.6}\n    right_wheel_radius_multiplier: {:.6}\n",
+                "{name}:\n  ros__parameters: {{}}\n    # Set these three together, each the controller's own value times the factor\n    # (the recording does not state the controller's wheel_separation_multiplier;\n    # the radius multipliers alone would scale the odometry's turn by {alpha:.4}):\n    # wheel_separation_multiplier: the controller's own x {f}\n    # left_wheel_radius_multiplier: the controller's own x {:.6}\n    # right_wheel_radius_multiplier: the controller's own x {:.6}\n",
                 p.left_wheel_radius_multiplier, p.right_wheel_radius_multiplier
             );
-            // The line the recording cannot complete: which value to
-            // multiply by what.
-            if let Some(f) = b.separation_factor {
-                let _ = writeln!(
-                    s,
-                    "    # wheel_separation_multiplier: the controller's own x {f:.6} (the recording does not state the controller's; uncomment with the product)"
-                );
-            }
             continue;
         }
         let _ = write!(
@@ -323,12 +323,18 @@ mod tests {
             "{y}"
         );
         assert!(!y.contains("    wheel_separation:"), "{y}");
+        // As written it sets nothing: the radius multipliers go with the
+        // separation's factor, which the recording cannot make absolute.
+        assert!(y.contains("c:\n  ros__parameters: {}\n"), "{y}");
+        for line in [
+            "    # wheel_separation_multiplier: the controller's own x 0.900000",
+            "    # left_wheel_radius_multiplier: the controller's own x 0.900000",
+            "    # right_wheel_radius_multiplier: the controller's own x 0.920000",
+        ] {
+            assert!(y.contains(line), "{line} in\n{y}");
+        }
         assert!(
-            y.contains("    left_wheel_radius_multiplier: 0.900000"),
-            "{y}"
-        );
-        assert!(
-            y.contains("    # wheel_separation_multiplier: the controller's own x 0.900000"),
+            !y.lines().any(|l| l.trim_start().starts_with("left_wheel")),
             "{y}"
         );
         // Given, the absolute values and the factor.

@@ -9,12 +9,14 @@
 //!   wheel tread speeds, pose (GNSS in ENU about the first good fix, heading),
 //!   IMU and camera frames, choosing topics by type or from a [`TopicsConfig`].
 //! - [`out`] writes estimates as ROS 2 messages into MCAP for Foxglove.
-//! - [`diffdrive`] turns calibrated ICRs into `diff_drive_controller` parameters.
+//! - [`diffdrive`] turns calibrated ICRs into `diff_drive_controller` parameters;
+//!   [`controller_yaml`] reads such a file back as a controller takes it.
 //!
 //! Frames: REP-103 (body x forward, y left; world ENU, yaw counter-clockwise
 //! from east). Units: SI.
 
 pub mod bag;
+pub mod controller_yaml;
 pub mod defs;
 pub mod diffdrive;
 pub mod import;

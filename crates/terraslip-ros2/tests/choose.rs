@@ -208,6 +208,41 @@ fn streams_the_evidence_cannot_settle_are_all_listed_at_once() {
 }
 
 #[test]
+fn a_filters_odometry_is_not_the_pose_reference_when_another_is_there() {
+    let js = Js {
+        names: ["left_wheel_joint", "right_wheel_joint"],
+        velocity: true,
+        ..Default::default()
+    };
+    let filtered = ("/odometry/filtered", "odom", 0.0);
+    let truth = ("/ground_truth/odom", "world", 0.0);
+    for (odoms, wheels) in [
+        (vec![filtered, truth], Some(js)),
+        (vec![("/odom", "odom", 0.0), filtered, truth], None),
+    ] {
+        let (log, report) = imported(&odoms, wheels, &[]).unwrap();
+        let text = report.to_text();
+        assert!(
+            text.contains("/ground_truth/odom (nav_msgs/Odometry) -> pose.csv"),
+            "{text}"
+        );
+        let line = text
+            .lines()
+            .find(|l| l.starts_with("decided: pose from /ground_truth/odom"))
+            .unwrap_or_else(|| panic!("{text}"));
+        assert!(
+            line.contains("/odometry/filtered") && line.contains("filtered"),
+            "{line}"
+        );
+        assert!(
+            line.contains("`[pose] topic = \"/odometry/filtered\"`"),
+            "{line}"
+        );
+        assert!(!log.pose.is_empty());
+    }
+}
+
+#[test]
 fn joint_positions_are_differentiated_when_there_are_no_velocities() {
     for js in [
         Js {

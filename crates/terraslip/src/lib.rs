@@ -4,6 +4,8 @@
 //! * [`bag`]: a LOG argument read, a log directory or a ROS 2 bag;
 //! * [`belief`]: whether the live estimate is believed enough to drive on;
 //! * [`config`]: the estimator's TOML configuration and named presets;
+//! * `controller_turn`: a `diff_drive_controller` parameter file applied as
+//!   written, its odometry's turn against the GNSS course (feature `ros2`);
 //! * [`glossary`]: the presets' and the papers' names, for `--help` and outputs;
 //! * [`pipeline`]: runs the online estimator over a [`terraslip_io::DriveLog`];
 //! * [`estimate`]: what `terraslip estimate` does, as values: configuration,
@@ -17,6 +19,8 @@
 pub mod bag;
 pub mod belief;
 pub mod config;
+#[cfg(feature = "ros2")]
+pub mod controller_turn;
 pub mod estimate;
 pub mod glossary;
 #[cfg(feature = "ros2")]

@@ -9,6 +9,7 @@
 
 use std::path::PathBuf;
 
+use terraslip_io::PoseMount;
 use terraslip_ros2::import::{LiveChoice, LiveImport, LiveRow, Settled};
 use terraslip_ros2::{Ros2Error, Topic, TopicsConfig};
 
@@ -145,6 +146,17 @@ impl LiveStreams {
     /// with the reason), once.
     pub fn take_bad(&mut self) -> Vec<String> {
         std::mem::take(&mut self.bad)
+    }
+
+    /// Where the pose reference sits on the robot, as `import` reads it
+    /// (the topics file's `[pose] lever_arm`, else the static transforms
+    /// received so far), with the `decided:` line the first time it is
+    /// known; nothing while the choice is open.
+    pub fn lever_arm(&mut self) -> (Option<PoseMount>, Option<String>) {
+        match &mut self.state {
+            State::Choosing(_) => (None, None),
+            State::Reading(r) => r.lever_arm(),
+        }
     }
 
     /// Time 0 of the rows, ns since the epoch (once rows are made).

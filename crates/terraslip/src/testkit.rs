@@ -192,3 +192,29 @@ pub fn shared_drive(name: &str) -> Option<DriveLog> {
     let dir = terraslip_io::shared::shared_data(&format!("drive/{name}"))?;
     Some(DriveLog::read(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display())))
 }
+
+/// The bag at `path` played message by message through the node's live
+/// import (no DDS) with `topics`: the live import after its last message
+/// and the samples it made, in the bag's order.
+#[cfg(feature = "ros2")]
+pub fn play_bag(
+    path: &std::path::Path,
+    topics: &terraslip_ros2::TopicsConfig,
+) -> (
+    terraslip_ros2::import::LiveImport,
+    Vec<crate::pipeline::live::Sample>,
+) {
+    use crate::pipeline::live::Sample;
+    use terraslip_ros2::import::LiveImport;
+    let mut bag = terraslip_ros2::Bag::open(path).unwrap();
+    let mut live = LiveImport::new("graph", bag.topics.clone(), topics).unwrap();
+    let mut samples: Vec<Sample> = Vec::new();
+    bag.for_each(&|_| true, &mut |_, m| {
+        for r in live.message(m.topic, m.recv_ns, m.data).unwrap() {
+            samples.push(r.into());
+        }
+        Ok(())
+    })
+    .unwrap();
+    (live, samples)
+}

@@ -401,4 +401,70 @@ mod recorded {
         let cal = calibrated_x_c(&m);
         assert!((cal - TRUE_X_C).abs() > 0.2, "calibrated x_c {cal}");
     }
+
+    /// The bag played message by message through the node's live path
+    /// (live import, warm-up, live estimator; no DDS): the lever arm comes
+    /// from `/tf_static` or the topics file as `import` reads it, and the
+    /// live estimate is the offline one.
+    #[test]
+    fn the_live_path_places_the_antenna_as_import_does() {
+        use terraslip::config::EstimatorConfig;
+        use terraslip::pipeline::warmup::WarmUp;
+        use terraslip::pipeline::{run, EstimateRow, TerrainEvidence, DECISION_SPAN};
+        use terraslip_ros2::{import, TopicsConfig};
+
+        let cfg = EstimatorConfig::default();
+        for (tf, topics, from) in [
+            (true, "", "/tf_static"),
+            (false, "[pose]\nlever_arm = [0.3, 0.0]\n", "topics file"),
+        ] {
+            let d = tempfile::tempdir().unwrap();
+            let bag = d.path().join("drive.mcap");
+            write_bag(&bag, tf);
+            let topics: TopicsConfig = toml::from_str(topics).unwrap();
+            let (log, _) = import(&bag, &topics, None).unwrap();
+            let offline = run(&log, &cfg, &TerrainEvidence::None, None).unwrap();
+
+            let (mut live, mut samples) = terraslip::testkit::play_bag(&bag, &topics);
+            // In stamp order, as the node hands each poll's messages on
+            // (the bag holds the wheels' messages before the fixes').
+            samples.sort_by(|a, b| a.t().total_cmp(&b.t()));
+            let (mount, said) = live.lever_arm();
+            assert_eq!(mount, log.meta.pose, "{from}");
+            let said = said.expect("a decided line");
+            assert!(said.contains(from) && said.contains("lever arm"), "{said}");
+            // Asked again: the same answer, said once.
+            assert_eq!(live.lever_arm(), (mount, None));
+
+            let track = offline.track_width;
+            let play = |mount: Option<terraslip_io::PoseMount>| -> Vec<EstimateRow> {
+                let mut node =
+                    WarmUp::new("graph", &cfg, track, None, 0.3, DECISION_SPAN, None, None)
+                        .unwrap();
+                node.set_pose_mount(mount);
+                let mut rows: Vec<EstimateRow> = Vec::new();
+                for s in samples.iter().cloned() {
+                    node.push(s, &mut rows).unwrap();
+                }
+                node.flush(&mut rows).unwrap();
+                rows
+            };
+            let rows = play(mount);
+            assert_eq!(rows.len(), offline.rows.len(), "{from}");
+            let (a, b) = (rows.last().unwrap(), offline.rows.last().unwrap());
+            assert!(
+                (a.x_c - b.x_c).abs() < 0.01,
+                "{from}: live {} offline {}",
+                a.x_c,
+                b.x_c
+            );
+            let gap = (a.east - b.east).hypot(a.north - b.north);
+            assert!(gap < 0.05, "{from}: live {gap} m from offline at the end");
+            assert!((a.x_c - TRUE_X_C).abs() < 0.05, "{from}: x_c {}", a.x_c);
+            // Control: with no lever arm the live x_c takes the offset.
+            let unstated = play(None);
+            let x = unstated.last().unwrap().x_c;
+            assert!((x - TRUE_X_C).abs() > 0.2, "{from}: unstated x_c {x}");
+        }
+    }
 }

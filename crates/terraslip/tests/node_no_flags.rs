@@ -10,7 +10,6 @@ use std::path::Path;
 
 use terraslip::config::EstimatorConfig;
 use terraslip::live_streams::{start_width, LiveStreams};
-use terraslip::pipeline::live::Sample;
 use terraslip::pipeline::warmup::WarmUp;
 use terraslip::pipeline::{run, EstimateRow, TerrainEvidence, DECISION_SPAN};
 use terraslip_ros2::import::LiveRow;
@@ -25,14 +24,6 @@ const LAG: f64 = 0.3;
 fn quantile(mut x: Vec<f64>, q: f64) -> f64 {
     x.sort_by(f64::total_cmp);
     x[((x.len() - 1) as f64 * q).round() as usize]
-}
-
-fn sample(r: LiveRow) -> Sample {
-    match r {
-        LiveRow::Wheels(w) => Sample::Wheels(w),
-        LiveRow::Pose(p) => Sample::Pose(p),
-        LiveRow::Imu(i) => Sample::Imu(i),
-    }
 }
 
 /// What the live path said it decided, and its odometry's distance from
@@ -65,7 +56,7 @@ fn feed<'a>(
     }
     let node = node.as_mut().expect("rows come once the choice is made");
     for r in made {
-        node.push(sample(r), rows).unwrap();
+        node.push(r.into(), rows).unwrap();
     }
 }
 

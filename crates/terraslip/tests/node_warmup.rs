@@ -6,11 +6,9 @@
 #![cfg(feature = "ros2")]
 
 use terraslip::config::EstimatorConfig;
-use terraslip::pipeline::live::Sample;
 use terraslip::pipeline::warmup::WarmUp;
 use terraslip::pipeline::{run, EstimateRow, TerrainEvidence, DECISION_SPAN};
-use terraslip_ros2::import::{LiveImport, LiveRow};
-use terraslip_ros2::{import, Bag, TopicsConfig};
+use terraslip_ros2::{import, TopicsConfig};
 
 const HUSKY_TOML: &str = "[wheels]\nseparation = 1.040625\n[imu]\nmount_rpy_deg = [90, 0, -90]\n\
                           [heading]\ntopic = \"\"\n[meta]\ntrack_width = 0.555\n";
@@ -31,20 +29,7 @@ fn the_husky_recording_played_live_gives_the_estimate_of_the_recording() {
     let (log, report) = import(&path, &topics, None).unwrap();
     let offline = run(&log, &cfg, &TerrainEvidence::None, None).unwrap();
 
-    let mut bag = Bag::open(&path).unwrap();
-    let mut live_import = LiveImport::new("graph", bag.topics.clone(), &topics).unwrap();
-    let mut samples: Vec<Sample> = Vec::new();
-    bag.for_each(&|_| true, &mut |_, m| {
-        for r in live_import.message(m.topic, m.recv_ns, m.data).unwrap() {
-            samples.push(match r {
-                LiveRow::Wheels(w) => Sample::Wheels(w),
-                LiveRow::Pose(p) => Sample::Pose(p),
-                LiveRow::Imu(i) => Sample::Imu(i),
-            });
-        }
-        Ok(())
-    })
-    .unwrap();
+    let (live_import, samples) = terraslip::testkit::play_bag(&path, &topics);
     let mut node = WarmUp::new("graph", &cfg, 0.555, None, 0.3, DECISION_SPAN, None, None).unwrap();
     let mut rows: Vec<EstimateRow> = Vec::new();
     for s in samples {

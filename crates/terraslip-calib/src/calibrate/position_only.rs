@@ -342,7 +342,9 @@ fn calibrate_set(
 /// The course check of `logs` against the odometry of the windows' fit
 /// `f` (separation `s`, its speed factors), combined with the windows'
 /// turn factor by inverse variances; `f`'s spread and its 1-sigma are set
-/// to the combination (the speed factors and the ICRs' centre kept).
+/// to the combination, and the speed factors' ratio to the course check's
+/// asymmetry (equal when it holds it at 0; their mean and the ICRs' centre
+/// kept).
 /// `None`, with a note, when too few straight stretches pair up.
 fn course_check(
     f: &mut track_fit::TrackFit,
@@ -384,6 +386,11 @@ fn course_check(
     };
     let spread = k * am * s;
     let spread_std = sk * am * s;
+    // The treads' ratio as the long baselines tell it: a radius ratio off
+    // by 0.1 % turns the odometry by a radian over a few hundred metres.
+    let ratio = c.asymmetry.map_or(0.0, |a| a.0);
+    f.params.alpha_l = am * (1.0 - ratio);
+    f.params.alpha_r = am * (1.0 + ratio);
     let centre = 0.5 * (p.y_l + p.y_r);
     // y_l, y_r: the centre's share of their variance kept, the spread's replaced.
     for i in 0..2 {
@@ -413,8 +420,15 @@ fn course_check(
         "turn factor spread / (mean speed factor × S), S = {s} m: windows {kw:.3} ± {sw:.3}, \
          course check {:.3} ± {:.3} ({} straight stretches, {} pairs over {} rad of turning \
          apart; {asym}); the parameters carry their inverse-variance combination {k:.3} ± {sk:.3} \
-         (spread {spread:.4} ± {spread_std:.4} m at the windows' speed factors)",
-        c.turn_factor, c.std, figures.stretches, figures.pairs, ccfg.min_baseline
+         (spread {spread:.4} ± {spread_std:.4} m at the windows' mean speed factor {am:.4}, \
+         split between the treads by that asymmetry: {:.4} / {:.4})",
+        c.turn_factor,
+        c.std,
+        figures.stretches,
+        figures.pairs,
+        ccfg.min_baseline,
+        f.params.alpha_l,
+        f.params.alpha_r
     ));
     Some(figures)
 }

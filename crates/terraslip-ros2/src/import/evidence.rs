@@ -3,7 +3,8 @@
 //! wheels; a filter's output is not (its name: `filtered`, `combined`,
 //! `ekf`, ...; its frame: `map`, `combined_odom`, ...; a lateral velocity a
 //! wheeled base's odometry never reports). A pose topic with a tenth of
-//! the messages of another (a goal, a single fix) is no reference.
+//! the messages of another (a goal, a single fix) is no reference, nor is
+//! a filter's fusion of the robot's own sensors when another is there.
 
 use std::collections::HashMap;
 
@@ -37,6 +38,11 @@ const FILTER_WORDS: &[&str] = &[
     "localization",
     "amcl",
     "slam",
+];
+/// Name tokens of a filter fusing the robot's own sensors (its wheels, an
+/// IMU): its output is no reference independent of the wheels.
+const FUSION_WORDS: &[&str] = &[
+    "filtered", "filter", "combined", "ekf", "ukf", "fused", "fusion",
 ];
 /// Frames a filter's output is in, never a wheel odometry's.
 const FILTER_FRAMES: &[&str] = &["map", "world", "earth", "utm"];
@@ -79,6 +85,24 @@ impl Evidence {
         }
         if let Some(l) = e.lateral.filter(|l| *l > LATERAL) {
             signs.push(format!("a lateral velocity of {l:.2} m/s on average"));
+        }
+        signs
+    }
+
+    /// Why topic `i` looks like a filter fusing the robot's own sensors
+    /// (its name or frame says `filtered`, `combined`, `ekf` ...; empty: it
+    /// does not). A localizer's output (`amcl`, `slam`, a `map` frame) is
+    /// not such a filter: it is placed by something besides the wheels.
+    pub fn fusion_signs(&self, bag: &Bag, i: usize) -> Vec<String> {
+        let fusion = |name: &str| tokens(name).find(|t| FUSION_WORDS.contains(&t.as_str()));
+        let mut signs = Vec::new();
+        if let Some(w) = fusion(&bag.topics[i].name) {
+            signs.push(format!("its name says `{w}`"));
+        }
+        if let Some(f) = self.0.get(&i).and_then(|e| e.frame.as_deref()) {
+            if fusion(f).is_some() {
+                signs.push(format!("its frame is `{f}`"));
+            }
         }
         signs
     }

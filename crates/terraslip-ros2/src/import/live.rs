@@ -11,10 +11,11 @@
 use std::collections::HashMap;
 use std::path::PathBuf;
 
-use terraslip_io::{ImuSample, PoseObs, WheelSample};
+use terraslip_io::{ImuSample, PoseMount, PoseObs, WheelSample};
 
 use super::config::TopicsConfig;
 use super::frames::{heading_yaw, Quat};
+use super::lever;
 use super::mount::{self, Sensors};
 use super::report::ImportReport;
 use super::role::Role;
@@ -49,9 +50,12 @@ pub struct LiveImport {
     cfg: TopicsConfig,
     sels: Vec<Sel>,
     rows: Rows,
+    pose: Option<usize>,
     imu: Option<usize>,
     heading: Option<usize>,
     tf: Option<usize>,
+    /// The pose reference's lever arm once known.
+    lever_arm: Option<PoseMount>,
     receive_only: bool,
     origin: Option<u64>,
     /// Messages seen per topic (for error messages).
@@ -104,9 +108,11 @@ impl LiveImport {
             cfg: cfg.clone(),
             sels,
             rows,
+            pose: c.pose,
             imu,
             heading,
             tf,
+            lever_arm: None,
             receive_only,
             origin: None,
             seen: HashMap::new(),
@@ -249,6 +255,34 @@ impl LiveImport {
         out.extend(pose.into_iter().map(LiveRow::Pose));
         out.extend(imu.into_iter().map(LiveRow::Imu));
         Ok(out)
+    }
+
+    /// Where the pose reference sits on the robot, as `import` decides it
+    /// (the topics file's `[pose] lever_arm`, else the static transforms
+    /// received so far: the chain from the base frame to the frame the pose
+    /// messages name); `None` while neither tells it. The `decided:` line
+    /// (also kept in [`Self::report`]) comes with the first answer only.
+    pub fn lever_arm(&mut self) -> (Option<PoseMount>, Option<String>) {
+        if self.lever_arm.is_some() {
+            return (self.lever_arm, None);
+        }
+        let mut meta = self.cfg.meta.clone();
+        let mut said = ImportReport::default();
+        let frame = lever::PoseFrame {
+            bag: &self.bag,
+            cfg: &self.cfg,
+            pose: self.pose,
+            tf: self.tf,
+            frames: &self.rows.frames,
+            tf_tree: &self.rows.tf,
+        };
+        lever::apply(&frame, &mut meta, &mut said);
+        self.lever_arm = meta.pose;
+        // Without an answer, a line saying why is the bag's (no
+        // /tf_static): live, the transform may still come.
+        let line = self.lever_arm.and(said.decisions.pop());
+        self.report.decisions.extend(line.clone());
+        (self.lever_arm, line)
     }
 
     /// The mounting of IMU topic `topic` (`base ← sensor`), once it is

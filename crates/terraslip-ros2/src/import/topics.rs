@@ -146,14 +146,28 @@ pub(super) fn decide(bag: &Bag, role: Role, c: &[usize], d: &mut Decide) -> usiz
         }
         _ => {
             let most = c.iter().map(|&i| bag.topics[i].count).max().unwrap_or(0);
+            // A filter fusing the wheels is no reference beside one that is
+            // not such a filter.
+            let fusion: Vec<Vec<String>> = c
+                .iter()
+                .map(|&i| match role {
+                    Role::Pose => d.evidence.fusion_signs(bag, i),
+                    _ => Vec::new(),
+                })
+                .collect();
+            let independent = fusion.iter().any(Vec::is_empty);
             c.iter()
-                .map(|&i| {
+                .zip(fusion)
+                .map(|(&i, signs)| {
                     let n = bag.topics[i].count;
-                    let why = if n * 10 < most {
-                        vec![format!("{n} messages against {most}: too few for a {key} stream (a goal, a single message?)")]
-                    } else {
-                        Vec::new()
-                    };
+                    let mut why = Vec::new();
+                    if n * 10 < most {
+                        why.push(format!("{n} messages against {most}: too few for a {key} stream (a goal, a single message?)"));
+                    }
+                    if independent && !signs.is_empty() {
+                        why.push("a filter's output, fusing the robot's own sensors".into());
+                        why.extend(signs);
+                    }
                     (i, why)
                 })
                 .collect()

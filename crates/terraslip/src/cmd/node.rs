@@ -14,7 +14,6 @@ use std::time::{Duration, Instant, SystemTime};
 use anyhow::{Context, Result};
 use terraslip::live_streams::{start_width, LiveStreams};
 use terraslip::pipeline::decide::Decisions;
-use terraslip::pipeline::live::Sample;
 use terraslip::pipeline::warmup::WarmUp;
 use terraslip::pipeline::EstimateRun;
 use terraslip_core::compensate::IcrModel;
@@ -262,6 +261,12 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
             live = Some(warm_up(width, start.take().flatten())?);
         }
         out.origin_ns = streams.origin_ns().unwrap_or(0);
+        if let Some(live) = live.as_mut().filter(|l| l.decisions().is_none()) {
+            // Where the pose reference sits, as `import` reads it.
+            let (mount, said) = streams.lever_arm();
+            said.into_iter().for_each(|l| eprintln!("decided: {l}"));
+            live.set_pose_mount(mount);
+        }
         batch.sort_by(|a, b| a.t().total_cmp(&b.t()));
         for r in batch {
             if let LiveRow::Wheels(w) = &r {
@@ -270,7 +275,7 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
             let live = live
                 .as_mut()
                 .context("rows before the streams were chosen")?;
-            if let Some(d) = live.push(sample(r), &mut out)? {
+            if let Some(d) = live.push(r.into(), &mut out)? {
                 say_decided(&d);
             }
         }
@@ -346,7 +351,7 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
             if let LiveRow::Wheels(w) = &r {
                 out.wheels.push_back((w.t, w.v_left, w.v_right));
             }
-            live.push(sample(r), &mut out)?;
+            live.push(r.into(), &mut out)?;
         }
         if let Some(d) = live.flush(&mut out)? {
             say_decided(&d);
@@ -407,15 +412,6 @@ fn settle(
         .map(|r| format!("{} ({}) -> {}", r.topic, r.ty, r.file));
     out.settled = lines.chain(s.report.decisions.iter().cloned()).collect();
     Some(start_width(widths.0, &s.topics, widths.1))
-}
-
-/// A live row as the estimator's sample.
-fn sample(r: LiveRow) -> Sample {
-    match r {
-        LiveRow::Wheels(w) => Sample::Wheels(w),
-        LiveRow::Pose(p) => Sample::Pose(p),
-        LiveRow::Imu(i) => Sample::Imu(i),
-    }
 }
 
 /// Prints the warm-up's decisions.

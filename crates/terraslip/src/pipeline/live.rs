@@ -11,7 +11,7 @@
 use std::collections::VecDeque;
 
 use terraslip_core::estimator::Estimator;
-use terraslip_io::{DriveLog, ImuSample, ParamsFile, PoseObs, WheelSample};
+use terraslip_io::{DriveLog, ImuSample, ParamsFile, PoseMount, PoseObs, WheelSample};
 
 use super::decide::Decisions;
 use super::replay::Feed;
@@ -29,6 +29,19 @@ pub enum Sample {
     Pose(PoseObs),
     /// An IMU sample in the base frame; its `gyro_z` (rad/s) is fused.
     Imu(ImuSample),
+}
+
+#[cfg(feature = "ros2")]
+impl From<terraslip_ros2::import::LiveRow> for Sample {
+    /// A row a live graph's message made, as the estimator's sample.
+    fn from(r: terraslip_ros2::import::LiveRow) -> Self {
+        use terraslip_ros2::import::LiveRow;
+        match r {
+            LiveRow::Wheels(w) => Self::Wheels(w),
+            LiveRow::Pose(p) => Self::Pose(p),
+            LiveRow::Imu(i) => Self::Imu(i),
+        }
+    }
 }
 
 impl Sample {
@@ -247,12 +260,14 @@ impl<'a> Live<'a> {
             lag,
             &decided,
             true,
+            None,
             Vec::new(),
         )
     }
 
     /// [`Self::new`] with the decisions a warm-up made (`has_pose`: pose
-    /// rows came; `warnings`: those it gave).
+    /// rows came; `pose_mount`: where the pose reference sits on the robot,
+    /// as a log's meta.toml `[pose]` states it; `warnings`: those it gave).
     #[allow(clippy::too_many_arguments)]
     pub fn decided(
         name: &'a str,
@@ -262,6 +277,7 @@ impl<'a> Live<'a> {
         lag: f64,
         decided: &Decisions,
         has_pose: bool,
+        pose_mount: Option<PoseMount>,
         mut warnings: Vec<String>,
     ) -> Result<Self, PipelineError> {
         cfg.validate().map_err(|e| PipelineError::Config(e.0))?;
@@ -270,6 +286,7 @@ impl<'a> Live<'a> {
             ..Default::default()
         };
         log.meta.track_width = Some(track_width);
+        log.meta.pose = pose_mount;
         let s = setup::setup(&log, &decided.filter_config(cfg), &NO_EVIDENCE, init)?;
         warnings.splice(0..0, s.warnings);
         warnings.extend(super::decide::warnings(

@@ -5,7 +5,7 @@
 //! the estimator runs over the held samples in their arrival order, so no
 //! row is lost, and goes on live.
 
-use terraslip_io::ParamsFile;
+use terraslip_io::{ParamsFile, PoseMount};
 
 use super::decide::{Decisions, Seen};
 use super::gyro_delay::{self, GyroClock, MAX_DELAY};
@@ -28,6 +28,7 @@ pub struct WarmUp<'a> {
     newest: f64,
     live: Option<Live<'a>>,
     decided: Option<Decisions>,
+    pose_mount: Option<PoseMount>,
 }
 
 impl<'a> WarmUp<'a> {
@@ -63,6 +64,7 @@ impl<'a> WarmUp<'a> {
             newest: f64::NEG_INFINITY,
             live: None,
             decided: None,
+            pose_mount: None,
         })
     }
 
@@ -114,6 +116,12 @@ impl<'a> WarmUp<'a> {
             live.flush(sink)?;
         }
         Ok(made)
+    }
+
+    /// Where the pose reference sits on the robot (its lever arm), for the
+    /// estimator the warm-up builds; taken until the warm-up ends.
+    pub fn set_pose_mount(&mut self, mount: Option<PoseMount>) {
+        self.pose_mount = mount;
     }
 
     /// The decisions, once made.
@@ -201,6 +209,7 @@ impl<'a> WarmUp<'a> {
             self.lag,
             &d,
             pose().next().is_some(),
+            self.pose_mount,
             warning.into_iter().collect(),
         )?;
         for s in std::mem::take(&mut self.held) {

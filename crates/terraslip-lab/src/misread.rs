@@ -117,9 +117,13 @@ pub fn timeline(
 }
 
 /// What the estimator is given from the classifier: the same rule as
-/// `estimate --terrain-model` (unknown verdicts dropped, the rest floored).
+/// `estimate --terrain-model` (unknown verdicts dropped, the rest floored,
+/// each stamped at the middle of its window).
 pub fn evidence(tl: TerrainTimeline) -> TerrainEvidence {
-    TerrainEvidence::from(tl.sure_evidence(BeliefSettings::default().prob_floor))
+    TerrainEvidence::from(
+        tl.sure_evidence(BeliefSettings::default().prob_floor)
+            .stamped_at_window_middle(WINDOW_S),
+    )
 }
 
 #[cfg(test)]
@@ -157,10 +161,11 @@ mod tests {
         let TerrainEvidence::Likelihoods { frames, .. } = evidence(tl) else {
             panic!("likelihoods");
         };
-        // Only the grass frames (60-120 s, read 3 s late) are left.
+        // Only the grass frames are left, each stamped at the middle of
+        // its window: the grass itself (60-120 s), not 3 s late.
         assert!(frames.len() < n / 2, "{} of {n}", frames.len());
         assert!(frames
             .iter()
-            .all(|(t, p)| *t >= 63.0 && *t < 123.0 && p[1] > p[0]));
+            .all(|(t, p)| *t >= 60.0 && *t < 120.0 && p[1] > p[0]));
     }
 }

@@ -63,7 +63,10 @@ fn evidences(confidence: f64) -> Vec<(String, Option<Reading>)> {
 /// Per world: `(seed, [(prediction m, outage drift %) per evidence])`.
 type WorldFigures = (u64, Vec<(f64, f64)>);
 
-fn world_figures(seed: u64, confidence: f64) -> anyhow::Result<WorldFigures> {
+fn world_figures(
+    seed: u64,
+    evidences: &[(String, Option<Reading>)],
+) -> anyhow::Result<WorldFigures> {
     let cfg = terraslip::config::EstimatorConfig::default();
     let w = draw(seed, Subset::All, false, 0.0);
     let sim = simulate_world(&w, seed)?;
@@ -74,8 +77,8 @@ fn world_figures(seed: u64, confidence: f64) -> anyhow::Result<WorldFigures> {
         sim.log.wheels.last().map_or(0.0, |s| s.t),
     );
     let mut out = Vec::new();
-    for (name, reading) in evidences(confidence) {
-        let evidence = match reading {
+    for (name, reading) in evidences {
+        let evidence = match *reading {
             None if name == "labels" => TerrainEvidence::Labels(labels.clone()),
             None => TerrainEvidence::None,
             Some(r) => misread::timeline(labels, t0, t1, r)
@@ -122,7 +125,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             .map(|_| {
                 s.spawn(|| -> anyhow::Result<()> {
                     while let Some(seed) = queue.take() {
-                        let f = world_figures(seed, a.confidence)?;
+                        let f = world_figures(seed, &evidences(a.confidence))?;
                         results.lock().unwrap_or_else(|e| e.into_inner()).push(f);
                     }
                     Ok(())
@@ -186,4 +189,28 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         crate::borealtc_trust::run(dir, a.folds)?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_classifier_always_right_predicts_as_well_as_the_labels() {
+        // A 6 s window reads a new ground; the estimator must recall its
+        // set where the ground changed, not when the window has moved on.
+        let ev = [
+            ("labels".to_string(), None),
+            (Reading::Right.name(), Some(Reading::Right)),
+        ];
+        let figures: Vec<WorldFigures> = (1..=12)
+            .map(|seed| world_figures(seed, &ev).unwrap())
+            .collect();
+        let median = |i: usize| {
+            let v: Vec<f64> = figures.iter().map(|(_, f)| f[i].0).collect();
+            quantile(&v, 0.5)
+        };
+        let ratio = median(1) / median(0);
+        assert!(ratio <= 1.05, "2 s prediction {ratio:.3} x the labels'");
+    }
 }

@@ -223,7 +223,7 @@ fn check_training_set(x: &[Vec<f64>], y: &[usize], k: usize) -> Result<()> {
 pub use terraslip_core::rng::SplitMix64;
 
 /// The most probable class of a probability vector (the first of ties).
-pub(crate) fn argmax(p: &[f64]) -> usize {
+pub fn argmax(p: &[f64]) -> usize {
     let mut best = 0;
     for (i, v) in p.iter().enumerate() {
         if *v > p[best] {

@@ -106,6 +106,9 @@ impl TerrainModel {
     /// [`crate::confidence::UNKNOWN_BELOW`]): an unsure terrain is no evidence, the
     /// belief keeps what it had and the estimator's own innovation-driven
     /// change detection decides. Camera frames are kept at any speed.
+    /// Each frame is stamped at the middle of its window
+    /// ([`TerrainTimeline::stamped_at_window_middle`]): the estimator
+    /// declares a ground where it began, not half a window later.
     pub fn estimator_evidence(&self, log: &DriveLog) -> Result<TerrainTimeline> {
         let mut timeline = self.classify_log(log)?;
         let mut keep = vec![true; timeline.frames.len()];
@@ -123,7 +126,9 @@ impl TerrainModel {
             }
         }
         timeline.retain_frames(&keep);
-        Ok(timeline.sure_evidence(self.belief.prob_floor))
+        Ok(timeline
+            .sure_evidence(self.belief.prob_floor)
+            .stamped_at_window_middle(self.window_s()))
     }
     /// What the model reads from a log, for messages: e.g. `imu.csv (all
     /// six channels), wheels.csv tread speeds and motor currents`.

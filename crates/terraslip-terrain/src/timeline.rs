@@ -127,6 +127,25 @@ impl TerrainTimeline {
             .collect()
     }
 
+    /// The frames stamped at the middle of their window instead of its
+    /// end (`span`, s: the window's length; 0 for camera frames): the time
+    /// whose ground a verdict reads. A window's verdict is the ground under
+    /// most of it, so a new ground is read once the window's middle has
+    /// crossed onto it; stamped at its end, the verdict comes `span / 2`
+    /// after the ground changed. Camera change detections stay at their
+    /// frames' times.
+    pub fn stamped_at_window_middle(mut self, span: f64) -> Self {
+        let half = if span.is_finite() {
+            0.5 * span.max(0.0)
+        } else {
+            0.0
+        };
+        for (t, _) in &mut self.frames {
+            *t -= half;
+        }
+        self
+    }
+
     /// What a belief may fuse: the frames whose verdict is not "unknown"
     /// ([`crate::confidence::is_unknown`]: an unsure terrain is no
     /// evidence, the belief keeps what it had), each floored by `floor`

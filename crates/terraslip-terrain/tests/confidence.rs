@@ -59,10 +59,15 @@ fn an_unsure_window_is_unknown_and_no_evidence_for_the_estimator() {
         .collect();
     let scored = tl.scored_windows(&truth);
     assert_eq!(scored.iter().filter(|w| w.unknown).count(), unsure);
-    // The robot drives at 0.5 m/s throughout: only the unsure windows go.
+    // The robot drives at 0.5 m/s throughout: only the unsure windows go,
+    // and each verdict kept is stamped at the middle of its window (the
+    // ground it reads).
     let ev = model.estimator_evidence(&test).unwrap();
     let kept: Vec<f64> = ev.frames.iter().map(|(t, _)| *t).collect();
-    assert_eq!(kept, sure);
+    let half = 0.5 * model.window_s();
+    assert!(half > 0.0);
+    let middles: Vec<f64> = sure.iter().map(|t| t - half).collect();
+    assert_eq!(kept, middles);
     assert_eq!(ev.novelty.len(), sure.len());
 }
 

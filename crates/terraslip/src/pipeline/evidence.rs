@@ -11,8 +11,9 @@ pub enum TerrainEvidence {
     None,
     /// Labels (the log's `terrain.csv`): a perfect classifier.
     Labels(Vec<TerrainLabel>),
-    /// Causal classifier outputs: `frames[i] = (t, p)` with `p[k]` the
-    /// probability (or likelihood) of `classes[k]` for the window ending at `t`.
+    /// Classifier outputs: `frames[i] = (t, p)` with `p[k]` the
+    /// probability (or likelihood) of `classes[k]` for the ground at `t`
+    /// (a window's verdict stamped at its middle: the ground it reads).
     Likelihoods {
         classes: Vec<String>,
         frames: Vec<(f64, Vec<f64>)>,

@@ -19,6 +19,7 @@ mod run;
 mod setup;
 mod start;
 mod terrain_feed;
+mod terrain_onset;
 pub mod warmup;
 
 pub use error::PipelineError;

@@ -1,9 +1,13 @@
 //! Terrain evidence (labels, or classifier frames through the terrain
-//! belief) declared to the estimator as the log's clock advances.
+//! belief) declared to the estimator as the log's clock advances. A
+//! classifier's change of terrain is declared at its onset: the first frame
+//! of the run of frames that made the belief change
+//! ([`super::terrain_onset`]).
 
 use terraslip_core::estimator::Estimator;
 use terraslip_core::terrain_belief::TerrainBelief;
 
+use super::terrain_onset::Lookahead;
 use super::{TerrainChange, TerrainEvidence};
 use crate::config::EstimatorConfig;
 
@@ -13,6 +17,9 @@ pub(super) struct TerrainFeed<'a> {
     belief: Option<TerrainBelief>,
     next: usize,
     next_detection: usize,
+    /// Frames before this index were looked ahead over without the belief
+    /// changing its terrain.
+    looked_to: usize,
     /// The slip-change detector fired since the last classifier frame.
     pub jump: bool,
     pub current: Option<usize>,
@@ -32,6 +39,7 @@ impl<'a> TerrainFeed<'a> {
             belief,
             next: 0,
             next_detection: 0,
+            looked_to: 0,
             jump: false,
             current: None,
             names: super::setup::terrain_names(evidence),
@@ -74,6 +82,32 @@ impl<'a> TerrainFeed<'a> {
                 };
                 while self.next < frames.len() && frames[self.next].0 <= t {
                     let (tf, p) = &frames[self.next];
+                    if self.next >= self.looked_to {
+                        let ahead = Lookahead {
+                            frames,
+                            changes,
+                            from: self.next,
+                            next_detection: self.next_detection,
+                            jump: self.jump,
+                        };
+                        match ahead.switch(b) {
+                            Ok(s) => {
+                                *b = s.belief;
+                                self.next = s.next;
+                                self.next_detection = s.next_detection;
+                                self.looked_to = s.next;
+                                self.jump = false;
+                                let action = est.on_terrain(s.terrain)?;
+                                out = Some(TerrainChange {
+                                    t: *tf,
+                                    terrain: s.terrain,
+                                    action,
+                                });
+                                continue;
+                            }
+                            Err(end) => self.looked_to = end,
+                        }
+                    }
                     while self.next_detection < changes.len() && changes[self.next_detection] <= *tf
                     {
                         self.jump = true;

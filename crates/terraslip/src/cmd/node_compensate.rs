@@ -258,6 +258,8 @@ impl CommandThread {
 struct Counts {
     commands: u64,
     passed: u64,
+    /// Compensated under the model last applied, the estimate not believed.
+    held: u64,
     unreadable: u64,
     /// Longest time from a command's arrival to its answer's writing, s.
     slowest: f64,
@@ -336,8 +338,10 @@ impl Answers {
         let out = reply(&msg, command.twist, command.status, &self.base_frame);
         self.writer.write(self.codec_out.encode(&out))?;
         self.counts.commands += 1;
-        if command.status != Status::Compensating {
-            self.counts.passed += 1;
+        match command.status {
+            Status::Compensating => {}
+            Status::Holding(_) => self.counts.held += 1,
+            Status::PassThrough(_) => self.counts.passed += 1,
         }
         self.counts.slowest = self.counts.slowest.max(arrived.elapsed().as_secs_f64());
         let now = (command.status, why);
@@ -360,14 +364,11 @@ impl Answers {
                 DiagnosticLevel::Error,
                 PassReason::NonFiniteCommand.as_str().to_string(),
             ),
-            Status::PassThrough(r) => (
+            Status::Holding(r) => (
                 DiagnosticLevel::Warn,
-                if why.is_empty() {
-                    format!("passing through: {}", r.as_str())
-                } else {
-                    format!("passing through: {}: {why}", r.as_str())
-                },
+                reason("holding the last believed estimate", *r, why),
             ),
+            Status::PassThrough(r) => (DiagnosticLevel::Warn, reason("passing through", *r, why)),
         };
         let c = &self.counts;
         let f = |x: f64| format!("{x:.6}");
@@ -375,6 +376,7 @@ impl Answers {
         let mut values: Vec<(String, String)> = vec![
             ("commands".into(), c.commands.to_string()),
             ("passed_through".into(), c.passed.to_string()),
+            ("held".into(), c.held.to_string()),
             ("unreadable_commands".into(), c.unreadable.to_string()),
             ("slowest_answer_s".into(), f(c.slowest)),
             ("wheel_separation_m".into(), f(s)),
@@ -401,6 +403,15 @@ impl Answers {
     }
 }
 
+/// `what`, why (`r`) and its detail (`why`, may be empty).
+fn reason(what: &str, r: PassReason, why: &str) -> String {
+    if why.is_empty() {
+        format!("{what}: {}", r.as_str())
+    } else {
+        format!("{what}: {}: {why}", r.as_str())
+    }
+}
+
 /// The desired twist of a command (REP-103 body frame).
 fn desired(m: &TwistMsg) -> Twist {
     Twist {
@@ -415,7 +426,9 @@ fn desired(m: &TwistMsg) -> Twist {
 /// command's stamp and frame, or now and `base_frame` when it had none.
 fn reply(m: &TwistMsg, twist: Twist, status: Status, base_frame: &str) -> TwistMsg {
     let mut out = match status {
-        Status::Compensating | Status::PassThrough(PassReason::NonFiniteCommand) => TwistMsg {
+        Status::Compensating
+        | Status::Holding(_)
+        | Status::PassThrough(PassReason::NonFiniteCommand) => TwistMsg {
             linear: [twist.v_x, 0.0, 0.0],
             angular: [0.0, 0.0, twist.omega],
             ..m.clone()

@@ -138,8 +138,10 @@ pub struct CompensateConfig {
 
 impl CompensateConfig {
     /// Unlimited speeds and accelerations, the correction reaching a new
-    /// estimate at 0.5 per second, applied after 2 s of confidence and up
-    /// to 2.0 away from the identity, the controller's timeout 0.5 s.
+    /// estimate at 0.5 per second, applied as soon as it is confident (a
+    /// model once applied is held through a break in confidence, and the
+    /// correction moves at its bounded rate) and up to 2.0 away from the
+    /// identity, the controller's timeout 0.5 s.
     pub const fn new(separation: f64) -> Self {
         Self {
             separation,
@@ -148,7 +150,7 @@ impl CompensateConfig {
             max_acceleration: f64::INFINITY,
             max_yaw_acceleration: f64::INFINITY,
             max_correction_rate: 0.5,
-            engage_after: 2.0,
+            engage_after: 0.0,
             max_correction: 2.0,
             command_timeout: 0.5,
         }
@@ -716,6 +718,16 @@ mod tests {
         assert!(c.applied().is_none());
         let out = c.command(2.95, d, Some((other, false)));
         assert_eq!(out.status, Status::PassThrough(PassReason::NotConfident));
+    }
+
+    #[test]
+    fn by_default_a_confident_estimate_is_applied_at_once() {
+        let mut c = Compensator::new(CompensateConfig::new(S)).unwrap();
+        let d = twist(0.6, 0.5);
+        c.command(0.0, d, Some((sand(), true)));
+        let out = c.command(0.05, d, Some((sand(), true)));
+        assert_eq!(out.status, Status::Compensating);
+        assert!(out.twist.omega > d.omega, "{out:?}");
     }
 
     #[test]

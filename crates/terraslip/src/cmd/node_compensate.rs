@@ -229,7 +229,7 @@ impl CommandThread {
             "diagnostic_msgs/msg/DiagnosticArray",
         ))?;
         eprintln!(
-            "compensating: {} ({}) -> {} ({}), controller wheel separation {separation} m",
+            "compensating: {} ({}) -> {} ({}), controller wheel separation {separation:.4} m",
             topics.0,
             codec_in.ty(),
             topics.1,

@@ -138,8 +138,10 @@ pub struct CompensateConfig {
 
 impl CompensateConfig {
     /// Unlimited speeds and accelerations, the correction reaching a new
-    /// estimate at 0.5 per second, applied after 2 s of confidence and up
-    /// to 2.0 away from the identity, the controller's timeout 0.5 s.
+    /// estimate at 0.5 per second, applied as soon as it is confident (a
+    /// model once applied is held through a break in confidence, and the
+    /// correction moves at its bounded rate) and up to 2.0 away from the
+    /// identity, the controller's timeout 0.5 s.
     pub const fn new(separation: f64) -> Self {
         Self {
             separation,
@@ -148,7 +150,7 @@ impl CompensateConfig {
             max_acceleration: f64::INFINITY,
             max_yaw_acceleration: f64::INFINITY,
             max_correction_rate: 0.5,
-            engage_after: 2.0,
+            engage_after: 0.0,
             max_correction: 2.0,
             command_timeout: 0.5,
         }
@@ -223,6 +225,11 @@ impl PassReason {
 pub enum Status {
     /// The command is the compensated one.
     Compensating,
+    /// The command is compensated under the model last applied, held
+    /// (not moved towards the estimate) while the estimate is not
+    /// believed, for this reason: a change in slip rarely makes the last
+    /// believed model worse than none.
+    Holding(PassReason),
     /// The desired twist went through unchanged (or, when it was not
     /// finite, a stop).
     PassThrough(PassReason),
@@ -272,8 +279,10 @@ impl Compensator {
 
     /// The command for desired twist `desired` at time `t` (s), given the
     /// estimate (`model`, and whether it is confident). A zero desired
-    /// twist gives exactly zero; an unconfident or missing estimate the
-    /// desired twist unchanged; every output is finite.
+    /// twist gives exactly zero; a missing estimate, or one not confident
+    /// before any was applied, the desired twist unchanged; one not
+    /// confident (or settling, or singular) after a model was applied, the
+    /// command under that model, held; every output is finite.
     pub fn command(
         &mut self,
         t: f64,
@@ -295,10 +304,7 @@ impl Compensator {
         } else {
             match self.gate(t, estimate) {
                 Ok(target) => self.compensate(desired, &target, dt),
-                Err(why) => {
-                    self.applied = None;
-                    Err(why)
-                }
+                Err(why) => self.hold(desired, dt, why),
             }
             .unwrap_or_else(|why| {
                 self.applied = None;
@@ -330,6 +336,27 @@ impl Compensator {
         }
         model.validate().map_err(|_| PassReason::InvalidModel)?;
         Ok(model)
+    }
+
+    /// The command under the model applied now, held because the estimate
+    /// may not be applied (`why`); `Err(why)` when no model was applied,
+    /// or the estimate is gone.
+    fn hold(
+        &mut self,
+        desired: Twist,
+        dt: Option<f64>,
+        why: PassReason,
+    ) -> Result<Command, PassReason> {
+        let holds = matches!(
+            why,
+            PassReason::NotConfident | PassReason::Settling | PassReason::InvalidModel
+        );
+        let Some(held) = self.applied.filter(|_| holds) else {
+            return Err(why);
+        };
+        let mut c = self.compensate(desired, &held, dt)?;
+        c.status = Status::Holding(why);
+        Ok(c)
     }
 
     /// The compensated command under `target`, the applied model moved
@@ -649,6 +676,61 @@ mod tests {
     }
 
     #[test]
+    fn an_unbelieved_estimate_holds_the_model_last_applied() {
+        let mut cfg = CompensateConfig::new(S);
+        cfg.engage_after = 1.0;
+        cfg.max_correction_rate = 1e9;
+        let mut c = Compensator::new(cfg).unwrap();
+        for t in [-2.0, -1.0, -0.95] {
+            c.command(t, Twist::default(), Some((sand(), true)));
+        }
+        assert_eq!(c.applied(), Some(&sand()));
+        let d = twist(0.6, 0.5);
+        let under_sand = eager().command(0.0, d, Some((sand(), true))).twist;
+        assert!((under_sand.omega - d.omega).abs() > 0.05);
+        let mut other = sand();
+        other.icr.y_l = 0.3;
+        other.icr.alpha_r = 1.0;
+        let mut singular = sand();
+        singular.icr.y_r = singular.icr.y_l;
+        // A detected change (not confident), the new estimate settling, a
+        // singular estimate: the last applied model is held, not dropped.
+        for (t, e, why) in [
+            (0.0, Some((other, false)), PassReason::NotConfident),
+            (0.5, Some((other, true)), PassReason::Settling),
+            (1.6, Some((singular, true)), PassReason::InvalidModel),
+            (1.7, Some((other, false)), PassReason::NotConfident),
+            (1.8, Some((other, true)), PassReason::Settling),
+        ] {
+            let out = c.command(t, d, e);
+            assert_eq!(out.twist, under_sand, "t = {t}");
+            assert_eq!(out.status, Status::Holding(why), "t = {t}");
+            assert_eq!(c.applied(), Some(&sand()));
+        }
+        // Believed long enough: the new estimate is applied.
+        c.command(2.8, d, Some((other, true)));
+        let out = c.command(2.85, d, Some((other, true)));
+        assert_eq!(out.status, Status::Compensating);
+        assert_eq!(c.applied(), Some(&other));
+        // No estimate at all: passed through, and nothing is held after.
+        let out = c.command(2.9, d, None);
+        assert_eq!(out.twist, d);
+        assert!(c.applied().is_none());
+        let out = c.command(2.95, d, Some((other, false)));
+        assert_eq!(out.status, Status::PassThrough(PassReason::NotConfident));
+    }
+
+    #[test]
+    fn by_default_a_confident_estimate_is_applied_at_once() {
+        let mut c = Compensator::new(CompensateConfig::new(S)).unwrap();
+        let d = twist(0.6, 0.5);
+        c.command(0.0, d, Some((sand(), true)));
+        let out = c.command(0.05, d, Some((sand(), true)));
+        assert_eq!(out.status, Status::Compensating);
+        assert!(out.twist.omega > d.omega, "{out:?}");
+    }
+
+    #[test]
     fn correction_moves_at_the_bounded_rate() {
         let mut cfg = CompensateConfig::new(S);
         cfg.engage_after = 0.0;
@@ -725,7 +807,8 @@ mod tests {
 
     #[test]
     fn degenerate_models_and_commands_stay_finite() {
-        let mut c = eager();
+        // Nothing applied yet, so nothing to hold.
+        let mut c = Compensator::new(eager_config()).unwrap();
         let d = twist(0.5, 0.5);
         let mut singular = sand();
         singular.icr.y_r = singular.icr.y_l;

@@ -8,8 +8,10 @@ Slip-compensated driving (between Nav2's controller_server and the drive
 controller): compensate:=true, cmd_in (the desired twist, default
 /cmd_vel_nav), cmd_out (the controller's input, default /cmd_vel),
 cmd_in_stamped, cmd_out_stamped (TwistStamped), and the controller's
-wheel_separation, max_speed, max_yaw_rate, max_acceleration,
-max_yaw_acceleration (empty: the topics file's separation, no limit).
+wheel_separation, wheel_separation_multiplier, max_speed, max_yaw_rate,
+max_acceleration, max_yaw_acceleration (empty: the topics file's
+separation, multiplier 1, no limit); thread_priority (the command
+thread's SCHED_FIFO priority, empty: 50, 0: normal priority).
 """
 
 from launch import LaunchDescription
@@ -19,8 +21,8 @@ from launch_ros.actions import Node
 from launch_ros.substitutions import FindPackageShare
 
 # The controller's settings passed on only when given (empty: default).
-CONTROLLER = ["wheel_separation", "max_speed", "max_yaw_rate", "max_acceleration",
-              "max_yaw_acceleration"]
+CONTROLLER = ["wheel_separation", "wheel_separation_multiplier", "max_speed", "max_yaw_rate",
+              "max_acceleration", "max_yaw_acceleration"]
 
 
 def node(context):
@@ -37,6 +39,8 @@ def node(context):
     for name in CONTROLLER:
         if get(name):
             parameters[name] = float(get(name))
+    if get("thread_priority"):
+        parameters["thread_priority"] = int(get("thread_priority"))
     return [Node(
         package="terraslip",
         executable="node",
@@ -72,5 +76,7 @@ def generate_launch_description():
         *[DeclareLaunchArgument(name, default_value="",
                                 description="the drive controller's (empty: default)")
           for name in CONTROLLER],
+        DeclareLaunchArgument("thread_priority", default_value="",
+                              description="the command thread's SCHED_FIFO priority (empty: 50)"),
         OpaqueFunction(function=node),
     ])

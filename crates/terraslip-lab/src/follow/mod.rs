@@ -3,7 +3,8 @@
 //! on the online estimator's pose, in the closed-loop simulator; once with
 //! its twist sent as it is, once through a static wheel separation
 //! multiplier tuned on the first ground, once through live compensation
-//! under the estimator's current model. Figures per ground against the
+//! under the estimator's current model to the controller of that
+//! multiplier. Figures per ground against the
 //! true pose, over a family of seeds: median and worst.
 
 mod course;
@@ -54,6 +55,11 @@ pub struct Args {
     /// before it is applied (the compensator's `engage_after`).
     #[arg(long, default_value_t = CompensateConfig::new(1.0).engage_after)]
     engage_after: f64,
+    /// Live compensation on a drive controller of wheel separation
+    /// multiplier 1 (else on the controller of the static variant, whose
+    /// multiplier the turn test tuned).
+    #[arg(long)]
+    live_on_untuned: bool,
     /// Print one line per seed and variant (to stderr): cross-track RMS
     /// per ground, cm, and the recovery after each change, s.
     #[arg(long)]
@@ -91,6 +97,9 @@ pub struct Setup<'a> {
     /// The compensator's correction rate (per s) and engage delay (s).
     pub correction_rate: f64,
     pub engage_after: f64,
+    /// Live compensation on a controller of multiplier 1 (else on the
+    /// static variant's).
+    pub live_on_untuned: bool,
 }
 
 /// One seed: the turn-test multiplier and the score of each variant.
@@ -113,10 +122,15 @@ pub fn run_seed(
             Variant::None => Steering::None,
             Variant::Static => Steering::Multiplier(multiplier),
             Variant::Live => {
-                let mut c = CompensateConfig::new(track_width);
+                let m = if setup.live_on_untuned {
+                    1.0
+                } else {
+                    multiplier
+                };
+                let mut c = CompensateConfig::new(track_width * m);
                 c.max_correction_rate = setup.correction_rate;
                 c.engage_after = setup.engage_after;
-                Steering::live(c)?
+                Steering::live(c, m)?
             }
         };
         let mut f = Follower::new(
@@ -154,6 +168,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         estimator: &cfg,
         correction_rate: a.correction_rate,
         engage_after: a.engage_after,
+        live_on_untuned: a.live_on_untuned,
     };
     let mut runs = Vec::new();
     for seed in a.first_seed..a.first_seed + a.seeds {

@@ -14,15 +14,28 @@ pub enum Steering {
     /// Through a drive controller whose `wheel_separation_multiplier` is
     /// this: its tread speeds are those of the yaw rate times it.
     Multiplier(f64),
-    /// Through the compensator, under the estimator's model now.
-    Live(Box<Compensator>, Belief),
+    /// Through the compensator, under the estimator's model now, to a
+    /// drive controller whose `wheel_separation_multiplier` is `multiplier`
+    /// (the compensator expresses its commands in that controller's model,
+    /// so a command passed through is driven as [`Steering::Multiplier`]).
+    Live {
+        compensator: Box<Compensator>,
+        belief: Belief,
+        multiplier: f64,
+    },
 }
 
 impl Steering {
-    /// Live compensation with the compensator's settings `cfg`.
-    pub fn live(cfg: CompensateConfig) -> anyhow::Result<Self> {
+    /// Live compensation with the compensator's settings `cfg` (whose
+    /// `separation` is the controller's: the robot's times `multiplier`)
+    /// to a controller of wheel separation multiplier `multiplier`.
+    pub fn live(cfg: CompensateConfig, multiplier: f64) -> anyhow::Result<Self> {
         let c = Compensator::new(cfg).map_err(|e| anyhow::anyhow!("compensator: {e}"))?;
-        Ok(Steering::Live(Box::new(c), Belief::default()))
+        Ok(Steering::Live {
+            compensator: Box::new(c),
+            belief: Belief::default(),
+            multiplier,
+        })
     }
 
     /// The twist the drive controller receives for the follower's
@@ -36,17 +49,28 @@ impl Steering {
     ) -> Twist {
         match self {
             Steering::None => desired,
-            Steering::Multiplier(m) => Twist {
-                omega: desired.omega * *m,
-                ..desired
-            },
-            Steering::Live(c, belief) => {
+            Steering::Multiplier(m) => multiplied(desired, *m),
+            Steering::Live {
+                compensator,
+                belief,
+                multiplier,
+            } => {
                 let model = IcrModel::of_filter(estimator.filter());
                 belief.row(row, &[]);
                 let confident = belief.verdict.is_ok();
-                c.command(t, desired, Some((model, confident))).twist
+                let cmd = compensator.command(t, desired, Some((model, confident)));
+                multiplied(cmd.twist, *multiplier)
             }
         }
+    }
+}
+
+/// The twist whose tread speeds a controller of wheel separation
+/// multiplier `m` makes of `cmd`: its yaw rate times `m`.
+fn multiplied(cmd: Twist, m: f64) -> Twist {
+    Twist {
+        omega: cmd.omega * m,
+        ..cmd
     }
 }
 

@@ -16,6 +16,7 @@ use crate::stats::quantile;
 pub const SLIPPERY_GAIN: f64 = 0.6;
 
 /// One seed's runs, in [`Variant::ALL`] order.
+#[derive(Debug, Clone)]
 pub struct SeedRuns {
     pub seed: u64,
     pub multiplier: f64,
@@ -151,7 +152,8 @@ impl Table {
                 "{} (static tuned here): live {:.1} cm against static {:.1} cm (median), no worse",
                 self.grounds[0], self.tuned.0, self.tuned.1
             ),
-            self.tuned.0 <= self.tuned.1,
+            // Judged at the table's resolution (0.1 cm).
+            (10.0 * self.tuned.0).round() <= (10.0 * self.tuned.1).round(),
         ));
         if let Some((g, r)) = &self.mid {
             out.push((

@@ -34,6 +34,8 @@ mod node_compensate;
 mod node_outputs;
 #[cfg(any(feature = "node", feature = "node-humble"))]
 mod node_state;
+#[cfg(any(feature = "node", feature = "node-humble"))]
+mod realtime;
 pub mod report;
 #[cfg(feature = "ros2")]
 pub mod ros2out;

@@ -112,14 +112,13 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
     // Commands are answered from now on, before the sensors are found.
     let commands = match &cmd_topics {
         Some((cmd_in, cmd_out)) => {
-            let separation = args
-                .compensate
-                .wheel_separation
-                .or(topics_cfg
+            let separation = args.compensate.controller_separation(
+                topics_cfg
                     .wheels
                     .separation
-                    .filter(|s| s.is_finite() && *s > 0.0))
-                .unwrap_or(track_width);
+                    .filter(|s| s.is_finite() && *s > 0.0)
+                    .unwrap_or(track_width),
+            );
             Some(CommandThread::start(
                 &graph,
                 &args.compensate,

@@ -45,11 +45,16 @@ pub struct CompensateArgs {
     /// The commands written are geometry_msgs/TwistStamped (else Twist).
     #[arg(long)]
     pub cmd_out_stamped: bool,
-    /// The drive controller's wheel_separation times its
-    /// wheel_separation_multiplier, m [default: `[wheels] separation` of
-    /// --topics, else the track width].
+    /// The drive controller's wheel_separation, m [default: `[wheels]
+    /// separation` of --topics, else the track width].
     #[arg(long, value_name = "M")]
     pub wheel_separation: Option<f64>,
+    /// The drive controller's wheel_separation_multiplier (the one tuned
+    /// by hand): commands are expressed in the controller's model of
+    /// separation wheel_separation x this, so a command passed through is
+    /// driven as the tuned controller drives it.
+    #[arg(long, value_name = "X", default_value_t = 1.0)]
+    pub wheel_separation_multiplier: f64,
     /// The controller's largest forward speed, m/s [default: none].
     #[arg(long, value_name = "M/S")]
     pub max_speed: Option<f64>,
@@ -67,8 +72,8 @@ pub struct CompensateArgs {
     #[arg(long, value_name = "1/S", default_value_t = 0.5)]
     pub correction_rate: f64,
     /// Seconds the estimate must be believed without a break before it is
-    /// applied.
-    #[arg(long, value_name = "S", default_value_t = 2.0)]
+    /// applied (the model applied before is held meanwhile).
+    #[arg(long, value_name = "S", default_value_t = CompensateConfig::new(1.0).engage_after)]
     pub engage_after: f64,
     /// Largest correction applied (an entry of the dimensionless correction
     /// minus the identity); a larger one passes the command through.
@@ -86,14 +91,21 @@ pub struct CompensateArgs {
     /// slip change.
     #[arg(long, value_name = "S", default_value_t = terraslip::belief::HOLD_AFTER_CHANGE)]
     pub hold_after_change: f64,
+    /// SCHED_FIFO priority (1-99) the command thread asks for, as
+    /// ros2_control's controller_manager does; when refused it says how to
+    /// permit it and runs at normal priority. 0: do not ask.
+    #[arg(long, value_name = "P", default_value_t = super::realtime::DEFAULT_PRIORITY,
+          value_parser = clap::value_parser!(u8).range(0..=99))]
+    pub thread_priority: u8,
 }
 
 /// The `--ros-args -p` names that set the flags above.
-pub const PARAMS: [&str; 14] = [
+pub const PARAMS: [&str; 16] = [
     "compensate",
     "cmd_in_stamped",
     "cmd_out_stamped",
     "wheel_separation",
+    "wheel_separation_multiplier",
     "max_speed",
     "max_yaw_rate",
     "max_acceleration",
@@ -104,6 +116,7 @@ pub const PARAMS: [&str; 14] = [
     "cmd_timeout",
     "confident_spread_std",
     "hold_after_change",
+    "thread_priority",
 ];
 
 impl CompensateArgs {
@@ -124,6 +137,13 @@ impl CompensateArgs {
             "cmd_in_stamped" => self.cmd_in_stamped = flag()?,
             "cmd_out_stamped" => self.cmd_out_stamped = flag()?,
             "wheel_separation" => self.wheel_separation = Some(num()?),
+            "wheel_separation_multiplier" => self.wheel_separation_multiplier = num()?,
+            "thread_priority" => {
+                let p = v.as_integer().filter(|p| (0..=99).contains(p));
+                self.thread_priority = p.with_context(|| {
+                    format!("--ros-args parameter {key} = {v}: expected an integer 0-99")
+                })? as u8;
+            }
             "max_speed" => self.max_speed = Some(num()?),
             "max_yaw_rate" => self.max_yaw_rate = Some(num()?),
             "max_acceleration" => self.max_acceleration = Some(num()?),
@@ -137,6 +157,12 @@ impl CompensateArgs {
             _ => bail!("{key} is not a compensation parameter"),
         }
         Ok(())
+    }
+
+    /// The separation of the controller's model, m: its wheel_separation
+    /// (`default` when not given) times its multiplier.
+    pub fn controller_separation(&self, default: f64) -> f64 {
+        self.wheel_separation.unwrap_or(default) * self.wheel_separation_multiplier
     }
 
     /// The compensator's settings for a controller of wheel separation
@@ -203,7 +229,7 @@ impl CommandThread {
             "diagnostic_msgs/msg/DiagnosticArray",
         ))?;
         eprintln!(
-            "compensating: {} ({}) -> {} ({}), controller wheel separation {separation} m",
+            "compensating: {} ({}) -> {} ({}), controller wheel separation {separation:.4} m",
             topics.0,
             codec_in.ty(),
             topics.1,
@@ -223,11 +249,19 @@ impl CommandThread {
             counts: Counts::default(),
             said: None,
             said_at: None,
+            scheduling: super::realtime::Scheduling::NotAsked,
         };
         let stop = Arc::clone(&done);
+        let priority = args.thread_priority;
         let thread = std::thread::Builder::new()
             .name("compensate".into())
-            .spawn(move || answers.serve(reader, &stop))
+            .spawn(move || {
+                answers.scheduling = super::realtime::request(priority);
+                if let super::realtime::Scheduling::Refused(why) = &answers.scheduling {
+                    eprintln!("{why}");
+                }
+                answers.serve(reader, &stop)
+            })
             .context("starting the command thread")?;
         Ok(Self {
             latest,
@@ -258,6 +292,8 @@ impl CommandThread {
 struct Counts {
     commands: u64,
     passed: u64,
+    /// Compensated under the model last applied, the estimate not believed.
+    held: u64,
     unreadable: u64,
     /// Longest time from a command's arrival to its answer's writing, s.
     slowest: f64,
@@ -277,6 +313,8 @@ struct Answers {
     /// The last status reported, with the reason's detail.
     said: Option<(Status, String)>,
     said_at: Option<Instant>,
+    /// How this thread is scheduled.
+    scheduling: super::realtime::Scheduling,
 }
 
 impl Answers {
@@ -336,8 +374,10 @@ impl Answers {
         let out = reply(&msg, command.twist, command.status, &self.base_frame);
         self.writer.write(self.codec_out.encode(&out))?;
         self.counts.commands += 1;
-        if command.status != Status::Compensating {
-            self.counts.passed += 1;
+        match command.status {
+            Status::Compensating => {}
+            Status::Holding(_) => self.counts.held += 1,
+            Status::PassThrough(_) => self.counts.passed += 1,
         }
         self.counts.slowest = self.counts.slowest.max(arrived.elapsed().as_secs_f64());
         let now = (command.status, why);
@@ -360,14 +400,11 @@ impl Answers {
                 DiagnosticLevel::Error,
                 PassReason::NonFiniteCommand.as_str().to_string(),
             ),
-            Status::PassThrough(r) => (
+            Status::Holding(r) => (
                 DiagnosticLevel::Warn,
-                if why.is_empty() {
-                    format!("passing through: {}", r.as_str())
-                } else {
-                    format!("passing through: {}: {why}", r.as_str())
-                },
+                reason("holding the last believed estimate", *r, why),
             ),
+            Status::PassThrough(r) => (DiagnosticLevel::Warn, reason("passing through", *r, why)),
         };
         let c = &self.counts;
         let f = |x: f64| format!("{x:.6}");
@@ -375,9 +412,11 @@ impl Answers {
         let mut values: Vec<(String, String)> = vec![
             ("commands".into(), c.commands.to_string()),
             ("passed_through".into(), c.passed.to_string()),
+            ("held".into(), c.held.to_string()),
             ("unreadable_commands".into(), c.unreadable.to_string()),
             ("slowest_answer_s".into(), f(c.slowest)),
             ("wheel_separation_m".into(), f(s)),
+            ("scheduling".into(), self.scheduling.describe()),
         ];
         if let Some(m) = self.compensator.applied() {
             if let Some(n) = correction(m, s, 0.0, 0.0) {
@@ -401,6 +440,15 @@ impl Answers {
     }
 }
 
+/// `what`, why (`r`) and its detail (`why`, may be empty).
+fn reason(what: &str, r: PassReason, why: &str) -> String {
+    if why.is_empty() {
+        format!("{what}: {}", r.as_str())
+    } else {
+        format!("{what}: {}: {why}", r.as_str())
+    }
+}
+
 /// The desired twist of a command (REP-103 body frame).
 fn desired(m: &TwistMsg) -> Twist {
     Twist {
@@ -415,7 +463,9 @@ fn desired(m: &TwistMsg) -> Twist {
 /// command's stamp and frame, or now and `base_frame` when it had none.
 fn reply(m: &TwistMsg, twist: Twist, status: Status, base_frame: &str) -> TwistMsg {
     let mut out = match status {
-        Status::Compensating | Status::PassThrough(PassReason::NonFiniteCommand) => TwistMsg {
+        Status::Compensating
+        | Status::Holding(_)
+        | Status::PassThrough(PassReason::NonFiniteCommand) => TwistMsg {
             linear: [twist.v_x, 0.0, 0.0],
             angular: [0.0, 0.0, twist.omega],
             ..m.clone()
@@ -488,16 +538,18 @@ mod tests {
             cmd_in_stamped: false,
             cmd_out_stamped: false,
             wheel_separation: None,
+            wheel_separation_multiplier: 1.0,
             max_speed: None,
             max_yaw_rate: None,
             max_acceleration: None,
             max_yaw_acceleration: None,
             correction_rate: 0.5,
-            engage_after: 2.0,
+            engage_after: 0.0,
             max_correction: 2.0,
             cmd_timeout: 0.5,
             confident_spread_std: 0.05,
             hold_after_change: 3.0,
+            thread_priority: 50,
         };
         a.apply("compensate", &toml::Value::Boolean(true)).unwrap();
         a.apply("max_speed", &toml::Value::Integer(1)).unwrap();
@@ -506,6 +558,19 @@ mod tests {
         let e = a.apply("max_speed", &toml::Value::String("fast".into()));
         assert!(format!("{:#}", e.unwrap_err()).contains("max_speed"));
         let cfg = a.config(0.55).unwrap();
+        // The controller's model: its wheel_separation times its multiplier.
+        assert_eq!(a.controller_separation(0.55), 0.55);
+        a.apply("wheel_separation_multiplier", &toml::Value::Float(1.5))
+            .unwrap();
+        a.apply("wheel_separation", &toml::Value::Float(0.6))
+            .unwrap();
+        assert!((a.controller_separation(0.55) - 0.9).abs() < 1e-12);
+        a.apply("thread_priority", &toml::Value::Integer(80))
+            .unwrap();
+        assert_eq!(a.thread_priority, 80);
+        assert!(a
+            .apply("thread_priority", &toml::Value::Integer(100))
+            .is_err());
         assert_eq!((cfg.max_speed, cfg.max_acceleration), (1.0, f64::INFINITY));
         a.correction_rate = -1.0;
         assert!(format!("{:#}", a.config(0.55).unwrap_err()).contains("max_correction_rate"));
@@ -513,6 +578,8 @@ mod tests {
         for p in PARAMS {
             let v = if p.contains("stamped") || p == "compensate" {
                 toml::Value::Boolean(true)
+            } else if p == "thread_priority" {
+                toml::Value::Integer(10)
             } else {
                 toml::Value::Float(1.0)
             };

@@ -40,6 +40,14 @@ fn an_antenna_off_the_axle_unstated_and_unlearned_is_read_as_x_c() {
     let run = estimate(false);
     assert!(run.final_icr.x_c.abs() > 0.2, "{:?}", run.final_icr);
     assert_eq!(run.lever_arm.source, "config");
+    // ... and the run says what to state, not only that x_c is odd.
+    assert!(
+        run.warnings
+            .iter()
+            .any(|w| w.contains("x_c ended at") && w.contains("[pose] lever_arm")),
+        "{:?}",
+        run.warnings
+    );
 }
 
 #[test]
@@ -49,6 +57,11 @@ fn a_stated_lever_arm_keeps_x_c_at_its_value() {
         (run.final_icr.x_c - TRUE_X_C).abs() < 0.05,
         "{:?}",
         run.final_icr
+    );
+    assert!(
+        !run.warnings.iter().any(|w| w.contains("[pose] lever_arm")),
+        "{:?}",
+        run.warnings
     );
     assert_eq!(run.lever_arm.source, "stated");
     assert_eq!((run.lever_arm.x, run.lever_arm.y), (0.3, 0.0));

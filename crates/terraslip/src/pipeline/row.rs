@@ -144,3 +144,25 @@ impl BandCounts {
             .collect()
     }
 }
+
+/// The warning for a run whose `x_c` (m) ends near its limit with
+/// position fixes fused (`positions`) and no lever arm stated: a pose
+/// reference off the axle reads as `x_c`, since a point `l` ahead of the
+/// axle moves sideways at ω·(l − x_c) and the fixes tell only the
+/// difference; the warning says where to state it.
+pub(super) fn off_axle_hint(
+    x_c: f64,
+    band: &IcrBand,
+    stated: bool,
+    positions: usize,
+) -> Option<String> {
+    (!stated && positions > 0 && band.max_x_c > 0.0 && x_c.abs() >= 0.8 * band.max_x_c).then(|| {
+        format!(
+            "x_c ended at {x_c:+.3} m, near its limit (±{:.3} m): a pose reference off the wheel axle reads as x_c \
+             (the fixes tell only the difference of the two); if it is not on the axle, state where it sits: \
+             `[pose] lever_arm = [x, y]` (m, base frame) in a --topics file, `[pose] lever_arm_x`, `lever_arm_y` \
+             in meta.toml, or the bag's /tf_static",
+            band.max_x_c
+        )
+    })
+}

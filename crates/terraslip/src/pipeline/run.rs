@@ -251,6 +251,12 @@ pub(super) fn finish(
     );
     let band = cfg.band(track_width);
     warnings.extend(totals.band.warnings(totals.rows));
+    warnings.extend(super::row::off_axle_hint(
+        f.icr().x_c,
+        &band,
+        log.meta.pose.is_some(),
+        totals.positions,
+    ));
     if !totals.moved {
         warnings.push(format!(
             "{dir}: the robot never moves (all tread speeds below {} m/s): the ICRs are unobservable and stay at their initial values",

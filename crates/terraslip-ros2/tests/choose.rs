@@ -7,7 +7,7 @@ use std::f64::consts::PI;
 use std::path::Path;
 
 use terraslip_ros2::defs::definition_of;
-use terraslip_ros2::msg::CdrWriter;
+use terraslip_ros2::msg::{build, CdrWriter};
 use terraslip_ros2::out::EstimateMcap;
 use terraslip_ros2::{import, ImportReport, TopicsConfig};
 
@@ -67,26 +67,14 @@ fn write(p: &Path, odoms: &[Odom], js: Option<Js>, poses: &[(&str, u64)]) {
             fix = [0.3 * (t * 1.7).sin(), 0.3 * (t * 2.3).cos()];
         }
         for (o, &c) in odoms.iter().zip(&oc) {
-            let mut w = CdrWriter::new();
-            w.header(ns, o.1).string("base_link");
             let (px, py, var) = if o.3 {
                 (x + fix[0], y + fix[1], 0.01 + 0.005 * (t % 2.0))
             } else {
                 (x, y, 0.01 + 0.005 * t)
             };
-            for c in [px, py, 0.0, 0.0, 0.0, (yaw / 2.0).sin(), (yaw / 2.0).cos()] {
-                w.f64(c);
-            }
-            for k in 0..36 {
-                w.f64(if k == 0 || k == 7 { var } else { 0.0 });
-            }
-            for c in [v, o.2 * wz, 0.0, 0.0, 0.0, wz] {
-                w.f64(c);
-            }
-            for _ in 0..36 {
-                w.f64(0.0);
-            }
-            m.write(c, ns, &w.finish()).unwrap();
+            let twist = [v, o.2 * wz, 0.0, 0.0, 0.0, wz];
+            let msg = build::odometry(ns, o.1, [px, py, yaw], var, twist, 0.0);
+            m.write(c, ns, &msg).unwrap();
         }
         if let (Some(j), Some(c)) = (js, jc) {
             let jit = (j.jitter_s * 1e9 * (((i * 7919) % 13) as f64 / 6.0 - 1.0)) as i64;
@@ -103,23 +91,15 @@ fn write(p: &Path, odoms: &[Odom], js: Option<Js>, poses: &[(&str, u64)]) {
                     a
                 }
             };
-            let mut w = CdrWriter::new();
-            w.header(stamp, "");
-            w.u32(2).string(j.names[0]).string(j.names[1]);
-            if j.position {
-                w.u32(2).f64(wrap(ql)).f64(wrap(qr));
-            } else {
-                w.u32(0);
-            }
-            if j.velocity {
-                w.u32(2)
-                    .f64((v - wz * SEP / 2.0) / R)
-                    .f64((v + wz * SEP / 2.0) / R);
-            } else {
-                w.u32(0);
-            }
-            w.u32(0);
-            m.write(c, ns, &w.finish()).unwrap();
+            let position = [wrap(ql), wrap(qr)];
+            let velocity = [(v - wz * SEP / 2.0) / R, (v + wz * SEP / 2.0) / R];
+            let msg = build::joint_state(
+                stamp,
+                &j.names,
+                if j.position { &position } else { &[] },
+                if j.velocity { &velocity } else { &[] },
+            );
+            m.write(c, ns, &msg).unwrap();
         }
         for (p, &c) in poses.iter().zip(&pc) {
             if i % p.1 == 0 {

@@ -353,15 +353,22 @@ fn a_filters_odometry_is_told_by_its_covariance_and_its_jumps() {
 /// warning that names the evidence; a wheel odometry alone gets none.
 #[test]
 fn a_filters_odometry_taken_as_the_only_wheel_source_is_warned_about() {
-    let (log, report) = imported(&[("/odom2", "odom", 0.0, true)], None, &[]).unwrap();
-    let text = report.to_text();
-    assert!(!log.wheels.is_empty(), "{text}");
-    let w = report
-        .warnings
-        .iter()
-        .find(|w| w.contains("/odom2") && w.contains("filter"))
-        .unwrap_or_else(|| panic!("{text}"));
-    assert!(w.contains("covariance") && w.contains("jump"), "{w}");
+    // Alone, or the next source after a JointState that gives nothing.
+    let empty = Js {
+        names: ["wheel_left_joint", "wheel_right_joint"],
+        ..Default::default()
+    };
+    for js in [None, Some(empty)] {
+        let (log, report) = imported(&[("/odom2", "odom", 0.0, true)], js, &[]).unwrap();
+        let text = report.to_text();
+        assert!(!log.wheels.is_empty(), "{text}");
+        let w = report
+            .warnings
+            .iter()
+            .find(|w| w.contains("/odom2") && w.contains("filter"))
+            .unwrap_or_else(|| panic!("{text}"));
+        assert!(w.contains("covariance") && w.contains("jump"), "{w}");
+    }
     let (_, report) = imported(&[("/odom2", "odom", 0.0, false)], None, &[]).unwrap();
     assert!(
         report.warnings.iter().all(|w| !w.contains("filter")),

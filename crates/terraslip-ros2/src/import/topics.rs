@@ -217,7 +217,7 @@ fn warn_if_filter(bag: &Bag, i: usize, d: &mut Decide) {
     let signs = d.evidence.filter_signs(bag, i);
     if twist && !signs.is_empty() {
         d.warnings.push(format!(
-            "the wheels source {} looks like a filter's output ({}); it is the only candidate, so it is used: name the drive controller's odometry or the wheel joints in a --topics file if the bag has them under other types",
+            "the wheels source {} looks like a filter's output ({}): its tread speeds carry the filter's corrections; it is used as the only candidate (`[wheels] topic = \"...\"` in a --topics file names the drive's own odometry or joint states if the robot publishes them)",
             bag.topics[i].name,
             signs.join(", ")
         ));

@@ -7,7 +7,7 @@ use std::f64::consts::PI;
 use std::path::Path;
 
 use terraslip_ros2::defs::definition_of;
-use terraslip_ros2::msg::CdrWriter;
+use terraslip_ros2::msg::{build, CdrWriter};
 use terraslip_ros2::out::EstimateMcap;
 use terraslip_ros2::{import, ImportReport, TopicsConfig};
 
@@ -24,8 +24,10 @@ fn motion(t: f64) -> (f64, f64) {
     )
 }
 
-/// An odometry topic: name, frame, lateral velocity per yaw rate.
-type Odom = (&'static str, &'static str, f64);
+/// An odometry topic: name, frame, lateral velocity per yaw rate, and
+/// whether it behaves as a filter fusing fixes (every 2 s its pose
+/// covariance shrinks and its pose jumps by a correction).
+type Odom = (&'static str, &'static str, f64, bool);
 
 #[derive(Clone, Copy, Default)]
 struct Js {
@@ -49,6 +51,8 @@ fn write(p: &Path, odoms: &[Odom], js: Option<Js>, poses: &[(&str, u64)]) {
         .map(|p| ch(p.0, "geometry_msgs/msg/PoseStamped"))
         .collect();
     let (mut ql, mut qr, mut last) = (3.0f64, -1.0f64, 0u64);
+    // The wheels' integral (x, y, yaw) and a filter's correction of it.
+    let (mut x, mut y, mut yaw, mut fix) = (0.0f64, 0.0f64, 0.0f64, [0.0f64; 2]);
     let dt = 1.0 / HZ as f64;
     for i in 0..60 * HZ {
         let t = i as f64 * dt;
@@ -56,19 +60,21 @@ fn write(p: &Path, odoms: &[Odom], js: Option<Js>, poses: &[(&str, u64)]) {
         let (v, wz) = motion(t);
         ql += dt * (v - wz * SEP / 2.0) / R;
         qr += dt * (v + wz * SEP / 2.0) / R;
+        x += dt * v * yaw.cos();
+        y += dt * v * yaw.sin();
+        yaw += dt * wz;
+        if i % (2 * HZ) == 0 && i > 0 {
+            fix = [0.3 * (t * 1.7).sin(), 0.3 * (t * 2.3).cos()];
+        }
         for (o, &c) in odoms.iter().zip(&oc) {
-            let mut w = CdrWriter::new();
-            w.header(ns, o.1).string("base_link");
-            for k in 0..7 + 36 {
-                w.f64(if k == 6 { 1.0 } else { 0.0 });
-            }
-            for c in [v, o.2 * wz, 0.0, 0.0, 0.0, wz] {
-                w.f64(c);
-            }
-            for _ in 0..36 {
-                w.f64(0.0);
-            }
-            m.write(c, ns, &w.finish()).unwrap();
+            let (px, py, var) = if o.3 {
+                (x + fix[0], y + fix[1], 0.01 + 0.005 * (t % 2.0))
+            } else {
+                (x, y, 0.01 + 0.005 * t)
+            };
+            let twist = [v, o.2 * wz, 0.0, 0.0, 0.0, wz];
+            let msg = build::odometry(ns, o.1, [px, py, yaw], var, twist, 0.0);
+            m.write(c, ns, &msg).unwrap();
         }
         if let (Some(j), Some(c)) = (js, jc) {
             let jit = (j.jitter_s * 1e9 * (((i * 7919) % 13) as f64 / 6.0 - 1.0)) as i64;
@@ -85,23 +91,15 @@ fn write(p: &Path, odoms: &[Odom], js: Option<Js>, poses: &[(&str, u64)]) {
                     a
                 }
             };
-            let mut w = CdrWriter::new();
-            w.header(stamp, "");
-            w.u32(2).string(j.names[0]).string(j.names[1]);
-            if j.position {
-                w.u32(2).f64(wrap(ql)).f64(wrap(qr));
-            } else {
-                w.u32(0);
-            }
-            if j.velocity {
-                w.u32(2)
-                    .f64((v - wz * SEP / 2.0) / R)
-                    .f64((v + wz * SEP / 2.0) / R);
-            } else {
-                w.u32(0);
-            }
-            w.u32(0);
-            m.write(c, ns, &w.finish()).unwrap();
+            let position = [wrap(ql), wrap(qr)];
+            let velocity = [(v - wz * SEP / 2.0) / R, (v + wz * SEP / 2.0) / R];
+            let msg = build::joint_state(
+                stamp,
+                &j.names,
+                if j.position { &position } else { &[] },
+                if j.velocity { &velocity } else { &[] },
+            );
+            m.write(c, ns, &msg).unwrap();
         }
         for (p, &c) in poses.iter().zip(&pc) {
             if i % p.1 == 0 {
@@ -153,11 +151,14 @@ fn worst_speed_error(log: &terraslip_io::DriveLog) -> f64 {
 #[test]
 fn a_drive_controllers_odometry_is_chosen_over_a_filters() {
     for (filter, why) in [
-        (("/combined_odom", "combined_odom", 0.0), "combined_odom"),
-        (("/odometry/filtered", "odom", 0.0), "filtered"),
-        (("/fused", "odom", 0.3), "lateral"),
+        (
+            ("/combined_odom", "combined_odom", 0.0, false),
+            "combined_odom",
+        ),
+        (("/odometry/filtered", "odom", 0.0, false), "filtered"),
+        (("/fused", "odom", 0.3, false), "lateral"),
     ] {
-        let (log, report) = imported(&[("/odom", "odom", 0.0), filter], None, &[]).unwrap();
+        let (log, report) = imported(&[("/odom", "odom", 0.0, false), filter], None, &[]).unwrap();
         let text = report.to_text();
         assert!(
             text.contains("/odom (nav_msgs/Odometry) -> wheels.csv"),
@@ -179,7 +180,10 @@ fn a_drive_controllers_odometry_is_chosen_over_a_filters() {
 #[test]
 fn streams_the_evidence_cannot_settle_are_all_listed_at_once() {
     let e = imported(
-        &[("/odom_a", "odom", 0.0), ("/odom_b", "odom", 0.0)],
+        &[
+            ("/odom_a", "odom", 0.0, false),
+            ("/odom_b", "odom", 0.0, false),
+        ],
         None,
         &[("/ref_a", 1), ("/ref_b", 1)],
     )
@@ -194,7 +198,7 @@ fn streams_the_evidence_cannot_settle_are_all_listed_at_once() {
     }
     // A pose topic with a handful of messages (a goal) is not a reference.
     let (_, report) = imported(
-        &[("/odom", "odom", 0.0)],
+        &[("/odom", "odom", 0.0, false)],
         None,
         &[("/ref", 1), ("/goal_pose", 400)],
     )
@@ -214,11 +218,11 @@ fn a_filters_odometry_is_not_the_pose_reference_when_another_is_there() {
         velocity: true,
         ..Default::default()
     };
-    let filtered = ("/odometry/filtered", "odom", 0.0);
-    let truth = ("/ground_truth/odom", "world", 0.0);
+    let filtered = ("/odometry/filtered", "odom", 0.0, false);
+    let truth = ("/ground_truth/odom", "world", 0.0, false);
     for (odoms, wheels) in [
         (vec![filtered, truth], Some(js)),
-        (vec![("/odom", "odom", 0.0), filtered, truth], None),
+        (vec![("/odom", "odom", 0.0, false), filtered, truth], None),
     ] {
         let (log, report) = imported(&odoms, wheels, &[]).unwrap();
         let text = report.to_text();
@@ -297,7 +301,7 @@ fn a_joint_state_that_gives_no_tread_speeds_falls_back_to_the_odometry() {
             ..Default::default()
         },
     ] {
-        let (log, report) = imported(&[("/odom", "odom", 0.0)], Some(js), &[]).unwrap();
+        let (log, report) = imported(&[("/odom", "odom", 0.0, false)], Some(js), &[]).unwrap();
         let text = report.to_text();
         assert!(
             text.contains("/odom (nav_msgs/Odometry) -> wheels.csv"),
@@ -310,4 +314,65 @@ fn a_joint_state_that_gives_no_tread_speeds_falls_back_to_the_odometry() {
         assert!(line.contains("/joint_states"), "{line}");
         assert!(worst_speed_error(&log) < 0.3, "{text}");
     }
+}
+
+/// A filter's odometry with an innocent name and frame (`/odom2`, `odom`,
+/// or even `/odom`) told apart by its data: its pose covariance shrinks and
+/// its pose jumps at the fixes, where the wheels' grows and stays smooth.
+#[test]
+fn a_filters_odometry_is_told_by_its_covariance_and_its_jumps() {
+    for (wheels, filter) in [("/odom", "/odom2"), ("/odom2", "/odom")] {
+        let (log, report) = imported(
+            &[(filter, "odom", 0.0, true), (wheels, "odom", 0.0, false)],
+            None,
+            &[],
+        )
+        .unwrap();
+        let text = report.to_text();
+        assert!(
+            text.contains(&format!("{wheels} (nav_msgs/Odometry) -> wheels.csv")),
+            "{text}"
+        );
+        let line = text
+            .lines()
+            .find(|l| l.starts_with(&format!("decided: wheels from {wheels} ")))
+            .unwrap_or_else(|| panic!("{text}"));
+        assert!(
+            line.contains(filter) && line.contains("covariance") && line.contains("jump"),
+            "{line}"
+        );
+        assert!(worst_speed_error(&log) < 0.3, "{text}");
+        assert!(
+            report.warnings.iter().all(|w| !w.contains("filter")),
+            "{text}"
+        );
+    }
+}
+
+/// The only wheel-source candidate, behaving as a filter, is taken with a
+/// warning that names the evidence; a wheel odometry alone gets none.
+#[test]
+fn a_filters_odometry_taken_as_the_only_wheel_source_is_warned_about() {
+    // Alone, or the next source after a JointState that gives nothing.
+    let empty = Js {
+        names: ["wheel_left_joint", "wheel_right_joint"],
+        ..Default::default()
+    };
+    for js in [None, Some(empty)] {
+        let (log, report) = imported(&[("/odom2", "odom", 0.0, true)], js, &[]).unwrap();
+        let text = report.to_text();
+        assert!(!log.wheels.is_empty(), "{text}");
+        let w = report
+            .warnings
+            .iter()
+            .find(|w| w.contains("/odom2") && w.contains("filter"))
+            .unwrap_or_else(|| panic!("{text}"));
+        assert!(w.contains("covariance") && w.contains("jump"), "{w}");
+    }
+    let (_, report) = imported(&[("/odom2", "odom", 0.0, false)], None, &[]).unwrap();
+    assert!(
+        report.warnings.iter().all(|w| !w.contains("filter")),
+        "{}",
+        report.to_text()
+    );
 }

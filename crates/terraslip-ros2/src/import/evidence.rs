@@ -2,12 +2,14 @@
 //! them apart: a drive controller's or base driver's odometry is the
 //! wheels; a filter's output is not (its name: `filtered`, `combined`,
 //! `ekf`, ...; its frame: `map`, `combined_odom`, ...; a lateral velocity a
-//! wheeled base's odometry never reports). A pose topic with a tenth of
+//! wheeled base's odometry never reports; a pose covariance that shrinks
+//! and a pose that jumps where fixes arrive). A pose topic with a tenth of
 //! the messages of another (a goal, a single fix) is no reference, nor is
 //! a filter's fusion of the robot's own sensors when another is there.
 
 use std::collections::HashMap;
 
+use super::corrections::{yaw, Corrections, OdomSample};
 use super::decoder::Decoder;
 use crate::msg::{short_type, Value};
 use crate::{Bag, Ros2Error};
@@ -19,6 +21,8 @@ pub(super) struct TopicEvidence {
     pub frame: Option<String>,
     /// Mean |lateral velocity| of a twist, m/s.
     pub lateral: Option<f64>,
+    /// An odometry's covariance shrinks and pose jumps.
+    pub corrections: Corrections,
 }
 
 /// Evidence for the topics that were read (by topic index).
@@ -86,6 +90,7 @@ impl Evidence {
         if let Some(l) = e.lateral.filter(|l| *l > LATERAL) {
             signs.push(format!("a lateral velocity of {l:.2} m/s on average"));
         }
+        signs.extend(e.corrections.signs());
         signs
     }
 
@@ -115,13 +120,28 @@ impl Evidence {
     }
 }
 
-/// Reads the frame and lateral velocity of topics `idx` (twists and poses)
-/// in one pass over the bag.
+/// The fields of an odometry its corrections are read from.
+const ODOM: &[&str] = &[
+    "?twist.twist.linear.y",
+    "?twist.twist.linear.x",
+    "?pose.pose.position.x",
+    "?pose.pose.position.y",
+    "?pose.pose.orientation.x",
+    "?pose.pose.orientation.y",
+    "?pose.pose.orientation.z",
+    "?pose.pose.orientation.w",
+    "?pose.covariance",
+    "?header.stamp.sec",
+    "?header.stamp.nanosec",
+];
+
+/// Reads the frame, lateral velocity and (of an odometry) corrections of
+/// topics `idx` (twists and poses) in one pass over the bag.
 pub(super) fn gather(bag: &mut Bag, idx: &[usize]) -> Result<Evidence, Ros2Error> {
     let mut decs: HashMap<usize, Decoder> = HashMap::new();
     for &i in idx {
         let lateral: &[&'static str] = match short_type(&bag.topics[i].ty).as_str() {
-            "nav_msgs/Odometry" => &["?twist.twist.linear.y"],
+            "nav_msgs/Odometry" => ODOM,
             "geometry_msgs/TwistStamped" => &["?twist.linear.y"],
             _ => &[],
         };
@@ -142,6 +162,9 @@ pub(super) fn gather(bag: &mut Bag, idx: &[usize]) -> Result<Evidence, Ros2Error
                 e.frame = Some(f.clone());
             }
         }
+        if let Some(o) = odom_sample(d, &v, m.recv_ns) {
+            e.corrections.add(o);
+        }
         let y = d
             .f(&v, "twist.twist.linear.y")
             .or_else(|| d.f(&v, "twist.linear.y"));
@@ -158,4 +181,32 @@ pub(super) fn gather(bag: &mut Bag, idx: &[usize]) -> Result<Evidence, Ros2Error
         }
     }
     Ok(ev)
+}
+
+/// An odometry message's pose, twist and position variance (`None`: not an
+/// odometry, or no finite pose).
+fn odom_sample(d: &Decoder, v: &Value, recv_ns: u64) -> Option<OdomSample> {
+    let f = |name: &str| d.f(v, name).filter(|x| x.is_finite());
+    let t = match (f("header.stamp.sec"), f("header.stamp.nanosec")) {
+        (Some(s), Some(n)) if s != 0.0 || n != 0.0 => s + n * 1e-9,
+        _ => recv_ns as f64 * 1e-9,
+    };
+    let var = match d.get(v, "pose.covariance") {
+        Some(Value::Nums(c)) if c.len() == 36 => Some(c[0] + c[7]).filter(|x| x.is_finite()),
+        _ => None,
+    };
+    Some(OdomSample {
+        t,
+        x: f("pose.pose.position.x")?,
+        y: f("pose.pose.position.y")?,
+        yaw: yaw(
+            f("pose.pose.orientation.x")?,
+            f("pose.pose.orientation.y")?,
+            f("pose.pose.orientation.z")?,
+            f("pose.pose.orientation.w")?,
+        ),
+        vx: f("twist.twist.linear.x")?,
+        vy: f("twist.twist.linear.y").unwrap_or(0.0),
+        var,
+    })
 }

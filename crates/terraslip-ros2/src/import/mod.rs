@@ -11,6 +11,7 @@
 //! was made.
 
 mod config;
+mod corrections;
 mod course;
 mod decoder;
 mod evidence;
@@ -160,6 +161,7 @@ pub fn import_bag(
             .into_iter()
             .chain([scale_line])
             .collect(),
+        warnings: std::mem::take(&mut decide.warnings),
         ..Default::default()
     };
     if let Some(s) = &sep_scale {
@@ -354,6 +356,7 @@ pub fn import_bag(
                 ),
             );
             report.decisions.splice(1..1, d.decisions);
+            report.warnings.splice(0..0, d.warnings);
             return Ok((log, report, settled));
         }
         return Err(Ros2Error::Bag {
@@ -481,9 +484,10 @@ fn choose_streams(
     })
 }
 
-/// The evidence for choosing among several odometries, twists or poses:
-/// read (one pass over those topics) only when some stream has more than
-/// one candidate.
+/// The evidence for choosing among several odometries, twists or poses,
+/// and for warning of a filter's odometry taken as the wheels: read (one
+/// pass over those topics) when the bag has an odometry or twist, or
+/// several poses.
 fn topic_evidence(bag: &mut Bag) -> Result<evidence::Evidence, Ros2Error> {
     let twists = wheel_twists(bag, &[]);
     let poses = topics::candidates(
@@ -494,7 +498,7 @@ fn topic_evidence(bag: &mut Bag) -> Result<evidence::Evidence, Ros2Error> {
         ],
         &[],
     );
-    if twists.len() < 2 && poses.len() < 2 {
+    if twists.is_empty() && poses.len() < 2 {
         return Ok(Default::default());
     }
     let all: Vec<usize> = twists.into_iter().chain(poses).collect();

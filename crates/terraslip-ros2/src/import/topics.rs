@@ -13,6 +13,9 @@ pub(super) struct Decide {
     pub evidence: Evidence,
     pub decisions: Vec<String>,
     pub ambiguous: Vec<String>,
+    /// Choices taken against some evidence (the only candidate behaves as
+    /// it should not).
+    pub warnings: Vec<String>,
 }
 
 impl Decide {
@@ -103,6 +106,9 @@ pub(super) fn wheel_twists(bag: &Bag, taken: &[usize]) -> Vec<usize> {
 /// One of candidates `c` (not empty) for `role`, from the evidence.
 pub(super) fn decide(bag: &Bag, role: Role, c: &[usize], d: &mut Decide) -> usize {
     if c.len() == 1 {
+        if role == Role::Wheels {
+            warn_if_filter(bag, c[0], d);
+        }
         return c[0];
     }
     let key = role.key();
@@ -127,18 +133,10 @@ pub(super) fn decide(bag: &Bag, role: Role, c: &[usize], d: &mut Decide) -> usiz
             filters
                 .into_iter()
                 .map(|(i, mut why)| {
-                    if why.is_empty()
-                        && own.len() > 1
-                        && wheel_like.len() == 1
-                        && wheel_like[0] != i
-                    {
-                        why.push("its name is no drive controller's or base driver's".into());
-                    }
-                    if why.iter().any(|w| w.starts_with("its name says"))
-                        || why.iter().any(|w| w.starts_with("its frame"))
-                        || why.iter().any(|w| w.starts_with("a lateral"))
-                    {
+                    if !why.is_empty() {
                         why.insert(0, "a filter's output".into());
+                    } else if own.len() > 1 && wheel_like.len() == 1 && wheel_like[0] != i {
+                        why.push("its name is no drive controller's or base driver's".into());
                     }
                     (i, why)
                 })
@@ -210,6 +208,20 @@ pub(super) fn decide(bag: &Bag, role: Role, c: &[usize], d: &mut Decide) -> usiz
             .join(" or ")
     ));
     pool[0]
+}
+
+/// Warns when `i`, the only wheel-source candidate, is an odometry or twist
+/// showing a filter's signs: its tread speeds carry the filter's fusion.
+fn warn_if_filter(bag: &Bag, i: usize, d: &mut Decide) {
+    let twist = candidates(bag, Role::Wheels.types()[1], &[]).contains(&i);
+    let signs = d.evidence.filter_signs(bag, i);
+    if twist && !signs.is_empty() {
+        d.warnings.push(format!(
+            "the wheels source {} looks like a filter's output ({}): its tread speeds carry the filter's corrections; it is used as the only candidate (`[wheels] topic = \"...\"` in a --topics file names the drive's own odometry or joint states if the robot publishes them)",
+            bag.topics[i].name,
+            signs.join(", ")
+        ));
+    }
 }
 
 pub(super) fn list(bag: &Bag, idx: &[usize]) -> String {

@@ -10,6 +10,7 @@
 
 use std::collections::HashMap;
 
+pub mod build;
 mod decode;
 mod parse;
 mod write;

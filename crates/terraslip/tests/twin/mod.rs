@@ -7,7 +7,7 @@ use std::f64::consts::PI;
 use std::path::Path;
 
 use terraslip_ros2::defs::definition_of;
-use terraslip_ros2::msg::CdrWriter;
+use terraslip_ros2::msg::{build, CdrWriter};
 use terraslip_ros2::out::EstimateMcap;
 
 pub const T0: u64 = 1_700_000_000_000_000_000;
@@ -62,23 +62,6 @@ pub struct Twin {
 
 pub const WHEEL_R: f64 = 0.033;
 
-pub fn odom_msg(w: &mut CdrWriter, ns: u64, o: &Odom, pose: (f64, f64, f64), v: f64, wz: f64) {
-    w.header(ns, o.frame).string("base_link");
-    let (sz, cz) = (pose.2 / 2.0).sin_cos();
-    for c in [pose.0, pose.1, 0.0, 0.0, 0.0, sz, cz] {
-        w.f64(c);
-    }
-    for k in 0..36 {
-        w.f64(if k % 7 == 0 { 0.01 } else { 0.0 });
-    }
-    for c in [v, o.lateral * wz, 0.0, 0.0, 0.0, wz * o.yaw_scale] {
-        w.f64(c);
-    }
-    for k in 0..36 {
-        w.f64(if k % 7 == 0 { 0.01 } else { 0.0 });
-    }
-}
-
 pub fn write_twin(p: &Path, k: &Twin) {
     let mut m = EstimateMcap::create(p).unwrap();
     let ch = |m: &mut EstimateMcap, topic: &str, ty: &str| {
@@ -114,9 +97,9 @@ pub fn write_twin(p: &Path, k: &Twin) {
         ql += dt * (v - wz * sep / 2.0) / WHEEL_R;
         qr += dt * (v + wz * sep / 2.0) / WHEEL_R;
         for (o, &c) in k.odoms.iter().zip(&odoms) {
-            let mut w = CdrWriter::new();
-            odom_msg(&mut w, ns, o, (x, y, yaw), v, wz);
-            m.write(c, ns, &w.finish()).unwrap();
+            let twist = [v, o.lateral * wz, 0.0, 0.0, 0.0, wz * o.yaw_scale];
+            let msg = build::odometry(ns, o.frame, [x, y, yaw], 0.01, twist, 0.01);
+            m.write(c, ns, &msg).unwrap();
         }
         if let (Some(c), Some(j)) = (js, k.joints) {
             let jit = (j.jitter * 1e9 * ((i * 7919 % 13) as f64 / 6.0 - 1.0)) as i64;
@@ -133,23 +116,18 @@ pub fn write_twin(p: &Path, k: &Twin) {
                     a
                 }
             };
-            let mut w = CdrWriter::new();
-            w.header(stamp, "");
-            w.u32(2).string(j.left).string(j.right);
-            if j.position {
-                w.u32(2).f64(wrap(ql)).f64(wrap(qr));
-            } else {
-                w.u32(0);
-            }
-            if j.velocity {
-                w.u32(2)
-                    .f64((v - wz * sep / 2.0) / WHEEL_R)
-                    .f64((v + wz * sep / 2.0) / WHEEL_R);
-            } else {
-                w.u32(0);
-            }
-            w.u32(0);
-            m.write(c, ns, &w.finish()).unwrap();
+            let position = [wrap(ql), wrap(qr)];
+            let velocity = [
+                (v - wz * sep / 2.0) / WHEEL_R,
+                (v + wz * sep / 2.0) / WHEEL_R,
+            ];
+            let msg = build::joint_state(
+                stamp,
+                &[j.left, j.right],
+                if j.position { &position } else { &[] },
+                if j.velocity { &velocity } else { &[] },
+            );
+            m.write(c, ns, &msg).unwrap();
         }
         if let Some(c) = imu {
             let mut w = CdrWriter::new();

@@ -202,6 +202,24 @@ fn import(
     )
 }
 
+/// `bag` imported into `dir` with `cfg`: with no topics file, deciding from
+/// the first window of the recording, as `terraslip node` decides from its
+/// warm-up ([`crate::pipeline::warmup::WarmUp::default_window`]).
+#[cfg(feature = "ros2")]
+pub fn import_deciding(
+    bag: &Path,
+    topics: &Topics,
+    cfg: &terraslip_ros2::TopicsConfig,
+    dir: &Path,
+) -> Result<(DriveLog, terraslip_ros2::ImportReport), terraslip_ros2::Ros2Error> {
+    if topics.is_given() {
+        terraslip_ros2::import(bag, cfg, Some(dir))
+    } else {
+        let window = crate::pipeline::warmup::WarmUp::default_window();
+        terraslip_ros2::import_within(bag, cfg, Some(dir), window)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -246,23 +264,5 @@ mod tests {
             name: "topics".into(),
         };
         assert_eq!(good.config().unwrap().wheels.separation, Some(1.0));
-    }
-}
-
-/// `bag` imported into `dir` with `cfg`: with no topics file, deciding from
-/// the first window of the recording, as `terraslip node` decides from its
-/// warm-up ([`crate::pipeline::warmup::WarmUp::default_window`]).
-#[cfg(feature = "ros2")]
-pub fn import_deciding(
-    bag: &Path,
-    topics: &Topics,
-    cfg: &terraslip_ros2::TopicsConfig,
-    dir: &Path,
-) -> Result<(DriveLog, terraslip_ros2::ImportReport), terraslip_ros2::Ros2Error> {
-    if topics.is_given() {
-        terraslip_ros2::import(bag, cfg, Some(dir))
-    } else {
-        let window = crate::pipeline::warmup::WarmUp::default_window();
-        terraslip_ros2::import_within(bag, cfg, Some(dir), window)
     }
 }

@@ -8,12 +8,13 @@
 
 use std::path::Path;
 
+use terraslip::bag::{import_deciding, Topics};
 use terraslip::config::EstimatorConfig;
 use terraslip::live_streams::{start_width, LiveStreams};
 use terraslip::pipeline::warmup::WarmUp;
 use terraslip::pipeline::{run, EstimateRow, TerrainEvidence, DECISION_SPAN};
 use terraslip_ros2::import::LiveRow;
-use terraslip_ros2::{import_within, Bag, TopicsConfig};
+use terraslip_ros2::{Bag, TopicsConfig};
 
 mod twin;
 use twin::{wheel_odom, write_twin, Joints, Odom, Twin, TB4_URDF};
@@ -63,8 +64,9 @@ fn feed<'a>(
 fn live_against_offline(path: &Path) -> Compared {
     let topics = TopicsConfig::default();
     let cfg = EstimatorConfig::default();
-    let window = WarmUp::default_window();
-    let (log, report) = import_within(path, &topics, None, window).unwrap();
+    // As `estimate` imports a bag given no topics file.
+    let out = tempfile::tempdir().unwrap();
+    let (log, report) = import_deciding(path, &Topics::ByType, &topics, out.path()).unwrap();
     let offline = run(&log, &cfg, &TerrainEvidence::None, None).unwrap();
 
     let mut bag = Bag::open(path).unwrap();

@@ -26,7 +26,7 @@ pub mod out;
 pub mod twist;
 
 pub use bag::{is_bag, Bag, HeldMessage, RawMessage, Topic};
-pub use import::{import, ImportReport, TopicsConfig};
+pub use import::{import, import_within, ImportReport, TopicsConfig};
 
 use std::path::PathBuf;
 

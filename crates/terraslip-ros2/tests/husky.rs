@@ -4,7 +4,7 @@
 mod support;
 
 use support::{husky_db3, husky_mcap};
-use terraslip_ros2::{import, TopicsConfig};
+use terraslip_ros2::{import, import_within, TopicsConfig};
 
 fn cfg() -> TopicsConfig {
     // The heading named: kept without the course check.
@@ -150,4 +150,28 @@ fn the_shipped_recording_reads_as_the_shared_one_in_both_formats() {
         assert_eq!(ra.time_origin_ns, rb.time_origin_ns, "{what}");
         assert_eq!(ra.warnings, rb.warnings, "{what}");
     }
+}
+
+/// Decided from its first 200 s, the Husky recording (395 s) is read whole
+/// with what they settled, and says so; the scale and its source are the
+/// window's. A window longer than the recording decides from all of it,
+/// as [`import`] does.
+#[test]
+fn decided_from_a_first_window_the_whole_recording_is_read() {
+    let m = husky_mcap();
+    let none = TopicsConfig::default();
+    let (whole, rw) = import(&m, &none, None).unwrap();
+    let (win, r) = import_within(&m, &none, None, 200.0).unwrap();
+    assert!(
+        r.decisions[0].starts_with("decided from the first 200 s"),
+        "{:?}",
+        r.decisions
+    );
+    assert!(r.to_text().contains("from the data"), "{}", r.to_text());
+    assert_eq!(win.meta.separation_source.as_deref(), Some("default"));
+    assert_eq!(win.wheels.len(), whole.wheels.len());
+    assert_eq!(win.imu.len(), whole.imu.len());
+    let (long, rl) = import_within(&m, &none, None, 1e6).unwrap();
+    assert_eq!(rl.decisions, rw.decisions);
+    assert_eq!(long.pose.len(), whole.pose.len());
 }

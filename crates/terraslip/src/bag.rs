@@ -135,7 +135,7 @@ fn import(
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "bag".into());
     let dir = temp.path().join(name);
-    let (log, report) = terraslip_ros2::import(bag, &cfg, Some(&dir))?;
+    let (log, report) = import_deciding(bag, topics, &cfg, &dir)?;
     log.write(&dir)?;
     let mut log = read(&dir).map_err(|e| in_bag_terms(&e.to_string(), bag, &dir, &report))?;
     // What the import warned about (skipped messages, mountings) is the
@@ -200,6 +200,24 @@ fn import(
         "{}: a ROS 2 bag; this terraslip was built without the `ros2` feature",
         bag.display()
     )
+}
+
+/// `bag` imported into `dir` with `cfg`: with no topics file, deciding from
+/// the first window of the recording, as `terraslip node` decides from its
+/// warm-up ([`crate::pipeline::warmup::WarmUp::default_window`]).
+#[cfg(feature = "ros2")]
+pub fn import_deciding(
+    bag: &Path,
+    topics: &Topics,
+    cfg: &terraslip_ros2::TopicsConfig,
+    dir: &Path,
+) -> Result<(DriveLog, terraslip_ros2::ImportReport), terraslip_ros2::Ros2Error> {
+    if topics.is_given() {
+        terraslip_ros2::import(bag, cfg, Some(dir))
+    } else {
+        let window = crate::pipeline::warmup::WarmUp::default_window();
+        terraslip_ros2::import_within(bag, cfg, Some(dir), window)
+    }
 }
 
 #[cfg(test)]

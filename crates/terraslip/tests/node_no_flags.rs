@@ -8,12 +8,13 @@
 
 use std::path::Path;
 
+use terraslip::bag::{import_deciding, Topics};
 use terraslip::config::EstimatorConfig;
 use terraslip::live_streams::{start_width, LiveStreams};
 use terraslip::pipeline::warmup::WarmUp;
 use terraslip::pipeline::{run, EstimateRow, TerrainEvidence, DECISION_SPAN};
 use terraslip_ros2::import::LiveRow;
-use terraslip_ros2::{import, Bag, TopicsConfig};
+use terraslip_ros2::{Bag, TopicsConfig};
 
 mod twin;
 use twin::{wheel_odom, write_twin, Joints, Odom, Twin, TB4_URDF};
@@ -63,7 +64,9 @@ fn feed<'a>(
 fn live_against_offline(path: &Path) -> Compared {
     let topics = TopicsConfig::default();
     let cfg = EstimatorConfig::default();
-    let (log, report) = import(path, &topics, None).unwrap();
+    // As `estimate` imports a bag given no topics file.
+    let out = tempfile::tempdir().unwrap();
+    let (log, report) = import_deciding(path, &Topics::ByType, &topics, out.path()).unwrap();
     let offline = run(&log, &cfg, &TerrainEvidence::None, None).unwrap();
 
     let mut bag = Bag::open(path).unwrap();
@@ -220,6 +223,31 @@ fn a_twin_whose_joint_states_carry_no_tread_speeds() {
         c.decided
             .iter()
             .any(|d| d.starts_with("wheels from /odom (") && d.contains("no tread speeds")),
+        "{:?}",
+        c.decided
+    );
+    assert_close(&c);
+}
+
+/// A recording longer than the warm-up whose IMU is remounted (laid on its
+/// side) after it: over the whole recording gravity is tilted, over the
+/// first window it is upright. `estimate` decides the mounting from the
+/// same first window the node decides from, so the two agree.
+#[test]
+fn a_twin_whose_imu_is_remounted_after_the_window() {
+    let window = WarmUp::window(DECISION_SPAN, LAG);
+    let c = twin(&Twin {
+        odoms: vec![wheel_odom("/odom")],
+        imu: Some("/imu"),
+        gyro_scale: 1.0,
+        seconds: 1000,
+        remounted_at: Some(window + 20.0),
+        ..Default::default()
+    });
+    assert!(
+        c.decided
+            .iter()
+            .any(|d| d.contains("mounting from the data") && d.contains("0.4° off")),
         "{:?}",
         c.decided
     );

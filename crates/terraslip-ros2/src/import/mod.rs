@@ -29,6 +29,7 @@ pub mod scale;
 mod settled;
 mod topics;
 mod unphysical;
+mod window;
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -45,6 +46,7 @@ pub use live_choice::{LiveChoice, Settled};
 pub use prior::{controller_model, CONTROLLER_FILE};
 pub use report::{ImportReport, StreamReport};
 pub use unphysical::SkippedMessage;
+pub use window::{import_bag_within, import_within};
 
 use crate::msg::{self, short_type};
 use crate::{Bag, Ros2Error};

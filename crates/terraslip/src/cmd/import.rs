@@ -88,7 +88,8 @@ pub fn run(args: Args) -> Result<()> {
     }
     let mut cfg = super::bag::topics().config()?;
     cfg.strict |= super::bag::strict();
-    let (log, report) = terraslip_ros2::import(bag, &cfg, Some(out))?;
+    let topics = super::bag::topics();
+    let (log, report) = terraslip::bag::import_deciding(bag, topics, &cfg, out)?;
     log.write(out)
         .with_context(|| format!("writing log {}", out.display()))?;
     let json = serde_json::to_string_pretty(&report)?;

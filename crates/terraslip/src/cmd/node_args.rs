@@ -53,7 +53,7 @@ pub struct Args {
     #[arg(long, value_name = "S", default_value_t = 300.0)]
     pub save_every: f64,
     /// Seconds of stamp time a sample waits for earlier ones of other topics.
-    #[arg(long, value_name = "S", default_value_t = 0.3)]
+    #[arg(long, value_name = "S", default_value_t = terraslip::pipeline::warmup::LAG)]
     pub lag: f64,
     /// Track width, m (else `[meta] track_width` of --topics, else the
     /// configuration's `init.default_track_width`).

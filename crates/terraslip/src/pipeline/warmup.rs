@@ -13,6 +13,9 @@ use super::live::{LateCounts, Live, Sample};
 use super::{EstimateRun, PipelineError, RowSink};
 use crate::config::EstimatorConfig;
 
+/// The reorder lag a live run waits by default, s of stamp time.
+pub const LAG: f64 = 0.3;
+
 /// The live estimator, behind its warm-up.
 pub struct WarmUp<'a> {
     name: &'a str,
@@ -72,6 +75,13 @@ impl<'a> WarmUp<'a> {
     /// before it decides: the span, the gyro's look beyond it, and the lag.
     pub fn window(span: f64, lag: f64) -> f64 {
         span + MAX_DELAY + lag
+    }
+
+    /// The window of a warm-up with the node's defaults ([`gyro_delay::SPAN`]
+    /// and [`LAG`]), s: `import` and `estimate` decide from a recording's
+    /// first this many seconds, as the node does.
+    pub fn default_window() -> f64 {
+        Self::window(gyro_delay::SPAN, LAG)
     }
 
     /// Takes a sample and hands `sink` the rows now due; returns the

@@ -58,6 +58,11 @@ pub struct Twin {
     /// turn it less than their speed difference says).
     pub gyro_scale: f64,
     pub urdf: Option<&'static str>,
+    /// Seconds recorded (0: [`SECONDS`]).
+    pub seconds: u64,
+    /// From this time on (s), the IMU lies on its left side (turned 90°
+    /// about its x axis: gravity along +y, the yaw rate about -y).
+    pub remounted_at: Option<f64>,
 }
 
 pub const WHEEL_R: f64 = 0.033;
@@ -87,7 +92,8 @@ pub fn write_twin(p: &Path, k: &Twin) {
     let (mut ql, mut qr) = (1.0f64, -2.0f64);
     let dt = 1.0 / HZ as f64;
     let mut last_js = 0u64;
-    for i in 0..SECONDS * HZ {
+    let seconds = if k.seconds == 0 { SECONDS } else { k.seconds };
+    for i in 0..seconds * HZ {
         let t = i as f64 * dt;
         let ns = T0 + i * (1_000_000_000 / HZ);
         let (v, wz) = motion(t);
@@ -139,13 +145,16 @@ pub fn write_twin(p: &Path, k: &Twin) {
             for _ in 0..9 {
                 w.f64(0.0);
             }
-            for c in [0.0, 0.0, wz * k.gyro_scale] {
+            let side = k.remounted_at.is_some_and(|r| t >= r);
+            // On its side, the sensor's (x, y, z) is the base's (x, -z, y).
+            let on = |[x, y, z]: [f64; 3]| if side { [x, z, -y] } else { [x, y, z] };
+            for c in on([0.0, 0.0, wz * k.gyro_scale]) {
                 w.f64(c);
             }
             for _ in 0..9 {
                 w.f64(0.0);
             }
-            for c in [0.0, v * wz, 9.81] {
+            for c in on([0.0, v * wz, 9.81]) {
                 w.f64(c);
             }
             for _ in 0..9 {

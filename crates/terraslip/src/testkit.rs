@@ -218,3 +218,31 @@ pub fn play_bag(
     .unwrap();
     (live, samples)
 }
+
+/// Live rows against the offline run's, row for row: the median and p99 of
+/// their position differences (m). `shift` (s) moves the live clock onto
+/// the offline one (the two origins differ by whole seconds); panics when
+/// the rows differ in number or time.
+pub fn live_against_offline(
+    live: &[crate::pipeline::EstimateRow],
+    offline: &[crate::pipeline::EstimateRow],
+    shift: f64,
+) -> (f64, f64) {
+    assert_eq!(live.len(), offline.len(), "live and offline rows");
+    let mut gaps: Vec<f64> = live
+        .iter()
+        .zip(offline)
+        .map(|(a, b)| {
+            assert!(
+                (a.t + shift - b.t).abs() < 1e-6,
+                "{} against {}",
+                a.t + shift,
+                b.t
+            );
+            (a.east - b.east).hypot(a.north - b.north)
+        })
+        .collect();
+    gaps.sort_by(f64::total_cmp);
+    let at = |q: f64| gaps[((gaps.len() - 1) as f64 * q).round() as usize];
+    (at(0.5), at(0.99))
+}

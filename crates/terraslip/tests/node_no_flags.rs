@@ -22,11 +22,6 @@ use twin::{wheel_odom, write_twin, Joints, Odom, Twin, TB4_URDF};
 /// The reorder lag the node waits by default, s.
 const LAG: f64 = 0.3;
 
-fn quantile(mut x: Vec<f64>, q: f64) -> f64 {
-    x.sort_by(f64::total_cmp);
-    x[((x.len() - 1) as f64 * q).round() as usize]
-}
-
 /// What the live path said it decided, and its odometry's distance from
 /// the offline estimate's, row for row: median and p99, m.
 struct Compared {
@@ -96,18 +91,11 @@ fn live_against_offline(path: &Path) -> Compared {
     // seconds).
     let shift = (streams.origin_ns().unwrap() as f64 - report.time_origin_ns as f64) * 1e-9;
     assert_eq!(rows.len(), offline.rows.len(), "{decided:?}");
-    let gaps: Vec<f64> = rows
-        .iter()
-        .zip(&offline.rows)
-        .map(|(a, b)| {
-            assert!((a.t + shift - b.t).abs() < 1e-6);
-            (a.east - b.east).hypot(a.north - b.north)
-        })
-        .collect();
+    let (median, p99) = terraslip::testkit::live_against_offline(&rows, &offline.rows, shift);
     Compared {
         decided,
-        median: quantile(gaps.clone(), 0.5),
-        p99: quantile(gaps, 0.99),
+        median,
+        p99,
     }
 }
 

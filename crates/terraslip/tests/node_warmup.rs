@@ -13,11 +13,6 @@ use terraslip_ros2::{import, TopicsConfig};
 const HUSKY_TOML: &str = "[wheels]\nseparation = 1.040625\n[imu]\nmount_rpy_deg = [90, 0, -90]\n\
                           [heading]\ntopic = \"\"\n[meta]\ntrack_width = 0.555\n";
 
-fn quantile(mut x: Vec<f64>, q: f64) -> f64 {
-    x.sort_by(f64::total_cmp);
-    x[((x.len() - 1) as f64 * q).round() as usize]
-}
-
 #[test]
 fn the_husky_recording_played_live_gives_the_estimate_of_the_recording() {
     let Some(path) = terraslip_io::shared::shared_data("ros2/husky_test1_mcap") else {
@@ -48,16 +43,7 @@ fn the_husky_recording_played_live_gives_the_estimate_of_the_recording() {
     // Row for row on the import's clock (the two origins differ by whole
     // seconds).
     let shift = (live_import.origin_ns().unwrap() as f64 - report.time_origin_ns as f64) * 1e-9;
-    assert_eq!(rows.len(), offline.rows.len());
-    let gaps: Vec<f64> = rows
-        .iter()
-        .zip(&offline.rows)
-        .map(|(a, b)| {
-            assert!((a.t + shift - b.t).abs() < 1e-6);
-            (a.east - b.east).hypot(a.north - b.north)
-        })
-        .collect();
-    let (median, p99) = (quantile(gaps.clone(), 0.5), quantile(gaps, 0.99));
+    let (median, p99) = terraslip::testkit::live_against_offline(&rows, &offline.rows, shift);
     eprintln!("live against offline: median {median:.6} m, p99 {p99:.6} m");
     assert!(
         median <= 0.01 && p99 <= 0.10,

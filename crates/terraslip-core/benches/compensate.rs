@@ -6,26 +6,11 @@
 //! docs/figures/compensate.md).
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use terraslip_core::compensate::{CompensateConfig, Compensator, IcrModel};
-use terraslip_core::kinematics::CentripetalSlopes;
-use terraslip_core::{IcrParams, Twist};
+use terraslip_core::Twist;
 
 /// A sandy ground with both turn laws and the centripetal terms.
 fn sand() -> IcrModel {
-    IcrModel {
-        icr: IcrParams {
-            y_l: 0.47,
-            y_r: -0.41,
-            x_c: 0.03,
-            alpha_l: 0.88,
-            alpha_r: 0.93,
-        },
-        spread_law: 0.15,
-        speed_law: -0.05,
-        centripetal: CentripetalSlopes {
-            k_x_speed: 0.04,
-            k_spread_speed: 0.1,
-        },
-    }
+    IcrModel::EXAMPLE_SAND
 }
 
 fn bench(c: &mut Criterion) {

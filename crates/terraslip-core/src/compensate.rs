@@ -442,21 +442,7 @@ mod tests {
 
     /// A sandy ground: wide spread, slow treads, laws of both signs.
     fn sand() -> IcrModel {
-        IcrModel {
-            icr: IcrParams {
-                y_l: 0.47,
-                y_r: -0.41,
-                x_c: 0.03,
-                alpha_l: 0.88,
-                alpha_r: 0.93,
-            },
-            spread_law: 0.15,
-            speed_law: -0.05,
-            centripetal: CentripetalSlopes {
-                k_x_speed: 0.04,
-                k_spread_speed: 0.1,
-            },
-        }
+        IcrModel::EXAMPLE_SAND
     }
 
     fn twist(v_x: f64, omega: f64) -> Twist {

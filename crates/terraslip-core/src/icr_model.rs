@@ -27,6 +27,27 @@ pub struct IcrModel {
     pub centripetal: CentripetalSlopes,
 }
 
+impl IcrModel {
+    /// A sandy ground, for examples, tests and benchmarks: a wide spread
+    /// (0.88 m), slow treads (speed factors 0.88 and 0.93), turn laws of
+    /// both signs and both centripetal terms.
+    pub const EXAMPLE_SAND: Self = Self {
+        icr: IcrParams {
+            y_l: 0.47,
+            y_r: -0.41,
+            x_c: 0.03,
+            alpha_l: 0.88,
+            alpha_r: 0.93,
+        },
+        spread_law: 0.15,
+        speed_law: -0.05,
+        centripetal: CentripetalSlopes {
+            k_x_speed: 0.04,
+            k_spread_speed: 0.1,
+        },
+    };
+}
+
 /// Most steps [`IcrModel::tread_speeds`] takes.
 const MAX_ITERATIONS: usize = 40;
 /// Times a Newton step is halved before a plain fixed-point step is taken.

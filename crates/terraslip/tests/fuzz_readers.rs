@@ -6,7 +6,7 @@
 //!
 //! A plain `cargo test` runs a few hundred cases per target. With
 //! `TERRASLIP_FUZZ_SECS=N` each target keeps generating for N seconds:
-//! `.ci/run` gives each 30 s, and docs/benchmarks.md has the 10-minute run.
+//! `.ci/run` gives each 10 s, and docs/benchmarks.md has the 10-minute run.
 
 use std::fs;
 use std::path::Path;

@@ -30,7 +30,7 @@ use terraslip_node::RosArgs;
 /// the user's state directory) at the end (SIGINT, SIGTERM) and every
 /// --save-every seconds of drive; the next start recalls them from there
 /// (--fresh: not).
-#[derive(clap::Args, Debug)]
+#[derive(clap::Args, Debug, Clone)]
 #[command(after_help = AFTER_HELP)]
 pub struct Args {
     #[command(flatten)]

@@ -85,12 +85,15 @@ pub fn from_ros(v: &ParameterValue) -> Result<Option<toml::Value>, String> {
     }))
 }
 
+/// A callback of ros2-client's parameter store.
+pub type StoreFn = dyn Fn(&str, &ParameterValue) -> Result<(), String> + Send + Sync;
+
 /// What the parameter store calls: the rule, and the action that hands a
 /// taken value to the node's loop once `armed` (the declared values the
 /// store takes at start are not changes).
 pub struct Handlers {
-    pub validator: Box<dyn Fn(&str, &ParameterValue) -> Result<(), String> + Send + Sync>,
-    pub set_action: Box<dyn Fn(&str, &ParameterValue) -> Result<(), String> + Send + Sync>,
+    pub validator: Box<StoreFn>,
+    pub set_action: Box<StoreFn>,
     pub armed: Arc<AtomicBool>,
 }
 

@@ -150,6 +150,14 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
             return commands.map_or(Ok(()), CommandThread::finish);
         }
         std::thread::sleep(Duration::from_secs_f64(args.discovery_wait.max(0.1)));
+        let running = super::node_params::Running {
+            args: &mut args,
+            out: None,
+            graph: &graph,
+            commands: commands.as_ref(),
+            next_save: &mut None,
+        };
+        super::node_params::apply_all(&param_changes, running)?;
         // Topics someone writes, other than ours.
         let found: Vec<GraphTopic> = graph
             .topics()
@@ -243,16 +251,14 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
     let mut last_message: Option<Instant> = None;
     let mut next_save: Option<f64> = None;
     loop {
-        for c in param_changes.take() {
-            let running = super::node_params::Running {
-                args: &mut args,
-                out: &mut out,
-                graph: &graph,
-                commands: commands.as_ref(),
-                next_save: &mut next_save,
-            };
-            super::node_params::apply(&c, running)?;
-        }
+        let running = super::node_params::Running {
+            args: &mut args,
+            out: Some(&mut out),
+            graph: &graph,
+            commands: commands.as_ref(),
+            next_save: &mut next_save,
+        };
+        super::node_params::apply_all(&param_changes, running)?;
         let mut got = false;
         // What every reader holds, put in stamp order before it goes on:
         // after a stall (the warm-up's rows being published) one topic's

@@ -10,7 +10,7 @@
 //! read at start only and not served.
 
 use anyhow::Result;
-use terraslip_node::{Change, Graph, Parameters};
+use terraslip_node::{Change, Changes, Graph, Parameters};
 
 use super::node_args::{apply_node_params, Args, NODE_PARAMS};
 use super::node_compensate::{CommandThread, PARAMS as COMPENSATE_PARAMS};
@@ -177,16 +177,25 @@ fn set(args: &mut Args, name: &str, v: &toml::Value) -> Result<()> {
 /// Where a change takes effect in the running node.
 pub struct Running<'a> {
     pub args: &'a mut Args,
-    pub out: &'a mut Outputs,
+    /// The publishers, once made (before, they are made from `args`).
+    pub out: Option<&'a mut Outputs>,
     pub graph: &'a Graph,
     pub commands: Option<&'a CommandThread>,
     /// When the parameters are next saved (s of stamp time).
     pub next_save: &'a mut Option<f64>,
 }
 
+/// Applies the changes the parameter services took since the last call.
+pub fn apply_all(changes: &Changes, mut run: Running) -> Result<()> {
+    for c in changes.take() {
+        apply(&c, &mut run)?;
+    }
+    Ok(())
+}
+
 /// Applies a change the parameter services took (checked by [`check`]) and
 /// says what changed.
-pub fn apply(c: &Change, run: Running) -> Result<()> {
+fn apply(c: &Change, run: &mut Running) -> Result<()> {
     let (Some(v), was) = (&c.value, value(run.args, &c.name)) else {
         return Ok(());
     };
@@ -196,27 +205,30 @@ pub fn apply(c: &Change, run: Running) -> Result<()> {
     let name = c.name.as_str();
     set(run.args, name, v)?;
     let args = &*run.args;
-    let effect = match name {
-        "save_every" => {
+    let out = run.out.as_deref_mut();
+    let effect = match (name, out) {
+        ("save_every", _) => {
             *run.next_save = None;
             "the next save is this long after the next estimate"
         }
-        "publish_tf" => {
-            run.out.set_publish_tf(run.graph, !args.no_tf)?;
-            "for the next estimate"
+        ("publish_tf", Some(out)) => {
+            out.set_publish_tf(run.graph, !args.no_tf)?;
+            "from the next estimate"
         }
-        "odom_frame" | "base_frame" => {
-            run.out.frames.odom = args.odom_frame.clone();
-            run.out.frames.base = args.base_frame.clone();
-            "for the next estimate"
+        ("odom_frame" | "base_frame", Some(out)) => {
+            out.frames.odom = args.odom_frame.clone();
+            out.frames.base = args.base_frame.clone();
+            "from the next estimate"
         }
-        "confident_spread_std" | "hold_after_change" => {
+        ("confident_spread_std" | "hold_after_change", Some(out)) => {
             let c = &args.compensate;
-            if let Some(b) = run.out.belief.as_mut() {
+            if let Some(b) = out.belief.as_mut() {
                 b.retune(c.confident_spread_std, c.hold_after_change);
             }
             "from the next estimate"
         }
+        ("publish_tf" | "odom_frame" | "base_frame", None) => "from the first estimate",
+        ("confident_spread_std" | "hold_after_change", None) => "from the first estimate",
         _ => "from the next command",
     };
     let commanding = COMPENSATE_PARAMS.contains(&name) || name == "base_frame";

@@ -154,12 +154,23 @@ pub fn check(start: &Args, name: &str, v: Option<&toml::Value>) -> Result<(), St
     if !LIVE.contains(&name) {
         let now = now.map_or("not set".to_string(), |n| n.to_string());
         return Err(format!(
-            "{name} is read at start only (it stays {now}): restart the node with --ros-args -p {name}:={v}; these change while it runs: {}",
+            "{name} is read at start only ({}; it stays {now}): restart the node with --ros-args -p {name}:={v}; these change while it runs: {}",
+            made_from(name),
             LIVE.join(", ")
         ));
     }
     let mut probe = start.clone();
     set(&mut probe, name, v).map_err(|e| format!("{e:#}"))
+}
+
+/// What a parameter read at start only is made into.
+fn made_from(name: &str) -> &'static str {
+    match name {
+        "lag" => "the warm-up window and the reorder buffer are sized from it",
+        "track_width" => "the model starts from it",
+        "gyro_delay" => "the warm-up decides from it",
+        _ => "the command path is made from it",
+    }
 }
 
 /// Sets parameter `name` of `args` to `v` as `--ros-args -p` does, and
@@ -295,6 +306,7 @@ mod tests {
         assert!(e.contains("a bool"), "{e}");
         let e = check(&a, "lag", Some(&Float(1.0))).unwrap_err();
         assert!(e.contains("start only") && e.contains("0.5"), "{e}");
+        assert!(e.contains("reorder buffer"), "{e}");
         let e = check(&a, "track_width", Some(&Float(0.6))).unwrap_err();
         assert!(e.contains("not set"), "{e}");
         let e = check(&a, "save_every", Some(&Float(-1.0))).unwrap_err();

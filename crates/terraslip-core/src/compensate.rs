@@ -272,6 +272,15 @@ impl Compensator {
         &self.cfg
     }
 
+    /// Takes new settings ([`CompensateConfig::validate`]d) from the next
+    /// command on, keeping the model applied, since when it is confident and
+    /// the last command; invalid settings leave the old ones.
+    pub fn set_config(&mut self, cfg: CompensateConfig) -> Result<(), &'static str> {
+        cfg.validate()?;
+        self.cfg = cfg;
+        Ok(())
+    }
+
     /// The model applied now (`None` while passing through).
     pub fn applied(&self) -> Option<&IcrModel> {
         self.applied.as_ref()
@@ -754,6 +763,22 @@ mod tests {
         let r = reached.expect("the correction reaches the second ground's");
         assert!(r > 10.0 + dt, "reached at {r}");
         assert!(c.applied() == Some(&model));
+    }
+
+    #[test]
+    fn new_limits_apply_from_the_next_command() {
+        let mut c = engaged(eager_config(), sand());
+        let fast = Some((sand(), true));
+        assert!(c.command(0.0, twist(2.0, 0.0), fast).twist.v_x > 1.5);
+        let mut cfg = eager_config();
+        cfg.max_speed = 1.0;
+        c.set_config(cfg).unwrap();
+        let limited = c.command(1.0, twist(2.0, 0.0), fast);
+        assert_eq!(limited.status, Status::Compensating);
+        assert!(limited.twist.v_x <= 1.0 + 1e-12, "{limited:?}");
+        cfg.max_speed = -1.0;
+        assert!(c.set_config(cfg).is_err());
+        assert_eq!(c.config().max_speed, 1.0);
     }
 
     #[test]

@@ -24,6 +24,7 @@ use rustdds::{
 };
 
 use crate::env::{DiscoveryRange, RosEnv};
+use crate::params::{Changes, Parameters};
 use crate::NodeError;
 
 /// A message as CDR with its 4-byte encapsulation header (as rosbag2
@@ -159,7 +160,8 @@ pub fn ros_topic(dds_name: &str, dds_ty: &str) -> Option<GraphTopic> {
 /// This process on the ROS 2 graph.
 pub struct Graph {
     participant: DomainParticipant,
-    // Kept for the graph: ROS tools list the node.
+    // Kept for the graph: ROS tools list the node (and its parameter
+    // services stop when it is dropped).
     _context: Context,
     _node: Node,
     subscriber: Subscriber,
@@ -241,8 +243,30 @@ impl Writer {
 }
 
 impl Graph {
-    /// Joins the graph as node `name` in `namespace` (`/` for none).
+    /// Joins the graph as node `name` in `namespace` (`/` for none), with
+    /// no parameter services.
     pub fn join(name: &str, namespace: &str, env: RosEnv) -> Result<Self, NodeError> {
+        Self::join_with(name, namespace, env, None).map(|(g, _)| g)
+    }
+
+    /// Joins the graph as [`Graph::join`] does, serving `params` on the
+    /// parameter services when given; the changes they take.
+    pub fn join_serving(
+        name: &str,
+        namespace: &str,
+        env: RosEnv,
+        params: Parameters,
+    ) -> Result<(Self, Changes), NodeError> {
+        let (graph, changes) = Self::join_with(name, namespace, env, Some(params))?;
+        Ok((graph, changes.expect("parameters were given")))
+    }
+
+    fn join_with(
+        name: &str,
+        namespace: &str,
+        env: RosEnv,
+        params: Option<Parameters>,
+    ) -> Result<(Self, Option<Changes>), NodeError> {
         let dds = |what: &str, e: &dyn std::fmt::Display| NodeError::Dds(format!("{what}: {e}"));
         let mut b = DomainParticipantBuilder::new(env.domain_id);
         if env.range == DiscoveryRange::Localhost {
@@ -253,23 +277,38 @@ impl Graph {
             .map_err(|e| dds("ROS context", &e))?;
         let node_name = NodeName::new(namespace, name)
             .map_err(|e| dds(&format!("node name {namespace}/{name}"), &e))?;
-        let node = context
-            .new_node(node_name, NodeOptions::new().enable_rosout(false))
+        let options = NodeOptions::new()
+            .enable_rosout(false)
+            .start_parameter_services(false);
+        let (options, armed, changes) = match params {
+            Some(p) => {
+                let (o, armed, changes) = crate::params::with_parameters(options, p)?;
+                (o, Some(armed), Some(changes))
+            }
+            None => (options, None, None),
+        };
+        let mut node = context
+            .new_node(node_name, options)
             .map_err(|e| dds("node", &e))?;
+        if let Some(armed) = armed {
+            armed.store(true, std::sync::atomic::Ordering::SeqCst);
+            crate::params::serve(&mut node)?;
+        }
         let subscriber = participant
             .create_subscriber(&TopicQos::Sensor.policies())
             .map_err(|e| dds("subscriber", &e))?;
         let publisher = participant
             .create_publisher(&TopicQos::Reliable.policies())
             .map_err(|e| dds("publisher", &e))?;
-        Ok(Self {
+        let graph = Self {
             participant,
             _context: context,
             _node: node,
             subscriber,
             publisher,
             env,
-        })
+        };
+        Ok((graph, changes))
     }
 
     /// The ROS topics discovered so far with their writers' count (our own

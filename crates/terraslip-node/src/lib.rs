@@ -7,6 +7,7 @@
 //! - [`args`]: `--ros-args` (remaps, parameters, parameter files);
 //! - [`graph`]: the node, discovery, raw CDR readers and writers with
 //!   ROS QoS;
+//! - [`params`]: the node's parameters on the ROS 2 parameter services;
 //! - [`signals`]: SIGINT and SIGTERM as a flag, for a clean shutdown.
 //!
 //! What the node computes lives in `terraslip::pipeline::live` and
@@ -15,10 +16,12 @@
 pub mod args;
 pub mod env;
 pub mod graph;
+pub mod params;
 
 pub use args::RosArgs;
 pub use env::{DiscoveryRange, RosEnv};
 pub use graph::{Graph, GraphTopic, Reader, TopicQos, Wait, Writer};
+pub use params::{Change, Changes, Parameters};
 
 use std::path::PathBuf;
 

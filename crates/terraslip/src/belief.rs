@@ -37,6 +37,14 @@ impl Belief {
         }
     }
 
+    /// Believed from now on when the spread's std is at most
+    /// `max_spread_std` of the spread and no change was detected in the
+    /// last `hold` s (the last change detected is kept).
+    pub fn retune(&mut self, max_spread_std: f64, hold: f64) {
+        self.max_spread_std = max_spread_std;
+        self.hold = hold;
+    }
+
     /// Takes one estimate row (`terrains`: the run's terrain names).
     pub fn row(&mut self, r: &EstimateRow, terrains: &[String]) {
         let unknown_terrain = !terrains.is_empty() && r.terrain.is_none();
@@ -119,5 +127,15 @@ mod tests {
         assert!(b.verdict.is_err());
         b.judge(8.1, 0.0, 0.01, false, false);
         assert!(b.verdict.is_err());
+    }
+
+    #[test]
+    fn retuned_belief_judges_the_next_row_by_the_new_bounds() {
+        let mut b = Belief::new(0.05, 3.0);
+        b.judge(1.0, 1.0, 0.08, true, false);
+        assert!(b.verdict.is_err());
+        b.retune(0.1, 0.5);
+        b.judge(2.0, 1.0, 0.08, false, false);
+        assert_eq!(b.verdict, Ok(()));
     }
 }

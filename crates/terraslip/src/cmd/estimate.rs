@@ -98,7 +98,7 @@ fn parse_window(s: &str) -> Result<(f64, f64), String> {
 /// The estimator's options, as `estimate` and `node` take them (the global
 /// `--topics` aside); the Python package's `terraslip.estimate` takes the
 /// same as keywords (checked by a test below).
-#[derive(clap::Args, Debug)]
+#[derive(clap::Args, Debug, Clone)]
 pub struct EstimatorArgs {
     /// TOML configuration (see `terraslip estimate --print-config` for every
     /// key and its default).

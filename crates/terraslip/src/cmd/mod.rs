@@ -33,6 +33,8 @@ mod node_compensate;
 #[cfg(any(feature = "node", feature = "node-humble"))]
 mod node_outputs;
 #[cfg(any(feature = "node", feature = "node-humble"))]
+mod node_params;
+#[cfg(any(feature = "node", feature = "node-humble"))]
 mod node_state;
 #[cfg(any(feature = "node", feature = "node-humble"))]
 mod realtime;

@@ -4,7 +4,8 @@
 //! published as `estimate --mcap` writes it.
 
 //!
-//! The flags and parameters are [`super::node_args`]'s, the publishers
+//! The flags and parameters are [`super::node_args`]'s (served on the
+//! parameter services by [`super::node_params`]), the publishers
 //! [`super::node_outputs`]'s, `--compensate`'s command path
 //! [`super::node_compensate`]'s.
 
@@ -96,7 +97,12 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
 
     let stop = terraslip_node::signals::Stop::install().context("signal handlers")?;
     let env = RosEnv::from_env()?;
-    let graph = Graph::join(&name, &namespace, env)?;
+    let (graph, param_changes) = Graph::join_serving(
+        &name,
+        &namespace,
+        env,
+        super::node_params::parameters(&args),
+    )?;
     let label = format!(
         "ROS 2 graph (domain {}, {})",
         env.domain_id,
@@ -144,6 +150,14 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
             return commands.map_or(Ok(()), CommandThread::finish);
         }
         std::thread::sleep(Duration::from_secs_f64(args.discovery_wait.max(0.1)));
+        let running = super::node_params::Running {
+            args: &mut args,
+            out: None,
+            graph: &graph,
+            commands: commands.as_ref(),
+            next_save: &mut None,
+        };
+        super::node_params::apply_all(&param_changes, running)?;
         // Topics someone writes, other than ours.
         let found: Vec<GraphTopic> = graph
             .topics()
@@ -237,6 +251,14 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
     let mut last_message: Option<Instant> = None;
     let mut next_save: Option<f64> = None;
     loop {
+        let running = super::node_params::Running {
+            args: &mut args,
+            out: Some(&mut out),
+            graph: &graph,
+            commands: commands.as_ref(),
+            next_save: &mut next_save,
+        };
+        super::node_params::apply_all(&param_changes, running)?;
         let mut got = false;
         // What every reader holds, put in stamp order before it goes on:
         // after a stall (the warm-up's rows being published) one topic's

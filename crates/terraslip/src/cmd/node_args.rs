@@ -30,7 +30,7 @@ use terraslip_node::RosArgs;
 /// the user's state directory) at the end (SIGINT, SIGTERM) and every
 /// --save-every seconds of drive; the next start recalls them from there
 /// (--fresh: not).
-#[derive(clap::Args, Debug)]
+#[derive(clap::Args, Debug, Clone)]
 #[command(after_help = AFTER_HELP)]
 pub struct Args {
     #[command(flatten)]
@@ -99,6 +99,9 @@ parameters lag, save_every, track_width, gyro_delay, odom_frame, base_frame,
 publish_tf (bool) and those of --compensate (compensate, max_speed,
 wheel_separation, ...) set the flags of the same name; any other is a key of
 the TOML configuration (`filter.still_speed` is [filter] still_speed).
+The node's own parameters are also served to `ros2 param list/get/set`:
+save_every, publish_tf, the frames and the compensation's limits change
+while it runs; the others are read at start only.
 
 --compensate reads the desired twist on cmd_vel_nav and answers each with the
 command for the drive controller on cmd_vel (remap both with -r, e.g.

@@ -194,6 +194,8 @@ impl CompensateArgs {
 struct Latest {
     /// The model, whether it is believed (else why not), and when.
     estimate: Option<(IcrModel, Result<(), String>, Instant)>,
+    /// New settings and body frame, not yet taken.
+    retune: Option<(CompensateArgs, String)>,
 }
 
 /// The running command thread.
@@ -277,6 +279,14 @@ impl CommandThread {
         }
     }
 
+    /// Hands over new settings (the controller's separation kept) and the
+    /// body frame, taken before the next command.
+    pub fn retune(&self, args: &CompensateArgs, base_frame: &str) {
+        if let Ok(mut l) = self.latest.lock() {
+            l.retune = Some((args.clone(), base_frame.to_string()));
+        }
+    }
+
     /// Stops answering; the thread's error, if it met one.
     pub fn finish(self) -> Result<()> {
         self.done.store(true, Ordering::Relaxed);
@@ -323,6 +333,7 @@ impl Answers {
         let mut wait = Wait::new().context("event poll")?;
         wait.register(&mut reader, 0).context("event poll")?;
         while !done.load(Ordering::Relaxed) {
+            self.take_retune();
             while let Some((raw, _)) = reader.take()? {
                 self.answer(&raw.0)?;
             }
@@ -336,6 +347,21 @@ impl Answers {
                 .context("event poll")?;
         }
         Ok(())
+    }
+
+    /// Takes the settings handed over by [`CommandThread::retune`].
+    fn take_retune(&mut self) {
+        let Some((args, frame)) = self.latest.lock().ok().and_then(|mut l| l.retune.take()) else {
+            return;
+        };
+        let separation = self.compensator.config().separation;
+        if let Err(e) = args
+            .config(separation)
+            .and_then(|c| self.compensator.set_config(c).map_err(anyhow::Error::msg))
+        {
+            eprintln!("warning: compensation settings not changed: {e:#}");
+        }
+        self.base_frame = frame;
     }
 
     /// The estimate as the compensator takes it, and why it is not

@@ -91,6 +91,20 @@ impl Outputs {
         })
     }
 
+    /// Publishes odom -> base_link on /tf from the next estimate on (`on`),
+    /// or stops; the /tf writer is made when first needed.
+    pub fn set_publish_tf(&mut self, graph: &Graph, on: bool) -> Result<()> {
+        if on && !self.writers.iter().any(|w| w.topic.name == "/tf") {
+            let (name, ty) = OUTPUT_TOPICS[1];
+            self.writers.push(graph.writer(&GraphTopic {
+                name: name.into(),
+                ty: ty.into(),
+            })?);
+        }
+        self.publish_tf = on;
+        Ok(())
+    }
+
     pub fn send(&self, topic: &str, data: Vec<u8>) -> Result<()> {
         if let Some(w) = self.writers.iter().find(|w| w.topic.name == topic) {
             w.write(data)?;

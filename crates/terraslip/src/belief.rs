@@ -125,4 +125,17 @@ mod tests {
         b.judge(8.1, 0.0, 0.01, false, false);
         assert!(b.verdict.is_err());
     }
+
+    #[test]
+    fn by_default_a_detected_change_is_believed_once_the_spread_is_known_again() {
+        let mut b = Belief::default();
+        b.judge(1.0, 1.0, 0.04, false, false);
+        assert_eq!(b.verdict, Ok(()));
+        // The detector's reset leaves the spread unknown ...
+        b.judge(2.0, 1.0, 0.12, true, false);
+        assert!(b.verdict.is_err());
+        // ... until the new ground has taught it again, half a second later.
+        b.judge(2.5, 1.0, 0.04, false, false);
+        assert_eq!(b.verdict, Ok(()));
+    }
 }

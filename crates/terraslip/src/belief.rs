@@ -10,8 +10,13 @@ use crate::pipeline::EstimateRow;
 pub const CONFIDENT_SPREAD_STD: f64 = 0.05;
 
 /// Default time after a detected slip change during which the estimate is
-/// not believed, s (stamp time).
-pub const HOLD_AFTER_CHANGE: f64 = 3.0;
+/// not believed, s (stamp time): none. The detector resets the spread's
+/// uncertainty (to at least a tenth of the spread), so the estimate is not
+/// believed until the data have brought its std back within
+/// [`CONFIDENT_SPREAD_STD`]: the re-learned estimate is taken as soon as
+/// it is known, where a fixed hold kept the model of the old ground
+/// through the first turn on the new one.
+pub const HOLD_AFTER_CHANGE: f64 = 0.0;
 
 /// Whether the live estimate is believed, row by row: the spread known to
 /// within a fraction of itself, no slip change detected for a while, the
@@ -136,6 +141,19 @@ mod tests {
         assert!(b.verdict.is_err());
         b.retune(0.1, 0.5);
         b.judge(2.0, 1.0, 0.08, false, false);
+        assert_eq!(b.verdict, Ok(()));
+    }
+
+    #[test]
+    fn by_default_a_detected_change_is_believed_once_the_spread_is_known_again() {
+        let mut b = Belief::default();
+        b.judge(1.0, 1.0, 0.04, false, false);
+        assert_eq!(b.verdict, Ok(()));
+        // The detector's reset leaves the spread unknown ...
+        b.judge(2.0, 1.0, 0.12, true, false);
+        assert!(b.verdict.is_err());
+        // ... until the new ground has taught it again, half a second later.
+        b.judge(2.5, 1.0, 0.04, false, false);
         assert_eq!(b.verdict, Ok(()));
     }
 }

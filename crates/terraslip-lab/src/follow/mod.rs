@@ -16,6 +16,7 @@ mod table;
 mod world;
 
 use anyhow::Context;
+use terraslip::belief::{Belief, CONFIDENT_SPREAD_STD};
 use terraslip::config::EstimatorConfig;
 use terraslip_core::compensate::CompensateConfig;
 use terraslip_sim::closed_loop::simulate_closed_loop;
@@ -55,6 +56,11 @@ pub struct Args {
     /// before it is applied (the compensator's `engage_after`).
     #[arg(long, default_value_t = CompensateConfig::new(1.0).engage_after)]
     engage_after: f64,
+    /// Live compensation: seconds after a detected slip change during which
+    /// the estimate is not believed (`terraslip node --compensate
+    /// --hold-after-change`).
+    #[arg(long, default_value_t = terraslip::belief::HOLD_AFTER_CHANGE)]
+    hold_after_change: f64,
     /// Live compensation on a drive controller of wheel separation
     /// multiplier 1 (else on the controller of the static variant, whose
     /// multiplier the turn test tuned).
@@ -97,6 +103,8 @@ pub struct Setup<'a> {
     /// The compensator's correction rate (per s) and engage delay (s).
     pub correction_rate: f64,
     pub engage_after: f64,
+    /// Seconds after a detected slip change the estimate is not believed.
+    pub hold_after_change: f64,
     /// Live compensation on a controller of multiplier 1 (else on the
     /// static variant's).
     pub live_on_untuned: bool,
@@ -130,7 +138,8 @@ pub fn run_seed(
                 let mut c = CompensateConfig::new(track_width * m);
                 c.max_correction_rate = setup.correction_rate;
                 c.engage_after = setup.engage_after;
-                Steering::live(c, m)?
+                let belief = Belief::new(CONFIDENT_SPREAD_STD, setup.hold_after_change);
+                Steering::live(c, belief, m)?
             }
         };
         let mut f = Follower::new(
@@ -157,6 +166,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         a.laps
     );
     anyhow::ensure!(a.seeds >= 1, "--seeds: at least 1");
+    anyhow::ensure!(
+        a.hold_after_change.is_finite() && a.hold_after_change >= 0.0,
+        "--hold-after-change {}: finite seconds >= 0",
+        a.hold_after_change
+    );
     anyhow::ensure!(!a.grounds.is_empty(), "--grounds: at least one");
     let (_, cfg) = crate::estimators::resolve(std::slice::from_ref(&a.estimator))?
         .into_iter()
@@ -168,6 +182,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         estimator: &cfg,
         correction_rate: a.correction_rate,
         engage_after: a.engage_after,
+        hold_after_change: a.hold_after_change,
         live_on_untuned: a.live_on_untuned,
     };
     let mut runs = Vec::new();

@@ -27,13 +27,14 @@ pub enum Steering {
 
 impl Steering {
     /// Live compensation with the compensator's settings `cfg` (whose
-    /// `separation` is the controller's: the robot's times `multiplier`)
-    /// to a controller of wheel separation multiplier `multiplier`.
-    pub fn live(cfg: CompensateConfig, multiplier: f64) -> anyhow::Result<Self> {
+    /// `separation` is the controller's: the robot's times `multiplier`),
+    /// the estimate judged by `belief`, to a controller of wheel
+    /// separation multiplier `multiplier`.
+    pub fn live(cfg: CompensateConfig, belief: Belief, multiplier: f64) -> anyhow::Result<Self> {
         let c = Compensator::new(cfg).map_err(|e| anyhow::anyhow!("compensator: {e}"))?;
         Ok(Steering::Live {
             compensator: Box::new(c),
-            belief: Belief::default(),
+            belief,
             multiplier,
         })
     }

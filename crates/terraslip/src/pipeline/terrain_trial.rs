@@ -6,7 +6,7 @@
 //! it held, still learning them). Both are scored by their misfit to the
 //! fixes since the change ([`terraslip_core::estimator::Misfit`]: the slip
 //! the data show). The rows come from the one that fits better so far
-//! (the change while they tie); the change is undone when it fits worse
+//! (the change until it fits worse by [`SHOW_HELD_NIS`]); the change is undone when it fits worse
 //! by [`UNDO_NIS`], or has not fitted better at the end of the trial, and
 //! kept when it fits better by [`KEEP_NIS`].
 //!
@@ -18,7 +18,10 @@ use terraslip_core::ChangeAction;
 /// Excess NIS of the change over the terrain held (summed over the fix
 /// parts since the change) at which the change is undone.
 pub const UNDO_NIS: f64 = 15.0;
-/// Advantage in NIS at which the change is kept.
+/// Advantage in NIS at which the change is kept before the trial ends.
+/// Large: a change that fits is kept to the end of the trial, so that a
+/// recalled set that wanders off later can still be undone (keeping it at
+/// 20 or 40 NIS lost on the simulated worlds).
 pub const KEEP_NIS: f64 = 1000.0;
 /// Excess NIS at which the rows come from the terrain held while the
 /// trial goes on.

@@ -139,6 +139,26 @@ pub struct Estimator {
     gyro: GyroIntegral,
     /// The model's twist error learned at the published horizon.
     twist_noise: TwistNoiseLearner,
+    /// How far the fixes have disagreed with the estimate so far.
+    misfit: Misfit,
+}
+
+/// Largest NIS one fix part adds to [`Misfit::nis`]: a fix far off (an
+/// outlier the gate rejects) counts as a clear disagreement, not as an
+/// unbounded one.
+pub const MISFIT_NIS_CAP: f64 = 25.0;
+
+/// The fixes' disagreement with the estimate accumulated since the start:
+/// the sum of each fused or gated part's normalised innovation squared
+/// (capped at [`MISFIT_NIS_CAP`]), and the number of parts. Two estimators
+/// fed the same fixes compare by the difference of their sums over a
+/// stretch: the one whose slip the fixes bear out has the smaller.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Misfit {
+    /// Sum of the capped NIS, 1.
+    pub nis: f64,
+    /// Fix parts counted.
+    pub parts: u64,
 }
 
 impl Estimator {
@@ -161,7 +181,13 @@ impl Estimator {
             summary: FixSummary::default(),
             gyro: GyroIntegral::default(),
             twist_noise: TwistNoiseLearner::new(),
+            misfit: Misfit::default(),
         }
+    }
+
+    /// The fixes' disagreement with the estimate so far.
+    pub fn misfit(&self) -> Misfit {
+        self.misfit
     }
 
     /// The filter (state, covariance, learned noise).
@@ -405,10 +431,19 @@ impl Estimator {
     fn record(&mut self, rep: &UpdateReport) {
         let c = &mut self.counts;
         let s = &mut self.summary;
-        for (fate, fused, gated) in [
-            (rep.position, &mut c.position_fused, &mut c.position_gated),
-            (rep.yaw, &mut c.yaw_fused, &mut c.yaw_gated),
+        for (fate, fused, gated, nis) in [
+            (
+                rep.position,
+                &mut c.position_fused,
+                &mut c.position_gated,
+                rep.nis_position,
+            ),
+            (rep.yaw, &mut c.yaw_fused, &mut c.yaw_gated, rep.nis_yaw),
         ] {
+            if matches!(fate, Fate::Fused | Fate::Gated) && nis.is_finite() {
+                self.misfit.nis += nis.clamp(0.0, MISFIT_NIS_CAP);
+                self.misfit.parts += 1;
+            }
             match fate {
                 Fate::Fused => {
                     *fused += 1;

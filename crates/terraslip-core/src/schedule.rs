@@ -98,6 +98,10 @@ pub enum ChangeAction {
     Recalled,
     /// Boost and/or reset started for learning.
     Learning,
+    /// A declared change the fixes contradicted was undone: the terrain and
+    /// the slip state held before it are back (set by the terrain evidence's
+    /// trial of a change, not by the schedule).
+    Undone,
 }
 
 #[derive(Debug, Clone, Copy)]

@@ -248,26 +248,63 @@ fn a_weak_classifiers_change_is_declared_where_it_began() {
     }
 }
 
+/// The default estimator on `log` given a classifier's `frames` over
+/// asphalt and grass; its result and the changes it declared `(t, terrain)`.
+fn classified(
+    log: &terraslip_io::DriveLog,
+    frames: Vec<(f64, Vec<f64>)>,
+) -> (terraslip::EstimateRun, Vec<(f64, usize)>) {
+    let ev = TerrainEvidence::Likelihoods {
+        classes: vec!["asphalt".to_string(), "grass".to_string()],
+        frames,
+        changes: Vec::new(),
+    };
+    let run = pipeline::run(log, &EstimatorConfig::default(), &ev, None).unwrap();
+    assert!(all_finite(&run));
+    let declared = run.changes.iter().map(|c| (c.t, c.terrain)).collect();
+    (run, declared)
+}
+
 /// A classifier right at 0.9, a frame every 0.5 s, on grass from 100 s to
 /// 200 s: the belief's filter and vote take a few frames, but each change is
 /// declared at the first frame that reads the new ground.
 #[test]
 fn a_classifiers_change_is_declared_at_the_first_frame_that_reads_it() {
     let log = drive(&SynthSpec::default());
-    let frames = grass_from_100_to_200(0.5, 0.9);
-    let ev = TerrainEvidence::Likelihoods {
-        classes: vec!["asphalt".to_string(), "grass".to_string()],
-        frames,
-        changes: Vec::new(),
-    };
-    let run = pipeline::run(&log, &EstimatorConfig::default(), &ev, None).unwrap();
-    assert!(all_finite(&run));
-    let declared: Vec<(f64, usize)> = run.changes.iter().map(|c| (c.t, c.terrain)).collect();
+    let (run, declared) = classified(&log, grass_from_100_to_200(0.5, 0.9));
     assert_eq!(declared, vec![(0.5, 0), (100.0, 1), (200.0, 0)]);
     // The rows follow: the row just after the change holds the new ground.
     let at = |t: f64| run.rows.iter().find(|r| r.t >= t).unwrap().terrain;
     assert_eq!(at(100.0), Some(1));
     assert_eq!(at(200.0), Some(0));
+}
+
+/// A classifier right at 0.9, a frame every 0.5 s, that reads asphalt as
+/// grass, confidently, from 230 s to 260 s: believed, the grass set would
+/// be recalled on asphalt. The fixes contradict it, so the change is
+/// undone and the estimator goes on with the asphalt it was learning;
+/// the right changes (grass at 100 s, asphalt again at 200 s) are kept.
+#[test]
+fn a_recall_the_fixes_contradict_is_undone() {
+    let log = drive(&SynthSpec::default());
+    let mut frames = grass_from_100_to_200(0.5, 0.9);
+    for (t, p) in &mut frames {
+        if (230.0..260.0).contains(t) {
+            *p = vec![0.1, 0.9];
+        }
+    }
+    let (run, declared) = classified(&log, frames);
+    eprintln!("{declared:?}");
+    let at = |t: f64| run.rows.iter().find(|r| r.t >= t).unwrap();
+    assert_eq!(at(150.0).terrain, Some(1));
+    assert_eq!(at(215.0).terrain, Some(0));
+    // Undone within 15 s of the misread's start, and not taken up again.
+    assert_eq!(at(245.0).terrain, Some(0), "{declared:?}");
+    assert_eq!(at(258.0).terrain, Some(0), "{declared:?}");
+    // The slip the rows hold on asphalt stays asphalt's (spread 0.61 m,
+    // grass 0.73 m).
+    let spread = |t: f64| at(t).y_l - at(t).y_r;
+    assert!((spread(255.0) - 0.61).abs() < 0.03, "{}", spread(255.0));
 }
 
 /// Two calibrated terrain sets, as `terraslip calibrate` writes them.

@@ -20,6 +20,7 @@ mod setup;
 mod start;
 mod terrain_feed;
 mod terrain_onset;
+mod terrain_trial;
 pub mod warmup;
 
 pub use error::PipelineError;

@@ -12,6 +12,7 @@ use terraslip_io::{LogError, PoseObs, WheelSample};
 
 use super::row::{row, BandCounts};
 use super::terrain_feed::TerrainFeed;
+use super::terrain_trial::{Trial, Verdict};
 use super::{pose_fix, EstimateRow, PipelineError, RunOptions, TerrainChange, TerrainEvidence};
 use crate::config::EstimatorConfig;
 
@@ -179,6 +180,8 @@ pub(super) struct Feed<'a> {
     t_prev: Option<f64>,
     /// The parameters and the pose clock offset of the latest row.
     params: Option<Timed>,
+    /// A classifier's change of terrain on trial.
+    trial: Option<Trial>,
 }
 
 impl<'a> Feed<'a> {
@@ -201,6 +204,7 @@ impl<'a> Feed<'a> {
             used: 0,
             t_prev: None,
             params: None,
+            trial: None,
         }
     }
 
@@ -240,6 +244,12 @@ impl<'a> Feed<'a> {
             .advance(estimator, w.t)
             .map_err(|e| self.filter_err(w.t, e))?
         {
+            // The belief moved on: a trial still open ends with the
+            // estimator in use.
+            self.trial = None;
+            if let Some(before) = self.terrain.take_before() {
+                self.trial = Some(Trial::new(before, estimator, c.action));
+            }
             self.changes.push(c);
         }
         Ok(())
@@ -256,9 +266,14 @@ impl<'a> Feed<'a> {
             self.dropped += 1;
             return Ok(());
         }
+        let fix = pose_fix(self.cfg, p);
         estimator
-            .on_pose(p.t, pose_fix(self.cfg, p))
+            .on_pose(p.t, fix)
             .map_err(|e| self.filter_err(p.t, e))?;
+        if let Some(trial) = &mut self.trial {
+            let r = trial.other.on_pose(p.t, fix);
+            r.map_err(|e| self.filter_err(p.t, e))?;
+        }
         self.used += 1;
         Ok(())
     }
@@ -273,6 +288,10 @@ impl<'a> Feed<'a> {
         estimator
             .on_gyro(t, rate)
             .map_err(|e| self.filter_err(t, e))?;
+        if let Some(trial) = &mut self.trial {
+            let r = trial.other.on_gyro(t, rate);
+            r.map_err(|e| self.filter_err(t, e))?;
+        }
         self.totals.outage.gyro(t, rate);
         Ok(())
     }
@@ -290,7 +309,38 @@ impl<'a> Feed<'a> {
         estimator
             .on_wheels(w.t, w.v_left, w.v_right)
             .map_err(|e| self.filter_err(w.t, e))?;
-        let summary = estimator.take_fix_summary();
+        let mut summary = estimator.take_fix_summary();
+        if let Some(mut trial) = self.trial.take() {
+            let r = trial.other.on_wheels(w.t, w.v_left, w.v_right);
+            r.map_err(|e| self.filter_err(w.t, e))?;
+            let other_summary = trial.other.take_fix_summary();
+            let verdict = trial.verdict(estimator);
+            let held = match verdict {
+                Verdict::Open => trial.shows_held(estimator),
+                Verdict::Kept => false,
+                Verdict::Undone => true,
+            };
+            if held != trial.held_in_use {
+                std::mem::swap(estimator, &mut trial.other);
+                trial.held_in_use = held;
+                summary = other_summary;
+                if let Some(k) = estimator.schedule().current() {
+                    self.changes.push(TerrainChange {
+                        t: w.t,
+                        terrain: k,
+                        action: if held {
+                            terraslip_core::ChangeAction::Undone
+                        } else {
+                            trial.action
+                        },
+                    });
+                }
+                self.terrain.current = estimator.schedule().current();
+            }
+            if verdict == Verdict::Open {
+                self.trial = Some(trial);
+            }
+        }
         self.terrain.jump |= summary.change;
         let r = row(estimator, w.t, self.terrain.current, &summary);
         self.params = Some(r.prediction_model);

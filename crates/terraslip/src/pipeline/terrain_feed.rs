@@ -24,6 +24,9 @@ pub(super) struct TerrainFeed<'a> {
     pub jump: bool,
     pub current: Option<usize>,
     names: Vec<String>,
+    /// The estimator as it was before the first change a classifier
+    /// declared in the last [`Self::advance`] (the change goes on trial).
+    before: Option<Estimator>,
 }
 
 impl<'a> TerrainFeed<'a> {
@@ -43,7 +46,15 @@ impl<'a> TerrainFeed<'a> {
             jump: false,
             current: None,
             names: super::setup::terrain_names(evidence),
+            before: None,
         }
+    }
+
+    /// The estimator as it was before the classifier's change the last
+    /// [`Self::advance`] declared (none for labels, or for the first
+    /// terrain of a drive, which has nothing to try it against).
+    pub fn take_before(&mut self) -> Option<Estimator> {
+        self.before.take()
     }
 
     /// Declares to `est` the terrain in effect at `t`; returns the change
@@ -54,6 +65,7 @@ impl<'a> TerrainFeed<'a> {
         t: f64,
     ) -> Result<Option<TerrainChange>, terraslip_core::FilterError> {
         let mut out = None;
+        self.before = None;
         match self.evidence {
             TerrainEvidence::None => {}
             TerrainEvidence::Labels(labels) => {
@@ -97,7 +109,7 @@ impl<'a> TerrainFeed<'a> {
                                 self.next_detection = s.next_detection;
                                 self.looked_to = s.next;
                                 self.jump = false;
-                                let action = est.on_terrain(s.terrain)?;
+                                let action = declare(&mut self.before, est, s.terrain)?;
                                 out = Some(TerrainChange {
                                     t: *tf,
                                     terrain: s.terrain,
@@ -114,7 +126,7 @@ impl<'a> TerrainFeed<'a> {
                         self.next_detection += 1;
                     }
                     if let Some(k) = b.update(p, self.jump) {
-                        let action = est.on_terrain(k)?;
+                        let action = declare(&mut self.before, est, k)?;
                         out = Some(TerrainChange {
                             t: *tf,
                             terrain: k,
@@ -124,9 +136,23 @@ impl<'a> TerrainFeed<'a> {
                     self.jump = false;
                     self.next += 1;
                 }
-                self.current = b.current();
+                self.current = est.schedule().current();
             }
         }
         Ok(out)
     }
+}
+
+/// Declares a classifier's terrain `k` to `est`, keeping in `before` the
+/// estimator as it was before the first change (to try the change).
+fn declare(
+    before: &mut Option<Estimator>,
+    est: &mut Estimator,
+    k: usize,
+) -> Result<terraslip_core::ChangeAction, terraslip_core::FilterError> {
+    let held = est.schedule().current();
+    if before.is_none() && held.is_some_and(|h| h != k) {
+        *before = Some(est.clone());
+    }
+    est.on_terrain(k)
 }

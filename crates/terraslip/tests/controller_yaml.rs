@@ -189,6 +189,15 @@ fn estimate_and_calibrate_recommend_the_same_factors_within_their_uncertainty() 
             ),
         ),
     ];
+    // `estimate`'s turn factor on the course's (the fixes' course over
+    // long baselines, which `calibrate` checks against): within 2 %.
+    let course = tf["course_check"].as_f64().unwrap();
+    let (e, _) = pairs[0].1;
+    eprintln!("turn factor: estimate {e:.4}, course check {course:.4}");
+    assert!(
+        (e / course - 1.0).abs() < 0.02,
+        "estimate's turn factor {e:.4} against the course's {course:.4}"
+    );
     for (name, (e, se), (k, sk)) in pairs {
         eprintln!("{name}: estimate {e:.4} ± {se:.4}, calibrate {k:.4} ± {sk:.4}");
         assert!(se > 0.0 && sk > 0.0, "{name}");

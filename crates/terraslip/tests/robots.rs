@@ -137,11 +137,29 @@ fn a_turtlebot3_with_joint_positions_only() {
         r.said
     );
     assert!(r.said.contains("from its joint positions"), "{}", r.said);
-    // No URDF: the tread speeds are made with an assumed wheel radius
-    // (0.1 m, three times the TurtleBot 3's), so the radius multipliers are
-    // relative to it. The controller file names that radius, so that
-    // applied as written the wheels' radius is their product (the 0.033 m
-    // of the recording: fuse's turtlebot3.bag, docs/figures/robots.md).
+    // No URDF: the wheel radius and separation are the base driver's, read
+    // off its `/odom` twist against the joints' rates (a default 0.1 m,
+    // three times the TurtleBot 3's, left the filter starting far off: on
+    // fuse's turtlebot3.bag its spread ended 0.39 m against calibrate's
+    // 0.285 m, docs/figures/robots.md).
+    let radius = r
+        .said
+        .split("decided: wheel radius ")
+        .nth(1)
+        .and_then(|l| l.split(" m (the base driver's").next())
+        .and_then(|x| x.parse::<f64>().ok())
+        .unwrap_or_else(|| panic!("no radius from the odometry in\n{}", r.said));
+    assert!((radius / WHEEL_R - 1.0).abs() < 0.02, "{radius}");
+    let rec = &r.summary["recommendation"];
+    let spread = rec["spread_m"]["value"].as_f64().unwrap();
+    assert!((spread - 0.3).abs() < 0.015, "spread {spread}: {}", r.said);
+    for side in ["alpha_l", "alpha_r"] {
+        let a = rec[side]["value"].as_f64().unwrap();
+        assert!((a - 1.0).abs() < 0.02, "{side} {a}");
+    }
+    // The controller file names the radius its multipliers are relative
+    // to, so that applied as written the wheels' radius is their product
+    // (the 0.033 m of the recording).
     let yaml = std::fs::read_to_string(r._dir.path().join("ddc.yaml")).unwrap();
     let value = |key: &str| -> f64 {
         let line = yaml

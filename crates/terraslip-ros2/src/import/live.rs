@@ -21,7 +21,9 @@ use super::report::ImportReport;
 use super::role::Role;
 use super::rows::{Msg, Rows};
 use super::topics::Decide;
-use super::{choose_streams, receive_only, selections, stamp_ns, unphysical, wheel_scale, Sel};
+use super::tread_scale::wheel_scale;
+use super::{choose_streams, receive_only, selections, stamp_ns, unphysical, Sel};
+use crate::msg::short_type;
 use crate::{Bag, Ros2Error, Topic};
 
 /// One row of the drive log made from a live message; `t` in s from
@@ -83,7 +85,9 @@ impl LiveImport {
         let receive_only = receive_only(&bag, cfg)?;
         // A live graph's URDF is not read: the topics file's scale, else
         // the track width, else a default.
-        let (wheels_cfg, _, scale_line) = wheel_scale(&bag, cfg, c.wheels, None);
+        let radius = (short_type(&bag.topics[c.wheels].ty) == "sensor_msgs/JointState")
+            .then(|| (super::scale::wheel_radius(cfg, None), None));
+        let (wheels_cfg, _, scale_line) = wheel_scale(&bag, cfg, c.wheels, None, &radius);
         let rows = Rows {
             log: Default::default(),
             enu: None,

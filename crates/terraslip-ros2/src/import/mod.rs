@@ -21,6 +21,7 @@ mod lever;
 mod live;
 mod live_choice;
 pub mod mount;
+mod odom_scale;
 mod prior;
 mod report;
 mod role;
@@ -28,6 +29,7 @@ mod rows;
 pub mod scale;
 mod settled;
 mod topics;
+mod tread_scale;
 mod unphysical;
 mod window;
 
@@ -55,6 +57,7 @@ use report::stream_report;
 use role::Role;
 use rows::{Msg, Rows};
 use topics::{choose, list, wheel_twists, Decide};
+use tread_scale::{needs_urdf, wheel_radius, wheel_scale};
 
 struct Sel {
     topic: usize,
@@ -114,7 +117,9 @@ pub fn import_bag(
     } else {
         None
     };
-    let (wheels_cfg, sep_scale, scale_line) = wheel_scale(&bag, cfg, wheels, urdf.as_ref());
+    let radius = wheel_radius(&mut bag, cfg, wheels, urdf.as_ref())?;
+    let (wheels_cfg, sep_scale, scale_line) =
+        wheel_scale(&bag, cfg, wheels, urdf.as_ref(), &radius);
     let mut sels = selections(&bag, &chosen)?;
     if let Some(t) = images {
         let ty = short_type(&bag.topics[t].ty);
@@ -170,11 +175,14 @@ pub fn import_bag(
         rows.log.meta.separation = Some(s.value);
         rows.log.meta.separation_source = Some(s.source.to_string());
     }
-    if short_type(&bag.topics[wheels].ty) == "sensor_msgs/JointState" {
+    if let Some((r, from_odom)) = &radius {
         // The radius the joint rates are made tread speeds with.
-        let r = scale::wheel_radius(cfg, urdf.as_ref());
         rows.log.meta.wheel_radius = Some(r.value);
         rows.log.meta.wheel_radius_source = Some(r.source.to_string());
+        // The driver's separation: where the model starts.
+        if let (Some(o), None) = (from_odom, rows.log.meta.track_width) {
+            rows.log.meta.track_width = Some(o.separation);
+        }
     }
     let mut origin: Option<u64> = None;
     let want: Vec<bool> = (0..bag.topics.len())
@@ -538,57 +546,4 @@ fn selections(bag: &Bag, c: &Chosen) -> Result<Vec<Sel>, Ros2Error> {
         });
     }
     Ok(sels)
-}
-
-/// Whether the tread speeds' scale is left to the bag's URDF: the topics
-/// file gives no separation (a twist) or no wheel radius (joint velocities).
-fn needs_urdf(bag: &Bag, cfg: &TopicsConfig, wheels: usize) -> bool {
-    if short_type(&bag.topics[wheels].ty) == "sensor_msgs/JointState" {
-        cfg.wheels.wheel_radius.is_none()
-    } else {
-        cfg.wheels.separation.is_none()
-    }
-}
-
-/// The wheel settings the tread speeds are made with: the topics file's,
-/// with the separation (a twist) or the wheel radius (joint velocities)
-/// from [`scale`] when it gives none; the separation's scale when it was
-/// decided here; and the line that tells the user what was decided.
-fn wheel_scale(
-    bag: &Bag,
-    cfg: &TopicsConfig,
-    wheels: usize,
-    urdf: Option<&scale::UrdfWheels>,
-) -> (WheelsConfig, Option<scale::Scale>, String) {
-    let mut wheels_cfg = cfg.wheels.clone();
-    let wheel_name = &bag.topics[wheels].name;
-    if short_type(&bag.topics[wheels].ty) == "sensor_msgs/JointState" {
-        let r = scale::wheel_radius(cfg, urdf);
-        wheels_cfg.wheel_radius = Some(r.value);
-        let line = format!(
-            "wheel radius {} m ({}; {wheel_name} gives rad/s){}",
-            r.value,
-            scale::describe(r.source),
-            if r.is_given() {
-                ""
-            } else {
-                ": the speed factors are relative to it"
-            }
-        );
-        (wheels_cfg, None, line)
-    } else {
-        let s = scale::separation(cfg, urdf);
-        wheels_cfg.separation = Some(s.value);
-        let line = format!(
-            "separation S = {} m for the tread speeds v ∓ ω·S/2 of {wheel_name} ({}){}",
-            s.value,
-            scale::describe(s.source),
-            if s.is_given() {
-                ""
-            } else {
-                "; the ICRs are learned in this scale and the controller's correction is given as a factor (learned spread / S)"
-            }
-        );
-        (wheels_cfg, Some(s), line)
-    }
 }

@@ -149,7 +149,8 @@ fn in_base(above: &std::collections::HashMap<&str, JointOrigin>, link: &str) -> 
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scale {
     pub value: f64,
-    /// `given`, `urdf`, `track_width` or `default`.
+    /// `given`, `urdf`, `track_width`, `meta`, `odometry` (a base driver's
+    /// odometry made from the same joints) or `default`.
     pub source: &'static str,
 }
 
@@ -214,6 +215,7 @@ pub fn describe(source: &str) -> &'static str {
         "given" => "from the topics file: the robot's own, results are absolute",
         "urdf" => "from /robot_description (the wheel joints): a nominal scale, the controller's may differ",
         "track_width" | "meta" => "from [meta]: a nominal scale, the controller's may differ",
+        "odometry" => "the base driver's: its odometry is made from the same wheel joints with it",
         _ => "a default, nothing in the bag tells it: a nominal scale",
     }
 }

@@ -175,8 +175,12 @@ fn assumed_radius_note(meta: &terraslip_io::Meta, blocks: &[ParamsBlock]) -> Opt
     if source == "given" {
         return None;
     }
+    let why = match source {
+        "odometry" => "the base driver's odometry\n# is made from the same joints with it",
+        _ => "the\n# recording does not state the robot's",
+    };
     let mut s = format!(
-        "\n# wheel_radius {r} m is the radius assumed for the recording's joint rates ({source}: the\n# recording does not state the robot's), and the radius multipliers are relative to it:\n# applied as written, each wheel's radius is wheel_radius x its multiplier:"
+        "\n# wheel_radius {r} m is the radius assumed for the recording's joint rates ({source}: {why}), and the radius multipliers are relative to it:\n# applied as written, each wheel's radius is wheel_radius x its multiplier:"
     );
     for b in blocks {
         let p = &b.params;

@@ -72,8 +72,9 @@ pub fn recommendation_json(drive: Option<&DriveFigures>, learning: &Value) -> Va
     json!({
         "basis": format!(
             "whole drive: the estimator's ICRs in effect at each row averaged over the drive, \
-             weighted by their information; 1-sigma the larger of the batch-means error over \
-             {} stretches and the filter's own at its best-informed row",
+             weighted by their information, the spread in the gyro's final scale where the \
+             filter learns it; 1-sigma the larger of the batch-means error over {} stretches \
+             and the filter's own at its best-informed row (with the gyro scale's)",
             d.batches
         ),
         "spread_m": figure(d.spread, l.separation() == LEARNED),

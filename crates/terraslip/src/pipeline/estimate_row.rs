@@ -51,6 +51,9 @@ pub struct EstimateRow {
     /// at this row's turn, the centripetal terms (applied at each later
     /// row's speed) and the clock offset.
     pub prediction_model: terraslip_calib::prediction::Timed,
+    /// The gyro's scale in effect (it reads `scale` times the true yaw
+    /// rate); `None` without gyro windows fused or with its scale held.
+    pub gyro_scale: Option<f64>,
 }
 
 impl EstimateRow {

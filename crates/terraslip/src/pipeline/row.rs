@@ -54,7 +54,20 @@ pub fn row(est: &Estimator, t: f64, terrain: Option<usize>, s: &FixSummary) -> E
         change: s.change,
         clock_offset: f.clock_offset().0,
         prediction_model: prediction_model(f),
+        gyro_scale: learned_gyro_scale(f).map(|g| g.scale),
     }
+}
+
+/// The gyro's scale and its 1-sigma where the filter learns it (gyro
+/// windows fused, scale not held).
+pub fn learned_gyro_scale(
+    f: &terraslip_core::filter::Filter,
+) -> Option<super::recommend::GyroScale> {
+    let g = f.gyro_noise();
+    (g.scale_learned && g.fused > 0).then_some(super::recommend::GyroScale {
+        scale: g.scale,
+        std: g.scale_std,
+    })
 }
 
 /// The pose covariance `pc` as published: symmetric, and with an unknown

@@ -283,7 +283,7 @@ pub(super) fn finish(
         row_count: totals.rows,
         first_row: totals.first,
         last_row: totals.last,
-        drive: totals.drive.finish(),
+        drive: totals.drive.finish(super::row::learned_gyro_scale(f)),
         prediction,
         outage: totals.outage.finish(),
         terrains,

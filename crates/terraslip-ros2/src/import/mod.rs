@@ -23,6 +23,7 @@ mod live_choice;
 pub mod mount;
 mod prior;
 mod report;
+pub mod revisit;
 mod role;
 mod rows;
 pub mod scale;

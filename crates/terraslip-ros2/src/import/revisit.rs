@@ -174,8 +174,8 @@ impl Revisit {
             let w = self.windows.entry(k).or_default();
             match &row {
                 LiveRow::Wheels(s) => w.wheels.push(*s),
-                LiveRow::Imu(s) if self.mount.is_some() => w.imu.push(s.clone()),
-                LiveRow::Pose(p) if self.heading.is_some() => w.pose.push(p.clone()),
+                LiveRow::Imu(s) if self.mount.is_some() => w.imu.push(*s),
+                LiveRow::Pose(p) if self.heading.is_some() => w.pose.push(*p),
                 _ => {}
             }
         }
@@ -193,9 +193,8 @@ impl Revisit {
                 let out = self.heading.as_ref().and_then(|h| h.left_out_from);
                 if out.is_some_and(|from| t >= from) {
                     (p.yaw, p.std_yaw) = (None, None);
-                    if p.east.is_none() {
-                        return None;
-                    }
+                    // A row left with no position is left out.
+                    p.east?;
                 }
             }
             LiveRow::Wheels(_) => {}
@@ -367,8 +366,8 @@ pub fn revisit_log(log: &mut DriveLog, revisit: &mut Revisit) {
     for (_, stream, i) in order {
         let row = match stream {
             0 => LiveRow::Wheels(log.wheels[i]),
-            1 => LiveRow::Pose(log.pose[i].clone()),
-            _ => LiveRow::Imu(log.imu[i].clone()),
+            1 => LiveRow::Pose(log.pose[i]),
+            _ => LiveRow::Imu(log.imu[i]),
         };
         match revisit.row(row) {
             Some(LiveRow::Imu(s)) => log.imu[i] = s,

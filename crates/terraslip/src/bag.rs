@@ -64,6 +64,9 @@ pub struct Imported {
     /// What the import decided that the bag does not state, and how sure
     /// it is, one line each (`terraslip_ros2::ImportReport::decisions`).
     pub decisions: Vec<String>,
+    /// Decisions made from the data and made again where later windows of
+    /// the recording contradicted them, one line each (among `decisions`).
+    pub revisited: Vec<String>,
     /// Every topic of the bag: name and type.
     pub bag_topics: Vec<(String, String)>,
     /// The temporary log directory, kept (and removed on drop) while the
@@ -155,6 +158,7 @@ fn import(
             time_origin_ns: report.time_origin_ns,
             topics: used,
             decisions: report.decisions,
+            revisited: report.revisited,
             bag_topics: report
                 .topics
                 .iter()

@@ -10,6 +10,7 @@
 use std::path::PathBuf;
 
 use terraslip_io::PoseMount;
+use terraslip_ros2::import::revisit::{Revision, Revisit};
 use terraslip_ros2::import::{LiveChoice, LiveImport, LiveRow, Settled};
 use terraslip_ros2::{Ros2Error, Topic, TopicsConfig};
 
@@ -31,6 +32,11 @@ pub struct LiveStreams {
     settled: Option<Settled>,
     /// Held messages that made no row when read after the choice.
     bad: Vec<String>,
+    /// The topics file the choice settled, until the decisions it made
+    /// from the data are watched (once the rows' origin is known).
+    to_watch: Option<TopicsConfig>,
+    /// The decisions made from the data, checked over later windows.
+    revisit: Option<Revisit>,
 }
 
 impl LiveStreams {
@@ -66,6 +72,8 @@ impl LiveStreams {
             state,
             settled: None,
             bad: Vec::new(),
+            to_watch: None,
+            revisit: None,
         })
     }
 
@@ -96,10 +104,44 @@ impl LiveStreams {
         recv_ns: u64,
         data: &[u8],
     ) -> Result<Vec<LiveRow>, Ros2Error> {
-        match &mut self.state {
-            State::Choosing(c) => c.hold(topic, recv_ns, data).map(|_| Vec::new()),
-            State::Reading(r) => r.message(topic, recv_ns, data),
+        let (rows, origin) = match &mut self.state {
+            State::Choosing(c) => return c.hold(topic, recv_ns, data).map(|_| Vec::new()),
+            State::Reading(r) => (r.message(topic, recv_ns, data)?, r.origin_ns()),
+        };
+        Ok(self.revisited(origin, rows))
+    }
+
+    /// `rows` as the estimator is to see them: through the watch on the
+    /// decisions made from the data (the same [`Revisit`] `estimate`
+    /// passes a recording through), once the rows' origin (`origin`, ns
+    /// since the epoch) is known.
+    fn revisited(&mut self, origin: Option<u64>, rows: Vec<LiveRow>) -> Vec<LiveRow> {
+        if self.revisit.is_none() {
+            if let (Some(origin), Some(settled)) = (origin, &self.to_watch) {
+                self.revisit = Revisit::new(&self.cfg, settled, origin);
+                self.to_watch = None;
+            }
         }
+        match &mut self.revisit {
+            Some(r) => rows.into_iter().filter_map(|row| r.row(row)).collect(),
+            None => rows,
+        }
+    }
+
+    /// The decisions made again since the last call (each with its
+    /// `decided:` line).
+    pub fn take_revisions(&mut self) -> Vec<Revision> {
+        self.revisit
+            .as_mut()
+            .map(Revisit::take_new)
+            .unwrap_or_default()
+    }
+
+    /// Every decision made again so far, one line each.
+    pub fn revisions(&self) -> Vec<String> {
+        self.revisit.as_ref().map_or_else(Vec::new, |r| {
+            r.revisions().iter().map(|r| r.line.clone()).collect()
+        })
     }
 
     /// Whether the window is full and the choice is to be made.
@@ -125,10 +167,12 @@ impl LiveStreams {
         }
         let settled = c.decide(&self.cfg)?;
         let mut reader = LiveImport::new(self.label.clone(), self.topics.clone(), &settled.topics)?;
+        let held = c.take_held();
+        self.to_watch = Some(settled.topics.clone());
         let mut rows = Vec::new();
-        for (topic, recv_ns, data) in c.take_held() {
+        for (topic, recv_ns, data) in held {
             match reader.message(topic, recv_ns, &data) {
-                Ok(r) => rows.extend(r),
+                Ok(r) => rows.extend(self.revisited(reader.origin_ns(), r)),
                 Err(e) => self.bad.push(e.to_string()),
             }
         }

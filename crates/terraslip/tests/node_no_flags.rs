@@ -13,11 +13,12 @@ use terraslip::config::EstimatorConfig;
 use terraslip::live_streams::{start_width, LiveStreams};
 use terraslip::pipeline::warmup::WarmUp;
 use terraslip::pipeline::{run, EstimateRow, TerrainEvidence, DECISION_SPAN};
+use terraslip_ros2::import::revisit::Revision;
 use terraslip_ros2::import::LiveRow;
 use terraslip_ros2::{Bag, TopicsConfig};
 
 mod twin;
-use twin::{wheel_odom, write_twin, Joints, Odom, Twin, TB4_URDF};
+use twin::{motion, wheel_odom, write_twin, Joints, Odom, Twin, HZ, TB4_URDF};
 
 /// The reorder lag the node waits by default, s.
 const LAG: f64 = 0.3;
@@ -28,6 +29,12 @@ struct Compared {
     decided: Vec<String>,
     median: f64,
     p99: f64,
+    /// Decisions made again: live (as the node made them) and offline (the
+    /// import's `decided:` lines).
+    revised_live: Vec<Revision>,
+    revised_offline: Vec<String>,
+    /// The offline rows.
+    offline: Vec<EstimateRow>,
 }
 
 /// Hands the estimator the rows `made`, building it once the choice is
@@ -76,15 +83,18 @@ fn live_against_offline(path: &Path) -> Compared {
     let mut rows: Vec<EstimateRow> = Vec::new();
     let mut node: Option<WarmUp> = None;
     let mut decided = Vec::new();
+    let mut revised_live = Vec::new();
     for (topic, recv_ns, data) in messages {
         let mut made = streams.message(topic, recv_ns, &data).unwrap();
         if streams.due() {
             made = streams.decide().unwrap();
         }
         feed(made, &cfg, &mut streams, &mut node, &mut rows, &mut decided);
+        revised_live.extend(streams.take_revisions());
     }
     let made = streams.decide().unwrap();
     feed(made, &cfg, &mut streams, &mut node, &mut rows, &mut decided);
+    revised_live.extend(streams.take_revisions());
     node.as_mut().expect("decided").flush(&mut rows).unwrap();
 
     // Row for row on the import's clock (the two origins differ by whole
@@ -96,6 +106,9 @@ fn live_against_offline(path: &Path) -> Compared {
         decided,
         median,
         p99,
+        revised_live,
+        revised_offline: report.revisited,
+        offline: offline.rows,
     }
 }
 
@@ -217,21 +230,60 @@ fn a_twin_whose_joint_states_carry_no_tread_speeds() {
     assert_close(&c);
 }
 
+/// The stamp (s since the epoch, as written) a `decided:` line of a
+/// decision made again names.
+fn stamp_of(line: &str) -> &str {
+    let rest = line.split("at stamp ").nth(1).expect(line);
+    rest.split(' ').next().unwrap_or_default()
+}
+
+/// The true heading's change (rad) between `a` and `b` s of the twin's
+/// clock, as the twin integrates it.
+fn true_turn(a: f64, b: f64) -> f64 {
+    let dt = 1.0 / HZ as f64;
+    (0..)
+        .map(|i| i as f64 * dt)
+        .skip_while(|t| *t < a)
+        .take_while(|t| *t < b)
+        .map(|t| motion(t).1 * dt)
+        .sum()
+}
+
+/// The estimate's heading change (rad, unwrapped) between `a` and `b` s.
+fn estimated_turn(rows: &[EstimateRow], a: f64, b: f64) -> f64 {
+    let inside: Vec<_> = rows.iter().filter(|r| r.t >= a && r.t < b).collect();
+    inside
+        .windows(2)
+        .map(|w| {
+            let d = w[1].yaw - w[0].yaw;
+            (d + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
+        })
+        .sum()
+}
+
 /// A recording longer than the warm-up whose IMU is remounted (laid on its
-/// side) after it: over the whole recording gravity is tilted, over the
-/// first window it is upright. `estimate` decides the mounting from the
-/// same first window the node decides from, so the two agree.
+/// side) after it: over the first window gravity is upright, so both the
+/// node and `estimate` decide an upright mounting from it; the later
+/// windows contradict it (gravity along the IMU's y), and both make the
+/// mounting again from the same window, from the same stamp on, and
+/// estimate the turns that follow as the twin drove them.
 #[test]
 fn a_twin_whose_imu_is_remounted_after_the_window() {
     let window = WarmUp::window(DECISION_SPAN, LAG);
-    let c = twin(&Twin {
-        odoms: vec![wheel_odom("/odom")],
-        imu: Some("/imu"),
-        gyro_scale: 1.0,
-        seconds: 1000,
-        remounted_at: Some(window + 20.0),
-        ..Default::default()
-    });
+    let d = tempfile::tempdir().unwrap();
+    let bag = d.path().join("drive.mcap");
+    write_twin(
+        &bag,
+        &Twin {
+            odoms: vec![wheel_odom("/odom")],
+            imu: Some("/imu"),
+            gyro_scale: 1.0,
+            seconds: 1000,
+            remounted_at: Some(window + 20.0),
+            ..Default::default()
+        },
+    );
+    let c = live_against_offline(&bag);
     assert!(
         c.decided
             .iter()
@@ -240,4 +292,43 @@ fn a_twin_whose_imu_is_remounted_after_the_window() {
         c.decided
     );
     assert_close(&c);
+    eprintln!("revised live: {:?}", c.revised_live);
+    eprintln!("revised offline: {:?}", c.revised_offline);
+    assert_eq!(c.revised_live.len(), 1, "{:?}", c.revised_live);
+    assert_eq!(c.revised_offline.len(), 1, "{:?}", c.revised_offline);
+    let (live, offline) = (&c.revised_live[0].line, &c.revised_offline[0]);
+    assert!(
+        live.contains("/imu mounting revisited") && live.contains("roll 90.0°"),
+        "{live}"
+    );
+    assert_eq!(stamp_of(live), stamp_of(offline), "{live}\n{offline}");
+    // Caught within three windows of the remounting.
+    let at = c.revised_live[0].stamp_ns as f64 * 1e-9 - twin::T0 as f64 * 1e-9;
+    assert!(
+        at > window + 20.0 && at < window + 20.0 + 3.0 * 60.0 + 2.0,
+        "{at}"
+    );
+    // After it, the estimate turns as the twin turned (the twin's clock is
+    // the log's: its first stamp is T0).
+    let (a, b) = (at + 60.0, 1000.0);
+    let (truth, est) = (true_turn(a, b), estimated_turn(&c.offline, a, b));
+    eprintln!("turned {est:.3} rad over {a:.0}-{b:.0} s, truly {truth:.3} rad");
+    assert!((est - truth).abs() < 0.05 * truth.abs(), "{est} {truth}");
+    // `estimate` says it and records it in summary.json.
+    let out = d.path().join("out");
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_terraslip"))
+        .args([
+            "estimate".as_ref(),
+            bag.as_os_str(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ])
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{said}");
+    assert!(said.contains(&format!("decided: {offline}")), "{said}");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["revisited"], serde_json::json!([offline]));
 }

@@ -84,6 +84,47 @@ pub(super) fn differences(pose: &[PoseObs]) -> Vec<f64> {
     out
 }
 
+/// How a heading compares with the GNSS course over some pose rows.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Judged {
+    /// Median heading minus course, degrees.
+    pub offset_deg: f64,
+    /// Median absolute deviation of the differences, degrees.
+    pub scatter: f64,
+    /// Straight stretches compared.
+    pub n: usize,
+    /// Whether the heading is usable (offset and scatter within bounds).
+    pub agrees: bool,
+}
+
+/// The heading of `pose` against its fixes' course; `Err` with the
+/// number of straight stretches when fewer than 3 tell.
+pub(super) fn judge(pose: &[PoseObs]) -> Result<Judged, usize> {
+    let d = differences(pose);
+    if d.len() < 3 {
+        return Err(d.len());
+    }
+    let offset = median(&mut d.clone());
+    let mut dev: Vec<f64> = d.iter().map(|x| wrap(x - offset).abs()).collect();
+    let scatter = median(&mut dev).to_degrees();
+    let offset_deg = offset.to_degrees();
+    Ok(Judged {
+        offset_deg,
+        scatter,
+        n: d.len(),
+        agrees: offset_deg.abs() <= MAX_OFFSET_DEG && scatter <= MAX_SCATTER_DEG,
+    })
+}
+
+/// Why a heading that does not agree is not usable.
+pub(super) fn disagreement(j: &Judged) -> &'static str {
+    if j.scatter > MAX_SCATTER_DEG {
+        "off by different amounts in different directions (an uncalibrated magnetometer?)"
+    } else {
+        "a constant offset (a wrong declination or yaw offset? set [heading] yaw_offset_deg / declination_deg to use it)"
+    }
+}
+
 /// Leaves the heading rows of `pose` out (their yaw, and rows left with
 /// nothing) when the heading disagrees with the fixes' course; says what
 /// was decided either way. Returns whether the heading is kept.
@@ -92,21 +133,22 @@ pub(super) fn check_heading(
     topic: &str,
     report: &mut ImportReport,
 ) -> bool {
-    let mut d = differences(pose);
-    if d.len() < 3 {
-        report.decisions.push(format!(
-            "{topic} heading kept unchecked: {} straight stretches of {STRETCH_S} s over {MIN_CHORD_M} m to compare it with the GNSS course (3 needed)",
-            d.len()
-        ));
-        return true;
-    }
-    let offset = median(&mut d.clone());
-    let mut dev: Vec<f64> = d.iter().map(|x| wrap(x - offset).abs()).collect();
-    let scatter = median(&mut dev).to_degrees();
-    let offset_deg = offset.to_degrees();
-    let n = d.len();
-    d.clear();
-    if offset_deg.abs() <= MAX_OFFSET_DEG && scatter <= MAX_SCATTER_DEG {
+    let j = match judge(pose) {
+        Ok(j) => j,
+        Err(n) => {
+            report.decisions.push(format!(
+                "{topic} heading kept unchecked: {n} straight stretches of {STRETCH_S} s over {MIN_CHORD_M} m to compare it with the GNSS course (3 needed)"
+            ));
+            return true;
+        }
+    };
+    let Judged {
+        offset_deg,
+        scatter,
+        n,
+        ..
+    } = j;
+    if j.agrees {
         report.decisions.push(format!(
             "{topic} heading used: on {n} straight stretches it is {offset_deg:.1}° from the GNSS course (scatter {scatter:.1}°)"
         ));
@@ -117,11 +159,7 @@ pub(super) fn check_heading(
         (p.yaw, p.std_yaw) = (None, None);
         p.east.is_some()
     });
-    let why = if scatter > MAX_SCATTER_DEG {
-        "off by different amounts in different directions (an uncalibrated magnetometer?)"
-    } else {
-        "a constant offset (a wrong declination or yaw offset? set [heading] yaw_offset_deg / declination_deg to use it)"
-    };
+    let why = disagreement(&j);
     report.warnings.push(format!(
         "{topic}: heading left out: on {n} straight stretches it is {offset_deg:.1}° from the GNSS course with a scatter of {scatter:.1}°, {why}; the estimator learns the heading from the fixes (`[heading] topic = \"{topic}\"` keeps it)"
     ));

@@ -24,6 +24,7 @@ pub mod mount;
 mod odom_scale;
 mod prior;
 mod report;
+pub mod revisit;
 mod role;
 mod rows;
 pub mod scale;

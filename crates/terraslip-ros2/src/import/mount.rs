@@ -231,7 +231,7 @@ pub fn mounting_from_data(imu: &[ImuSample], wheels: &[WheelSample]) -> Option<(
         .iter()
         .map(|w| (w.t, 0.5 * (w.v_left + w.v_right)))
         .collect();
-    let diff_v: Vec<(f64, f64)> = wheels.iter().map(|w| (w.t, w.v_right - w.v_left)).collect();
+    let diff_v = tread_difference(wheels);
     // Yaw from the forward acceleration.
     let (mut cx, mut cy, mut pairs) = (0.0, 0.0, Vec::new());
     for (t, a) in &acc {
@@ -280,15 +280,7 @@ pub fn mounting_from_data(imu: &[ImuSample], wheels: &[WheelSample]) -> Option<(
     let [r, p, y] = rpy_of(q).map(snap);
     q = from_rpy(r, p, y);
     // The yaw-rate axis's sign.
-    let turn: Vec<(f64, f64)> = imu
-        .iter()
-        .filter_map(|s| {
-            let w = rotate(q, [s.gyro_x?, s.gyro_y?, s.gyro_z?]);
-            Some((w[2], at(&diff_v, s.t)?))
-        })
-        .filter(|p| p.0.is_finite() && p.1.is_finite())
-        .collect();
-    let mut r_turn = correlation(&turn);
+    let mut r_turn = turn_correlation(q, imu, &diff_v);
     if r_turn < -0.3 {
         q = mul([1.0, 0.0, 0.0, 0.0], q);
         r_turn = -r_turn;
@@ -303,6 +295,27 @@ pub fn mounting_from_data(imu: &[ImuSample], wheels: &[WheelSample]) -> Option<(
         }
     ));
     Some((q, line))
+}
+
+/// The tread speed difference v_r − v_l (m/s) of `wheels`, by time.
+pub(super) fn tread_difference(wheels: &[WheelSample]) -> Vec<(f64, f64)> {
+    wheels.iter().map(|w| (w.t, w.v_right - w.v_left)).collect()
+}
+
+/// Correlation of the gyro's yaw rate, rotated by the mounting `q`
+/// (`base ← sensor`), with the tread speed difference `diff_v` (`(t, m/s)`
+/// rows, [`tread_difference`]): near 1 when the mounting's z is the yaw
+/// axis, negative when it turns against the treads.
+pub(super) fn turn_correlation(q: Quat, imu: &[ImuSample], diff_v: &[(f64, f64)]) -> f64 {
+    let turn: Vec<(f64, f64)> = imu
+        .iter()
+        .filter_map(|s| {
+            let w = rotate(q, [s.gyro_x?, s.gyro_y?, s.gyro_z?]);
+            Some((w[2], at(diff_v, s.t)?))
+        })
+        .filter(|p| p.0.is_finite() && p.1.is_finite())
+        .collect();
+    correlation(&turn)
 }
 
 /// Rotates the IMU's accelerations and rates, and the heading's

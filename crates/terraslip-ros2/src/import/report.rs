@@ -43,6 +43,10 @@ pub struct ImportReport {
     /// speeds' scale, a mounting found from the data, a heading left out),
     /// and how sure it is, one line each.
     pub decisions: Vec<String>,
+    /// Decisions made from the data and made again when later windows
+    /// contradicted them (`super::revisit`), one line each (also among
+    /// `decisions`).
+    pub revisited: Vec<String>,
     /// Every topic of the bag: name, type, messages.
     pub topics: Vec<(String, String, u64)>,
     /// Messages that made no row because they cannot be physical (not

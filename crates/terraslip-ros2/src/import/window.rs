@@ -4,8 +4,9 @@
 //! holds them in), `import` decides from them which topic feeds which
 //! stream, the tread speeds' scale, an IMU's mounting from gravity and
 //! whether a heading agrees with the GNSS course, and the whole recording
-//! is then read with what was settled. A recording shorter than the window
-//! is decided from whole, as the node decides at its end.
+//! is then read with what was settled, the decisions checked over the rest
+//! of it as the node checks them ([`super::revisit`]). A recording shorter
+//! than the window is decided from whole, as the node decides at its end.
 
 use std::cell::Cell;
 use std::path::Path;
@@ -16,6 +17,7 @@ use super::config::TopicsConfig;
 use super::import_bag;
 use super::live_choice::{LiveChoice, Settled};
 use super::report::ImportReport;
+use super::revisit::{revisit_log, Revisit};
 use crate::{Bag, Ros2Error};
 
 /// [`super::import`] with the decisions made from the first `window` s of
@@ -41,6 +43,13 @@ pub fn import_bag_within(
         return import_bag(bag, cfg, out_dir);
     };
     let (mut log, mut report, _) = import_bag(bag, &settled.topics, out_dir)?;
+    // The decisions made from the window, checked over the rest, as the
+    // node checks them.
+    let revisit = Revisit::new(cfg, &settled.topics, report.time_origin_ns);
+    let revisited: Vec<String> = revisit.map_or_else(Vec::new, |mut r| {
+        revisit_log(&mut log, &mut r);
+        r.revisions().iter().map(|r| r.line.clone()).collect()
+    });
     // The scale as the window found it (read back, it is a given one).
     let m = &settled.log.meta;
     log.meta.separation = m.separation;
@@ -51,7 +60,9 @@ pub fn import_bag_within(
         "decided from the first {window} s of the recording, as `terraslip node` decides from its warm-up"
     ))
     .chain(settled.report.decisions)
+    .chain(revisited.iter().cloned())
     .collect();
+    report.revisited = revisited;
     // What the window's decisions warned of (a heading left out, an IMU
     // not z-up); what reading warns of is the whole recording's.
     let reading =

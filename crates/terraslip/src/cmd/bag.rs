@@ -23,6 +23,17 @@ pub fn imported(path: &Path) -> Option<(u64, Vec<String>)> {
         .map(|(_, i)| (i.time_origin_ns, i.topics.clone()))
 }
 
+/// For a bag read as a log: the decisions its import made again where
+/// later windows contradicted them (`decided:` lines).
+pub fn revisited(path: &Path) -> Vec<String> {
+    let Ok(v) = IMPORTED.lock() else {
+        return Vec::new();
+    };
+    v.iter()
+        .find(|(p, _)| p == path)
+        .map_or_else(Vec::new, |(_, i)| i.revisited.clone())
+}
+
 /// `--strict`: bags with a message that cannot be physical are refused.
 static STRICT: OnceLock<bool> = OnceLock::new();
 

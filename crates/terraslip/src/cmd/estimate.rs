@@ -227,6 +227,10 @@ pub fn run(args: Args) -> Result<()> {
     summary["log"] = recorded.display().to_string().into();
     if terraslip::bag::is_bag(log_dir) {
         summary["bag_topics"] = super::bag::topics_record()?;
+        let revisited = super::bag::revisited(log_dir);
+        if !revisited.is_empty() {
+            summary["revisited"] = revisited.into();
+        }
     }
     for n in &notes {
         eprintln!("{n}");

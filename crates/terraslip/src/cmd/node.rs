@@ -281,6 +281,7 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
         if let Some(width) = settle(&mut streams, &mut out, &mut bad, widths) {
             live = Some(warm_up(width, start.take().flatten())?);
         }
+        say_revisited(&mut streams, &mut out);
         out.origin_ns = streams.origin_ns().unwrap_or(0);
         if let Some(live) = live.as_mut().filter(|l| l.decisions().is_none()) {
             // Where the pose reference sits, as `import` reads it.
@@ -327,7 +328,7 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
                 let due = *next_save.get_or_insert(t + args.save_every);
                 if t >= due {
                     next_save = Some(t + args.save_every);
-                    save(&params_path, &summary, driven_before, live)?;
+                    save(&params_path, &summary, driven_before, live, &out)?;
                 }
             }
         }
@@ -364,6 +365,7 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
     if let Some(width) = settle(&mut streams, &mut out, &mut bad, widths) {
         live = Some(warm_up(width, start.take().flatten())?);
     }
+    say_revisited(&mut streams, &mut out);
     out.origin_ns = streams.origin_ns().unwrap_or(0);
     rest.sort_by(|a, b| a.t().total_cmp(&b.t()));
     let mut saved = false;
@@ -380,7 +382,7 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
         out.failed()?;
         if let Some(summary) = live.summary() {
             out.diagnostics(&summary, live, &bad)?;
-            saved = save(&params_path, &summary, driven_before, live)?;
+            saved = save(&params_path, &summary, driven_before, live, &out)?;
         }
     }
     eprintln!(
@@ -402,9 +404,25 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
 
 /// Writes the learned parameters atomically, with the decisions; `false`
 /// when there is nothing to save yet.
-fn save(path: &Path, run: &EstimateRun, driven_before: f64, live: &WarmUp) -> Result<bool> {
+fn save(
+    path: &Path,
+    run: &EstimateRun,
+    driven_before: f64,
+    live: &WarmUp,
+    out: &Outputs,
+) -> Result<bool> {
     let decided = live.decisions().map(|d| d.to_json());
-    super::node_state::save(path, run, driven_before, decided)
+    super::node_state::save(path, run, driven_before, decided, &out.revisited)
+}
+
+/// Prints the decisions made again since the last call and keeps every
+/// one for the diagnostics and the parameters file.
+fn say_revisited(streams: &mut LiveStreams, out: &mut Outputs) {
+    let new = streams.take_revisions();
+    if !new.is_empty() {
+        new.iter().for_each(|r| eprintln!("decided: {}", r.line));
+        out.revisited = streams.revisions();
+    }
 }
 
 /// Once the warm-up window has settled the streams (with no topics file):

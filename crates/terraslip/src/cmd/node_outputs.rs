@@ -45,6 +45,9 @@ pub struct Outputs {
     /// What the warm-up settled about the streams (with no topics file:
     /// each stream's topic, the scale, the mountings), one line each.
     pub settled: Vec<String>,
+    /// Decisions made from the data and made again when later windows
+    /// contradicted them, one line each.
+    pub revisited: Vec<String>,
 }
 
 pub const OUTPUT_TOPICS: [(&str, &str); 6] = [
@@ -88,6 +91,7 @@ impl Outputs {
             error: None,
             belief: None,
             settled: Vec::new(),
+            revisited: Vec::new(),
         })
     }
 
@@ -159,6 +163,9 @@ impl Outputs {
         }
         for (k, line) in self.settled.iter().enumerate() {
             values.push((format!("streams_{k}"), line.clone()));
+        }
+        for (k, line) in self.revisited.iter().enumerate() {
+            values.push((format!("revisited_{k}"), line.clone()));
         }
         for (k, w) in run.warnings.iter().enumerate() {
             values.push((format!("warning_{k}"), w.clone()));

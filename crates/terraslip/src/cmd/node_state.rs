@@ -71,13 +71,15 @@ pub fn driven(pf: Option<&ParamsFile>) -> f64 {
 }
 
 /// Writes the learned parameters atomically (creating the directory),
-/// with when they were saved, after `before` s of earlier driving, and
-/// the decisions; `false` when the run has made no row yet.
+/// with when they were saved, after `before` s of earlier driving, the
+/// decisions and the decisions made again (`revisited`, one line each);
+/// `false` when the run has made no row yet.
 pub fn save(
     path: &Path,
     run: &EstimateRun,
     before: f64,
     decided: Option<serde_json::Value>,
+    revisited: &[String],
 ) -> Result<bool> {
     if run.row_count == 0 {
         return Ok(false);
@@ -89,6 +91,10 @@ pub fn save(
         .insert(DRIVEN.into(), serde_json::json!(before + run.duration()));
     if let Some(d) = decided {
         pf.extra.insert("decided".into(), d);
+    }
+    if !revisited.is_empty() {
+        pf.extra
+            .insert("revisited".into(), serde_json::json!(revisited));
     }
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
@@ -157,6 +163,31 @@ mod tests {
         );
         assert_eq!(driven(Some(&pf)), 395.4);
         assert_eq!(driven(None), 0.0);
+    }
+
+    #[test]
+    fn decisions_made_again_are_kept_in_the_file() {
+        let d = tempfile::tempdir().unwrap();
+        let log = terraslip::testkit::drive(&Default::default());
+        let cfg = terraslip::config::EstimatorConfig::default();
+        let run = terraslip::pipeline::run(
+            &log,
+            &cfg,
+            &terraslip::pipeline::TerrainEvidence::None,
+            None,
+        )
+        .unwrap();
+        let p = d.path().join("s").join("p.json");
+        let line = "/imu mounting revisited at stamp 1700000462.000 s".to_string();
+        assert!(save(&p, &run, 0.0, None, std::slice::from_ref(&line)).unwrap());
+        let pf = ParamsFile::read(&p).unwrap();
+        assert_eq!(pf.extra["revisited"], serde_json::json!([line]));
+        // Nothing made again: no entry.
+        assert!(save(&p, &run, 0.0, None, &[]).unwrap());
+        assert!(!ParamsFile::read(&p)
+            .unwrap()
+            .extra
+            .contains_key("revisited"));
     }
 
     #[test]

@@ -10,6 +10,7 @@ use crate::slip::Chart;
 use crate::slip::TreadInput;
 
 mod centripetal;
+mod held_yaw_slip;
 mod speed_law;
 
 fn band(w: f64) -> IcrBand {

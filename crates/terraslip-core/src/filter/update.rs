@@ -214,6 +214,9 @@ impl Filter {
             } else {
                 0.0
             };
+            if k == 1 && gate > 0.0 && nis[k] > gate && self.cfg.inflate_gated_heading {
+                self.inflate_gated_heading(nu[2] * nu[2], S[(2, 2)]);
+            }
             let fate = if gate > 0.0 && nis[k] > gate {
                 self.rejected[k] += 1;
                 if self.rejected[k] > self.cfg.max_rejections {

@@ -20,7 +20,7 @@
 //! * [`Estimator::on_terrain`]`(k)`: the terrain evidence declares terrain
 //!   `k` (labels, or a classifier's belief): the schedule resets or recalls
 //!   the slip parameters.
-//! * Once no fix has been taken for [`OUTAGE_AFTER_S`] of driving, the
+//! * Once no fix has arrived for [`OUTAGE_AFTER_S`] of driving, the
 //!   pose's variance grows at the rate of the twist noise learned at the
 //!   one-second horizon, where it exceeds the filter's model noise
 //!   (`outage_noise.rs`): dead reckoning states what its slips do.
@@ -144,7 +144,7 @@ pub struct Estimator {
     gyro: GyroIntegral,
     /// The model's twist error learned at the published horizon.
     twist_noise: TwistNoiseLearner,
-    /// Wheel time since the last fix was taken, s.
+    /// Wheel time since a fix last reached the filter (fused or gated), s.
     since_fix: f64,
 }
 

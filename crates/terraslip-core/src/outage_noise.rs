@@ -8,13 +8,13 @@
 //! (`twist_noise.rs`) is the model's error where it holds: carried on as a
 //! random walk of one-second slips, it grows the pose's variance at
 //! `sigma^2 T` per second (`T` = [`TWIST_WINDOW_S`]). Once no fix has been
-//! taken for [`OUTAGE_AFTER_S`], the estimator adds what that rate exceeds
+//! arrived for [`OUTAGE_AFTER_S`], the estimator adds what that rate exceeds
 //! the filter's own model noise by.
 
 use crate::odometry::{ModelNoise, TwistNoise, TWIST_WINDOW_S};
 
-/// Time without a fix (s of wheel time) after which the pose's variance
-/// grows at the one-second twist noise's rate.
+/// Time without a fix (s of wheel time; a gated fix counts as one) after
+/// which the pose's variance grows at the one-second twist noise's rate.
 pub const OUTAGE_AFTER_S: f64 = 2.0 * TWIST_WINDOW_S;
 
 /// Diffusion beyond the filter's model noise `model`, at mean tread speed

@@ -7,7 +7,7 @@
 //! reads 4.6 per dof). The twist noise learned at the one-second horizon
 //! (`twist_noise.rs`) is the model's error where it holds: carried on as a
 //! random walk of one-second slips, it grows the pose's variance at
-//! `sigma^2 T` per second (`T` = [`TWIST_WINDOW_S`]). Once no fix has been
+//! `sigma^2 T` per second (`T` = [`TWIST_WINDOW_S`]). Once no fix has
 //! arrived for [`OUTAGE_AFTER_S`], the estimator adds what that rate exceeds
 //! the filter's own model noise by.
 

@@ -20,12 +20,17 @@
 //! * [`Estimator::on_terrain`]`(k)`: the terrain evidence declares terrain
 //!   `k` (labels, or a classifier's belief): the schedule resets or recalls
 //!   the slip parameters.
+//! * Once no fix has arrived for [`OUTAGE_AFTER_S`] of driving, the
+//!   pose's variance grows at the rate of the twist noise learned at the
+//!   one-second horizon, where it exceeds the filter's model noise
+//!   (`outage_noise.rs`): dead reckoning states what its slips do.
 //!
 //! Events must come in time order per stream; across streams any order
 //! works.
 
 use crate::filter::{Fate, Filter, FilterError, PoseFix, UpdateReport};
 use crate::odometry::{ModelNoise, TwistNoise};
+use crate::outage_noise::{excess_diffusion, OUTAGE_AFTER_S};
 use crate::schedule::{ChangeAction, NoiseSchedule};
 use crate::twist_noise::{FixSeen, TwistNoiseLearner};
 
@@ -141,6 +146,8 @@ pub struct Estimator {
     twist_noise: TwistNoiseLearner,
     /// How far the fixes have disagreed with the estimate so far.
     misfit: Misfit,
+    /// Wheel time since a fix last reached the filter (fused or gated), s.
+    since_fix: f64,
 }
 
 /// Largest NIS one fix part adds to [`Misfit::nis`]: a fix far off (an
@@ -182,6 +189,7 @@ impl Estimator {
             gyro: GyroIntegral::default(),
             twist_noise: TwistNoiseLearner::new(),
             misfit: Misfit::default(),
+            since_fix: 0.0,
         }
     }
 
@@ -332,10 +340,30 @@ impl Estimator {
             self.twist_noise.break_window();
         } else {
             self.twist_noise.step(&self.filter.icr_now(), vl, vr, dt);
+            self.since_fix += dt;
+            if self.since_fix > OUTAGE_AFTER_S && !self.filter.is_still() {
+                self.grow_beyond_fixes(vl, vr, dt);
+            }
         }
         self.schedule.on_predict(&self.filter, dt);
         self.counts.predictions += 1;
         Ok(())
+    }
+
+    /// An outage: the pose's variance grows over `dt` s at the one-second
+    /// twist noise's rate where it exceeds the filter's model noise
+    /// (`outage_noise.rs`); the heading's not while a gyro holds it.
+    fn grow_beyond_fixes(&mut self, vl: f64, vr: f64, dt: f64) {
+        let f = &self.filter;
+        let omega = f.twist().omega;
+        let (xy, yaw) = excess_diffusion(
+            &self.twist_noise(),
+            &ModelNoise::of(f),
+            0.5 * (vl + vr),
+            omega,
+        );
+        let yaw = if f.gyro_noise().fused > 0 { 0.0 } else { yaw };
+        self.filter.inflate_pose(xy * dt, yaw * dt);
     }
 
     /// Wheel time at which the oldest waiting fix is due.
@@ -380,6 +408,9 @@ impl Estimator {
             }
         }
         let fused = r.is_ok();
+        if fused {
+            self.since_fix = 0.0;
+        }
         self.count_refused(r.map(|_| ()))?;
         self.schedule.on_update(&mut self.filter);
         if fused {

@@ -363,7 +363,7 @@ impl TwistNoiseLearner {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::rng::SplitMix64;
 
@@ -400,21 +400,13 @@ mod tests {
         }
     }
 
-    /// A world with known slip noise: the true twist is the ICR model's
-    /// plus an error held for a random time, a second on average (variances along `4e-4 + 6.4e-3
-    /// v²` (m/s)², across 9e-4 (m/s)², yaw `9e-4 + 0.01 ω²` (rad/s)²), pose
-    /// fixes at
-    /// 10 Hz. Returns the mean NEES of the published one-second twist
-    /// against the truth over `n` windows after a warm-up, with the learned
-    /// noise and with the filter's model noise (`q / window`).
-    fn world_nees() -> (f64, f64, usize) {
-        use crate::filter::{
-            Filter, FilterConfig, IcrBand, MeasurementConfig, PoseFix, Prior, SlipStd,
-        };
+    /// The slipping skid-steer's true ICRs (0.62 m spread on a 0.5 m
+    /// track) and an estimator for it: the default filter from a no-slip
+    /// prior, no terrain evidence.
+    pub(crate) fn slipping_world() -> (IcrParams, crate::Estimator) {
+        use crate::filter::{Filter, FilterConfig, IcrBand, MeasurementConfig, Prior, SlipStd};
         use crate::kinematics::CentripetalSlopes;
-        use crate::odometry::twist_covariance;
         use crate::schedule::{NoiseSchedule, ScheduleConfig};
-        use crate::Estimator;
         let truth = IcrParams {
             y_l: 0.32,
             y_r: -0.30,
@@ -452,7 +444,21 @@ mod tests {
             band,
         )
         .unwrap();
-        let mut est = Estimator::new(f, NoiseSchedule::new(ScheduleConfig::default()), 0.0);
+        let est = crate::Estimator::new(f, NoiseSchedule::new(ScheduleConfig::default()), 0.0);
+        (truth, est)
+    }
+
+    /// A world with known slip noise: the true twist is the ICR model's
+    /// plus an error held for a random time, a second on average (variances along `4e-4 + 6.4e-3
+    /// v²` (m/s)², across 9e-4 (m/s)², yaw `9e-4 + 0.01 ω²` (rad/s)²), pose
+    /// fixes at
+    /// 10 Hz. Returns the mean NEES of the published one-second twist
+    /// against the truth over `n` windows after a warm-up, with the learned
+    /// noise and with the filter's model noise (`q / window`).
+    fn world_nees() -> (f64, f64, usize) {
+        use crate::filter::PoseFix;
+        use crate::odometry::twist_covariance;
+        let (truth, mut est) = slipping_world();
         let mut rng = SplitMix64::new(21);
         let dt = 0.05;
         let (mut e, mut n, mut yaw) = (0.0f64, 0.0f64, 0.3f64);

@@ -14,7 +14,8 @@
 //!   fix was taken (`measure.rs`), chi-square gates per part, the Kalman
 //!   gain (or the papers' innovation-adaptive one, `adaptive.rs`) with the
 //!   rows of what must not learn zeroed (`gain.rs`) and the Joseph-form
-//!   update; the first fixes taken as the pose (`anchor.rs`).
+//!   update; the first fixes taken as the pose (`anchor.rs`); a gated
+//!   heading's unexplained variance taken into the heading (`gate.rs`).
 //! * [`add_gyro`](Filter::add_gyro) (`gyro.rs`, `gyro_window.rs`): the
 //!   gyro's heading change over a short window against the model's, its
 //!   bias and noise learned.

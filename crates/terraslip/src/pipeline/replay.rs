@@ -208,6 +208,21 @@ impl<'a> Feed<'a> {
         }
     }
 
+    /// Gives an event at `t` (s) to the estimator in use and, while a
+    /// change of terrain is on trial, to the other one.
+    fn each_estimator(
+        &mut self,
+        estimator: &mut Estimator,
+        t: f64,
+        mut event: impl FnMut(&mut Estimator) -> Result<(), terraslip_core::FilterError>,
+    ) -> Result<(), PipelineError> {
+        let r = event(estimator).and_then(|()| match &mut self.trial {
+            Some(trial) => event(&mut trial.other),
+            None => Ok(()),
+        });
+        r.map_err(|e| self.filter_err(t, e))
+    }
+
     fn filter_err(&self, t: f64, source: terraslip_core::FilterError) -> PipelineError {
         PipelineError::Filter {
             dir: self.dir.to_string(),
@@ -267,13 +282,7 @@ impl<'a> Feed<'a> {
             return Ok(());
         }
         let fix = pose_fix(self.cfg, p);
-        estimator
-            .on_pose(p.t, fix)
-            .map_err(|e| self.filter_err(p.t, e))?;
-        if let Some(trial) = &mut self.trial {
-            let r = trial.other.on_pose(p.t, fix);
-            r.map_err(|e| self.filter_err(p.t, e))?;
-        }
+        self.each_estimator(estimator, p.t, |e| e.on_pose(p.t, fix))?;
         self.used += 1;
         Ok(())
     }
@@ -285,13 +294,7 @@ impl<'a> Feed<'a> {
         t: f64,
         rate: f64,
     ) -> Result<(), PipelineError> {
-        estimator
-            .on_gyro(t, rate)
-            .map_err(|e| self.filter_err(t, e))?;
-        if let Some(trial) = &mut self.trial {
-            let r = trial.other.on_gyro(t, rate);
-            r.map_err(|e| self.filter_err(t, e))?;
-        }
+        self.each_estimator(estimator, t, |e| e.on_gyro(t, rate))?;
         self.totals.outage.gyro(t, rate);
         Ok(())
     }

@@ -185,14 +185,6 @@ pub fn repo_drive(name: &str) -> DriveLog {
     DriveLog::read(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
 }
 
-/// The real drive `name` of `../shared/data/drive` beside the clone (a
-/// DRIVE Warthog log), or `None` when it is missing and the test is
-/// skipped (see [`terraslip_io::shared::shared_data`]).
-pub fn shared_drive(name: &str) -> Option<DriveLog> {
-    let dir = terraslip_io::shared::shared_data(&format!("drive/{name}"))?;
-    Some(DriveLog::read(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display())))
-}
-
 /// The bag at `path` played message by message through the node's live
 /// import (no DDS) with `topics`: the live import after its last message
 /// and the samples it made, in the bag's order.

@@ -66,6 +66,11 @@ pub struct Args {
     /// multiplier the turn test tuned).
     #[arg(long)]
     live_on_untuned: bool,
+    /// The receiver's error all white, its 1-sigma per axis unchanged
+    /// (a diagnosis: the RTK receiver's error otherwise has a part that
+    /// wanders over tens of seconds, which the estimate inherits).
+    #[arg(long)]
+    uncorrelated_gnss: bool,
     /// Print one line per seed and variant (to stderr): cross-track RMS
     /// per ground, cm, and the recovery after each change, s.
     #[arg(long)]
@@ -108,6 +113,8 @@ pub struct Setup<'a> {
     /// Live compensation on a controller of multiplier 1 (else on the
     /// static variant's).
     pub live_on_untuned: bool,
+    /// The receiver's error all white (no correlated part).
+    pub uncorrelated_gnss: bool,
 }
 
 /// One seed: the turn-test multiplier and the score of each variant.
@@ -117,7 +124,7 @@ pub fn run_seed(
     seed: u64,
 ) -> anyhow::Result<(f64, Vec<RunScore>)> {
     let (grounds, laps, cfg) = (setup.grounds, setup.laps, setup.estimator);
-    let sc = world::scenario(grounds, seed)?;
+    let sc = world::scenario(grounds, seed, setup.uncorrelated_gnss)?;
     let course = course(grounds, laps);
     let pursuit = Pursuit::default();
     let multiplier = world::turn_test_multiplier(&sc, pursuit.desired_linear_vel, 2.0)?;
@@ -184,6 +191,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         engage_after: a.engage_after,
         hold_after_change: a.hold_after_change,
         live_on_untuned: a.live_on_untuned,
+        uncorrelated_gnss: a.uncorrelated_gnss,
     };
     let mut runs = Vec::new();
     for seed in a.first_seed..a.first_seed + a.seeds {

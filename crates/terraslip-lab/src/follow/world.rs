@@ -24,8 +24,14 @@ const MUD_CHI: f64 = 0.45;
 const MUD_ALPHA: f64 = 0.90;
 
 /// The world of `seed` over `grounds` (catalogue names or [`MUD`]), in
-/// the order driven.
-pub fn scenario(grounds: &[String], seed: u64) -> anyhow::Result<Scenario> {
+/// the order driven. With `uncorrelated_gnss` the receiver's whole error
+/// is white (its 1-sigma per axis unchanged): no part of it wanders
+/// together over tens of seconds for the estimate to inherit.
+pub fn scenario(
+    grounds: &[String],
+    seed: u64,
+    uncorrelated_gnss: bool,
+) -> anyhow::Result<Scenario> {
     let mut sc = Scenario::builtin("papers")?;
     sc.name = format!("follow-{seed}");
     sc.description = "terraslip-lab follow: a path follower over grounds of different slip".into();
@@ -61,6 +67,10 @@ pub fn scenario(grounds: &[String], seed: u64) -> anyhow::Result<Scenario> {
         );
     }
     sc.gnss = Gnss::rtk(5.0);
+    if uncorrelated_gnss {
+        sc.gnss.white_std = sc.gnss.total_std();
+        sc.gnss.markov_std = 0.0;
+    }
     sc.compass = Compass {
         rate: 5.0,
         std_deg: 0.2,
@@ -139,7 +149,7 @@ mod tests {
     #[test]
     fn the_turn_test_finds_the_turn_the_ground_loses() {
         let grounds = vec!["sand".to_string(), MUD.to_string()];
-        let sc = scenario(&grounds, 3).unwrap();
+        let sc = scenario(&grounds, 3, false).unwrap();
         let p = sc.terrain_icr("sand").unwrap();
         // A nominal drive's yaw rate is alpha W / (y_l - y_r) of the command;
         // the slip model moves the spread a few percent with the turn.
@@ -151,8 +161,13 @@ mod tests {
             1.0 / lost
         );
         // Seeds draw their own grounds, within the stated ranges.
-        let other = scenario(&grounds, 4).unwrap();
+        let other = scenario(&grounds, 4, false).unwrap();
         assert_ne!(other.terrains, sc.terrains);
+        // Uncorrelated: the same error per axis, all of it white.
+        let white = scenario(&grounds, 3, true).unwrap();
+        assert_eq!(white.gnss.markov_std, 0.0);
+        assert!((white.gnss.total_std() - sc.gnss.total_std()).abs() < 1e-12);
+        assert_eq!(white.terrains, sc.terrains);
         let mud = sc.terrain(MUD).unwrap();
         assert!((mud.chi / MUD_CHI - 1.0).abs() <= 0.1 + 1e-12);
         assert!((mud.alpha_l - MUD_ALPHA).abs() <= 0.02 + 1e-12);

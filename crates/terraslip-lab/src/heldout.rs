@@ -34,8 +34,10 @@ use terraslip_calib::{calibrate, CalibConfig, ModelChoice, RateSlopes};
 use terraslip_core::{IcrParams, Twist};
 use terraslip_io::{DriveLog, ParamsFile, WheelSample};
 
-use crate::blr::Blr;
+use crate::blr::{Blr, OFFSETS};
+use crate::drive_protocol;
 use crate::outage_table;
+use crate::prediction_table::print;
 use terraslip_calib::outage::OutageScore;
 
 /// Score each estimator on data it was not trained on.
@@ -70,16 +72,16 @@ pub struct Args {
 
 /// `calibrate` fitted on the scored half itself (`--hindsight`).
 const HINDSIGHT: &str = "hindsight selected";
+/// DRIVE's model by this port's steady rows.
+const DRIVE: &str = "DRIVE's model";
+/// DRIVE's model by DRIVE's own protocol.
+const DRIVE_PROTOCOL: &str = "DRIVE's model (DRIVE's protocol)";
 
 /// A twist of a wheels row for a segment starting at `t` (s).
 type TwistFn<'a> = Box<dyn Fn(f64, &WheelSample) -> Twist + 'a>;
 
 /// The model of each terrain label of a drive (`None`: the pooled set).
 type TerrainModels = Vec<(Option<String>, Option<(IcrParams, RateSlopes)>)>;
-
-/// A drive's row of the table: name, each model's (name, mean error m,
-/// clock offset s), the number of segments.
-type TableRow = (String, Vec<(String, f64, f64)>, usize);
 
 /// A model to score: its twist of a wheels row for a segment starting at
 /// `t` (s), and its clock offset at a start (s).
@@ -150,12 +152,29 @@ fn calibrated<'a>(
 }
 
 /// DRIVE's model, with the clock offset it was trained with.
-fn drive_model<'a>(blr: Blr) -> Model<'a> {
+fn drive_model<'a>(blr: Blr, name: &str) -> Model<'a> {
     Model {
-        name: "DRIVE's model".into(),
+        name: name.into(),
         twist: Box::new(move |_, s: &WheelSample| blr.twist(s)),
         clock_at: Box::new(move |_| blr.clock_offset),
     }
+}
+
+/// DRIVE's model trained on `log`'s `[t0, t1)`, by this port's steady rows
+/// ([`crate::blr`]) and by DRIVE's protocol ([`crate::drive_protocol`];
+/// on a log that is not DRIVE's windows, the port's again).
+fn drive_models<'a>(log: &DriveLog, t0: f64, t1: f64) -> anyhow::Result<[Model<'a>; 2]> {
+    let w = log.meta.track_width.unwrap_or(0.5);
+    let port = Blr::fit_timed(log, w, t0, t1).context("DRIVE's model: too few steady rows")?;
+    let protocol = match drive_protocol::Windows::of(&log.wheels) {
+        Some(windows) => drive_protocol::fit_timed(log, &windows, w, t0, t1, &OFFSETS)
+            .context("DRIVE's protocol: too few steady windows")?,
+        None => port,
+    };
+    Ok([
+        drive_model(port, DRIVE),
+        drive_model(protocol, DRIVE_PROTOCOL),
+    ])
 }
 
 /// What an online model takes of the run at a start.
@@ -325,10 +344,9 @@ fn outage_columns(
     for (name, o) in &runs[1..] {
         cols.push(outage_table::carried(target, name, o.as_ref(), &starts));
     }
-    for m in models
-        .iter()
-        .filter(|m| ["calibrate selected", "DRIVE's model", HINDSIGHT].contains(&m.name.as_str()))
-    {
+    for m in models.iter().filter(|m| {
+        ["calibrate selected", DRIVE, DRIVE_PROTOCOL, HINDSIGHT].contains(&m.name.as_str())
+    }) {
         cols.push(outage_table::fixed(target, &m.name, &*m.twist, &starts));
         if m.name == HINDSIGHT {
             if let Some(((a, c), ends)) = crate::hindsight::best_scaled(target, &*m.twist, &starts)
@@ -405,22 +423,6 @@ fn name_of(dir: &Path) -> String {
         .map_or(String::new(), |n| n.to_string_lossy().into())
 }
 
-fn print(rows: &[TableRow]) {
-    let Some(first) = rows.first() else {
-        return;
-    };
-    let heads: Vec<&str> = first.1.iter().map(|m| m.0.as_str()).collect();
-    println!("| drive | segments | {} |", heads.join(" | "));
-    println!("|---|---|{}", "---|".repeat(heads.len()));
-    for (drive, cols, n) in rows {
-        let cells: Vec<String> = cols
-            .iter()
-            .map(|(_, e, c)| format!("{e:.3} ({c:+.2} s)"))
-            .collect();
-        println!("| {drive} | {n} | {} |", cells.join(" | "));
-    }
-}
-
 /// Scores `models` on `target` in `[from, to)`; each model's clock offset
 /// shown is its mean over the scored span.
 fn row(
@@ -456,9 +458,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         };
         let (t0, t1) = (first.t, last.t);
         let mid = 0.5 * (t0 + t1);
-        let w = log.meta.track_width.unwrap_or(0.5);
         let acc = accelerations(&log.wheels);
-        let blr = Blr::fit_timed(&log, w, t0, mid).context("DRIVE's model: too few steady rows")?;
+        let drive = drive_models(&log, t0, mid)?;
         let mut cc = CalibConfig::default();
         cc.segment.t_max = mid;
         let cal = calibrate(std::slice::from_ref(&log), &cc, &|_| {})?;
@@ -473,7 +474,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let [selected, constant] = calibrated(&pf, &log, &acc)?;
         let cal_clock = stored_offset(&pf).unwrap_or(0.0);
         let (default_init, mut runs) = default_and_init(&log, &cfg, &pf)?;
-        let mut models = vec![drive_model(blr)];
+        let mut models = Vec::from(drive);
         models.extend(default_init);
         models.extend([constant, selected]);
         if a.diagnose.is_some() {
@@ -536,7 +537,6 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             .split_once(':')
             .with_context(|| format!("--across {pair}: expected A:B"))?;
         let (from_log, to_log) = (read(Path::new(src))?, read(Path::new(dst))?);
-        let w = from_log.meta.track_width.unwrap_or(0.5);
         let (Some(a0), Some(a1), Some(b0), Some(b1)) = (
             from_log.wheels.first(),
             from_log.wheels.last(),
@@ -545,8 +545,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         ) else {
             continue;
         };
-        let blr = Blr::fit_timed(&from_log, w, a0.t, a1.t + 1.0)
-            .context("DRIVE's model: too few steady rows")?;
+        let drive = drive_models(&from_log, a0.t, a1.t + 1.0)?;
         let cal = calibrate(
             std::slice::from_ref(&from_log),
             &CalibConfig::default(),
@@ -556,7 +555,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let acc = accelerations(&to_log.wheels);
         let [selected, constant] = calibrated(&pf, &to_log, &acc)?;
         let (default_init, mut runs) = default_and_init(&to_log, &cfg, &pf)?;
-        let mut models = vec![drive_model(blr)];
+        let mut models = Vec::from(drive);
         models.extend(default_init);
         models.extend([constant, selected]);
         let (more, more_runs) = online_configs(&to_log, &extra)?;

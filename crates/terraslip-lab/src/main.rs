@@ -18,6 +18,7 @@ use clap::{Parser, Subcommand};
 
 mod blr;
 mod borealtc_trust;
+mod drive_protocol;
 mod drives;
 mod estimators;
 mod family;
@@ -28,7 +29,9 @@ mod hindsight;
 mod misread;
 mod odometry_nees;
 mod outage_table;
+mod prediction_table;
 mod seeds;
+mod smoothing_spline;
 mod stats;
 mod terrain_trust;
 

@@ -1,0 +1,24 @@
+//! `terraslip-lab heldout`'s 2 s prediction table: per drive, each
+//! model's mean error and clock offset.
+
+/// A drive's row of the table: name, each model's (name, mean error m,
+/// clock offset s), the number of segments.
+pub type TableRow = (String, Vec<(String, f64, f64)>, usize);
+
+/// Prints the table: one row per drive, one column per model, each cell
+/// the mean error (m) and the clock offset (s).
+pub fn print(rows: &[TableRow]) {
+    let Some(first) = rows.first() else {
+        return;
+    };
+    let heads: Vec<&str> = first.1.iter().map(|m| m.0.as_str()).collect();
+    println!("| drive | segments | {} |", heads.join(" | "));
+    println!("|---|---|{}", "---|".repeat(heads.len()));
+    for (drive, cols, n) in rows {
+        let cells: Vec<String> = cols
+            .iter()
+            .map(|(_, e, c)| format!("{e:.3} ({c:+.2} s)"))
+            .collect();
+        println!("| {drive} | {n} | {} |", cells.join(" | "));
+    }
+}

@@ -37,7 +37,7 @@ use terraslip_io::{DriveLog, ParamsFile, WheelSample};
 use crate::blr::{Blr, OFFSETS};
 use crate::drive_protocol;
 use crate::outage_table;
-use crate::prediction_table::print;
+use crate::prediction_table::{print, Segments};
 use terraslip_calib::outage::OutageScore;
 
 /// Score each estimator on data it was not trained on.
@@ -72,6 +72,9 @@ pub struct Args {
 
 /// `calibrate` fitted on the scored half itself (`--hindsight`).
 const HINDSIGHT: &str = "hindsight selected";
+/// The first models of a drive's list: DRIVE's model by DRIVE's protocol,
+/// by this port, and the online default.
+const READINGS: usize = 3;
 /// DRIVE's model by this port's steady rows.
 const DRIVE: &str = "DRIVE's model";
 /// DRIVE's model by DRIVE's own protocol.
@@ -160,9 +163,9 @@ fn drive_model<'a>(blr: Blr, name: &str) -> Model<'a> {
     }
 }
 
-/// DRIVE's model trained on `log`'s `[t0, t1)`, by this port's steady rows
-/// ([`crate::blr`]) and by DRIVE's protocol ([`crate::drive_protocol`];
-/// on a log that is not DRIVE's windows, the port's again).
+/// DRIVE's model trained on `log`'s `[t0, t1)`, by DRIVE's protocol
+/// ([`crate::drive_protocol`]; on a log that is not DRIVE's windows, the
+/// port's again) and by this port's steady rows ([`crate::blr`]).
 fn drive_models<'a>(log: &DriveLog, t0: f64, t1: f64) -> anyhow::Result<[Model<'a>; 2]> {
     let w = log.meta.track_width.unwrap_or(0.5);
     let port = Blr::fit_timed(log, w, t0, t1).context("DRIVE's model: too few steady rows")?;
@@ -172,8 +175,8 @@ fn drive_models<'a>(log: &DriveLog, t0: f64, t1: f64) -> anyhow::Result<[Model<'
         None => port,
     };
     Ok([
-        drive_model(port, DRIVE),
         drive_model(protocol, DRIVE_PROTOCOL),
+        drive_model(port, DRIVE),
     ])
 }
 
@@ -344,9 +347,10 @@ fn outage_columns(
     for (name, o) in &runs[1..] {
         cols.push(outage_table::carried(target, name, o.as_ref(), &starts));
     }
-    for m in models.iter().filter(|m| {
-        ["calibrate selected", DRIVE, DRIVE_PROTOCOL, HINDSIGHT].contains(&m.name.as_str())
-    }) {
+    for m in [DRIVE, DRIVE_PROTOCOL, "calibrate selected", HINDSIGHT]
+        .iter()
+        .filter_map(|name| models.iter().find(|m| m.name == *name))
+    {
         cols.push(outage_table::fixed(target, &m.name, &*m.twist, &starts));
         if m.name == HINDSIGHT {
             if let Some(((a, c), ends)) = crate::hindsight::best_scaled(target, &*m.twist, &starts)
@@ -370,9 +374,6 @@ fn score(target: &DriveLog, models: &[Model], from: f64, to: f64) -> (Vec<f64>, 
     let (m, n, _) = score_segments(target, models, from, to);
     (m, n)
 }
-
-/// Each scored start's time (s) and each model's error there (m).
-type Segments = Vec<(f64, Vec<f64>)>;
 
 /// [`score`] and each scored start's time and errors (m).
 fn score_segments(
@@ -450,6 +451,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let spec = PredictionSpec::default();
     let mut table = Vec::new();
     let mut outages = Vec::new();
+    let mut readings = Vec::new();
     eprintln!("first half -> second half");
     for dir in &logs {
         let log = read(dir)?;
@@ -498,24 +500,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             });
         }
         outages.push((name_of(dir), outage_columns(&log, &models, &runs, mid, t1)));
-        let models = &models[..scored];
+        let (cols, n) = row(&log, &models[..READINGS], mid, t1 + 1.0 - spec.horizon);
+        readings.push((name_of(dir), cols, n));
+        // DRIVE's protocol stays out of the main table's common segments.
+        let models = &models[1..scored];
         let (cols, n) = row(&log, models, mid, t1 + 1.0 - spec.horizon);
         if let Some(out) = &a.diagnose {
             let (_, _, segs) = score_segments(&log, models, mid, t1 + 1.0 - spec.horizon);
-            std::fs::create_dir_all(out)?;
-            let mut text = String::from("t");
-            for m in models {
-                text += &format!(",{}", m.name);
-            }
-            text.push('\n');
-            for (t, e) in segs {
-                text += &format!("{t:.3}");
-                for e in e {
-                    text += &format!(",{e:.4}");
-                }
-                text.push('\n');
-            }
-            std::fs::write(out.join(format!("{}.csv", name_of(dir))), text)?;
+            let names: Vec<&str> = models.iter().map(|m| m.name.as_str()).collect();
+            crate::prediction_table::write_segments(out, &name_of(dir), &names, &segs)?;
         }
         eprintln!("  {}", name_of(dir));
         table.push((name_of(dir), cols, n));
@@ -575,9 +568,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             (", first half", from, mid),
             (", second half", mid, to),
         ] {
-            let (cols, n) = row(&to_log, &models, t0, t1);
+            let (cols, n) = row(&to_log, &models[1..], t0, t1);
             table.push((format!("{name}{label}"), cols, n));
         }
+        let (cols, n) = row(&to_log, &models[..READINGS], from, to);
+        readings.push((name, cols, n));
         eprintln!("  {pair}");
     }
     if !table.is_empty() {
@@ -590,5 +585,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             outage_table::print(pair, cols);
         }
     }
+    println!();
+    println!(
+        "DRIVE's model, two readings: 2 s prediction error, mean m (clock offset), on the \
+         segments both and the online default score (the spans above)"
+    );
+    print(&readings);
     Ok(())
 }

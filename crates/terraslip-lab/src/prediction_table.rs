@@ -22,3 +22,37 @@ pub fn print(rows: &[TableRow]) {
         println!("| {drive} | {n} | {} |", cells.join(" | "));
     }
 }
+
+/// Each scored start's time (s) and each model's error there (m).
+pub type Segments = Vec<(f64, Vec<f64>)>;
+
+/// Writes a drive's per-segment errors to `dir/DRIVE.csv`: a column `t`
+/// (s) and one per model (m).
+pub fn write_segments(
+    dir: &std::path::Path,
+    drive: &str,
+    models: &[&str],
+    segs: &Segments,
+) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir)?;
+    let mut text = String::from("t");
+    for m in models {
+        text += &format!(",{m}");
+    }
+    text.push('\n');
+    for (t, e) in segs {
+        text += &format!("{t:.3}");
+        for e in e {
+            text += &format!(",{e:.4}");
+        }
+        text.push('\n');
+    }
+    // Written beside, then moved: a reader never sees half a file.
+    let (tmp, path) = (
+        dir.join(format!(".{drive}.csv.tmp")),
+        dir.join(format!("{drive}.csv")),
+    );
+    std::fs::write(&tmp, text)?;
+    std::fs::rename(&tmp, &path)?;
+    Ok(())
+}

@@ -40,6 +40,9 @@
 //! * DRIVE's model has no clock: it is given the offset between wheels and
 //!   pose stamps that predicts its own training data best
 //!   ([`Blr::fit_timed`]).
+//!
+//! [`crate::drive_protocol`] trains the same model by the repository's own
+//! protocol (its steady windows and smoothing splines), a second reading.
 
 use nalgebra::{Matrix3, Vector3};
 use terraslip_calib::prediction::{interpolate, segment_error, PredictionSpec, Reference};

@@ -163,17 +163,22 @@ fn drive_model<'a>(blr: Blr, name: &str) -> Model<'a> {
     }
 }
 
-/// DRIVE's model trained on `log`'s `[t0, t1)`, by DRIVE's protocol
-/// ([`crate::drive_protocol`]; on a log that is not DRIVE's windows, the
-/// port's again) and by this port's steady rows ([`crate::blr`]).
+/// DRIVE's model trained on `log`'s `[t0, t1)` by DRIVE's protocol
+/// ([`crate::drive_protocol`], else the port's) and by this port's.
 fn drive_models<'a>(log: &DriveLog, t0: f64, t1: f64) -> anyhow::Result<[Model<'a>; 2]> {
     let w = log.meta.track_width.unwrap_or(0.5);
     let port = Blr::fit_timed(log, w, t0, t1).context("DRIVE's model: too few steady rows")?;
-    let protocol = match drive_protocol::Windows::of(&log.wheels) {
-        Some(windows) => drive_protocol::fit_timed(log, &windows, w, t0, t1, &OFFSETS)
-            .context("DRIVE's protocol: too few steady windows")?,
-        None => port,
-    };
+    let windows = drive_protocol::Windows::of(&log.wheels);
+    let protocol = windows
+        .and_then(|windows| drive_protocol::fit_timed(log, &windows, w, t0, t1, &OFFSETS))
+        .unwrap_or_else(|| {
+            let why = match windows {
+                Some(_) => "too few steady windows in the training span",
+                None => "not a log of DRIVE's 2 s windows",
+            };
+            eprintln!("  DRIVE's protocol: {why}; its column repeats the port");
+            port
+        });
     Ok([
         drive_model(protocol, DRIVE_PROTOCOL),
         drive_model(port, DRIVE),

@@ -34,10 +34,10 @@ use terraslip_calib::{calibrate, CalibConfig, ModelChoice, RateSlopes};
 use terraslip_core::{IcrParams, Twist};
 use terraslip_io::{DriveLog, ParamsFile, WheelSample};
 
-use crate::blr::{Blr, OFFSETS};
-use crate::drive_protocol;
+use crate::drive_readings::{drive_models, DRIVE, DRIVE_PROTOCOL};
 use crate::outage_table;
 use crate::prediction_table::{print, Segments};
+use crate::scored_model::Model;
 use terraslip_calib::outage::OutageScore;
 
 /// Score each estimator on data it was not trained on.
@@ -75,24 +75,9 @@ const HINDSIGHT: &str = "hindsight selected";
 /// The first models of a drive's list: DRIVE's model by DRIVE's protocol,
 /// by this port, and the online default.
 const READINGS: usize = 3;
-/// DRIVE's model by this port's steady rows.
-const DRIVE: &str = "DRIVE's model";
-/// DRIVE's model by DRIVE's own protocol.
-const DRIVE_PROTOCOL: &str = "DRIVE's model (DRIVE's protocol)";
-
-/// A twist of a wheels row for a segment starting at `t` (s).
-type TwistFn<'a> = Box<dyn Fn(f64, &WheelSample) -> Twist + 'a>;
 
 /// The model of each terrain label of a drive (`None`: the pooled set).
 type TerrainModels = Vec<(Option<String>, Option<(IcrParams, RateSlopes)>)>;
-
-/// A model to score: its twist of a wheels row for a segment starting at
-/// `t` (s), and its clock offset at a start (s).
-struct Model<'a> {
-    name: String,
-    twist: TwistFn<'a>,
-    clock_at: Box<dyn Fn(f64) -> f64 + 'a>,
-}
 
 fn terrain_at(log: &DriveLog, t: f64) -> Option<&str> {
     let k = log.terrain.partition_point(|l| l.t <= t);
@@ -151,37 +136,6 @@ fn calibrated<'a>(
     Ok([
         model(selected, "calibrate selected"),
         model(constant, "calibrate constant"),
-    ])
-}
-
-/// DRIVE's model, with the clock offset it was trained with.
-fn drive_model<'a>(blr: Blr, name: &str) -> Model<'a> {
-    Model {
-        name: name.into(),
-        twist: Box::new(move |_, s: &WheelSample| blr.twist(s)),
-        clock_at: Box::new(move |_| blr.clock_offset),
-    }
-}
-
-/// DRIVE's model trained on `log`'s `[t0, t1)` by DRIVE's protocol
-/// ([`crate::drive_protocol`], else the port's) and by this port's.
-fn drive_models<'a>(log: &DriveLog, t0: f64, t1: f64) -> anyhow::Result<[Model<'a>; 2]> {
-    let w = log.meta.track_width.unwrap_or(0.5);
-    let port = Blr::fit_timed(log, w, t0, t1).context("DRIVE's model: too few steady rows")?;
-    let windows = drive_protocol::Windows::of(&log.wheels);
-    let protocol = windows
-        .and_then(|windows| drive_protocol::fit_timed(log, &windows, w, t0, t1, &OFFSETS))
-        .unwrap_or_else(|| {
-            let why = match windows {
-                Some(_) => "too few steady windows in the training span",
-                None => "not a log of DRIVE's 2 s windows",
-            };
-            eprintln!("  DRIVE's protocol: {why}; its column repeats the port");
-            port
-        });
-    Ok([
-        drive_model(protocol, DRIVE_PROTOCOL),
-        drive_model(port, DRIVE),
     ])
 }
 

@@ -40,6 +40,9 @@
 //! * DRIVE's model has no clock: it is given the offset between wheels and
 //!   pose stamps that predicts its own training data best
 //!   ([`Blr::fit_timed`]).
+//!
+//! [`crate::drive_protocol`] trains the same model by the repository's own
+//! protocol (its steady windows and smoothing splines), a second reading.
 
 use nalgebra::{Matrix3, Vector3};
 use terraslip_calib::prediction::{interpolate, segment_error, PredictionSpec, Reference};
@@ -68,7 +71,7 @@ const MAX_GAP: f64 = 1.0;
 
 /// Clock offsets (s) tried for the model, a pose stamped `t + c`
 /// describing wheel time `t`.
-const OFFSETS: [f64; 13] = [
+pub const OFFSETS: [f64; 13] = [
     0.0, 0.05, 0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5, 0.55, 0.6,
 ];
 
@@ -85,12 +88,17 @@ pub struct Blr {
     pub clock_offset: f64,
 }
 
-/// One training row: ideal `(v, omega)` and the slip `(x, y, yaw)`.
-type Row = ((f64, f64), [f64; 3]);
+/// One training row: ideal `(v, omega)` (m/s, rad/s) and the slip
+/// `(x, y, yaw)` (m/s, m/s, rad/s).
+pub type Row = ((f64, f64), [f64; 3]);
+
+/// The training rows of a drive read at a clock offset (s): the model
+/// (for its ideal velocities) and the offset.
+pub type RowSource<'a> = dyn Fn(&Blr, f64) -> Vec<Row> + 'a;
 
 impl Blr {
     /// Ideal body velocities `(v, omega)` of tread speeds (m/s).
-    fn ideal(&self, v_l: f64, v_r: f64) -> (f64, f64) {
+    pub fn ideal(&self, v_l: f64, v_r: f64) -> (f64, f64) {
         (0.5 * (v_l + v_r), (v_r - v_l) / self.track_width)
     }
 
@@ -105,31 +113,27 @@ impl Blr {
         }
     }
 
-    /// Trained on the wheels rows stamped in `[t0, t1)` (s) whose pose
-    /// window (read `clock_offset` s later) lies in the same span; `None`
-    /// with fewer than 10 steady rows.
-    pub fn fit(
-        log: &DriveLog,
-        track_width: f64,
-        clock_offset: f64,
-        t0: f64,
-        t1: f64,
-    ) -> Option<Self> {
-        let mut m = Self {
+    /// The model with no slip, before training.
+    pub fn untrained(track_width: f64, clock_offset: f64) -> Self {
+        Self {
             track_width,
             w_x: 0.0,
             w_y: 0.0,
             w_yaw: [0.0; 3],
             clock_offset,
-        };
-        let rows = m.training_rows(log, clock_offset, t0, t1);
+        }
+    }
+
+    /// DRIVE's three regressions on `rows`; `None` with fewer than 10.
+    pub fn trained(self, rows: &[Row]) -> Option<Self> {
+        let mut m = self;
         if rows.len() < 10 {
             return None;
         }
         let (mut xx, mut xy) = ([PRIOR_PRECISION; 2], [0.0; 2]);
         let mut a = Matrix3::identity() * PRIOR_PRECISION;
         let mut b = Vector3::zeros();
-        for &((v, om), s) in &rows {
+        for &((v, om), s) in rows {
             xx[0] += v * v;
             xy[0] += v * s[0];
             xx[1] += (v * om) * (v * om);
@@ -145,15 +149,31 @@ impl Blr {
         Some(m)
     }
 
-    /// [`Blr::fit`] at each offset of [`OFFSETS`], keeping the one whose
+    /// Trained on the steady rows of `[t0, t1)` whose pose window lies in
+    /// the same span, at each offset of [`OFFSETS`], keeping the one whose
     /// 2 s prediction of its own training span (starts every second) is
-    /// best.
+    /// best; `None` with fewer than 10 steady rows.
     pub fn fit_timed(log: &DriveLog, track_width: f64, t0: f64, t1: f64) -> Option<Self> {
+        let rows = |m: &Blr, c: f64| m.training_rows(log, c, t0, t1);
+        Self::fit_timed_by(log, track_width, t0, t1, &OFFSETS, &rows)
+    }
+
+    /// Trained on `rows` at each of `offsets` (s), keeping the one whose
+    /// 2 s prediction of `[t0, t1)` (starts every second) is best.
+    pub fn fit_timed_by(
+        log: &DriveLog,
+        track_width: f64,
+        t0: f64,
+        t1: f64,
+        offsets: &[f64],
+        rows: &RowSource,
+    ) -> Option<Self> {
         let refs = terraslip_calib::prediction::references(&log.pose);
         let spec = PredictionSpec::default();
         let mut best: Option<(f64, Self)> = None;
-        for c in OFFSETS {
-            let Some(m) = Self::fit(log, track_width, c, t0, t1) else {
+        for &c in offsets {
+            let m = Self::untrained(track_width, c);
+            let Some(m) = m.trained(&rows(&m, c)) else {
                 continue;
             };
             let (mut sum, mut n) = (0.0, 0usize);
@@ -234,10 +254,47 @@ fn gap_free(refs: &[Reference], ta: f64, tb: f64) -> bool {
     j < refs.len() && refs[i..=j].windows(2).all(|w| w[1].0 - w[0].0 <= MAX_GAP)
 }
 
+/// A 600 s drive at 20 Hz whose slip is exactly `truth`'s: commands held
+/// 6 s from `command_start` (s), random-looking, followed by the tread
+/// speeds with a 0.2 s time constant; the pose every `pose_every` rows,
+/// stamped `lag` s late.
+#[cfg(test)]
+pub fn simulated_drive(truth: &Blr, lag: f64, pose_every: usize, command_start: f64) -> DriveLog {
+    use terraslip_io::PoseObs;
+    let (mut e, mut n, mut y) = (0.0f64, 0.0f64, 0.0f64);
+    let mut log = DriveLog::default();
+    let (mut v_left, mut v_right) = (0.0, 0.0);
+    let follow = 1.0 - (-0.05f64 / 0.2).exp();
+    for k in 0..12000 {
+        let t = k as f64 * 0.05;
+        let step = ((t - command_start) / 6.0).floor();
+        v_left += follow * (1.5 * (step * 1.7).sin() - v_left);
+        v_right += follow * (1.5 * (step * 2.9 + 1.0).cos() - v_right);
+        let s = WheelSample { t, v_left, v_right };
+        if k > 0 {
+            let tw = truth.twist(&s);
+            e += 0.05 * (tw.v_x * y.cos() - tw.v_y * y.sin());
+            n += 0.05 * (tw.v_x * y.sin() + tw.v_y * y.cos());
+            y += 0.05 * tw.omega;
+        }
+        log.wheels.push(s);
+        if k % pose_every == 0 {
+            log.pose.push(PoseObs {
+                t: t + lag,
+                east: Some(e),
+                north: Some(n),
+                yaw: Some(terraslip_core::angle::wrap(y)),
+                std_xy: None,
+                std_yaw: None,
+            });
+        }
+    }
+    log
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use terraslip_io::PoseObs;
 
     /// A drive whose slip is exactly DRIVE's model: the fit recovers the
     /// weights, and the clock offset of a late pose stream.
@@ -250,37 +307,7 @@ mod tests {
             w_yaw: [0.02, 0.03, 0.3],
             clock_offset: 0.0,
         };
-        let (mut e, mut n, mut y) = (0.0f64, 0.0f64, 0.0f64);
-        let mut log = DriveLog::default();
-        for k in 0..=12000 {
-            let t = k as f64 * 0.05;
-            // Commands held for 6 s, random-looking.
-            let step = (t / 6.0).floor();
-            let v_l = 1.5 * (step * 1.7).sin();
-            let v_r = 1.5 * (step * 2.9 + 1.0).cos();
-            let s = WheelSample {
-                t,
-                v_left: v_l,
-                v_right: v_r,
-            };
-            if k > 0 {
-                let tw = truth.twist(&s);
-                e += 0.05 * (tw.v_x * y.cos() - tw.v_y * y.sin());
-                n += 0.05 * (tw.v_x * y.sin() + tw.v_y * y.cos());
-                y += 0.05 * tw.omega;
-            }
-            log.wheels.push(s);
-            if k % 2 == 0 {
-                log.pose.push(PoseObs {
-                    t: t + 0.3,
-                    east: Some(e),
-                    north: Some(n),
-                    yaw: Some(terraslip_core::angle::wrap(y)),
-                    std_xy: None,
-                    std_yaw: None,
-                });
-            }
-        }
+        let log = simulated_drive(&truth, 0.3, 2, 0.0);
         let m = Blr::fit_timed(&log, 1.1, 0.0, 600.0).unwrap();
         assert!((m.clock_offset - 0.3).abs() < 1e-9, "{m:?}");
         assert!((m.w_x - truth.w_x).abs() < 0.01, "{m:?}");

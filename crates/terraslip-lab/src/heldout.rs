@@ -34,8 +34,10 @@ use terraslip_calib::{calibrate, CalibConfig, ModelChoice, RateSlopes};
 use terraslip_core::{IcrParams, Twist};
 use terraslip_io::{DriveLog, ParamsFile, WheelSample};
 
-use crate::blr::Blr;
+use crate::drive_readings::{drive_models, DRIVE, DRIVE_PROTOCOL};
 use crate::outage_table;
+use crate::prediction_table::{print, Segments};
+use crate::scored_model::Model;
 use terraslip_calib::outage::OutageScore;
 
 /// Score each estimator on data it was not trained on.
@@ -70,24 +72,12 @@ pub struct Args {
 
 /// `calibrate` fitted on the scored half itself (`--hindsight`).
 const HINDSIGHT: &str = "hindsight selected";
-
-/// A twist of a wheels row for a segment starting at `t` (s).
-type TwistFn<'a> = Box<dyn Fn(f64, &WheelSample) -> Twist + 'a>;
+/// The first models of a drive's list: DRIVE's model by DRIVE's protocol,
+/// by this port, and the online default.
+const READINGS: usize = 3;
 
 /// The model of each terrain label of a drive (`None`: the pooled set).
 type TerrainModels = Vec<(Option<String>, Option<(IcrParams, RateSlopes)>)>;
-
-/// A drive's row of the table: name, each model's (name, mean error m,
-/// clock offset s), the number of segments.
-type TableRow = (String, Vec<(String, f64, f64)>, usize);
-
-/// A model to score: its twist of a wheels row for a segment starting at
-/// `t` (s), and its clock offset at a start (s).
-struct Model<'a> {
-    name: String,
-    twist: TwistFn<'a>,
-    clock_at: Box<dyn Fn(f64) -> f64 + 'a>,
-}
 
 fn terrain_at(log: &DriveLog, t: f64) -> Option<&str> {
     let k = log.terrain.partition_point(|l| l.t <= t);
@@ -147,15 +137,6 @@ fn calibrated<'a>(
         model(selected, "calibrate selected"),
         model(constant, "calibrate constant"),
     ])
-}
-
-/// DRIVE's model, with the clock offset it was trained with.
-fn drive_model<'a>(blr: Blr) -> Model<'a> {
-    Model {
-        name: "DRIVE's model".into(),
-        twist: Box::new(move |_, s: &WheelSample| blr.twist(s)),
-        clock_at: Box::new(move |_| blr.clock_offset),
-    }
 }
 
 /// What an online model takes of the run at a start.
@@ -325,9 +306,9 @@ fn outage_columns(
     for (name, o) in &runs[1..] {
         cols.push(outage_table::carried(target, name, o.as_ref(), &starts));
     }
-    for m in models
+    for m in [DRIVE, DRIVE_PROTOCOL, "calibrate selected", HINDSIGHT]
         .iter()
-        .filter(|m| ["calibrate selected", "DRIVE's model", HINDSIGHT].contains(&m.name.as_str()))
+        .filter_map(|name| models.iter().find(|m| m.name == *name))
     {
         cols.push(outage_table::fixed(target, &m.name, &*m.twist, &starts));
         if m.name == HINDSIGHT {
@@ -352,9 +333,6 @@ fn score(target: &DriveLog, models: &[Model], from: f64, to: f64) -> (Vec<f64>, 
     let (m, n, _) = score_segments(target, models, from, to);
     (m, n)
 }
-
-/// Each scored start's time (s) and each model's error there (m).
-type Segments = Vec<(f64, Vec<f64>)>;
 
 /// [`score`] and each scored start's time and errors (m).
 fn score_segments(
@@ -405,22 +383,6 @@ fn name_of(dir: &Path) -> String {
         .map_or(String::new(), |n| n.to_string_lossy().into())
 }
 
-fn print(rows: &[TableRow]) {
-    let Some(first) = rows.first() else {
-        return;
-    };
-    let heads: Vec<&str> = first.1.iter().map(|m| m.0.as_str()).collect();
-    println!("| drive | segments | {} |", heads.join(" | "));
-    println!("|---|---|{}", "---|".repeat(heads.len()));
-    for (drive, cols, n) in rows {
-        let cells: Vec<String> = cols
-            .iter()
-            .map(|(_, e, c)| format!("{e:.3} ({c:+.2} s)"))
-            .collect();
-        println!("| {drive} | {n} | {} |", cells.join(" | "));
-    }
-}
-
 /// Scores `models` on `target` in `[from, to)`; each model's clock offset
 /// shown is its mean over the scored span.
 fn row(
@@ -448,6 +410,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let spec = PredictionSpec::default();
     let mut table = Vec::new();
     let mut outages = Vec::new();
+    let mut readings = Vec::new();
     eprintln!("first half -> second half");
     for dir in &logs {
         let log = read(dir)?;
@@ -456,9 +419,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         };
         let (t0, t1) = (first.t, last.t);
         let mid = 0.5 * (t0 + t1);
-        let w = log.meta.track_width.unwrap_or(0.5);
         let acc = accelerations(&log.wheels);
-        let blr = Blr::fit_timed(&log, w, t0, mid).context("DRIVE's model: too few steady rows")?;
+        let drive = drive_models(&log, t0, mid)?;
         let mut cc = CalibConfig::default();
         cc.segment.t_max = mid;
         let cal = calibrate(std::slice::from_ref(&log), &cc, &|_| {})?;
@@ -473,7 +435,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let [selected, constant] = calibrated(&pf, &log, &acc)?;
         let cal_clock = stored_offset(&pf).unwrap_or(0.0);
         let (default_init, mut runs) = default_and_init(&log, &cfg, &pf)?;
-        let mut models = vec![drive_model(blr)];
+        let mut models = Vec::from(drive);
         models.extend(default_init);
         models.extend([constant, selected]);
         if a.diagnose.is_some() {
@@ -497,24 +459,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             });
         }
         outages.push((name_of(dir), outage_columns(&log, &models, &runs, mid, t1)));
-        let models = &models[..scored];
+        let (cols, n) = row(&log, &models[..READINGS], mid, t1 + 1.0 - spec.horizon);
+        readings.push((name_of(dir), cols, n));
+        // DRIVE's protocol stays out of the main table's common segments.
+        let models = &models[1..scored];
         let (cols, n) = row(&log, models, mid, t1 + 1.0 - spec.horizon);
         if let Some(out) = &a.diagnose {
             let (_, _, segs) = score_segments(&log, models, mid, t1 + 1.0 - spec.horizon);
-            std::fs::create_dir_all(out)?;
-            let mut text = String::from("t");
-            for m in models {
-                text += &format!(",{}", m.name);
-            }
-            text.push('\n');
-            for (t, e) in segs {
-                text += &format!("{t:.3}");
-                for e in e {
-                    text += &format!(",{e:.4}");
-                }
-                text.push('\n');
-            }
-            std::fs::write(out.join(format!("{}.csv", name_of(dir))), text)?;
+            let names: Vec<&str> = models.iter().map(|m| m.name.as_str()).collect();
+            crate::prediction_table::write_segments(out, &name_of(dir), &names, &segs)?;
         }
         eprintln!("  {}", name_of(dir));
         table.push((name_of(dir), cols, n));
@@ -536,7 +489,6 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             .split_once(':')
             .with_context(|| format!("--across {pair}: expected A:B"))?;
         let (from_log, to_log) = (read(Path::new(src))?, read(Path::new(dst))?);
-        let w = from_log.meta.track_width.unwrap_or(0.5);
         let (Some(a0), Some(a1), Some(b0), Some(b1)) = (
             from_log.wheels.first(),
             from_log.wheels.last(),
@@ -545,8 +497,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         ) else {
             continue;
         };
-        let blr = Blr::fit_timed(&from_log, w, a0.t, a1.t + 1.0)
-            .context("DRIVE's model: too few steady rows")?;
+        let drive = drive_models(&from_log, a0.t, a1.t + 1.0)?;
         let cal = calibrate(
             std::slice::from_ref(&from_log),
             &CalibConfig::default(),
@@ -556,7 +507,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let acc = accelerations(&to_log.wheels);
         let [selected, constant] = calibrated(&pf, &to_log, &acc)?;
         let (default_init, mut runs) = default_and_init(&to_log, &cfg, &pf)?;
-        let mut models = vec![drive_model(blr)];
+        let mut models = Vec::from(drive);
         models.extend(default_init);
         models.extend([constant, selected]);
         let (more, more_runs) = online_configs(&to_log, &extra)?;
@@ -576,9 +527,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             (", first half", from, mid),
             (", second half", mid, to),
         ] {
-            let (cols, n) = row(&to_log, &models, t0, t1);
+            let (cols, n) = row(&to_log, &models[1..], t0, t1);
             table.push((format!("{name}{label}"), cols, n));
         }
+        let (cols, n) = row(&to_log, &models[..READINGS], from, to);
+        readings.push((name, cols, n));
         eprintln!("  {pair}");
     }
     if !table.is_empty() {
@@ -591,5 +544,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             outage_table::print(pair, cols);
         }
     }
+    println!();
+    println!(
+        "DRIVE's model, two readings: 2 s prediction error, mean m (clock offset), on the \
+         segments both and the online default score (the spans above)"
+    );
+    print(&readings);
     Ok(())
 }

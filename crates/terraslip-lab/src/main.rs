@@ -18,6 +18,8 @@ use clap::{Parser, Subcommand};
 
 mod blr;
 mod borealtc_trust;
+mod drive_protocol;
+mod drive_readings;
 mod drives;
 mod estimators;
 mod family;
@@ -28,7 +30,10 @@ mod hindsight;
 mod misread;
 mod odometry_nees;
 mod outage_table;
+mod prediction_table;
+mod scored_model;
 mod seeds;
+mod smoothing_spline;
 mod stats;
 mod terrain_trust;
 

@@ -96,14 +96,16 @@ pub fn print(drive: &str, cols: &[Column]) {
         });
         println!("| {} | {} | {split} |", c.name, cells.join(" | "));
     }
-    // A name, or a name with its settings in brackets after it.
+    // A name, else a name with its settings in brackets after it.
     let find = |n: &str| {
         cols.iter()
-            .find(|c| c.name == n || c.name.starts_with(&format!("{n} (")))
+            .find(|c| c.name == n)
+            .or_else(|| cols.iter().find(|c| c.name.starts_with(&format!("{n} ("))))
     };
     let pairs = [
         ("online default", "no-slip", 0.5),
         ("online default", "DRIVE's model", 1.0),
+        ("online default", "DRIVE's model (DRIVE's protocol)", 1.0),
         ("hindsight selected", "no-slip", 0.5),
         ("hindsight best", "no-slip", 0.5),
     ];

@@ -14,6 +14,7 @@ mod csv_table;
 mod estimate;
 pub mod guard;
 pub mod params;
+mod pose_steps;
 mod read;
 pub mod shared;
 mod stream;

@@ -8,6 +8,7 @@ use std::path::Path;
 
 use crate::angle::wrap_angle;
 use crate::csv_table::{read_csv_table, CsvTable};
+use crate::pose_steps::PoseSteps;
 use crate::types::*;
 
 /// Drops rows that repeat the previous timestamp (keeping the first) and
@@ -180,6 +181,8 @@ pub struct PoseStream {
     /// First line and count of rows with half a position, and of empty rows.
     half: (Option<u64>, usize),
     empty: (Option<u64>, usize),
+    /// The steps between consecutive positions, for fixes stamped on arrival.
+    steps: PoseSteps,
     done: bool,
 }
 
@@ -200,12 +203,13 @@ impl PoseStream {
             repeats: Repeats::default(),
             half: (None, 0),
             empty: (None, 0),
+            steps: PoseSteps::default(),
             done: false,
         })
     }
 
     /// What the rows read so far call for (half positions, empty rows,
-    /// repeated timestamps).
+    /// repeated timestamps, fixes stamped on arrival).
     pub fn warnings(&self) -> Vec<String> {
         let path = self.tab.path.display();
         let mut out = Vec::new();
@@ -220,6 +224,7 @@ impl PoseStream {
             ));
         }
         out.extend(self.repeats.warning(&self.tab.path));
+        out.extend(self.steps.warning(&self.tab.path));
         out
     }
 
@@ -257,6 +262,9 @@ impl PoseStream {
                 continue;
             }
             if self.repeats.keep(line, t) {
+                if let (Some(e), Some(n)) = (p.east, p.north) {
+                    self.steps.observe(line, t, e, n);
+                }
                 return Ok(Some(p));
             }
         }

@@ -169,12 +169,15 @@ fn calibrate_sees_the_axle_of_a_simulated_antenna_off_it() {
 /// meta.toml's `[pose]` with a `decided:` line, and `estimate` and
 /// `calibrate` on the bag keep x_c at its value.
 #[cfg(feature = "ros2")]
+mod cli;
+
+#[cfg(feature = "ros2")]
 mod recorded {
     use std::path::Path;
 
+    use super::cli::terraslip;
     use super::{spec, TRUE_X_C};
 
-    use assert_cmd::Command;
     use terraslip::testkit::drive;
     use terraslip_ros2::defs::definition_of;
     use terraslip_ros2::msg::CdrWriter;
@@ -291,17 +294,6 @@ mod recorded {
             m.write(imu, t, &w.finish()).unwrap();
         }
         m.finish().unwrap();
-    }
-
-    fn terraslip(args: &[&str]) -> String {
-        let out = Command::cargo_bin("terraslip")
-            .unwrap()
-            .args(args)
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&out.stderr).into_owned();
-        assert!(out.status.success(), "{args:?}: {err}");
-        err
     }
 
     /// What `import`, `estimate` and `calibrate` made of the bag: import's

@@ -21,6 +21,7 @@ mod lever;
 mod live;
 mod live_choice;
 pub mod mount;
+mod no_wheels;
 mod odom_scale;
 mod prior;
 mod report;
@@ -57,7 +58,7 @@ use decoder::{fields_for, Decoder};
 use report::stream_report;
 use role::Role;
 use rows::{Msg, Rows};
-use topics::{choose, list, wheel_twists, Decide};
+use topics::{choose, wheel_twists, Decide};
 use tread_scale::{needs_urdf, wheel_radius, wheel_scale};
 
 struct Sel {
@@ -461,13 +462,11 @@ fn choose_streams(
     what: &str,
     d: &mut Decide,
 ) -> Result<Chosen, Ros2Error> {
-    let wheels = choose(bag, Role::Wheels, &cfg.wheels.topic, &[], d)?.ok_or_else(|| Ros2Error::Bag {
-        bag: bag.path.clone(),
-        reason: format!(
-            "no usable wheel source: no sensor_msgs/JointState, nav_msgs/Odometry or geometry_msgs/TwistStamped topic (the {what} has: {})",
-            list(bag, &(0..bag.topics.len()).collect::<Vec<_>>())
-        ),
-    })?;
+    let wheels =
+        choose(bag, Role::Wheels, &cfg.wheels.topic, &[], d)?.ok_or_else(|| Ros2Error::Bag {
+            bag: bag.path.clone(),
+            reason: no_wheels::no_wheel_source(bag, what),
+        })?;
     let pose = choose(bag, Role::Pose, &cfg.pose.topic, &[wheels], d)?;
     let pose_is_gnss =
         pose.is_some_and(|p| short_type(&bag.topics[p].ty) == "sensor_msgs/NavSatFix");

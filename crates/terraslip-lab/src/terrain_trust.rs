@@ -40,6 +40,18 @@ pub struct Args {
     /// Outer folds of whole runs on BorealTC.
     #[arg(long, default_value_t = 5)]
     folds: usize,
+    /// A directory keeping each BorealTC run's classifier evidence (made
+    /// by its fold's model), so that later runs of the benchmark train no
+    /// model for the runs it holds. Empty it when the terrain model or the
+    /// evidence it hands the estimator changes.
+    #[arg(long, value_name = "DIR")]
+    evidence_cache: Option<std::path::PathBuf>,
+    /// BorealTC: the frames of the evidence whose confidence (before the
+    /// belief's floor) is below this are dropped too, to try floors on the
+    /// evidence cache without training again (frames the evidence already
+    /// left out stay out).
+    #[arg(long, default_value_t = 0.0)]
+    min_confidence: f64,
 }
 
 /// The evidence each run of a world is given, in report order.
@@ -186,7 +198,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         );
     }
     if let Some(dir) = &a.borealtc {
-        crate::borealtc_trust::run(dir, a.folds)?;
+        crate::borealtc_trust::run(dir, a.folds, a.evidence_cache.as_deref(), a.min_confidence)?;
     }
     Ok(())
 }

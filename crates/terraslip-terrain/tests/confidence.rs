@@ -38,18 +38,14 @@ fn an_unsure_window_is_unknown_and_no_evidence_for_the_estimator() {
     let segments: Vec<(usize, f64)> = (0..30).map(|i| (i % 3, 1.2)).collect();
     let test = vibration_log(&NAMES, &segments, 99, 0.0);
     let tl = model.classify_log(&test).unwrap();
-    let sure: Vec<f64> = tl
-        .frames
-        .iter()
-        .filter(|(_, p)| confidence(p) >= UNKNOWN_BELOW)
-        .map(|(t, _)| *t)
-        .collect();
-    let evidence: Vec<f64> = tl
-        .frames
-        .iter()
-        .filter(|(_, p)| confidence(p) >= EVIDENCE_BELOW)
-        .map(|(t, _)| *t)
-        .collect();
+    let at_least = |c: f64| -> Vec<f64> {
+        tl.frames
+            .iter()
+            .filter(|(_, p)| confidence(p) >= c)
+            .map(|(t, _)| *t)
+            .collect()
+    };
+    let (sure, evidence) = (at_least(UNKNOWN_BELOW), at_least(EVIDENCE_BELOW));
     let unsure = tl.frames.len() - sure.len();
     assert!(
         unsure > 0 && !sure.is_empty(),

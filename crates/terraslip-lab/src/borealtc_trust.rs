@@ -16,22 +16,26 @@ use terraslip_terrain::{run_folds, TerrainModel, TrainOptions};
 
 use crate::stats::quantile;
 
-/// Share of `[first wheel sample, last]` in which the terrain the run
-/// declared (its `changes`) is not `truth`; before the first declaration
-/// no terrain is held, which is not counted as wrong.
-fn wrong_share(run: &EstimateRun, log: &DriveLog, truth: &str) -> f64 {
+/// Shares of `[first wheel sample, last]` in which the terrain the run
+/// declared (its `changes`) is not `truth`, and is `truth`; before the
+/// first declaration no terrain is held, which is neither.
+fn wrong_right_shares(run: &EstimateRun, log: &DriveLog, truth: &str) -> (f64, f64) {
     let (Some(a), Some(b)) = (log.wheels.first(), log.wheels.last()) else {
-        return f64::NAN;
+        return (f64::NAN, f64::NAN);
     };
     let (t0, t1) = (a.t, b.t);
-    let mut wrong = 0.0;
+    let (mut wrong, mut right) = (0.0, 0.0);
     for (i, c) in run.changes.iter().enumerate() {
         let end = run.changes.get(i + 1).map_or(t1, |n| n.t).min(t1);
-        if run.terrains.get(c.terrain).map(String::as_str) != Some(truth) {
-            wrong += (end - c.t.max(t0)).max(0.0);
+        let held = (end - c.t.max(t0)).max(0.0);
+        if run.terrains.get(c.terrain).map(String::as_str) == Some(truth) {
+            right += held;
+        } else {
+            wrong += held;
         }
     }
-    wrong / (t1 - t0).max(1e-9)
+    let span = (t1 - t0).max(1e-9);
+    (wrong / span, right / span)
 }
 
 fn estimate(
@@ -54,6 +58,8 @@ fn estimate(
 struct RunTrust {
     name: String,
     wrong: f64,
+    /// Share of the run's time on the right terrain.
+    right: f64,
     spread_model: f64,
     spread_none: f64,
     changes: usize,
@@ -179,9 +185,11 @@ pub fn run(
             let (cfg, ev) = run_evidence(&base, log, model.as_ref(), cache, min_confidence)?;
             let with = estimate(log, &cfg, &ev)?;
             let d0 = labels.final_icr.spread();
+            let (wrong, right) = wrong_right_shares(&with, log, &truth);
             rows.push(RunTrust {
                 name: log.name(),
-                wrong: wrong_share(&with, log, &truth),
+                wrong,
+                right,
                 spread_model: 100.0 * (with.final_icr.spread() - d0).abs() / d0.abs().max(1e-9),
                 spread_none: 100.0 * (none.final_icr.spread() - d0).abs() / d0.abs().max(1e-9),
                 changes: with.changes.len().saturating_sub(1),
@@ -194,14 +202,15 @@ pub fn run(
         rows.len()
     );
     println!(
-        "{:28} {:>8} {:>16} {:>16} {:>8}",
-        "run", "wrong %", "spread vs labels %", "none vs labels %", "changes"
+        "{:28} {:>8} {:>8} {:>16} {:>16} {:>8}",
+        "run", "wrong %", "right %", "spread vs labels %", "none vs labels %", "changes"
     );
     for r in &rows {
         println!(
-            "{:28} {:8.1} {:16.2} {:16.2} {:8}",
+            "{:28} {:8.1} {:8.1} {:16.2} {:16.2} {:8}",
             r.name,
             100.0 * r.wrong,
+            100.0 * r.right,
             r.spread_model,
             r.spread_none,
             r.changes
@@ -216,6 +225,13 @@ pub fn run(
     let (nm, nw) = col(|r| r.spread_none);
     println!(
         "median / worst: time on a wrong terrain {wm:.1} / {ww:.1} %; final spread off the labels' run: model {sm:.2} / {sw:.2} %, no terrain {nm:.2} / {nw:.2} %"
+    );
+    let right: Vec<f64> = rows.iter().map(|r| 100.0 * r.right).collect();
+    println!(
+        "time on the right terrain: median {:.1} %, least {:.1} %, mean {:.1} %",
+        quantile(&right, 0.5),
+        quantile(&right, 0.0),
+        right.iter().sum::<f64>() / right.len().max(1) as f64
     );
     Ok(())
 }

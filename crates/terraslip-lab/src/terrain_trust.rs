@@ -33,6 +33,10 @@ pub struct Args {
     /// gives the wrong ground).
     #[arg(long, default_value_t = 0.9)]
     confidence: f64,
+    /// The worlds with a yaw-rate gyro (as `family --gyro`): a change of
+    /// terrain declared in the outage is tried on it.
+    #[arg(long)]
+    gyro: bool,
     /// Also the BorealTC runs in DIR (one log per run), each classified
     /// by a model trained without its fold of runs.
     #[arg(long, value_name = "DIR")]
@@ -78,9 +82,10 @@ type WorldFigures = (u64, Vec<(f64, f64)>);
 fn world_figures(
     seed: u64,
     evidences: &[(String, Option<Reading>)],
+    gyro: bool,
 ) -> anyhow::Result<WorldFigures> {
     let cfg = terraslip::config::EstimatorConfig::default();
-    let w = draw(seed, Subset::All, false, 0.0);
+    let w = draw(seed, Subset::All, gyro, 0.0);
     let sim = simulate_world(&w, seed)?;
     let outage = (w.outage.0 + w.clock_offset, w.outage.1 + w.clock_offset);
     let labels = &sim.log.terrain;
@@ -137,7 +142,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             .map(|_| {
                 s.spawn(|| -> anyhow::Result<()> {
                     while let Some(seed) = queue.take() {
-                        let f = world_figures(seed, &evidences(a.confidence))?;
+                        let f = world_figures(seed, &evidences(a.confidence), a.gyro)?;
                         results.lock().unwrap_or_else(|e| e.into_inner()).push(f);
                     }
                     Ok(())
@@ -216,7 +221,7 @@ mod tests {
             (Reading::Right.name(), Some(Reading::Right)),
         ];
         let figures: Vec<WorldFigures> = (1..=12)
-            .map(|seed| world_figures(seed, &ev).unwrap())
+            .map(|seed| world_figures(seed, &ev, false).unwrap())
             .collect();
         let median = |i: usize| {
             let v: Vec<f64> = figures.iter().map(|(_, f)| f[i].0).collect();

@@ -146,26 +146,41 @@ pub struct Estimator {
     twist_noise: TwistNoiseLearner,
     /// How far the fixes have disagreed with the estimate so far.
     misfit: Misfit,
+    /// How far the gyro's windows have disagreed with the model's turn so
+    /// far.
+    gyro_misfit: Misfit,
     /// Wheel time since a fix last reached the filter (fused or gated), s.
     since_fix: f64,
 }
 
-/// Largest NIS one fix part adds to [`Misfit::nis`]: a fix far off (an
-/// outlier the gate rejects) counts as a clear disagreement, not as an
-/// unbounded one.
+/// Largest NIS one fix part (or gyro window) adds to [`Misfit::nis`]: a
+/// fix far off (an outlier the gate rejects) counts as a clear
+/// disagreement, not as an unbounded one.
 pub const MISFIT_NIS_CAP: f64 = 25.0;
 
 /// The fixes' disagreement with the estimate accumulated since the start:
 /// the sum of each fused or gated part's normalised innovation squared
 /// (capped at [`MISFIT_NIS_CAP`]), and the number of parts. Two estimators
 /// fed the same fixes compare by the difference of their sums over a
-/// stretch: the one whose slip the fixes bear out has the smaller.
+/// stretch: the one whose slip the fixes bear out has the smaller. The
+/// gyro's windows are counted apart ([`Estimator::gyro_misfit`]).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Misfit {
     /// Sum of the capped NIS, 1.
     pub nis: f64,
     /// Fix parts counted.
     pub parts: u64,
+}
+
+impl Misfit {
+    /// Counts one part of normalised innovation squared `nis` (a
+    /// non-finite one is not counted).
+    fn add(&mut self, nis: f64) {
+        if nis.is_finite() {
+            self.nis += nis.clamp(0.0, MISFIT_NIS_CAP);
+            self.parts += 1;
+        }
+    }
 }
 
 impl Estimator {
@@ -189,6 +204,7 @@ impl Estimator {
             gyro: GyroIntegral::default(),
             twist_noise: TwistNoiseLearner::new(),
             misfit: Misfit::default(),
+            gyro_misfit: Misfit::default(),
             since_fix: 0.0,
         }
     }
@@ -196,6 +212,13 @@ impl Estimator {
     /// The fixes' disagreement with the estimate so far.
     pub fn misfit(&self) -> Misfit {
         self.misfit
+    }
+
+    /// The gyro's disagreement with the model's turn so far: each fused
+    /// window's normalised innovation squared, counted as [`Misfit`] counts
+    /// fix parts. What a change of terrain is tried on where no fixes come.
+    pub fn gyro_misfit(&self) -> Misfit {
+        self.gyro_misfit
     }
 
     /// The filter (state, covariance, learned noise).
@@ -283,8 +306,11 @@ impl Estimator {
             self.filter.break_gyro();
             return Ok(());
         };
-        let r = self.filter.add_gyro(rate * dt, per_s * dt).map(|_| ());
-        self.count_refused(r)
+        let r = self.filter.add_gyro(rate * dt, per_s * dt);
+        if let Ok(Some(nis)) = r {
+            self.gyro_misfit.add(nis);
+        }
+        self.count_refused(r.map(|_| ()))
     }
 
     /// Bad input is an error; any other failed update is refused (the
@@ -471,9 +497,8 @@ impl Estimator {
             ),
             (rep.yaw, &mut c.yaw_fused, &mut c.yaw_gated, rep.nis_yaw),
         ] {
-            if matches!(fate, Fate::Fused | Fate::Gated) && nis.is_finite() {
-                self.misfit.nis += nis.clamp(0.0, MISFIT_NIS_CAP);
-                self.misfit.parts += 1;
+            if matches!(fate, Fate::Fused | Fate::Gated) {
+                self.misfit.add(nis);
             }
             match fate {
                 Fate::Fused => {

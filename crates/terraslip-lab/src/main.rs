@@ -8,7 +8,7 @@
 //!     cargo run -p terraslip-lab --release -- drives
 //!     cargo run -p terraslip-lab --release -- odometry-nees
 //!     cargo run -p terraslip-lab --release -- follow --seeds 20
-//!     cargo run -p terraslip-lab --release -- terrain-trust [--borealtc DIR]
+//!     cargo run -p terraslip-lab --release -- terrain-trust [--borealtc DIR] [--evidence-cache DIR]
 //!
 //! Estimators are named presets (`terraslip`, `ekf-qmin`, `no-slip`, ...)
 //! or `config:FILE.toml` (the default overridden by that file's keys).

@@ -33,6 +33,10 @@ pub struct Args {
     /// gives the wrong ground).
     #[arg(long, default_value_t = 0.9)]
     confidence: f64,
+    /// The worlds with a yaw-rate gyro (as `family --gyro`): a change of
+    /// terrain declared in the outage is tried on it.
+    #[arg(long)]
+    gyro: bool,
     /// Also the BorealTC runs in DIR (one log per run), each classified
     /// by a model trained without its fold of runs.
     #[arg(long, value_name = "DIR")]
@@ -40,6 +44,18 @@ pub struct Args {
     /// Outer folds of whole runs on BorealTC.
     #[arg(long, default_value_t = 5)]
     folds: usize,
+    /// A directory keeping each BorealTC run's classifier evidence (made
+    /// by its fold's model), so that later runs of the benchmark train no
+    /// model for the runs it holds. Empty it when the terrain model or the
+    /// evidence it hands the estimator changes.
+    #[arg(long, value_name = "DIR")]
+    evidence_cache: Option<std::path::PathBuf>,
+    /// BorealTC: the frames of the evidence whose confidence (before the
+    /// belief's floor) is below this are dropped too, to try floors on the
+    /// evidence cache without training again (frames the evidence already
+    /// left out stay out).
+    #[arg(long, default_value_t = 0.0)]
+    min_confidence: f64,
 }
 
 /// The evidence each run of a world is given, in report order.
@@ -66,9 +82,10 @@ type WorldFigures = (u64, Vec<(f64, f64)>);
 fn world_figures(
     seed: u64,
     evidences: &[(String, Option<Reading>)],
+    gyro: bool,
 ) -> anyhow::Result<WorldFigures> {
     let cfg = terraslip::config::EstimatorConfig::default();
-    let w = draw(seed, Subset::All, false, 0.0);
+    let w = draw(seed, Subset::All, gyro, 0.0);
     let sim = simulate_world(&w, seed)?;
     let outage = (w.outage.0 + w.clock_offset, w.outage.1 + w.clock_offset);
     let labels = &sim.log.terrain;
@@ -125,7 +142,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             .map(|_| {
                 s.spawn(|| -> anyhow::Result<()> {
                     while let Some(seed) = queue.take() {
-                        let f = world_figures(seed, &evidences(a.confidence))?;
+                        let f = world_figures(seed, &evidences(a.confidence), a.gyro)?;
                         results.lock().unwrap_or_else(|e| e.into_inner()).push(f);
                     }
                     Ok(())
@@ -186,7 +203,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         );
     }
     if let Some(dir) = &a.borealtc {
-        crate::borealtc_trust::run(dir, a.folds)?;
+        crate::borealtc_trust::run(dir, a.folds, a.evidence_cache.as_deref(), a.min_confidence)?;
     }
     Ok(())
 }
@@ -204,7 +221,7 @@ mod tests {
             (Reading::Right.name(), Some(Reading::Right)),
         ];
         let figures: Vec<WorldFigures> = (1..=12)
-            .map(|seed| world_figures(seed, &ev).unwrap())
+            .map(|seed| world_figures(seed, &ev, false).unwrap())
             .collect();
         let median = |i: usize| {
             let v: Vec<f64> = figures.iter().map(|(_, f)| f[i].0).collect();

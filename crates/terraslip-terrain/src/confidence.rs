@@ -18,6 +18,18 @@ pub const ECE_BINS: usize = 15;
 /// of the others).
 pub const UNKNOWN_BELOW: f64 = 0.5;
 
+/// Confidence below which a verdict is no evidence for the estimator
+/// ([`crate::TerrainTimeline::sure_evidence`]). Stricter than
+/// [`UNKNOWN_BELOW`]: the windows of a run overlap and share its driving,
+/// so the terrain belief takes a run of verdicts at 0.55-0.6 (wrong four
+/// times in ten) as if each were independent, grows sure, and the
+/// estimator recalls the wrong ground's slip for the whole run. Chosen on
+/// the BorealTC runs' outer folds (each run classified by a model trained
+/// without it) among 0.5, 0.6, 0.7, 0.75, 0.8 and 0.85: the worst run's
+/// time on a wrong terrain 93 %, 91 %, 66 %, 34 %, 31 % and 30 %
+/// (docs/figures/terrain.md).
+pub const EVIDENCE_BELOW: f64 = 0.8;
+
 /// Whether a probability vector is an "unknown" verdict (its confidence
 /// below [`UNKNOWN_BELOW`]).
 pub fn is_unknown(p: &[f64]) -> bool {

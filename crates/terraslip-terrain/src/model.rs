@@ -102,8 +102,8 @@ impl TerrainModel {
     /// class probabilities floored by the model's `prob_floor`, without the
     /// vibration windows in which the robot was nearly still (mean tread
     /// speed below [`MIN_INFORMATIVE_SPEED`]) and without the frames whose
-    /// verdict is "unknown" (confidence below
-    /// [`crate::confidence::UNKNOWN_BELOW`]): an unsure terrain is no evidence, the
+    /// verdict is unsure (confidence below
+    /// [`crate::confidence::EVIDENCE_BELOW`]): an unsure terrain is no evidence, the
     /// belief keeps what it had and the estimator's own innovation-driven
     /// change detection decides. Camera frames are kept at any speed.
     /// Each frame is stamped at the middle of its window

@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 use terraslip_core::terrain_belief::{BeliefConfig, TerrainBelief};
 
 use crate::classify::argmax;
-use crate::confidence::{confidence, is_unknown, ScoredWindow, UNKNOWN_BELOW};
+use crate::confidence::{confidence, ScoredWindow, EVIDENCE_BELOW, UNKNOWN_BELOW};
 
 /// How classifier outputs are smoothed (wang2018's Bayesian filter + λ-vote).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -146,12 +146,16 @@ impl TerrainTimeline {
         self
     }
 
-    /// What a belief may fuse: the frames whose verdict is not "unknown"
-    /// ([`crate::confidence::is_unknown`]: an unsure terrain is no
-    /// evidence, the belief keeps what it had), each floored by `floor`
-    /// ([`Self::floored`]).
+    /// What a belief may fuse: the frames whose verdict is sure
+    /// (confidence at least [`crate::confidence::EVIDENCE_BELOW`]: an
+    /// unsure terrain is no evidence, the belief keeps what it had), each
+    /// floored by `floor` ([`Self::floored`]).
     pub fn sure_evidence(mut self, floor: f64) -> Self {
-        let keep: Vec<bool> = self.frames.iter().map(|(_, p)| !is_unknown(p)).collect();
+        let keep: Vec<bool> = self
+            .frames
+            .iter()
+            .map(|(_, p)| confidence(p) >= EVIDENCE_BELOW)
+            .collect();
         self.frames = self.floored(floor);
         self.retain_frames(&keep);
         self

@@ -82,6 +82,16 @@ pub fn tread_speeds(t: f64) -> (f64, f64) {
 /// [`tread_speeds`] drive with ICRs `icr`, stamped 3 ms after the wheels'
 /// grid.
 pub fn gyro(icr: IcrParams, duration: f64, hz: f64) -> Vec<ImuSample> {
+    gyro_turning(duration, hz, |_| icr)
+}
+
+/// The same gyro on the drive `spec` describes: it turns as the ground
+/// under each stretch does.
+pub fn terrain_gyro(spec: &SynthSpec, hz: f64) -> Vec<ImuSample> {
+    gyro_turning(spec.duration, hz, |t| spec.icr_at(t))
+}
+
+fn gyro_turning(duration: f64, hz: f64, icr_at: impl Fn(f64) -> IcrParams) -> Vec<ImuSample> {
     (0..(duration * hz) as usize)
         .map(|k| {
             let t = k as f64 / hz + 0.003;
@@ -93,23 +103,29 @@ pub fn gyro(icr: IcrParams, duration: f64, hz: f64) -> Vec<ImuSample> {
                 accel_y: None,
                 gyro_x: None,
                 gyro_y: None,
-                gyro_z: Some(icr.twist(vl, vr).omega),
+                gyro_z: Some(icr_at(t).twist(vl, vr).omega),
             }
         })
         .collect()
 }
 
-/// A drive with truth, labels and noisy pose.
-pub fn drive(spec: &SynthSpec) -> DriveLog {
-    let mut noise = Noise(spec.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1);
-    let icr_at = |t: f64| {
-        spec.terrains
+impl SynthSpec {
+    /// The ICRs of the ground at `t` (s): the stretch in effect, the first
+    /// before any; no slip with no stretch.
+    pub fn icr_at(&self, t: f64) -> IcrParams {
+        self.terrains
             .iter()
             .rev()
             .find(|x| x.0 <= t)
-            .or(spec.terrains.first())
-            .map_or(IcrParams::no_slip(spec.track_width), |x| x.2)
-    };
+            .or(self.terrains.first())
+            .map_or(IcrParams::no_slip(self.track_width), |x| x.2)
+    }
+}
+
+/// A drive with truth, labels and noisy pose.
+pub fn drive(spec: &SynthSpec) -> DriveLog {
+    let mut noise = Noise(spec.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1);
+    let icr_at = |t: f64| spec.icr_at(t);
     let n = (spec.duration * spec.wheel_hz).round() as usize;
     let dt = 1.0 / spec.wheel_hz;
     let sub = 10;

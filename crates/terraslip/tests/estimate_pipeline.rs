@@ -279,6 +279,37 @@ fn a_classifiers_change_is_declared_at_the_first_frame_that_reads_it() {
     assert_eq!(at(200.0), Some(0));
 }
 
+/// The classifier of [`grass_from_100_to_200`] at 0.9, a frame every
+/// 0.5 s, that also reads asphalt as grass, confidently, from 230 s to
+/// 260 s.
+fn asphalt_read_as_grass_from_230_to_260() -> Vec<(f64, Vec<f64>)> {
+    let mut frames = grass_from_100_to_200(0.5, 0.9);
+    for (t, p) in &mut frames {
+        if (230.0..260.0).contains(t) {
+            *p = vec![0.1, 0.9];
+        }
+    }
+    frames
+}
+
+/// The estimator on `log` given [`asphalt_read_as_grass_from_230_to_260`]:
+/// the right changes are kept, the misread undone within 15 s of its start
+/// and not taken up again.
+fn misread_undone(log: &terraslip_io::DriveLog) -> terraslip::EstimateRun {
+    let (run, declared) = classified(log, asphalt_read_as_grass_from_230_to_260());
+    eprintln!("{declared:?}");
+    let at = |t: f64| run.rows.iter().find(|r| r.t >= t).unwrap();
+    assert_eq!(at(150.0).terrain, Some(1));
+    assert_eq!(at(215.0).terrain, Some(0));
+    assert_eq!(at(245.0).terrain, Some(0), "{declared:?}");
+    assert_eq!(at(258.0).terrain, Some(0), "{declared:?}");
+    assert!(run
+        .changes
+        .iter()
+        .any(|c| c.action == terraslip_core::ChangeAction::Undone));
+    run
+}
+
 /// A classifier right at 0.9, a frame every 0.5 s, that reads asphalt as
 /// grass, confidently, from 230 s to 260 s: believed, the grass set would
 /// be recalled on asphalt. The fixes contradict it, so the change is
@@ -287,24 +318,28 @@ fn a_classifiers_change_is_declared_at_the_first_frame_that_reads_it() {
 #[test]
 fn a_recall_the_fixes_contradict_is_undone() {
     let log = drive(&SynthSpec::default());
-    let mut frames = grass_from_100_to_200(0.5, 0.9);
-    for (t, p) in &mut frames {
-        if (230.0..260.0).contains(t) {
-            *p = vec![0.1, 0.9];
-        }
-    }
-    let (run, declared) = classified(&log, frames);
-    eprintln!("{declared:?}");
+    let run = misread_undone(&log);
     let at = |t: f64| run.rows.iter().find(|r| r.t >= t).unwrap();
-    assert_eq!(at(150.0).terrain, Some(1));
-    assert_eq!(at(215.0).terrain, Some(0));
-    // Undone within 15 s of the misread's start, and not taken up again.
-    assert_eq!(at(245.0).terrain, Some(0), "{declared:?}");
-    assert_eq!(at(258.0).terrain, Some(0), "{declared:?}");
     // The slip the rows hold on asphalt stays asphalt's (spread 0.61 m,
     // grass 0.73 m).
     let spread = |t: f64| at(t).y_l - at(t).y_r;
     assert!((spread(255.0) - 0.61).abs() < 0.03, "{}", spread(255.0));
+}
+
+/// The misread of [`a_recall_the_fixes_contradict_is_undone`] on a drive
+/// with no fixes at all: the gyro's windows contradict the grass set's
+/// turn, so the change is undone all the same, and the right changes are
+/// kept.
+#[test]
+fn a_recall_the_gyro_contradicts_is_undone_without_fixes() {
+    // The default drive without its pose reference, with a noiseless
+    // yaw-rate gyro at 50 Hz that turns as each stretch's ground does (as
+    // on BorealTC: IMU and wheels, no pose).
+    let spec = SynthSpec::default();
+    let mut log = drive(&spec);
+    log.pose.clear();
+    log.imu = terraslip::testkit::terrain_gyro(&spec, 50.0);
+    misread_undone(&log);
 }
 
 /// Two calibrated terrain sets, as `terraslip calibrate` writes them.

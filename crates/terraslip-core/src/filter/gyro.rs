@@ -78,16 +78,17 @@ impl Filter {
     /// Adds the gyro's heading change `angle` (rad, counter-clockwise about
     /// body z; the integral of its rate) over the last prediction step, from
     /// `samples` samples (fractional when a step holds part of them); fuses
-    /// the window once it spans [`GYRO_WINDOW`]. Returns whether a window
-    /// was fused.
-    pub fn add_gyro(&mut self, angle: f64, samples: f64) -> Result<bool, FilterError> {
+    /// the window once it spans [`GYRO_WINDOW`]. Returns the normalised
+    /// innovation squared of the window fused (before any widening), if
+    /// one was.
+    pub fn add_gyro(&mut self, angle: f64, samples: f64) -> Result<Option<f64>, FilterError> {
         if !angle.is_finite() {
             return Err(FilterError::BadInput("gyro rate not finite"));
         }
         let (dt, q_model, q_yaw) = self.last_step;
         if !(dt > 0.0 && samples >= 0.0 && samples.is_finite()) || self.meas.std_gyro == 0.0 {
             self.gyro_win.close();
-            return Ok(false);
+            return Ok(None);
         }
         let w = &mut self.gyro_win;
         if !w.open {
@@ -101,17 +102,17 @@ impl Filter {
         w.span += dt;
         w.steps += 1;
         if w.span + 1e-9 < GYRO_WINDOW {
-            return Ok(false);
+            return Ok(None);
         }
         let w = *w;
         self.gyro_win.close();
         if w.steps >= CAPACITY {
-            return Ok(false);
+            return Ok(None);
         }
         self.fuse_gyro_window(&w)
     }
 
-    fn fuse_gyro_window(&mut self, w: &GyroWindow) -> Result<bool, FilterError> {
+    fn fuse_gyro_window(&mut self, w: &GyroWindow) -> Result<Option<f64>, FilterError> {
         if self.cfg.noise_memory > 0.0 {
             self.gyro_noise
                 .forget(libm::exp(-w.span / self.cfg.noise_memory));
@@ -154,7 +155,8 @@ impl Filter {
             return Err(FilterError::SingularInnovation);
         }
         self.detect_change(nu / libm::sqrt(s), m.d_yaw)?;
-        let beyond = nu * nu / s > self.cfg.gate_yaw && self.gyro_noise.count() >= GATE_WARMUP;
+        let nis = nu * nu / s;
+        let beyond = nis > self.cfg.gate_yaw && self.gyro_noise.count() >= GATE_WARMUP;
         if !beyond {
             // (Capped: before the gate applies, one window counts a gate's
             // worth at most.)
@@ -199,7 +201,7 @@ impl Filter {
         self.P = P;
         self.gyro_seen = true;
         self.gyro_counts[0] += 1;
-        Ok(true)
+        Ok(Some(nis))
     }
 
     /// The slip-change detector on the gyro windows. A wrong spread makes

@@ -10,6 +10,11 @@
 //! by [`UNDO_NIS`], or has not fitted better at the end of the trial, and
 //! kept when it fits better by [`KEEP_NIS`].
 //!
+//! Where no fix has come since the change (a log without a pose reference,
+//! an outage), the two are scored the same way by the gyro's windows
+//! instead ([`Estimator::gyro_misfit`]: the turn the gyro saw against the
+//! turn each one's slip makes of the tread speeds).
+//!
 //! Labels are not tried: they are the ground's truth.
 
 use terraslip_core::estimator::{Estimator, Misfit};
@@ -49,8 +54,19 @@ pub struct Trial {
     pub held_in_use: bool,
     /// What the change did.
     pub action: ChangeAction,
-    /// The misfits with the change and without it, at the change.
+    /// The misfits to the fixes with the change and without it, at the
+    /// change.
     start: (Misfit, Misfit),
+    /// The same, to the gyro's windows.
+    start_gyro: (Misfit, Misfit),
+}
+
+/// The NIS by which `with` has fitted worse than `held` since `start`, and
+/// the parts since.
+fn excess_since(with: Misfit, held: Misfit, start: (Misfit, Misfit)) -> (f64, u64) {
+    let parts = with.parts.saturating_sub(start.0.parts);
+    let excess = (with.nis - start.0.nis) - (held.nis - start.1.nis);
+    (excess, parts)
 }
 
 impl Trial {
@@ -58,26 +74,30 @@ impl Trial {
     /// `after` is in use.
     pub fn new(before: Estimator, after: &Estimator, action: ChangeAction) -> Self {
         let start = (after.misfit(), before.misfit());
+        let start_gyro = (after.gyro_misfit(), before.gyro_misfit());
         Self {
             other: before,
             held_in_use: false,
             action,
             start,
+            start_gyro,
         }
     }
 
     /// The NIS by which the change fits worse than the terrain held, and
-    /// the fix parts since the change; `in_use` the estimator in use.
+    /// the parts since the change: of the fixes, or of the gyro's windows
+    /// while no fix has come since; `in_use` the estimator in use.
     fn excess(&self, in_use: &Estimator) -> (f64, u64) {
         let (with, held) = if self.held_in_use {
             (&self.other, in_use)
         } else {
             (in_use, &self.other)
         };
-        let (a, b) = (with.misfit(), held.misfit());
-        let parts = a.parts.saturating_sub(self.start.0.parts);
-        let excess = (a.nis - self.start.0.nis) - (b.nis - self.start.1.nis);
-        (excess, parts)
+        let fixes = excess_since(with.misfit(), held.misfit(), self.start);
+        if fixes.1 > 0 {
+            return fixes;
+        }
+        excess_since(with.gyro_misfit(), held.gyro_misfit(), self.start_gyro)
     }
 
     /// The verdict on the change.

@@ -86,9 +86,16 @@ impl LiveChoice {
             return Err(Ros2Error::Bag {
                 bag: label,
                 reason: format!(
-                    "no usable wheel source: no {} topic (the graph has: {})",
+                    "no usable wheel source: no {} topic ({})",
                     wheels.join(", "),
-                    super::topics::list(&bag, &(0..topics.len()).collect::<Vec<_>>())
+                    if topics.is_empty() {
+                        "no other node writes a topic yet".to_string()
+                    } else {
+                        format!(
+                            "the graph has: {}",
+                            super::topics::list(&bag, &(0..topics.len()).collect::<Vec<_>>())
+                        )
+                    }
                 ),
             });
         }

@@ -24,7 +24,7 @@ use terraslip_ros2::import::{LiveRow, Settled};
 
 use super::node_args::{apply_node_params, warn_unmatched_remaps, with_params, Args};
 use super::node_compensate::{resolve, CommandThread, CMD_IN, CMD_OUT};
-use super::node_outputs::{BadMessages, Outputs, OUTPUT_TOPICS};
+use super::node_outputs::{is_ours, BadMessages, Outputs};
 use terraslip::belief::Belief;
 
 pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
@@ -135,12 +135,7 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
         }
         None => None,
     };
-    let ours = |topic: &str| {
-        OUTPUT_TOPICS.iter().any(|o| o.0 == topic)
-            || cmd_topics
-                .as_ref()
-                .is_some_and(|(i, o)| i == topic || o == topic)
-    };
+    let ours = |topic: &str| is_ours(topic, cmd_topics.as_ref());
 
     // The streams, once the graph shows them.
     let mut said = String::new();

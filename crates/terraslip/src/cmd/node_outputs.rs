@@ -50,6 +50,19 @@ pub struct Outputs {
     pub revisited: Vec<String>,
 }
 
+/// Topics every ROS 2 node writes (this one too, through its parameter
+/// services and log): never a sensor stream, so never listed as one.
+pub const ROS_NODE_TOPICS: [&str; 2] = ["/parameter_events", "/rosout"];
+
+/// Whether the graph's `topic` is one this node writes (its outputs, the
+/// compensated command pair `cmd_topics`) or one every node writes: not a
+/// sensor topic to choose from or to list as found.
+pub fn is_ours(topic: &str, cmd_topics: Option<&(String, String)>) -> bool {
+    OUTPUT_TOPICS.iter().any(|o| o.0 == topic)
+        || ROS_NODE_TOPICS.contains(&topic)
+        || cmd_topics.is_some_and(|(i, o)| i == topic || o == topic)
+}
+
 pub const OUTPUT_TOPICS: [(&str, &str); 6] = [
     ("/terraslip/odom", "nav_msgs/msg/Odometry"),
     ("/tf", "tf2_msgs/msg/TFMessage"),
@@ -218,5 +231,27 @@ impl RowSink for Outputs {
         self.published += 1;
         self.last_t = Some(r.t);
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod graph_tests {
+    use super::is_ours;
+
+    #[test]
+    fn the_topics_every_node_writes_are_not_sensor_candidates() {
+        let cmd = ("/cmd_vel_nav".to_string(), "/cmd_vel".to_string());
+        for topic in [
+            "/parameter_events",
+            "/rosout",
+            "/terraslip/odom",
+            "/cmd_vel",
+        ] {
+            assert!(is_ours(topic, Some(&cmd)), "{topic}");
+        }
+        for topic in ["/odom", "/imu/data", "/fix", "/joint_states"] {
+            assert!(!is_ours(topic, Some(&cmd)), "{topic}");
+        }
+        assert!(!is_ours("/cmd_vel", None));
     }
 }

@@ -85,18 +85,7 @@ impl LiveChoice {
         {
             return Err(Ros2Error::Bag {
                 bag: label,
-                reason: format!(
-                    "no usable wheel source: no {} topic ({})",
-                    wheels.join(", "),
-                    if topics.is_empty() {
-                        "no other node writes a topic yet".to_string()
-                    } else {
-                        format!(
-                            "the graph has: {}",
-                            super::topics::list(&bag, &(0..topics.len()).collect::<Vec<_>>())
-                        )
-                    }
-                ),
+                reason: super::no_wheels::no_wheel_source(&bag, "graph"),
             });
         }
         let mut stamps = HashMap::new();
@@ -214,6 +203,18 @@ mod tests {
             .to_string();
         assert!(
             e.contains("no usable wheel source") && e.contains("/imu"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn an_empty_graph_is_said_to_be_empty() {
+        let e = LiveChoice::new("graph", Vec::new(), &TopicsConfig::default())
+            .err()
+            .expect("no wheel source")
+            .to_string();
+        assert!(
+            e.contains("no other node writes a topic yet") && !e.contains("has: )"),
             "{e}"
         );
     }

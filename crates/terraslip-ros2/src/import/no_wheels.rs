@@ -11,9 +11,18 @@ use crate::Bag;
 
 /// The refusal's reason for `bag` (`what` it is: `bag`, `graph`).
 pub(super) fn no_wheel_source(bag: &Bag, what: &str) -> String {
+    let has = match (bag.topics.is_empty(), what) {
+        // Every node writes /parameter_events and /rosout; the live node
+        // leaves them (and its own outputs) out of the graph it is given.
+        (true, "graph") => "no other node writes a topic yet".to_string(),
+        (true, _) => format!("the {what} has no topic"),
+        (false, _) => format!(
+            "the {what} has: {}",
+            list(bag, &(0..bag.topics.len()).collect::<Vec<_>>())
+        ),
+    };
     let mut reason = format!(
-        "no usable wheel source: no sensor_msgs/JointState, nav_msgs/Odometry or geometry_msgs/TwistStamped topic (the {what} has: {})",
-        list(bag, &(0..bag.topics.len()).collect::<Vec<_>>())
+        "no usable wheel source: no sensor_msgs/JointState, nav_msgs/Odometry or geometry_msgs/TwistStamped topic ({has})"
     );
     if what == "bag" {
         let pose = bag.topics.iter().find(|t| {

@@ -172,6 +172,21 @@ def rms_of(values):
     return math.sqrt(sum(v * v for v in values) / len(values)) if values else float("nan")
 
 
+def read_log(log):
+    """The log's position fixes `(t, east, north)`, wheels rows (times,
+    left and right tread speeds) and gyro samples `(t, rate)` (empty
+    without `imu.csv` or its `gyro_z`)."""
+    wheels = rows(log, "wheels.csv")
+    fixes = [(float(r["t"]), float(r["east"]), float(r["north"]))
+             for r in rows(log, "pose.csv") if r["east"]]
+    tw = [float(r["t"]) for r in wheels]
+    vl = [float(r["v_left"]) for r in wheels]
+    vr = [float(r["v_right"]) for r in wheels]
+    imu = rows(log, "imu.csv") if os.path.exists(os.path.join(log, "imu.csv")) else []
+    gyro = [(float(r["t"]), float(r["gyro_z"])) for r in imu if r.get("gyro_z")]
+    return fixes, tw, vl, vr, gyro
+
+
 def main():
     argv, extra = sys.argv, []
     if "--" in argv:
@@ -183,15 +198,7 @@ def main():
     exe, log, sep = argv[1], argv[2], float(argv[3])
     length = float(argv[4]) if len(argv) > 4 else 30.0
     starts = [float(x) for x in argv[5:]] or [60, 120, 180, 240, 300]
-    wheels = rows(log, "wheels.csv")
-    fixes = [(float(r["t"]), float(r["east"]), float(r["north"]))
-             for r in rows(log, "pose.csv") if r["east"]]
-    tw = [float(r["t"]) for r in wheels]
-    vl = [float(r["v_left"]) for r in wheels]
-    vr = [float(r["v_right"]) for r in wheels]
-    imu_path = os.path.join(log, "imu.csv")
-    imu = rows(log, "imu.csv") if os.path.exists(imu_path) else []
-    gyro = [(float(r["t"]), float(r["gyro_z"])) for r in imu if r.get("gyro_z")]
+    fixes, tw, vl, vr, gyro = read_log(log)
     names = ["estimate", "odometry"] + (["gyro"] if gyro else [])
     names += ["estimate's heading", "estimate's distance"] if swap else []
     tot = {n: [] for n in names}

@@ -5,6 +5,7 @@ import math
 from logcsv import interp, script
 
 gap_check = script("ros2-gap-check.py")
+gap_ceiling = script("ros2-gap-ceiling.py")
 
 
 def test_gyro_moved_onto_the_wheels_clock():
@@ -64,8 +65,28 @@ def test_the_paired_rule_calls_a_tie_only_when_its_interval_holds_zero():
     assert gap_check.verdict(0.1, 0.4) == "behind"
 
 
+def test_the_ceiling_finds_the_calibration_the_fixes_were_driven_with():
+    """Fixes on the odometry's path turned 0.96 x and driven 0.94 x (a grid
+    point): among the ceiling's calibrated tracks that one lands on them
+    and the plain odometry does not; the gyro read 1.05 x the truth, divided
+    by 1.05, lands on them with the same speed."""
+    tw = [i * 0.1 for i in range(300)]
+    vl = [0.9 + 0.3 * math.sin(t / 5.0) for t in tw]
+    vr = [1.1 + 0.3 * math.sin(t / 5.0) for t in tw]
+    true_rate = lambda i: 0.96 * (vr[i] - vl[i])
+    truth = gap_check.dead_reckon(tw, lambda i: 0.94 * (vl[i] + vr[i]) / 2, true_rate, 0, 29.0, (0, 0, 0.5))
+    fixes = [(t, e, n) for t, e, n in truth if abs(t * 2.5 - round(t * 2.5)) < 1e-6]
+    found = gap_ceiling.tracks(tw, vl, vr, 1.0, lambda i: 1.05 * true_rate(i), 0, 29.0, (0, 0, 0.5))
+    rms = {key: gap_check.rms_to_fixes(tr, fixes, 0.0, 29.0)[0] for key, tr in found.items()}
+    assert min(rms, key=rms.get) in (("odometry", 0.96, 0.94), ("gyro", 1.05, 0.94)), min(rms, key=rms.get)
+    assert rms[("odometry", 0.96, 0.94)] < 1e-6 and rms[("gyro", 1.05, 0.94)] < 0.01, rms
+    assert rms[("odometry", 1.0, 1.0)] > 0.5, rms[("odometry", 1.0, 1.0)]
+    assert gap_ceiling.row_at(tw, -1.0) == 0 and gap_ceiling.row_at(tw, 10.05) == 100
+
+
 if __name__ == "__main__":
     test_gyro_moved_onto_the_wheels_clock()
     test_a_track_split_into_its_heading_and_its_distance()
     test_the_paired_rule_calls_a_tie_only_when_its_interval_holds_zero()
+    test_the_ceiling_finds_the_calibration_the_fixes_were_driven_with()
     print("ok")

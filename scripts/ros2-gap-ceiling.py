@@ -20,7 +20,12 @@ pose BEFORE s earlier, scored on the fixes it had: what learning from the
 recent past gives); and per window the best of the grid in hindsight (an
 upper bound that also picks the fixes' own wander). Pure Python.
 
-usage: ros2-gap-ceiling.py TERRASLIP LOG S LENGTH_S T0 ... [--before S] [-- ESTIMATE_ARGS ...]
+With `--held` three more tracks, with the odometry's speed, tell which of
+the gyro's states the estimate's heading through a gap owes its error to:
+the raw gyro less the bias `estimate` holds at T0 (`ros2-gyro-state.py`:
+the log cut at T0), divided by the scale it holds, and both.
+
+usage: ros2-gap-ceiling.py TERRASLIP LOG S LENGTH_S T0 ... [--before S] [--held] [-- ESTIMATE_ARGS ...]
 """
 import json
 import os
@@ -31,6 +36,7 @@ import tempfile
 from logcsv import interp, rows, script
 
 gap_check = script("ros2-gap-check.py")
+gyro_state = script("ros2-gyro-state.py")
 
 HEADING = [0.90, 0.92, 0.94, 0.96, 0.98, 1.00, 1.02, 1.04]
 SPEED = [0.85, 0.88, 0.91, 0.94, 0.97, 1.00, 1.03]
@@ -75,6 +81,8 @@ def main():
         k = argv.index("--before")
         before = float(argv[k + 1])
         argv = argv[:k] + argv[k + 2:]
+    with_held = "--held" in argv
+    argv = [a for a in argv if a != "--held"]
     exe, log, sep, length = argv[1], argv[2], float(argv[3]), float(argv[4])
     starts = [float(x) for x in argv[5:]]
     fixes, tw, vl, vr, gyro = gap_check.read_log(log)
@@ -103,6 +111,15 @@ def main():
         kb = row_at(tw, tb)
         past = {key: gap_check.rms_to_fixes(tr, fixes, tb, t0)[0]
                 for key, tr in tracks(tw, vl, vr, sep, gyro_rate, kb, t0, pose(kb)).items()}
+        if with_held and gyro:
+            g = gyro_state.held(exe, log, t0, extra)[0] or {"bias_rad_s": 0.0, "scale": 1.0}
+            b, scale = g["bias_rad_s"], g["scale"]
+            speed = lambda i: (vl[i] + vr[i]) / 2
+            for key, rate in [("gyro - held bias", lambda i: gyro_rate(i) - b),
+                              ("gyro / held scale", lambda i: gyro_rate(i) / scale),
+                              ("(gyro - held bias) / held scale", lambda i: (gyro_rate(i) - b) / scale)]:
+                tr = gap_check.dead_reckon(tw, speed, rate, k0, t1, pose(k0))
+                score.setdefault(key, []).append(gap_check.rms_to_fixes(tr, fixes, t0, t1)[0])
         for key, rms in here.items():
             score.setdefault(key, []).append(rms)
         estimate.append(gap_check.rms_to_fixes(
@@ -110,7 +127,8 @@ def main():
         fitted.append(here[min(past, key=past.get)])
         hindsight.append(min(here.values()))
     odometry = score[("odometry", 1.0, 1.0)]
-    best = min(score, key=lambda key: sum(score[key]))
+    grid = [key for key in score if isinstance(key, tuple)]
+    best = min(grid, key=lambda key: sum(score[key]))
     lines = [("estimate", estimate),
              (f"best constant ({name(best)})", score[best]),
              (f"factors fitted on the {before:.0f} s before each window", fitted),
@@ -118,6 +136,7 @@ def main():
     lines += [(name(key), score[key]) for key in
               [("gyro", g, 1.0) for g in GYRO if ("gyro", g, 1.0) in score]
               + [("odometry", 0.98, 0.97), ("odometry", 1.0, 0.97)]]
+    lines += [(key, score[key]) for key in score if not isinstance(key, tuple)]
     print(f"{len(starts)} windows of {length:.0f} s; odometry {sum(odometry) / len(odometry):.2f} m")
     for label, values in lines:
         m, lo, hi = gap_check.paired(starts, [a - b for a, b in zip(values, odometry)])

@@ -33,6 +33,21 @@ def cut(src, dst, t_end):
             out.writerows(r for r in rows if r and float(r[0]) <= t_end)
 
 
+def held(exe, log, t_end, extra=()):
+    """What `estimate` (with `extra` arguments) holds at `t_end` (s): its
+    summary.json `gyro` (None before the first gyro window) and the last
+    row of its estimate.csv, on the log cut there."""
+    with tempfile.TemporaryDirectory() as d, tempfile.TemporaryDirectory() as out:
+        cut(log, d, t_end)
+        subprocess.run([exe, "estimate", d, "--out", out] + list(extra), check=True,
+                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        with open(os.path.join(out, "summary.json")) as f:
+            g = json.load(f).get("gyro")
+        with open(os.path.join(out, "estimate.csv"), newline="") as f:
+            last = list(csv.DictReader(f))[-1]
+    return g, last
+
+
 def main():
     argv, extra = sys.argv, []
     if "--" in argv:
@@ -41,14 +56,7 @@ def main():
     exe, log, times = argv[1], argv[2], [float(t) for t in argv[3:]]
     print("t_s scale scale_std bias_rad_s bias_std late_s alpha_l alpha_r y_l y_r x_c")
     for t_end in times:
-        with tempfile.TemporaryDirectory() as d, tempfile.TemporaryDirectory() as out:
-            cut(log, d, t_end)
-            subprocess.run([exe, "estimate", d, "--out", out] + extra, check=True,
-                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-            with open(os.path.join(out, "summary.json")) as f:
-                g = json.load(f).get("gyro")
-            with open(os.path.join(out, "estimate.csv"), newline="") as f:
-                last = list(csv.DictReader(f))[-1]
+        g, last = held(exe, log, t_end, extra)
         if not g:
             print(f"{t_end:.0f} no gyro window fused yet")
             continue

@@ -36,6 +36,7 @@ mod seeds;
 mod smoothing_spline;
 mod stats;
 mod terrain_trust;
+mod verdict_confidence;
 
 /// The estimator's quality benchmarks.
 #[derive(Parser)]

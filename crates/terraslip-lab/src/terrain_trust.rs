@@ -2,8 +2,10 @@
 //! terrain classifier. On the family of simulated worlds, the default
 //! estimator given no terrain, the labels, and a simulated classifier
 //! ([`crate::misread`]) that reads every ground right, or the world's first
-//! ground as the next one confidently (always, or half the time), or
-//! unsure of it; figures per world:
+//! ground as the next one (always, or half the time; as sure as the
+//! BorealTC model's misreads, or at a fixed confidence), or unsure of it
+//! (always, or half the time);
+//! figures per world:
 //! the 2 s prediction error and the drift over the world's 30 s outage,
 //! against the true pose (as `family`). With `--borealtc DIR`, also the
 //! BorealTC runs (no pose: [`crate::borealtc_trust`]).
@@ -15,7 +17,7 @@ use terraslip::pipeline::{self, RunOptions, TerrainEvidence};
 use terraslip_sim::family::Subset;
 
 use crate::family::{draw, prediction, simulate_world};
-use crate::misread::{self, Reading};
+use crate::misread::{self, Confidences, Reading};
 use crate::seeds::SeedQueue;
 use crate::stats::quantile;
 
@@ -29,10 +31,11 @@ pub struct Args {
     /// Seed of the first world.
     #[arg(long, default_value_t = 1)]
     first_seed: u64,
-    /// Confidence of the confident misread (the probability the classifier
-    /// gives the wrong ground).
-    #[arg(long, default_value_t = 0.9)]
-    confidence: f64,
+    /// The simulated classifier's misreads at this confidence (the
+    /// probability it gives the wrong ground) and its right verdicts at 0.9,
+    /// instead of confidences drawn as the BorealTC model's were.
+    #[arg(long)]
+    confidence: Option<f64>,
     /// The worlds with a yaw-rate gyro (as `family --gyro`): a change of
     /// terrain declared in the outage is tried on it.
     #[arg(long)]
@@ -50,30 +53,28 @@ pub struct Args {
     /// evidence it hands the estimator changes.
     #[arg(long, value_name = "DIR")]
     evidence_cache: Option<std::path::PathBuf>,
-    /// BorealTC: the frames of the evidence whose confidence (before the
-    /// belief's floor) is below this are dropped too, to try floors on the
-    /// evidence cache without training again (frames the evidence already
-    /// left out stay out).
+    /// The frames of the classifier's evidence whose confidence (before the
+    /// belief's floor) is below this are dropped too, to try evidence
+    /// floors above the built-in one (on BorealTC, on the evidence cache
+    /// without training again; frames the evidence already left out stay
+    /// out).
     #[arg(long, default_value_t = 0.0)]
     min_confidence: f64,
 }
 
 /// The evidence each run of a world is given, in report order.
-fn evidences(confidence: f64) -> Vec<(String, Option<Reading>)> {
-    vec![
-        ("no terrain".into(), None),
-        ("labels".into(), None),
-        (Reading::Right.name(), Some(Reading::Right)),
-        (
-            Reading::Confident(confidence).name(),
-            Some(Reading::Confident(confidence)),
-        ),
-        (
-            Reading::Stretches(confidence).name(),
-            Some(Reading::Stretches(confidence)),
-        ),
-        (Reading::Unsure.name(), Some(Reading::Unsure)),
-    ]
+fn evidences(c: Confidences) -> Vec<(String, Option<Reading>)> {
+    let mut v = vec![("no terrain".into(), None), ("labels".into(), None)];
+    for r in [
+        Reading::Right,
+        Reading::Always,
+        Reading::Stretches,
+        Reading::Unsure,
+        Reading::UnsureStretches,
+    ] {
+        v.push((r.name(c), Some(r)));
+    }
+    v
 }
 
 /// Per world: `(seed, [(prediction m, outage drift %) per evidence])`.
@@ -82,7 +83,9 @@ type WorldFigures = (u64, Vec<(f64, f64)>);
 fn world_figures(
     seed: u64,
     evidences: &[(String, Option<Reading>)],
+    confidences: Confidences,
     gyro: bool,
+    min_confidence: f64,
 ) -> anyhow::Result<WorldFigures> {
     let cfg = terraslip::config::EstimatorConfig::default();
     let w = draw(seed, Subset::All, gyro, 0.0);
@@ -98,8 +101,10 @@ fn world_figures(
         let evidence = match *reading {
             None if name == "labels" => TerrainEvidence::Labels(labels.clone()),
             None => TerrainEvidence::None,
-            Some(r) => misread::timeline(labels, t0, t1, r)
-                .map_or(TerrainEvidence::None, misread::evidence),
+            Some(r) => misread::timeline(labels, t0, t1, r, confidences, seed)
+                .map_or(TerrainEvidence::None, |tl| {
+                    misread::evidence(tl, min_confidence)
+                }),
         };
         let opts = RunOptions {
             outage: Some(outage),
@@ -127,12 +132,11 @@ fn median_worst(v: &[(u64, f64)]) -> (f64, f64, u64) {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    if !(a.confidence > 0.5 && a.confidence < 1.0) {
-        anyhow::bail!(
-            "--confidence {}: expected a probability in (0.5, 1)",
-            a.confidence
-        );
-    }
+    let confidences = match a.confidence {
+        None => Confidences::Measured,
+        Some(c) if c > 0.5 && c < 1.0 => Confidences::Fixed(c),
+        Some(c) => anyhow::bail!("--confidence {c}: expected a probability in (0.5, 1)"),
+    };
     let seeds: Vec<u64> = (a.first_seed..a.first_seed + a.worlds).collect();
     let results: Mutex<Vec<WorldFigures>> = Mutex::new(Vec::new());
     let queue = SeedQueue::new(seeds.clone());
@@ -142,7 +146,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             .map(|_| {
                 s.spawn(|| -> anyhow::Result<()> {
                     while let Some(seed) = queue.take() {
-                        let f = world_figures(seed, &evidences(a.confidence), a.gyro)?;
+                        let f = world_figures(
+                            seed,
+                            &evidences(confidences),
+                            confidences,
+                            a.gyro,
+                            a.min_confidence,
+                        )?;
                         results.lock().unwrap_or_else(|e| e.into_inner()).push(f);
                     }
                     Ok(())
@@ -168,7 +178,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         "terrain evidence", "prediction med/worst", "outage med/worst", "x labels med/worst"
     );
     let labels_at = 1;
-    for (i, (name, _)) in evidences(a.confidence).iter().enumerate() {
+    for (i, (name, _)) in evidences(confidences).iter().enumerate() {
         let pick = |j: usize| -> Vec<(u64, f64)> {
             results
                 .iter()
@@ -218,10 +228,13 @@ mod tests {
         // set where the ground changed, not when the window has moved on.
         let ev = [
             ("labels".to_string(), None),
-            (Reading::Right.name(), Some(Reading::Right)),
+            (
+                Reading::Right.name(Confidences::Fixed(0.9)),
+                Some(Reading::Right),
+            ),
         ];
         let figures: Vec<WorldFigures> = (1..=12)
-            .map(|seed| world_figures(seed, &ev, false).unwrap())
+            .map(|seed| world_figures(seed, &ev, Confidences::Fixed(0.9), false, 0.0).unwrap())
             .collect();
         let median = |i: usize| {
             let v: Vec<f64> = figures.iter().map(|(_, f)| f[i].0).collect();

@@ -371,10 +371,14 @@ impl Estimator {
             self.drift.break_probes();
         } else {
             self.twist_noise.step(&self.filter.icr_now(), vl, vr, dt);
-            if self.gyro.last.is_none() {
+            self.since_fix += dt;
+            // Through an outage the probes are dropped (the copies that
+            // dead-reckon one need none).
+            if self.since_fix > OUTAGE_AFTER_S {
+                self.drift.break_probes();
+            } else if self.gyro.last.is_none() {
                 self.drift.step(vl, vr, dt);
             }
-            self.since_fix += dt;
             if self.since_fix > OUTAGE_AFTER_S && !self.filter.is_still() {
                 self.grow_beyond_fixes(vl, vr, dt);
             }

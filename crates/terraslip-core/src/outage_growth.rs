@@ -160,9 +160,11 @@ impl DriftCurve {
         }
     }
 
-    /// Drops every probe (a gap in the tread speeds).
+    /// Drops every probe (a gap in the tread speeds, an outage).
     pub fn break_probes(&mut self) {
-        self.probes = [[None; PROBES]; HORIZONS_S.len()];
+        if self.probes.iter().flatten().any(Option::is_some) {
+            self.probes = [[None; PROBES]; HORIZONS_S.len()];
+        }
     }
 
     /// A position fix `at` (m, ENU) of the reference point `lever_arm` (m,

@@ -30,6 +30,7 @@
 
 use crate::filter::{Fate, Filter, FilterError, PoseFix, UpdateReport};
 use crate::odometry::{ModelNoise, TwistNoise};
+use crate::outage_growth::{with_position_variance, DriftCurve};
 use crate::outage_noise::{excess_diffusion, OUTAGE_AFTER_S};
 use crate::schedule::{ChangeAction, NoiseSchedule};
 use crate::twist_noise::{FixSeen, TwistNoiseLearner};
@@ -151,6 +152,8 @@ pub struct Estimator {
     gyro_misfit: Misfit,
     /// Wheel time since a fix last reached the filter (fused or gated), s.
     since_fix: f64,
+    /// How far dead reckoning drifts, learned from the fixes.
+    drift: DriftCurve,
 }
 
 /// Largest NIS one fix part (or gyro window) adds to [`Misfit::nis`]: a
@@ -206,6 +209,7 @@ impl Estimator {
             misfit: Misfit::default(),
             gyro_misfit: Misfit::default(),
             since_fix: 0.0,
+            drift: DriftCurve::new(),
         }
     }
 
@@ -364,9 +368,17 @@ impl Estimator {
         self.filter.predict(vl, vr, dt)?;
         if gap {
             self.twist_noise.break_window();
+            self.drift.break_probes();
         } else {
             self.twist_noise.step(&self.filter.icr_now(), vl, vr, dt);
             self.since_fix += dt;
+            // Through an outage the probes are dropped (the copies that
+            // dead-reckon one need none).
+            if self.since_fix > OUTAGE_AFTER_S {
+                self.drift.break_probes();
+            } else if self.gyro.last.is_none() {
+                self.drift.step(vl, vr, dt);
+            }
             if self.since_fix > OUTAGE_AFTER_S && !self.filter.is_still() {
                 self.grow_beyond_fixes(vl, vr, dt);
             }
@@ -390,6 +402,28 @@ impl Estimator {
         );
         let yaw = if f.gyro_noise().fused > 0 { 0.0 } else { yaw };
         self.filter.inflate_pose(xy * dt, yaw * dt);
+    }
+
+    /// Covariance of `(east, north, yaw)` as the estimator states it: the
+    /// filter's, except through an outage of more than [`OUTAGE_AFTER_S`]
+    /// where no gyro holds the heading: there the position's follows the
+    /// drift learned from the fixes (`outage_growth.rs`), once there is
+    /// one. The filter's own covariance, and so the estimate, is left as
+    /// it is.
+    pub fn pose_covariance(&self) -> nalgebra::Matrix3<f64> {
+        let c = self.filter.pose_covariance();
+        let drift = (self.since_fix > OUTAGE_AFTER_S && self.gyro.last.is_none())
+            .then(|| self.drift.variance(self.since_fix))
+            .flatten();
+        match drift {
+            Some(v) => with_position_variance(&c, v),
+            None => c,
+        }
+    }
+
+    /// How far dead reckoning drifts, as learned from the fixes so far.
+    pub fn drift(&self) -> &DriftCurve {
+        &self.drift
     }
 
     /// Wheel time at which the oldest waiting fix is due.
@@ -483,6 +517,11 @@ impl Estimator {
         };
         self.twist_noise
             .on_fix(&seen, &f.icr_now_covariance(), &ModelNoise::of(f));
+        if let Some(at) = fix.position.filter(|_| self.gyro.last.is_none()) {
+            let var_fix = std_xy * std_xy;
+            self.drift
+                .on_fix(at, var_fix, f.lever_arm(), &f.dead_reckoning());
+        }
     }
 
     fn record(&mut self, rep: &UpdateReport) {

@@ -32,6 +32,7 @@ pub mod icr_model;
 pub mod kinematics;
 pub mod model;
 pub mod odometry;
+pub mod outage_growth;
 pub mod outage_noise;
 pub mod rng;
 pub mod schedule;

@@ -40,7 +40,6 @@ pub fn excess_diffusion(
 mod tests {
     use super::*;
     use crate::angle;
-    use crate::filter::PoseFix;
     use crate::rng::SplitMix64;
     use std::vec::Vec;
 
@@ -77,13 +76,7 @@ mod tests {
                 slip = 0.03 * rng.normal();
             }
             if !out && step % 2 == 0 {
-                let fix = PoseFix {
-                    position: Some((e + 0.02 * rng.normal(), n + 0.02 * rng.normal())),
-                    yaw: Some(angle::wrap(yaw + 0.005 * rng.normal())),
-                    std_xy: 0.02,
-                    std_yaw: 0.005,
-                    stated: true,
-                };
+                let fix = crate::twist_noise::tests::stated_fix(&mut rng, (e, n, yaw));
                 est.on_pose(t, fix).unwrap();
             }
             est.on_wheels(t, vl, vr).unwrap();

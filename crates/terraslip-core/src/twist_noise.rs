@@ -400,6 +400,21 @@ pub(crate) mod tests {
         }
     }
 
+    /// A fix of the pose `(east, north, yaw)` with 0.02 m and 0.005 rad of
+    /// noise, stated.
+    pub(crate) fn stated_fix(
+        rng: &mut crate::rng::SplitMix64,
+        (e, n, yaw): (f64, f64, f64),
+    ) -> crate::filter::PoseFix {
+        crate::filter::PoseFix {
+            position: Some((e + 0.02 * rng.normal(), n + 0.02 * rng.normal())),
+            yaw: Some(crate::angle::wrap(yaw + 0.005 * rng.normal())),
+            std_xy: 0.02,
+            std_yaw: 0.005,
+            stated: true,
+        }
+    }
+
     /// The slipping skid-steer's true ICRs (0.62 m spread on a 0.5 m
     /// track) and an estimator for it: the default filter from a no-slip
     /// prior, no terrain evidence.

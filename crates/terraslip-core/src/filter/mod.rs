@@ -59,6 +59,7 @@ pub use limits::{
     MAX_CLOCK_OFFSET, MAX_GYRO_SCALE, MAX_K_SPREAD_SPEED, MAX_K_X_SPEED, MAX_TURN_LAW,
 };
 pub use measurement::{MeasurementConfig, MAX_LEVER_ARM};
+pub use predict::DeadReckoning;
 pub use prior::Prior;
 
 #[cfg(test)]

@@ -5,9 +5,57 @@ use nalgebra::SMatrix;
 use super::ekf::finite_mat;
 use super::{Filter, FilterError, SlipHold};
 use crate::model::{
-    self, BIAS_E, BIAS_N, CLOCK, EAST, GYRO_BIAS, GYRO_SCALE, LAW, N, NORTH, SLIP, YAW,
+    self, State, BIAS_E, BIAS_N, CLOCK, EAST, GYRO_BIAS, GYRO_SCALE, LAW, N, NORTH, SLIP, YAW,
 };
-use crate::slip::TreadInput;
+use crate::slip::{Chart, TreadInput};
+
+/// The filter's model carried on from its state at one time with every
+/// parameter held (the turn laws' lagged input moving on): where an
+/// estimator given no fixes puts the robot. World frame, m and rad.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DeadReckoning {
+    x: State,
+    chart: Chart,
+    /// The turn laws' lag, s, and their lagged input, m/s.
+    lag: f64,
+    lagged: f64,
+    /// The speed factors' law reads the lagged input (else the step's).
+    speed_lagged: bool,
+}
+
+impl DeadReckoning {
+    /// Tread speeds `v_left`, `v_right` (m/s) held over `dt` s; a step
+    /// that is not finite is not taken.
+    pub fn step(&mut self, v_left: f64, v_right: f64, dt: f64) {
+        if !(dt > 0.0 && dt.is_finite() && v_left.is_finite() && v_right.is_finite()) {
+            return;
+        }
+        let dv = (v_right - v_left).abs();
+        self.lagged = lag_input(self.lagged, dv, dt, self.lag);
+        let law = model::LawInputs {
+            spread: self.lagged,
+            speed: if self.speed_lagged { self.lagged } else { dv },
+        };
+        let u = TreadInput { v_left, v_right };
+        self.x = model::step(&self.x, self.chart, u, law, dt).0;
+    }
+
+    /// Pose `(east, north, yaw)`: m, m, rad.
+    pub fn pose(&self) -> (f64, f64, f64) {
+        (self.x[EAST], self.x[NORTH], self.x[YAW])
+    }
+}
+
+/// The turn laws' input `prev` (m/s) low-passed towards the step's tread
+/// speed difference `dv` over `dt` s with time constant `lag` s.
+fn lag_input(prev: f64, dv: f64, dt: f64, lag: f64) -> f64 {
+    let a = if lag > 0.0 {
+        1.0 - libm::exp(-dt / lag)
+    } else {
+        1.0
+    };
+    prev + a * (dv - prev)
+}
 
 impl Filter {
     /// Propagates over `dt` seconds with measured tread speeds `v_left`,
@@ -30,12 +78,7 @@ impl Filter {
         // The ground takes a new turn up with a lag: the law reads the
         // tread speed difference low-passed.
         let dv = (v_right - v_left).abs();
-        let a = if cfg.turn_law_lag > 0.0 {
-            1.0 - libm::exp(-dt / cfg.turn_law_lag)
-        } else {
-            1.0
-        };
-        let lagged = self.law_input.spread + a * (dv - self.law_input.spread);
+        let lagged = lag_input(self.law_input.spread, dv, dt, cfg.turn_law_lag);
         self.law_input = self.law_inputs(dv, lagged);
         let (x, twist, rows) = model::step(&self.x, cfg.chart, u, self.law_input, dt);
 
@@ -150,6 +193,17 @@ impl Filter {
     /// calibration's, from `estimate --init`): held, it is the
     /// calibration's model, which scales the speed factors at each
     /// instant's tread speeds.
+    /// The model from the state as it is now, every parameter held.
+    pub fn dead_reckoning(&self) -> DeadReckoning {
+        DeadReckoning {
+            x: self.x,
+            chart: self.cfg.chart,
+            lag: self.cfg.turn_law_lag,
+            lagged: self.law_input.spread,
+            speed_lagged: self.learn_speed_law,
+        }
+    }
+
     pub(super) fn law_inputs(&self, dv: f64, lagged: f64) -> model::LawInputs {
         model::LawInputs {
             spread: lagged,

@@ -113,7 +113,7 @@ impl OutageRun {
             while o.next < HORIZONS.len() && w.t >= o.start.t + HORIZONS[o.next] {
                 let h = HORIZONS[o.next];
                 let (east, north, _) = o.est.filter().pose();
-                let c = o.est.filter().pose_covariance();
+                let c = o.est.pose_covariance();
                 self.pending.push(Pending::Filter(FilterEnd {
                     start: o.start,
                     horizon: h,

@@ -13,7 +13,7 @@ pub fn row(est: &Estimator, t: f64, terrain: Option<usize>, s: &FixSummary) -> E
     let (east, north, yaw) = f.pose();
     // The ICRs in effect at this row's tread speeds.
     let icr = f.icr_now();
-    let pc = f.pose_covariance();
+    let pc = est.pose_covariance();
     let ic = f.icr_now_covariance();
     let sd = |v: f64| v.max(0.0).sqrt();
     EstimateRow {

@@ -145,12 +145,23 @@ impl DriftCurve {
         if !(dt >= 0.0 && dt.is_finite()) {
             return;
         }
+        // The probes share the filter's turn-law lag: its gain over `dt`
+        // is computed once (again only for a probe with another lag).
+        let mut gain: Option<(f64, f64)> = None;
         for (i, row) in self.probes.iter_mut().enumerate() {
             self.since_start[i] += dt;
             let late = HORIZONS_S[i] * (1.0 + LATE);
             for slot in row.iter_mut() {
                 let Some(p) = slot.as_mut() else { continue };
-                p.model.step(v_left, v_right, dt);
+                let a = match gain {
+                    Some((lag, a)) if lag == p.model.lag() => a,
+                    _ => {
+                        let a = p.model.lag_gain(dt);
+                        gain = Some((p.model.lag(), a));
+                        a
+                    }
+                };
+                p.model.step_with_gain(v_left, v_right, dt, a);
                 p.span += dt;
                 let (e, n, y) = p.model.pose();
                 if p.span > late || !(e.is_finite() && n.is_finite() && y.is_finite()) {

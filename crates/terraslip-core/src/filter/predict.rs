@@ -27,11 +27,18 @@ impl DeadReckoning {
     /// Tread speeds `v_left`, `v_right` (m/s) held over `dt` s; a step
     /// that is not finite is not taken.
     pub fn step(&mut self, v_left: f64, v_right: f64, dt: f64) {
+        self.step_with_gain(v_left, v_right, dt, lag_gain(dt, self.lag));
+    }
+
+    /// [`Self::step`] with the turn laws' low-pass gain over `dt` given:
+    /// `gain` is [`Self::lag_gain`]`(dt)`, computed once for reckonings
+    /// stepped together.
+    pub fn step_with_gain(&mut self, v_left: f64, v_right: f64, dt: f64, gain: f64) {
         if !(dt > 0.0 && dt.is_finite() && v_left.is_finite() && v_right.is_finite()) {
             return;
         }
         let dv = (v_right - v_left).abs();
-        self.lagged = lag_input(self.lagged, dv, dt, self.lag);
+        self.lagged += gain * (dv - self.lagged);
         let law = model::LawInputs {
             spread: self.lagged,
             speed: if self.speed_lagged { self.lagged } else { dv },
@@ -40,21 +47,36 @@ impl DeadReckoning {
         self.x = model::step(&self.x, self.chart, u, law, dt).0;
     }
 
+    /// The turn laws' low-pass gain over a step of `dt` s (1).
+    pub fn lag_gain(&self, dt: f64) -> f64 {
+        lag_gain(dt, self.lag)
+    }
+
+    /// The turn laws' time constant, s.
+    pub fn lag(&self) -> f64 {
+        self.lag
+    }
+
     /// Pose `(east, north, yaw)`: m, m, rad.
     pub fn pose(&self) -> (f64, f64, f64) {
         (self.x[EAST], self.x[NORTH], self.x[YAW])
     }
 }
 
-/// The turn laws' input `prev` (m/s) low-passed towards the step's tread
-/// speed difference `dv` over `dt` s with time constant `lag` s.
-fn lag_input(prev: f64, dv: f64, dt: f64, lag: f64) -> f64 {
-    let a = if lag > 0.0 {
+/// The gain by which the turn laws' input moves towards the step's tread
+/// speed difference over `dt` s with time constant `lag` s.
+fn lag_gain(dt: f64, lag: f64) -> f64 {
+    if lag > 0.0 {
         1.0 - libm::exp(-dt / lag)
     } else {
         1.0
-    };
-    prev + a * (dv - prev)
+    }
+}
+
+/// The turn laws' input `prev` (m/s) low-passed towards the step's tread
+/// speed difference `dv` over `dt` s with time constant `lag` s.
+fn lag_input(prev: f64, dv: f64, dt: f64, lag: f64) -> f64 {
+    prev + lag_gain(dt, lag) * (dv - prev)
 }
 
 impl Filter {

@@ -33,6 +33,7 @@ mod outage_table;
 mod prediction_table;
 mod scored_model;
 mod seeds;
+mod silent_changes;
 mod smoothing_spline;
 mod stats;
 mod terrain_trust;

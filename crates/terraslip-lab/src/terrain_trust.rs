@@ -19,6 +19,7 @@ use terraslip_sim::family::Subset;
 use crate::family::{draw, prediction, simulate_world};
 use crate::misread::{self, Confidences, Reading};
 use crate::seeds::SeedQueue;
+use crate::silent_changes::SilentChanges;
 use crate::stats::quantile;
 
 /// The estimator given labels, a classifier or nothing, on simulated
@@ -77,8 +78,9 @@ fn evidences(c: Confidences) -> Vec<(String, Option<Reading>)> {
     v
 }
 
-/// Per world: `(seed, [(prediction m, outage drift %) per evidence])`.
-type WorldFigures = (u64, Vec<(f64, f64)>);
+/// Per world: `(seed, [(prediction m, outage drift %) per evidence],
+/// [changes of ground the classifier was silent on, per evidence])`.
+type WorldFigures = (u64, Vec<(f64, f64)>, Vec<SilentChanges>);
 
 fn world_figures(
     seed: u64,
@@ -97,6 +99,7 @@ fn world_figures(
         sim.log.wheels.last().map_or(0.0, |s| s.t),
     );
     let mut out = Vec::new();
+    let mut silent = Vec::new();
     for (name, reading) in evidences {
         let evidence = match *reading {
             None if name == "labels" => TerrainEvidence::Labels(labels.clone()),
@@ -111,12 +114,13 @@ fn world_figures(
         };
         let run = pipeline::run_with(&sim.log, &cfg, &evidence, None, opts, &mut |_, _| {})?;
         let drift = metrics::outage_drift(&run, &sim.log.truth, w.outage.0, w.outage.1);
+        silent.push(SilentChanges::of_run(labels, &evidence, &run));
         out.push((
             prediction(&run, &sim),
             drift.map_or(f64::NAN, |d| d.percent),
         ));
     }
-    Ok((seed, out))
+    Ok((seed, out, silent))
 }
 
 /// `median / worst (world)` of one figure over worlds.
@@ -182,13 +186,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let pick = |j: usize| -> Vec<(u64, f64)> {
             results
                 .iter()
-                .map(|(s, f)| (*s, if j == 0 { f[i].0 } else { f[i].1 }))
+                .map(|(s, f, _)| (*s, if j == 0 { f[i].0 } else { f[i].1 }))
                 .collect()
         };
         let labels = |j: usize| -> Vec<(u64, f64)> {
             results
                 .iter()
-                .map(|(s, f)| {
+                .map(|(s, f, _)| {
                     (
                         *s,
                         if j == 0 {
@@ -211,6 +215,17 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             om / lom,
             ow / low
         );
+    }
+    println!("changes of ground with no sure classifier frame for 15 s: detector fired / recalled a set / started a fresh one");
+    for (i, (name, reading)) in evidences(confidences).iter().enumerate() {
+        let mut c = SilentChanges::default();
+        results.iter().for_each(|r| c.add(&r.2[i]));
+        if reading.is_some() && c.silent > 0 {
+            println!(
+                "{name:36} {:3} silent: {:3} caught, {:3} recalled, {:3} fresh",
+                c.silent, c.caught, c.recalled, c.fresh
+            );
+        }
     }
     if let Some(dir) = &a.borealtc {
         crate::borealtc_trust::run(dir, a.folds, a.evidence_cache.as_deref(), a.min_confidence)?;
@@ -237,7 +252,7 @@ mod tests {
             .map(|seed| world_figures(seed, &ev, Confidences::Fixed(0.9), false, 0.0).unwrap())
             .collect();
         let median = |i: usize| {
-            let v: Vec<f64> = figures.iter().map(|(_, f)| f[i].0).collect();
+            let v: Vec<f64> = figures.iter().map(|(_, f, _)| f[i].0).collect();
             quantile(&v, 0.5)
         };
         let ratio = median(1) / median(0);

@@ -293,6 +293,20 @@ impl Estimator {
         Ok(())
     }
 
+    /// A copy to carry on with no more fixes (an outage, a dead reckoning):
+    /// with no fix waiting, what only a fix reads (the drift's probes, the
+    /// twist noise's running window) is left behind, so that the copy's
+    /// steps skip them; its estimate and stated covariance are those of a
+    /// plain copy given no fixes.
+    pub fn for_outage(&self) -> Self {
+        let mut copy = self.clone();
+        if copy.pending_len == 0 {
+            copy.drift.break_probes();
+            copy.twist_noise.break_window();
+        }
+        copy
+    }
+
     /// A yaw-rate gyro sample `rate` (rad/s, counter-clockwise about body z)
     /// at `t` (s, the wheels' clock).
     pub fn on_gyro(&mut self, t: f64, rate: f64) -> Result<(), FilterError> {
@@ -370,7 +384,9 @@ impl Estimator {
             self.twist_noise.break_window();
             self.drift.break_probes();
         } else {
-            self.twist_noise.step(&self.filter.icr_now(), vl, vr, dt);
+            if self.twist_noise.is_open() {
+                self.twist_noise.step(&self.filter.icr_now(), vl, vr, dt);
+            }
             self.since_fix += dt;
             // Through an outage the probes are dropped (the copies that
             // dead-reckon one need none).

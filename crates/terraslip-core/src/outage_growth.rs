@@ -48,12 +48,19 @@ const BIN: f64 = 0.25;
 /// most like `s²`.
 const SLOPE_RANGE: (f64, f64) = (1.0, 2.0);
 
-/// A dead reckoning under way.
+/// Dead reckonings under way at most: one per probe.
+const RECKONINGS: usize = HORIZONS_S.len() * PROBES;
+
+/// A dead reckoning under way, shared by the probes of every horizon set
+/// out at the same fix (they would carry the same model on the same tread
+/// speeds, to the last bit).
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct Probe {
+struct Reckoning {
     model: DeadReckoning,
     /// Time since it set out, s.
     span: f64,
+    /// Probes reading it.
+    probes: u8,
 }
 
 /// One horizon's ends, each weighing less as newer ones come: a
@@ -113,7 +120,9 @@ impl Ends {
 /// The probes and what they have measured; allocation-free.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DriftCurve {
-    probes: [[Option<Probe>; PROBES]; HORIZONS_S.len()],
+    reckonings: [Option<Reckoning>; RECKONINGS],
+    /// Each probe: the index of the reckoning it reads.
+    probes: [[Option<u8>; PROBES]; HORIZONS_S.len()],
     ends: [Ends; HORIZONS_S.len()],
     /// Time since each horizon last set a probe out, s.
     since_start: [f64; HORIZONS_S.len()],
@@ -128,6 +137,7 @@ impl Default for DriftCurve {
 impl DriftCurve {
     pub fn new() -> Self {
         Self {
+            reckonings: [None; RECKONINGS],
             probes: [[None; PROBES]; HORIZONS_S.len()],
             ends: [Ends::EMPTY; HORIZONS_S.len()],
             since_start: [f64::INFINITY; HORIZONS_S.len()],
@@ -148,24 +158,28 @@ impl DriftCurve {
         // The probes share the filter's turn-law lag: its gain over `dt`
         // is computed once (again only for a probe with another lag).
         let mut gain: Option<(f64, f64)> = None;
+        for r in self.reckonings.iter_mut().flatten() {
+            let a = match gain {
+                Some((lag, a)) if lag == r.model.lag() => a,
+                _ => {
+                    let a = r.model.lag_gain(dt);
+                    gain = Some((r.model.lag(), a));
+                    a
+                }
+            };
+            r.model.step_with_gain(v_left, v_right, dt, a);
+            r.span += dt;
+        }
         for (i, row) in self.probes.iter_mut().enumerate() {
             self.since_start[i] += dt;
             let late = HORIZONS_S[i] * (1.0 + LATE);
             for slot in row.iter_mut() {
-                let Some(p) = slot.as_mut() else { continue };
-                let a = match gain {
-                    Some((lag, a)) if lag == p.model.lag() => a,
-                    _ => {
-                        let a = p.model.lag_gain(dt);
-                        gain = Some((p.model.lag(), a));
-                        a
-                    }
+                let Some(r) = slot.and_then(|k| self.reckonings[k as usize]) else {
+                    continue;
                 };
-                p.model.step_with_gain(v_left, v_right, dt, a);
-                p.span += dt;
-                let (e, n, y) = p.model.pose();
-                if p.span > late || !(e.is_finite() && n.is_finite() && y.is_finite()) {
-                    *slot = None;
+                let (e, n, y) = r.model.pose();
+                if r.span > late || !(e.is_finite() && n.is_finite() && y.is_finite()) {
+                    release(&mut self.reckonings, slot);
                 }
             }
         }
@@ -175,6 +189,7 @@ impl DriftCurve {
     pub fn break_probes(&mut self) {
         if self.probes.iter().flatten().any(Option::is_some) {
             self.probes = [[None; PROBES]; HORIZONS_S.len()];
+            self.reckonings = [None; RECKONINGS];
         }
     }
 
@@ -194,13 +209,17 @@ impl DriftCurve {
         } else {
             0.0
         };
+        // The reckoning set out at this fix, once a horizon sets one out.
+        let mut set_out: Option<u8> = None;
         for (i, row) in self.probes.iter_mut().enumerate() {
             for slot in row.iter_mut() {
-                let Some(p) = *slot else { continue };
+                let Some(p) = slot.and_then(|k| self.reckonings[k as usize]) else {
+                    continue;
+                };
                 if p.span < HORIZONS_S[i] {
                     continue;
                 }
-                *slot = None;
+                release(&mut self.reckonings, slot);
                 let (e, n, y) = p.model.pose();
                 let (s, c) = libm::sincos(y);
                 let (lx, ly) = lever_arm;
@@ -213,11 +232,17 @@ impl DriftCurve {
                 }
             }
             if self.since_start[i] >= HORIZONS_S[i] / PROBES as f64 {
-                if let Some(slot) = row.iter_mut().find(|s| s.is_none()) {
-                    *slot = Some(Probe {
+                let slot = row.iter_mut().find(|s| s.is_none());
+                let free = || self.reckonings.iter().position(Option::is_none);
+                if let Some((slot, k)) = slot.zip(set_out.map(usize::from).or_else(free)) {
+                    let r = self.reckonings[k].get_or_insert(Reckoning {
                         model: *start,
                         span: 0.0,
+                        probes: 0,
                     });
+                    r.probes += 1;
+                    *slot = u8::try_from(k).ok();
+                    set_out = *slot;
                     self.since_start[i] = 0.0;
                 }
             }
@@ -279,6 +304,19 @@ impl DriftCurve {
     }
 }
 
+/// Ends a probe (`slot`): the reckoning it read goes when no other probe
+/// reads it.
+fn release(reckonings: &mut [Option<Reckoning>; RECKONINGS], slot: &mut Option<u8>) {
+    let Some(k) = slot.take() else { return };
+    let r = &mut reckonings[k as usize];
+    if let Some(shared) = r.as_mut() {
+        shared.probes = shared.probes.saturating_sub(1);
+        if shared.probes == 0 {
+            *r = None;
+        }
+    }
+}
+
 /// `cov` (east, north, yaw; m², rad²) with the position's variance set to
 /// `var_xy` (m²) on each axis by a congruence on the position's rows and
 /// columns: positive definite as `cov` is, the heading's variance kept and
@@ -322,7 +360,9 @@ mod tests {
     /// way for a while), tread speeds stepped every 6 s, fixes (0.02 m,
     /// 0.005 rad, stated) at 5 Hz for 400 s; then every 20 s for 800 s a
     /// copy of the estimator dead-reckons 60 s with no fix. Returns each
-    /// copy's end-position NEES per dof at 10 s and at 60 s.
+    /// copy's end-position NEES per dof at 10 s and at 60 s. Each copy
+    /// runs beside an [`crate::Estimator::for_outage`] copy, which must
+    /// state the same pose and covariance to the last bit.
     fn outage_nees() -> (Vec<f64>, Vec<f64>) {
         let (truth, mut est) = crate::twist_noise::tests::slipping_world();
         let mut rng = SplitMix64::new(11);
@@ -330,7 +370,7 @@ mod tests {
         let (mut e, mut n, mut yaw) = (0.0f64, 0.0f64, 0.3f64);
         let (mut vl, mut vr, mut slip) = (0.6, 0.6, 0.0);
         let (warm, starts, every) = (4000usize, 40usize, 200usize);
-        let mut copies: Vec<(usize, crate::Estimator)> = Vec::new();
+        let mut copies: Vec<(usize, crate::Estimator, crate::Estimator)> = Vec::new();
         let (mut at10, mut at60) = (Vec::new(), Vec::new());
         for step in 0..warm + starts * every + 600 {
             let t = step as f64 * dt;
@@ -342,19 +382,23 @@ mod tests {
                 slip = 0.02 * rng.normal();
             }
             if step >= warm && (step - warm) % every == 0 && step < warm + starts * every {
-                copies.push((step, est.clone()));
+                copies.push((step, est.clone(), est.for_outage()));
             }
             if step % 2 == 0 {
                 let fix = crate::twist_noise::tests::stated_fix(&mut rng, (e, n, yaw));
                 est.on_pose(t, fix).unwrap();
             }
             est.on_wheels(t, vl, vr).unwrap();
-            for (from, c) in copies.iter_mut() {
+            for (from, c, lite) in copies.iter_mut() {
                 c.on_wheels(t, vl, vr).unwrap();
+                lite.on_wheels(t, vl, vr).unwrap();
                 let k = step - *from;
                 if k == 100 || k == 600 {
                     let (ce, cn, _) = c.filter().pose();
                     let p = c.pose_covariance();
+                    assert_eq!(lite.filter().pose(), (ce, cn, c.filter().pose().2));
+                    let bits = |m: nalgebra::Matrix3<f64>| m.map(f64::to_bits);
+                    assert_eq!(bits(lite.pose_covariance()), bits(p));
                     let (de, dn) = (e - ce, n - cn);
                     let det = p[(0, 0)] * p[(1, 1)] - p[(0, 1)] * p[(0, 1)];
                     let q = p[(1, 1)] * de * de - 2.0 * p[(0, 1)] * de * dn + p[(0, 0)] * dn * dn;
@@ -362,7 +406,7 @@ mod tests {
                     out.push(0.5 * q / det);
                 }
             }
-            copies.retain(|(from, _)| step - from < 600);
+            copies.retain(|(from, _, _)| step - from < 600);
             let tw = truth.twist(vl, vr);
             let (s, c) = libm::sincos(yaw);
             e += (c * tw.v_x - s * tw.v_y) * dt;

@@ -272,6 +272,11 @@ impl TwistNoiseLearner {
         w.span += dt;
     }
 
+    /// A window is running: [`Self::step`] adds to it.
+    pub fn is_open(&self) -> bool {
+        self.window.is_some()
+    }
+
     /// Drops the running window (a gap in the tread speeds).
     pub fn break_window(&mut self) {
         self.window = None;

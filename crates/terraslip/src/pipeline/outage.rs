@@ -156,7 +156,7 @@ impl OutageRun {
             self.starts.push(start);
             self.open.push(Open {
                 start,
-                est: Box::new(estimator.clone()),
+                est: Box::new(estimator.for_outage()),
                 no_slip: (0.0, 0.0, 0.0),
                 odometry_gyro: self.gyro.map(|_| (0.0, 0.0, 0.0)),
                 t_prev: w.t,

@@ -8,7 +8,7 @@ use terraslip_io::TerrainLabel;
 
 /// Seconds after a change of ground in which the classifier's silence,
 /// the detector's firing and the schedule's action are looked for.
-const WITHIN_S: f64 = 15.0;
+pub const WITHIN_S: f64 = 15.0;
 
 /// Counts over the changes of ground of one or more runs.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]

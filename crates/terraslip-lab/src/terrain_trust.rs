@@ -216,7 +216,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             ow / low
         );
     }
-    println!("changes of ground with no sure classifier frame for 15 s: detector fired / recalled a set / started a fresh one");
+    println!(
+        "changes of ground with no sure classifier frame for {} s: detector fired / recalled a set / started a fresh one",
+        crate::silent_changes::WITHIN_S
+    );
     for (i, (name, reading)) in evidences(confidences).iter().enumerate() {
         let mut c = SilentChanges::default();
         results.iter().for_each(|r| c.add(&r.2[i]));

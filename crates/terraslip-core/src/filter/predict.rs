@@ -38,7 +38,7 @@ impl DeadReckoning {
             return;
         }
         let dv = (v_right - v_left).abs();
-        self.lagged += gain * (dv - self.lagged);
+        self.lagged = low_pass(self.lagged, dv, gain);
         let law = model::LawInputs {
             spread: self.lagged,
             speed: if self.speed_lagged { self.lagged } else { dv },
@@ -76,7 +76,12 @@ fn lag_gain(dt: f64, lag: f64) -> f64 {
 /// The turn laws' input `prev` (m/s) low-passed towards the step's tread
 /// speed difference `dv` over `dt` s with time constant `lag` s.
 fn lag_input(prev: f64, dv: f64, dt: f64, lag: f64) -> f64 {
-    prev + lag_gain(dt, lag) * (dv - prev)
+    low_pass(prev, dv, lag_gain(dt, lag))
+}
+
+/// `prev` moved towards `dv` by `gain` (0 to 1).
+fn low_pass(prev: f64, dv: f64, gain: f64) -> f64 {
+    prev + gain * (dv - prev)
 }
 
 impl Filter {
@@ -207,14 +212,6 @@ impl Filter {
         Ok(())
     }
 
-    /// The turn laws' inputs at a step whose tread speed difference
-    /// `|V_r - V_l|` is `dv` (m/s), `lagged` that difference low-passed
-    /// over `turn_law_lag`. The spread's law reads `lagged`: the ground
-    /// takes a new turn up with a lag. The speed factors' law reads
-    /// `lagged` where it is learned and `dv` where it is held (a
-    /// calibration's, from `estimate --init`): held, it is the
-    /// calibration's model, which scales the speed factors at each
-    /// instant's tread speeds.
     /// The model from the state as it is now, every parameter held.
     pub fn dead_reckoning(&self) -> DeadReckoning {
         DeadReckoning {
@@ -226,6 +223,14 @@ impl Filter {
         }
     }
 
+    /// The turn laws' inputs at a step whose tread speed difference
+    /// `|V_r - V_l|` is `dv` (m/s), `lagged` that difference low-passed
+    /// over `turn_law_lag`. The spread's law reads `lagged`: the ground
+    /// takes a new turn up with a lag. The speed factors' law reads
+    /// `lagged` where it is learned and `dv` where it is held (a
+    /// calibration's, from `estimate --init`): held, it is the
+    /// calibration's model, which scales the speed factors at each
+    /// instant's tread speeds.
     pub(super) fn law_inputs(&self, dv: f64, lagged: f64) -> model::LawInputs {
         model::LawInputs {
             spread: lagged,

@@ -24,11 +24,14 @@
 //!   pose's variance grows at the rate of the twist noise learned at the
 //!   one-second horizon, where it exceeds the filter's model noise
 //!   (`outage_noise.rs`): dead reckoning states what its slips do.
+//! * While the gate rejects a part of the fixes, the stated pose holds
+//!   what the last rejected one showed beyond its spread (`gated_fix.rs`).
 //!
 //! Events must come in time order per stream; across streams any order
 //! works.
 
 use crate::filter::{Fate, Filter, FilterError, PoseFix, UpdateReport};
+use crate::gated_fix::GatedDisagreement;
 use crate::odometry::{ModelNoise, TwistNoise};
 use crate::outage_growth::{with_position_variance, DriftCurve};
 use crate::outage_noise::{excess_diffusion, OUTAGE_AFTER_S};
@@ -154,6 +157,8 @@ pub struct Estimator {
     since_fix: f64,
     /// How far dead reckoning drifts, learned from the fixes.
     drift: DriftCurve,
+    /// What the last gated fix parts left unexplained.
+    gated: GatedDisagreement,
 }
 
 /// Largest NIS one fix part (or gyro window) adds to [`Misfit::nis`]: a
@@ -210,6 +215,7 @@ impl Estimator {
             gyro_misfit: Misfit::default(),
             since_fix: 0.0,
             drift: DriftCurve::new(),
+            gated: GatedDisagreement::default(),
         }
     }
 
@@ -421,13 +427,14 @@ impl Estimator {
     }
 
     /// Covariance of `(east, north, yaw)` as the estimator states it: the
-    /// filter's, except through an outage of more than [`OUTAGE_AFTER_S`]
-    /// where no gyro holds the heading: there the position's follows the
-    /// drift learned from the fixes (`outage_growth.rs`), once there is
-    /// one. The filter's own covariance, and so the estimate, is left as
-    /// it is.
+    /// filter's, with what the last gated fix parts left unexplained
+    /// (`gated_fix.rs`), except through an outage of more than
+    /// [`OUTAGE_AFTER_S`] where no gyro holds the heading: there the
+    /// position's follows the drift learned from the fixes
+    /// (`outage_growth.rs`), once there is one. The filter's own
+    /// covariance, and so the estimate, is left as it is.
     pub fn pose_covariance(&self) -> nalgebra::Matrix3<f64> {
-        let c = self.filter.pose_covariance();
+        let c = self.gated.widen(&self.filter.pose_covariance());
         let drift = (self.since_fix > OUTAGE_AFTER_S && self.gyro.last.is_none())
             .then(|| self.drift.variance(self.since_fix))
             .flatten();
@@ -541,6 +548,7 @@ impl Estimator {
     }
 
     fn record(&mut self, rep: &UpdateReport) {
+        self.gated.record(rep);
         let c = &mut self.counts;
         let s = &mut self.summary;
         for (fate, fused, gated, nis) in [

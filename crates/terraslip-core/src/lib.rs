@@ -16,6 +16,7 @@
 //! * [`odometry`]: the covariance of the model's body twist.
 //! * [`twist_noise`]: the twist error learned at the published horizon.
 //! * [`filter`]: the EKF (predict, update, gates, noise learning, resets).
+//! * [`gated_fix`]: what a fix the gate rejects says about the stated pose.
 //! * [`schedule`]: what terrain evidence does to the filter.
 //! * [`estimator`]: filter + schedule + stream timing: the online API.
 //! * [`terrain_belief`]: the terrain HMM and vote over classifier outputs.
@@ -28,6 +29,7 @@ pub mod angle;
 pub mod compensate;
 pub mod estimator;
 pub mod filter;
+pub mod gated_fix;
 pub mod icr_model;
 pub mod kinematics;
 pub mod model;

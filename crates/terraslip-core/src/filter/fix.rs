@@ -46,4 +46,8 @@ pub struct UpdateReport {
     pub change: bool,
     /// The slip parameters had to be projected into the physical band.
     pub at_band: bool,
+    /// Per part (position per axis, m²; heading, rad²), the variance a
+    /// gated part's innovation left unexplained by its covariance
+    /// (`max(0, ν² − S)`); 0 for a part not gated.
+    pub unexplained: [f64; 2],
 }

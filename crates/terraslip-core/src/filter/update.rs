@@ -82,6 +82,7 @@ impl Filter {
             nis_yaw: 0.0,
             change: false,
             at_band: false,
+            unexplained: [0.0; 2],
         };
         let keep = match self.last_fix_t {
             Some(t0) if t > t0 && self.cfg.noise_memory > 0.0 => {
@@ -226,6 +227,14 @@ impl Filter {
                 self.rejected[k] = 0;
                 Fate::Fused
             };
+            if fate == Fate::Gated {
+                report.unexplained[k] = if k == 0 {
+                    0.5 * (nu[0] * nu[0] + nu[1] * nu[1] - S[(0, 0)] - S[(1, 1)])
+                } else {
+                    nu[2] * nu[2] - S[(2, 2)]
+                }
+                .max(0.0);
+            }
             if k == 0 {
                 report.position = fate;
                 use_pos = fate == Fate::Fused;

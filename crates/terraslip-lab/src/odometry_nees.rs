@@ -103,6 +103,25 @@ impl Nees {
         let top: f64 = v.iter().take(v.len().div_ceil(20)).sum();
         top / self.sum.max(f64::MIN_POSITIVE)
     }
+    /// The median's test: the share of samples below χ²(k)'s median, the
+    /// 95 % band a consistent covariance keeps it in (`0.5 ± 1.96 ·
+    /// 0.5 / √n`, the binomial's normal approximation), and the verdict:
+    /// "over" (too few small samples: the covariance too narrow at the
+    /// median), "under" or "in".
+    pub fn median_test(&self) -> (f64, (f64, f64), &'static str) {
+        let n = self.n.max(1) as f64;
+        let m = chi2_median(self.k as f64);
+        let share = self.values.iter().filter(|v| **v < m).count() as f64 / n;
+        let half = 1.96 * 0.5 / n.sqrt();
+        let verdict = if share < 0.5 - half {
+            "over"
+        } else if share > 0.5 + half {
+            "under"
+        } else {
+            "in"
+        };
+        (share, (0.5 - half, 0.5 + half), verdict)
+    }
     /// Each component's mean normalised error squared (1 is right).
     pub fn part_means(&self) -> [f64; 3] {
         self.parts.map(|p| p / self.n.max(1) as f64)
@@ -119,8 +138,9 @@ impl Nees {
     fn row(&self) -> String {
         let (lo, hi) = self.band();
         let m = self.mean();
+        let (below, (b_lo, b_hi), by_median) = self.median_test();
         format!(
-            "{:5} | {:7.2} | {:5.2} – {:5.2} | {:5} | {:4.1} % | {:5.2} ({:4.2}) | {:4.2}",
+            "{:5} | {:7.2} | {:5.2} – {:5.2} | {:5} | {:4.1} % | {:5.2} ({:4.2}) | {:4.2} | {:2.0} % ({:2.0}–{:2.0} %) {}",
             self.n,
             m,
             lo,
@@ -135,7 +155,11 @@ impl Nees {
             100.0 * self.above as f64 / self.n.max(1) as f64,
             self.median(),
             chi2_median(self.k as f64),
-            self.top_share()
+            self.top_share(),
+            100.0 * below,
+            100.0 * b_lo,
+            100.0 * b_hi,
+            by_median
         )
     }
 }
@@ -484,9 +508,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         a.window, a.fix_every
     );
     println!(
-        "log | what | n | mean NEES (k dof) | 95 % band | | share above χ²(k) 95 % | median (χ²(k)'s) | top 5 %'s share of the sum"
+        "log | what | n | mean NEES (k dof) | 95 % band | | share above χ²(k) 95 % | median (χ²(k)'s) | top 5 %'s share of the sum | below χ²(k)'s median (95 % band), by the median"
     );
-    println!("---|---|---:|---:|---|---|---:|---:|---:");
+    println!("---|---|---:|---:|---|---|---:|---:|---:|---");
     for path in &logs {
         let input = terraslip::bag::read(path, &topics, terraslip::estimate::read_log)?;
         let log = input.log;
@@ -590,5 +614,32 @@ mod tests {
         assert!((n.top_share() - 0.167).abs() < 0.02, "{}", n.top_share());
         assert!((heavy.median() / n.median() - 1.0).abs() < 0.1);
         assert!(heavy.top_share() > 0.7 && heavy.mean() > 10.0);
+    }
+
+    #[test]
+    fn the_median_test_tells_a_scale_from_a_heavy_tail() {
+        // 600 samples, as many as a drive gives: a consistent one is in by
+        // its median, one whose covariance is half too narrow (NEES x 1.5)
+        // over, one twice too wide under; a heavy tail (one in 20 a
+        // hundred times larger) is in by the median, over by the mean.
+        let mut rng = terraslip_core::rng::SplitMix64::new(11);
+        let blank = Nees {
+            k: 3,
+            ..Default::default()
+        };
+        let (mut ok, mut narrow, mut wide, mut heavy) =
+            (blank.clone(), blank.clone(), blank.clone(), blank);
+        for i in 0..600 {
+            let v: f64 = (0..3).map(|_| rng.normal().powi(2)).sum();
+            ok.add(v);
+            narrow.add(1.5 * v);
+            wide.add(0.5 * v);
+            heavy.add(if i % 20 == 0 { 100.0 * v } else { v });
+        }
+        assert_eq!(ok.median_test().2, "in", "{:?}", ok.median_test());
+        assert_eq!(narrow.median_test().2, "over", "{:?}", narrow.median_test());
+        assert_eq!(wide.median_test().2, "under", "{:?}", wide.median_test());
+        assert_eq!(heavy.median_test().2, "in", "{:?}", heavy.median_test());
+        assert!(heavy.mean() > heavy.band().1);
     }
 }

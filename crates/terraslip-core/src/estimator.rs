@@ -444,6 +444,15 @@ impl Estimator {
         }
     }
 
+    /// Covariance of the position as the fixes see it (the position plus
+    /// their slow error), m², with what the last gated position part left
+    /// unexplained: [`Filter::fix_position_covariance`] as the estimator
+    /// states it.
+    pub fn fix_position_covariance(&self) -> nalgebra::Matrix2<f64> {
+        self.filter.fix_position_covariance()
+            + nalgebra::Matrix2::identity() * self.gated.position_var()
+    }
+
     /// How far dead reckoning drifts, as learned from the fixes so far.
     pub fn drift(&self) -> &DriftCurve {
         &self.drift

@@ -35,6 +35,11 @@ impl GatedDisagreement {
         }
     }
 
+    /// The position's unexplained variance per axis, m².
+    pub fn position_var(&self) -> f64 {
+        self.var[0]
+    }
+
     /// `cov` (east, north, yaw) with the unexplained variances added.
     pub fn widen(&self, cov: &Matrix3<f64>) -> Matrix3<f64> {
         let mut c = *cov;

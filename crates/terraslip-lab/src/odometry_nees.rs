@@ -315,7 +315,7 @@ pub fn nees(
     window: f64,
     stated: &[Stated],
     fix_every: Option<f64>,
-) -> (Vec<Nees>, Nees) {
+) -> (Vec<Nees>, Nees, Nees) {
     // A reference with no heading (GNSS fixes): the position alone.
     let k = if reference.iter().any(|p| p.yaw.is_some()) {
         3
@@ -328,6 +328,12 @@ pub fn nees(
     };
     let mut twist = vec![empty.clone(); stated.len()];
     let mut pose = empty;
+    // The position as the reference sees it: with its slow error, which
+    // the estimate shares (a GNSS receiver's wanders by metres).
+    let mut seen = Nees {
+        k: 2,
+        ..Default::default()
+    };
     let unknown_heading = std::f64::consts::PI.powi(2);
     // Pose: once a second, or half-way between the fused fixes.
     let mut next = f64::NEG_INFINITY;
@@ -345,6 +351,12 @@ pub fn nees(
         };
         next = r.t + 1.0;
         armed = fix_every.is_none();
+        let e2 = nalgebra::Vector2::new(r.east + r.fix_bias[0] - e, r.north + r.fix_bias[1] - n);
+        let c2 = Matrix2::from_fn(|i, k| r.fix_position_cov[i][k])
+            + Matrix2::identity() * noise.std_xy * noise.std_xy;
+        if let Some(inv) = c2.try_inverse() {
+            seen.add((e2.transpose() * inv * e2)[0]);
+        }
         let mut c = Matrix3::from_fn(|i, k| r.pose_cov[i][k]);
         c[(0, 0)] += noise.position_var();
         c[(1, 1)] += noise.position_var();
@@ -432,7 +444,7 @@ pub fn nees(
         }
         i = j;
     }
-    (twist, pose)
+    (twist, pose, seen)
 }
 
 /// What the published twist claims over consecutive rows: the displacement
@@ -532,7 +544,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             slow_std: run.noise.correlated_std,
             slow_time: cfg.measurement.correlation_time,
         };
-        let (tw, po) = nees(
+        let (tw, po, seen) = nees(
             &run.rows,
             &wheels,
             &log.pose,
@@ -548,6 +560,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             tw[1].row()
         );
         println!("{name} | pose (k = {}) | {}", po.k, po.row());
+        println!(
+            "{name} | position with the reference's slow error (k = {}) | {}",
+            seen.k,
+            seen.row()
+        );
         if a.components {
             for (what, n) in [
                 ("twist", &tw[0]),

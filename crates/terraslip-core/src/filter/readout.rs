@@ -174,6 +174,18 @@ impl Filter {
         (self.x[BIAS_E], self.x[BIAS_N])
     }
 
+    /// Covariance of the position as the fixes see it, the position plus
+    /// their slow error (`east + bias_e`, `north + bias_n`), m²: what a
+    /// fix's position part is predicted with, less the fix's white noise.
+    pub fn fix_position_covariance(&self) -> nalgebra::Matrix2<f64> {
+        let p = &self.P;
+        nalgebra::Matrix2::from_fn(|i, j| {
+            let (a, b) = ([EAST, NORTH][i], [BIAS_E, BIAS_N][i]);
+            let (c, d) = ([EAST, NORTH][j], [BIAS_E, BIAS_N][j]);
+            p[(a, c)] + p[(a, d)] + p[(b, c)] + p[(b, d)]
+        })
+    }
+
     /// The measurement noise in effect: position std per axis (m) and
     /// heading std (rad) for fixes stated at `stated_xy` / `stated_yaw`,
     /// and the std of the correlated part of the position error (m).

@@ -693,3 +693,46 @@ fn a_fix_taken_standing_still_leaves_the_clock_offset() {
     assert!(after.1 <= before.1 + 1e-15);
     assert_spd(&f);
 }
+
+#[test]
+fn the_fixes_position_covariance_is_what_a_fix_is_predicted_with() {
+    // GNSS-like fixes (1 Hz, position only) whose error has a slow part:
+    // the filter carries it as a bias, anti-correlated with the position
+    // (the fixes see their sum). At standstill, with no lag and no lever
+    // arm, a position fix is predicted with the position plus the bias:
+    // its covariance is the innovation's less the fix's white noise.
+    let mut f = default_filter();
+    let d = Drive {
+        heading: false,
+        fix_hz: 1.0,
+        std_xy: 0.5,
+        ..Default::default()
+    };
+    run(&mut f, &d);
+    for _ in 0..10 {
+        f.predict(0.0, 0.0, 0.1).unwrap();
+    }
+    let used = [true, true, false];
+    let (_, H) = f.measure(&f.x, 0.0, used);
+    let (HP, _) = f.innovation_cov(&H, &[0.0; 3], used);
+    let hph = HP * H.transpose();
+    let c = f.fix_position_covariance();
+    for i in 0..2 {
+        for j in 0..2 {
+            assert!(
+                (c[(i, j)] - hph[(i, j)]).abs() <= 1e-9 * hph[(i, i)].abs().max(1e-12),
+                "({i}, {j}): {} against {}",
+                c[(i, j)],
+                hph[(i, j)]
+            );
+        }
+    }
+    // The fixes pin the sum much better than the position alone.
+    let p = f.pose_covariance();
+    assert!(
+        c[(0, 0)] < 0.5 * p[(0, 0)],
+        "{} vs {}",
+        c[(0, 0)],
+        p[(0, 0)]
+    );
+}

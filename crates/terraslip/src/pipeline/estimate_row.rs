@@ -25,6 +25,11 @@ pub struct EstimateRow {
     /// rad²); a heading not yet found from any fix has variance π² and no
     /// cross terms.
     pub pose_cov: [[f64; 3]; 3],
+    /// The position fixes' slow error as estimated (east, north), m, and
+    /// the covariance of the position plus it (what a fix's position is
+    /// predicted with, less the fix's white noise), m².
+    pub fix_bias: [f64; 2],
+    pub fix_position_cov: [[f64; 2]; 2],
     /// Covariance of (y_l, y_r, x_c, alpha_l, alpha_r) in effect.
     pub icr_cov: [[f64; 5]; 5],
     /// The filter's model noise at this row.

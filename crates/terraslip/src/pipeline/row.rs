@@ -43,6 +43,11 @@ pub fn row(est: &Estimator, t: f64, terrain: Option<usize>, s: &FixSummary) -> E
         ],
         std_spread: (ic[(0, 0)] + ic[(1, 1)] - 2.0 * ic[(0, 1)]).max(0.0).sqrt(),
         pose_cov: pose_cov(&pc, f.anchored()[1]),
+        fix_bias: f.position_bias().into(),
+        fix_position_cov: {
+            let c = est.fix_position_covariance();
+            std::array::from_fn(|r| std::array::from_fn(|k| c[(r, k)]))
+        },
         icr_cov: std::array::from_fn(|r| std::array::from_fn(|k| ic[(r, k)])),
         model_noise: terraslip_core::odometry::ModelNoise::of(f),
         twist_noise: est.twist_noise(),

@@ -444,13 +444,10 @@ impl Estimator {
         }
     }
 
-    /// Covariance of the position as the fixes see it (the position plus
-    /// their slow error), m², with what the last gated position part left
-    /// unexplained: [`Filter::fix_position_covariance`] as the estimator
-    /// states it.
+    /// [`Filter::fix_position_covariance`] with the gated widening, m².
     pub fn fix_position_covariance(&self) -> nalgebra::Matrix2<f64> {
-        self.filter.fix_position_covariance()
-            + nalgebra::Matrix2::identity() * self.gated.position_var()
+        self.gated
+            .widen_position(&self.filter.fix_position_covariance())
     }
 
     /// How far dead reckoning drifts, as learned from the fixes so far.

@@ -11,7 +11,7 @@
 //! covariance, are left as they are: a lone outlier costs only a wider
 //! stated pose until the next fix.
 
-use nalgebra::Matrix3;
+use nalgebra::{Matrix2, Matrix3};
 
 use crate::filter::{Fate, UpdateReport};
 
@@ -35,9 +35,10 @@ impl GatedDisagreement {
         }
     }
 
-    /// The position's unexplained variance per axis, m².
-    pub fn position_var(&self) -> f64 {
-        self.var[0]
+    /// A position covariance (east, north; m²), such as the position's
+    /// as the fixes see it, with the position's unexplained variance added.
+    pub fn widen_position(&self, cov: &Matrix2<f64>) -> Matrix2<f64> {
+        cov + Matrix2::identity() * self.var[0]
     }
 
     /// `cov` (east, north, yaw) with the unexplained variances added.

@@ -101,10 +101,7 @@ mod tests {
                 own = own.max(err * err / est.filter().pose_covariance()[(2, 2)]);
             }
             let tw = truth.twist(vl, vr);
-            let (s, c) = libm::sincos(yaw);
-            e += (c * tw.v_x - s * tw.v_y) * dt;
-            n += (s * tw.v_x + c * tw.v_y) * dt;
-            yaw = angle::wrap(yaw + (tw.omega + slip) * dt);
+            (e, n, yaw) = crate::twist_noise::tests::advance((e, n, yaw), &tw, slip, dt);
         }
         (stated, own, gated)
     }

@@ -351,7 +351,6 @@ fn spd_sqrt(m: &Matrix2<f64>) -> Option<Matrix2<f64>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::angle;
     use crate::rng::SplitMix64;
     use std::vec::Vec;
 
@@ -408,10 +407,7 @@ mod tests {
             }
             copies.retain(|(from, _, _)| step - from < 600);
             let tw = truth.twist(vl, vr);
-            let (s, c) = libm::sincos(yaw);
-            e += (c * tw.v_x - s * tw.v_y) * dt;
-            n += (s * tw.v_x + c * tw.v_y) * dt;
-            yaw = angle::wrap(yaw + (tw.omega + slip) * dt);
+            (e, n, yaw) = crate::twist_noise::tests::advance((e, n, yaw), &tw, slip, dt);
         }
         (at10, at60)
     }

@@ -81,10 +81,7 @@ mod tests {
             }
             est.on_wheels(t, vl, vr).unwrap();
             let tw = truth.twist(vl, vr);
-            let (s, c) = libm::sincos(yaw);
-            e += (c * tw.v_x - s * tw.v_y) * dt;
-            n += (s * tw.v_x + c * tw.v_y) * dt;
-            yaw = angle::wrap(yaw + (tw.omega + slip) * dt);
+            (e, n, yaw) = crate::twist_noise::tests::advance((e, n, yaw), &tw, slip, dt);
         }
         ends
     }

@@ -420,6 +420,22 @@ pub(crate) mod tests {
         }
     }
 
+    /// The true pose `(east, north, yaw)` (m, rad) moved over `dt` s by the
+    /// body twist `tw` with `slip` (rad/s) added to its yaw rate.
+    pub(crate) fn advance(
+        (e, n, yaw): (f64, f64, f64),
+        tw: &crate::kinematics::Twist,
+        slip: f64,
+        dt: f64,
+    ) -> (f64, f64, f64) {
+        let (s, c) = libm::sincos(yaw);
+        (
+            e + (c * tw.v_x - s * tw.v_y) * dt,
+            n + (s * tw.v_x + c * tw.v_y) * dt,
+            crate::angle::wrap(yaw + (tw.omega + slip) * dt),
+        )
+    }
+
     /// The slipping skid-steer's true ICRs (0.62 m spread on a 0.5 m
     /// track) and an estimator for it: the default filter from a no-slip
     /// prior, no terrain evidence.

@@ -11,7 +11,9 @@
 //!   0.5 rad the truth turned after it (the worst change of the world;
 //!   "never" counts as infinite);
 //! * the dead-reckoning drift over the world's 30 s outage (every pose fix
-//!   dropped, compass included), % of the distance driven;
+//!   dropped, compass included), % of the distance driven; with
+//!   `--outages K`, the mean over `K` such windows, one run each
+//!   ([`crate::family_outages`]);
 //! * the 2 s prediction error against the true pose, m;
 //! * the NEES (normalised estimation error squared, 1 per dof for an
 //!   honest filter) of east, north, yaw, `d`, the speed factor and `x_c`;
@@ -25,9 +27,10 @@ use terraslip::metrics::{self, ReconvergenceSpec};
 use terraslip::pipeline::{self, EstimateRun, RunOptions, TerrainEvidence};
 use terraslip_core::IcrParams;
 use terraslip_sim::family::{world, Subset, World};
-use terraslip_sim::{simulate, SimRun};
+use terraslip_sim::{simulate_draw, SimRun};
 
 use crate::estimators;
+use crate::family_outages;
 use crate::family_target::{self, WorldFigures};
 use crate::seeds::SeedQueue;
 use crate::stats::summary;
@@ -56,6 +59,9 @@ pub struct Args {
     /// the prior's uncertainty (what the data teach from there), the one
     /// the family's target is stated against: with it among the
     /// estimators, every other one is judged against it per world.
+    /// `NAME@drawN` runs `NAME` on the same worlds with the sensors' noise
+    /// drawn afresh (draw `N`; `oracle-prior@draw1` is the target's
+    /// reference judged against itself).
     #[arg(long = "estimator", default_values_t = ["terraslip".to_string(), "ekf-qmin".to_string(), "no-slip".to_string(), family_target::NAME.to_string()])]
     estimators: Vec<String>,
     /// Print one line per world and estimator.
@@ -78,6 +84,12 @@ pub struct Args {
     /// stay as they are).
     #[arg(long, value_name = "E", default_value_t = 0.0)]
     gyro_scale: f64,
+    /// Withhold the pose over this many separate 30 s windows per world
+    /// (the world's own outage and K - 1 more, one run each) and score the
+    /// mean drift: one window is one stretch of driving and one draw of
+    /// the sensors' noise.
+    #[arg(long, value_name = "K", default_value_t = 1)]
+    outages: usize,
     /// Write world --first-seed as a log directory (as the family runs it)
     /// and exit.
     #[arg(long, value_name = "DIR")]
@@ -116,12 +128,19 @@ struct Figures {
     /// spread's (cm) and the heading's (degrees), what the dead reckoning
     /// sets out with.
     at_outage: [f64; 3],
+    /// Each withheld window's drift (the world's own first).
+    outages: Vec<family_outages::WindowDrift>,
 }
 
 /// The world's log as the family runs it: the pose stream on its own
 /// clock, the std columns only where the world states them.
 pub(crate) fn simulate_world(w: &World, seed: u64) -> anyhow::Result<SimRun> {
-    let mut sim = simulate(&w.scenario, seed)?;
+    simulate_world_draw(w, seed, 0)
+}
+
+/// [`simulate_world`] with draw `sensor_draw` of the sensors' noise.
+fn simulate_world_draw(w: &World, seed: u64, sensor_draw: u64) -> anyhow::Result<SimRun> {
+    let mut sim = simulate_draw(&w.scenario, seed, sensor_draw)?;
     for p in &mut sim.log.pose {
         p.t += w.clock_offset;
         if !w.stated_std {
@@ -254,6 +273,7 @@ fn figures(run: &EstimateRun, sim: &SimRun, w: &World) -> Figures {
             .map_or(f64::NAN, |e| (e / run.gyro.bias_std).powi(2)),
         clock_err_ms: 1000.0 * (run.clock_offset.0 - w.clock_offset).abs(),
         at_outage,
+        outages: Vec::new(),
         nees_clock: if run.clock_offset.1 > 0.0 {
             ((run.clock_offset.0 - w.clock_offset) / run.clock_offset.1).powi(2)
         } else {
@@ -279,7 +299,7 @@ fn oracle(w: &World, sim: &SimRun) -> (TerrainEvidence, Option<terraslip_io::Par
 }
 
 /// Estimator `name` (configuration `cfg`) over world `w` (its log
-/// `sim`), the pose withheld over the world's outage: an `oracle` name is
+/// `sim`), the pose withheld over `outage` (s, the wheels' clock): an `oracle` name is
 /// told the terrain labels and each terrain's true parameters
 /// (`oracle-prior` trusting them no more than the prior); the others get
 /// the labels only with `labels`.
@@ -289,9 +309,10 @@ fn run_in_world(
     name: &str,
     cfg: &EstimatorConfig,
     labels: bool,
+    outage: (f64, f64),
 ) -> anyhow::Result<EstimateRun> {
     // The outage on the pose stream's clock.
-    let outage = (w.outage.0 + w.clock_offset, w.outage.1 + w.clock_offset);
+    let outage = (outage.0 + w.clock_offset, outage.1 + w.clock_offset);
     let opts = RunOptions {
         outage: Some(outage),
     };
@@ -356,15 +377,16 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         .estimators
         .iter()
         .map(|n| {
-            if n == "oracle" || n == family_target::NAME {
+            let (n, _) = family_outages::split_draw(n)?;
+            Ok(if n == "oracle" || n == family_target::NAME {
                 "terraslip".to_string()
             } else if let Some(rest) = n.strip_prefix("oracle:") {
                 rest.to_string()
             } else {
-                n.clone()
-            }
+                n.to_string()
+            })
         })
-        .collect();
+        .collect::<anyhow::Result<_>>()?;
     let mut cfgs = estimators::resolve(&names)?;
     for ((name, _), asked) in cfgs.iter_mut().zip(&a.estimators) {
         name.clone_from(asked);
@@ -379,13 +401,24 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             s.spawn(|| -> anyhow::Result<()> {
                 while let Some(seed) = queue.take() {
                     let w = draw(seed, subset, a.gyro, a.gyro_scale);
-                    let sim = simulate_world(&w, seed)?;
-                    for (i, (name, cfg)) in cfgs.iter().enumerate() {
-                        let run = run_in_world(&w, &sim, name, cfg, a.labels)?;
-                        let f = figures(&run, &sim, &w);
+                    for (i, (asked, cfg)) in cfgs.iter().enumerate() {
+                        let (name, sensor_draw) = family_outages::split_draw(asked)?;
+                        let sim = simulate_world_draw(&w, seed, sensor_draw)?;
+                        let run = run_in_world(&w, &sim, name, cfg, a.labels, w.outage)?;
+                        let mut f = figures(&run, &sim, &w);
+                        let end = sim.truth.last().map_or(0.0, |s| s.t);
+                        f.outages.push(family_outages::WindowDrift::new(&sim.log.terrain, w.outage, f.drift_pct));
+                        for o in family_outages::windows(w.outage, end, a.outages).into_iter().skip(1) {
+                            let run = run_in_world(&w, &sim, name, cfg, a.labels, o)?;
+                            let d = metrics::outage_drift(&run, &sim.log.truth, o.0, o.1);
+                            let d = d.map_or(f64::NAN, |d| d.percent);
+                            f.outages.push(family_outages::WindowDrift::new(&sim.log.terrain, o, d));
+                        }
+                        let drifts: Vec<f64> = f.outages.iter().map(|o| o.drift_pct).collect();
+                        f.drift_pct = family_outages::mean_finite(&drifts);
                         if a.verbose {
                             eprintln!(
-                                "world {seed:3} gnss {:5.2} m tau {:3.0} s compass {:5} std {:5} clock {:+.2} | {name:14} d {:6.2} y {:6.2} a {:5.2}% rec {:>6} drift {:6.2}% pred {:.3}",
+                                "world {seed:3} gnss {:5.2} m tau {:3.0} s compass {:5} std {:5} clock {:+.2} | {asked:14} d {:6.2} y {:6.2} a {:5.2}% rec {:>6} drift {:6.2}% pred {:.3}",
                                 w.gnss_std,
                                 w.scenario.gnss.markov_tau * f64::from(u8::from(w.scenario.gnss.markov_std > 0.0)),
                                 w.scenario.compass.rate > 0.0,
@@ -511,7 +544,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             family_target::RATIO
         );
         for (i, (name, _)) in cfgs.iter().enumerate() {
-            if !name.starts_with("oracle") {
+            let reference =
+                name == "oracle" || name == family_target::NAME || name.starts_with("oracle:");
+            if !reference {
                 let j = family_target::judge(&figures_of(i), &oracle);
                 println!("{}", family_target::report(name, &j));
                 judged.push((i, j));
@@ -560,7 +595,7 @@ mod tests {
         assert!(strong, "world 1 has no ground of strong slip");
         let cfgs = estimators::resolve(&["terraslip".into(), "no-slip".into()]).unwrap();
         let drift = |name: &str, cfg: &EstimatorConfig| {
-            let run = run_in_world(&w, &sim, name, cfg, false).unwrap();
+            let run = run_in_world(&w, &sim, name, cfg, false, w.outage).unwrap();
             figures(&run, &sim, &w).drift_pct
         };
         let oracle = drift(family_target::NAME, &cfgs[0].1);

@@ -23,6 +23,7 @@ mod drive_readings;
 mod drives;
 mod estimators;
 mod family;
+mod family_outages;
 mod family_target;
 mod follow;
 mod heldout;

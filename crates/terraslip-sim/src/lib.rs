@@ -43,6 +43,6 @@ pub use error::SimError;
 pub use recorder::GRAVITY;
 pub use run::SimRun;
 pub use scenario::{builtin_names, Scenario};
-pub use simulate::simulate;
+pub use simulate::{simulate, simulate_draw};
 pub use terrain::Terrain;
 pub use truth::TruthState;

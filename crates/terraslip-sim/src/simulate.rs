@@ -18,6 +18,15 @@ use crate::{Scenario, SimError, SimRun};
 /// camera frames are only described here and rendered by [`SimRun::write`]
 /// or [`SimRun::render_frame`].
 pub fn simulate(scenario: &Scenario, seed: u64) -> Result<SimRun, SimError> {
+    simulate_draw(scenario, seed, 0)
+}
+
+/// [`simulate`] with the sensors' noise (GNSS, compass, IMU, camera) drawn
+/// afresh: draw `sensor_draw` of seed `seed`. The operator's driving, and
+/// so the path, the terrain and the wheels, are those of `seed`; draw 0 is
+/// [`simulate`]'s. Two draws of one world tell what an estimator's figures
+/// owe to the sensors' particular noise.
+pub fn simulate_draw(scenario: &Scenario, seed: u64, sensor_draw: u64) -> Result<SimRun, SimError> {
     let sc = scenario;
     sc.validate().map_err(|reason| SimError::Scenario {
         path: PathBuf::from(format!("<scenario {}>", sc.name)),
@@ -32,7 +41,8 @@ pub fn simulate(scenario: &Scenario, seed: u64) -> Result<SimRun, SimError> {
     let yaw0 = rng_operator.gen_range(-std::f64::consts::PI..std::f64::consts::PI);
     let mut operator = Operator::new(sc.drive.clone(), rng_operator, robot.track_width);
     let mut motion = Motion::start(sc, &timeline, yaw0);
-    let mut recorder = Recorder::new(sc, seed, duration);
+    let sensor_seed = seed ^ sensor_draw.wrapping_mul(0x9e37_79b9_7f4a_7c15);
+    let mut recorder = Recorder::new(sc, sensor_seed, duration);
     let mut rec = Recording {
         log: DriveLog {
             meta: log_meta(sc),

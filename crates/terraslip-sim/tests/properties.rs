@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use terraslip_core::angle::wrap;
-use terraslip_sim::{simulate, Scenario, SimError, SimRun};
+use terraslip_sim::{simulate, simulate_draw, Scenario, SimError, SimRun};
 
 fn scenario(text: &str) -> Scenario {
     Scenario::from_toml_str(text, Path::new("test.toml")).unwrap()
@@ -365,6 +365,23 @@ fn seeds_reproduce_bit_for_bit_and_differ() {
     let with_cam = simulate(&Scenario::builtin("papers").unwrap(), 42).unwrap();
     assert_eq!(with_cam.log.pose, a.log.pose);
     assert!(!with_cam.frames.is_empty() && a.frames.is_empty());
+}
+
+#[test]
+fn a_sensor_draw_keeps_the_drive_and_redraws_the_noise() {
+    let mut s = Scenario::builtin("papers").unwrap();
+    s.camera.rate = 0.0;
+    let a = simulate(&s, 42).unwrap();
+    assert_eq!(simulate_draw(&s, 42, 0).unwrap().log, a.log);
+    let b = simulate_draw(&s, 42, 1).unwrap();
+    // The same path, terrain and encoders ...
+    assert_eq!(b.truth, a.truth);
+    assert_eq!(b.log.wheels, a.log.wheels);
+    assert_eq!(b.log.terrain, a.log.terrain);
+    // ... seen through other noise.
+    assert_eq!(b.log.pose.len(), a.log.pose.len());
+    assert_ne!(b.log.pose, a.log.pose);
+    assert_ne!(simulate_draw(&s, 42, 2).unwrap().log.pose, b.log.pose);
 }
 
 #[test]

@@ -30,7 +30,7 @@ use terraslip_sim::family::{world, Subset, World};
 use terraslip_sim::{simulate_draw, SimRun};
 
 use crate::estimators;
-use crate::family_outages;
+use crate::family_outages::{self, WindowDrift};
 use crate::family_target::{self, WorldFigures};
 use crate::seeds::SeedQueue;
 use crate::stats::summary;
@@ -345,6 +345,41 @@ fn run_in_world(
     )?)
 }
 
+/// The figures of estimator `name` over world `w`: those of the run
+/// without the world's outage, the drift the mean over up to `outages`
+/// windows (the world's own first, one run each).
+fn score_world(
+    w: &World,
+    sim: &SimRun,
+    name: &str,
+    cfg: &EstimatorConfig,
+    labels: bool,
+    outages: usize,
+) -> anyhow::Result<Figures> {
+    let run = run_in_world(w, sim, name, cfg, labels, w.outage)?;
+    let mut f = figures(&run, sim, w);
+    let end = sim.truth.last().map_or(0.0, |s| s.t);
+    f.outages.push(WindowDrift::of(
+        &run,
+        &sim.log.terrain,
+        w.outage,
+        f.drift_pct,
+    ));
+    for o in family_outages::windows(w.outage, end, outages)
+        .into_iter()
+        .skip(1)
+    {
+        let run = run_in_world(w, sim, name, cfg, labels, o)?;
+        let d = metrics::outage_drift(&run, &sim.log.truth, o.0, o.1);
+        let d = d.map_or(f64::NAN, |d| d.percent);
+        f.outages
+            .push(WindowDrift::of(&run, &sim.log.terrain, o, d));
+    }
+    let drifts: Vec<f64> = f.outages.iter().map(|o| o.drift_pct).collect();
+    f.drift_pct = family_outages::mean_finite(&drifts);
+    Ok(f)
+}
+
 pub fn run(a: Args) -> anyhow::Result<()> {
     let subset = match a.subset.as_str() {
         "all" => Subset::All,
@@ -404,18 +439,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                     for (i, (asked, cfg)) in cfgs.iter().enumerate() {
                         let (name, sensor_draw) = family_outages::split_draw(asked)?;
                         let sim = simulate_world_draw(&w, seed, sensor_draw)?;
-                        let run = run_in_world(&w, &sim, name, cfg, a.labels, w.outage)?;
-                        let mut f = figures(&run, &sim, &w);
-                        let end = sim.truth.last().map_or(0.0, |s| s.t);
-                        f.outages.push(family_outages::WindowDrift::new(&sim.log.terrain, w.outage, f.drift_pct));
-                        for o in family_outages::windows(w.outage, end, a.outages).into_iter().skip(1) {
-                            let run = run_in_world(&w, &sim, name, cfg, a.labels, o)?;
-                            let d = metrics::outage_drift(&run, &sim.log.truth, o.0, o.1);
-                            let d = d.map_or(f64::NAN, |d| d.percent);
-                            f.outages.push(family_outages::WindowDrift::new(&sim.log.terrain, o, d));
-                        }
-                        let drifts: Vec<f64> = f.outages.iter().map(|o| o.drift_pct).collect();
-                        f.drift_pct = family_outages::mean_finite(&drifts);
+                        let f = score_world(&w, &sim, name, cfg, a.labels, a.outages)?;
                         if a.verbose {
                             eprintln!(
                                 "world {seed:3} gnss {:5.2} m tau {:3.0} s compass {:5} std {:5} clock {:+.2} | {asked:14} d {:6.2} y {:6.2} a {:5.2}% rec {:>6} drift {:6.2}% pred {:.3}",
@@ -607,5 +631,38 @@ mod tests {
         // Told the truth but not trusting it: not the tight oracle's run.
         let tight = drift("oracle", &cfgs[0].1);
         assert_ne!(oracle, tight);
+    }
+
+    /// Every window `--outages` scores is withheld (no fix fused inside),
+    /// no-slip drifts far from the oracle in each one, and the world's
+    /// mean is the windows'.
+    #[test]
+    fn each_scored_window_is_an_outage() {
+        let w = draw(1, Subset::All, false, 0.0);
+        let sim = simulate_world(&w, 1).unwrap();
+        let cfgs = estimators::resolve(&["terraslip".into(), "no-slip".into()]).unwrap();
+        let oracle = score_world(&w, &sim, family_target::NAME, &cfgs[0].1, false, 5).unwrap();
+        let no_slip = score_world(&w, &sim, "no-slip", &cfgs[1].1, false, 5).unwrap();
+        assert!(oracle.outages.len() >= 3, "{:?}", oracle.outages);
+        assert_eq!(oracle.outages[0].start_s, w.outage.0);
+        for (o, n) in oracle.outages.iter().zip(&no_slip.outages) {
+            assert_eq!(o.start_s, n.start_s);
+            assert_eq!(
+                (o.fused, n.fused),
+                (0, 0),
+                "fixes fused in the window at {:.0} s",
+                o.start_s
+            );
+            assert!(
+                o.drift_pct < 0.25 * n.drift_pct,
+                "window at {:.0} s: oracle {:.2} % against no-slip {:.2} %",
+                o.start_s,
+                o.drift_pct,
+                n.drift_pct
+            );
+        }
+        let mean =
+            oracle.outages.iter().map(|o| o.drift_pct).sum::<f64>() / oracle.outages.len() as f64;
+        assert!((oracle.drift_pct - mean).abs() < 1e-12);
     }
 }

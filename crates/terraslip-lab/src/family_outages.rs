@@ -11,6 +11,7 @@
 //! `oracle-prior@draw1` judged against `oracle-prior` tells how often the
 //! target's own reference misses it.
 
+use terraslip::pipeline::EstimateRun;
 use terraslip_io::TerrainLabel;
 
 /// Shortest time after the start before a window opens, s (the warm-up of
@@ -63,11 +64,14 @@ pub struct WindowDrift {
     pub change_inside: bool,
     /// Drift, % of the distance (NaN: not scored).
     pub drift_pct: f64,
+    /// Fixes the run fused inside the window (0: withheld as asked).
+    pub fused: usize,
 }
 
 impl WindowDrift {
     /// Window `o` (s) of a drive whose ground follows `labels`.
-    pub fn new(labels: &[TerrainLabel], o: (f64, f64), drift_pct: f64) -> Self {
+    /// `fused`: the fixes the run fused inside it.
+    pub fn new(labels: &[TerrainLabel], o: (f64, f64), drift_pct: f64, fused: usize) -> Self {
         let last = labels
             .iter()
             .filter(|l| l.t <= o.0)
@@ -78,7 +82,22 @@ impl WindowDrift {
             since_change_s: o.0 - last,
             change_inside: labels.iter().any(|l| l.t > o.0 && l.t < o.1),
             drift_pct,
+            fused,
         }
+    }
+}
+
+impl WindowDrift {
+    /// Window `o` (s, the wheels' clock) of `run`, a drive whose ground
+    /// follows `labels`, with its fixes fused counted half a second in
+    /// from the window's ends.
+    pub fn of(run: &EstimateRun, labels: &[TerrainLabel], o: (f64, f64), drift_pct: f64) -> Self {
+        let fused = run
+            .rows
+            .iter()
+            .filter(|r| r.fused && r.t > o.0 + 0.5 && r.t < o.1 - 0.5)
+            .count();
+        Self::new(labels, o, drift_pct, fused)
     }
 }
 
@@ -134,9 +153,9 @@ mod tests {
             terrain: g.into(),
         };
         let labels = [l(0.0, "sand"), l(90.0, "grass"), l(200.0, "ice")];
-        let w = WindowDrift::new(&labels, (120.0, 150.0), 2.0);
+        let w = WindowDrift::new(&labels, (120.0, 150.0), 2.0, 0);
         assert_eq!((w.since_change_s, w.change_inside), (30.0, false));
-        let w = WindowDrift::new(&labels, (180.0, 210.0), 2.0);
+        let w = WindowDrift::new(&labels, (180.0, 210.0), 2.0, 0);
         assert_eq!((w.since_change_s, w.change_inside), (90.0, true));
     }
 

@@ -44,8 +44,8 @@ impl GatedDisagreement {
     /// `cov` (east, north, yaw) with the unexplained variances added.
     pub fn widen(&self, cov: &Matrix3<f64>) -> Matrix3<f64> {
         let mut c = *cov;
-        c[(0, 0)] += self.var[0];
-        c[(1, 1)] += self.var[0];
+        let position = self.widen_position(&c.fixed_view::<2, 2>(0, 0).into_owned());
+        c.fixed_view_mut::<2, 2>(0, 0).copy_from(&position);
         c[(2, 2)] += self.var[1];
         c
     }

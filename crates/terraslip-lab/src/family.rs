@@ -24,13 +24,14 @@ use std::sync::Mutex;
 
 use terraslip::config::EstimatorConfig;
 use terraslip::metrics::{self, ReconvergenceSpec};
-use terraslip::pipeline::{self, EstimateRun, RunOptions, TerrainEvidence};
+use terraslip::pipeline::EstimateRun;
 use terraslip_core::IcrParams;
 use terraslip_sim::family::{world, Subset, World};
 use terraslip_sim::{simulate_draw, SimRun};
 
 use crate::estimators;
 use crate::family_outages::{self, WindowDrift};
+use crate::family_run::run_in_world;
 use crate::family_target::{self, WorldFigures};
 use crate::seeds::SeedQueue;
 use crate::stats::summary;
@@ -284,66 +285,6 @@ fn figures(run: &EstimateRun, sim: &SimRun, w: &World) -> Figures {
 
 /// One figure of a run, for the report's rows.
 type FigureOf = fn(&Figures) -> f64;
-
-/// What the oracle is told: the terrain labels and each terrain's nominal
-/// parameters.
-fn oracle(w: &World, sim: &SimRun) -> (TerrainEvidence, Option<terraslip_io::ParamsFile>) {
-    let mut pf = terraslip_io::ParamsFile::default();
-    for l in &sim.log.terrain {
-        if let Ok(p) = w.scenario.terrain_icr(&l.terrain) {
-            pf.terrains
-                .insert(l.terrain.clone(), terraslip_io::ParamEntry::new(p));
-        }
-    }
-    (TerrainEvidence::Labels(sim.log.terrain.clone()), Some(pf))
-}
-
-/// Estimator `name` (configuration `cfg`) over world `w` (its log
-/// `sim`), the pose withheld over `outage` (s, the wheels' clock): an `oracle` name is
-/// told the terrain labels and each terrain's true parameters
-/// (`oracle-prior` trusting them no more than the prior); the others get
-/// the labels only with `labels`.
-fn run_in_world(
-    w: &World,
-    sim: &SimRun,
-    name: &str,
-    cfg: &EstimatorConfig,
-    labels: bool,
-    outage: (f64, f64),
-) -> anyhow::Result<EstimateRun> {
-    // The outage on the pose stream's clock.
-    let outage = (outage.0 + w.clock_offset, outage.1 + w.clock_offset);
-    let opts = RunOptions {
-        outage: Some(outage),
-    };
-    let (evidence, init) = if name.starts_with("oracle") {
-        oracle(w, sim)
-    } else if labels {
-        (TerrainEvidence::Labels(sim.log.terrain.clone()), None)
-    } else {
-        (TerrainEvidence::None, None)
-    };
-    let prior_cfg;
-    let cfg = if name == family_target::NAME {
-        let track = sim
-            .log
-            .meta
-            .track_width
-            .unwrap_or(w.scenario.robot.track_width);
-        prior_cfg = family_target::prior_uncertainty(cfg, track);
-        &prior_cfg
-    } else {
-        cfg
-    };
-    Ok(pipeline::run_with(
-        &sim.log,
-        cfg,
-        &evidence,
-        init.as_ref(),
-        opts,
-        &mut |_, _| {},
-    )?)
-}
 
 /// The figures of estimator `name` over world `w`: those of the run
 /// without the world's outage, the drift the mean over up to `outages`

@@ -24,6 +24,7 @@ mod drives;
 mod estimators;
 mod family;
 mod family_outages;
+mod family_run;
 mod family_target;
 mod follow;
 mod heldout;

@@ -44,11 +44,8 @@ pub fn row(est: &Estimator, t: f64, terrain: Option<usize>, s: &FixSummary) -> E
         std_spread: (ic[(0, 0)] + ic[(1, 1)] - 2.0 * ic[(0, 1)]).max(0.0).sqrt(),
         pose_cov: pose_cov(&pc, f.anchored()[1]),
         fix_bias: f.position_bias().into(),
-        fix_position_cov: {
-            let c = est.fix_position_covariance();
-            std::array::from_fn(|r| std::array::from_fn(|k| c[(r, k)]))
-        },
-        icr_cov: std::array::from_fn(|r| std::array::from_fn(|k| ic[(r, k)])),
+        fix_position_cov: rows_of(&est.fix_position_covariance()),
+        icr_cov: rows_of(&ic),
         model_noise: terraslip_core::odometry::ModelNoise::of(f),
         twist_noise: est.twist_noise(),
         terrain,
@@ -73,6 +70,11 @@ pub fn learned_gyro_scale(
         scale: g.scale,
         std: g.scale_std,
     })
+}
+
+/// Matrix `m` as an array of its rows.
+fn rows_of<const R: usize, const C: usize>(m: &nalgebra::SMatrix<f64, R, C>) -> [[f64; C]; R] {
+    std::array::from_fn(|r| std::array::from_fn(|k| m[(r, k)]))
 }
 
 /// The pose covariance `pc` as published: symmetric, and with an unknown

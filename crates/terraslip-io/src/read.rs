@@ -222,7 +222,7 @@ pub fn read_truth(path: &Path) -> Result<Vec<TruthSample>, LogError> {
 
 /// The keys of `meta.toml`: the robot description, then the provenance
 /// `terraslip simulate` records.
-const META_KEYS: [&str; 11] = [
+const META_KEYS: [&str; 12] = [
     "robot",
     "track_width",
     "wheel_radius",
@@ -232,6 +232,7 @@ const META_KEYS: [&str; 11] = [
     "separation",
     "separation_source",
     "pose",
+    "pose_reference",
     "scenario",
     "seed",
 ];

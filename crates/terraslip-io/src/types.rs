@@ -110,6 +110,35 @@ pub struct Meta {
     /// `[pose]` in meta.toml.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pose: Option<PoseMount>,
+    /// What the pose reference is (terraslip extension); unstated, its
+    /// error is taken to wander as a GNSS receiver's does.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pose_reference: Option<PoseReference>,
+}
+
+/// What kind of source the pose reference is: whether its error wanders
+/// slowly (a GNSS receiver's multipath and atmosphere, over tens of
+/// seconds) or is white from fix to fix (a localiser matching each scan
+/// against a map). `meta.toml`'s `pose_reference`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PoseReference {
+    /// A satellite receiver, RTK included: part of its error wanders.
+    Gnss,
+    /// A lidar or visual localisation against a map, motion capture, ceiling
+    /// tags: an error that does not wander. `localizer` is read as well.
+    #[serde(alias = "localizer")]
+    Localiser,
+}
+
+impl PoseReference {
+    /// The name meta.toml gives it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Gnss => "gnss",
+            Self::Localiser => "localiser",
+        }
+    }
 }
 
 /// Where the pose reference (GNSS antenna, tag, lidar frame) sits on the

@@ -182,6 +182,35 @@ fn bad_meta_is_reported() {
 }
 
 #[test]
+fn the_pose_reference_is_read_and_a_kind_not_known_is_named() {
+    for (stated, kind) in [
+        ("gnss", PoseReference::Gnss),
+        ("localiser", PoseReference::Localiser),
+        ("localizer", PoseReference::Localiser),
+    ] {
+        let meta = format!("track_width = 1.1\npose_reference = \"{stated}\"\n");
+        let d = log_with(&[("wheels.csv", WHEELS), ("meta.toml", &meta)]);
+        assert_eq!(
+            DriveLog::read(d.path()).unwrap().meta.pose_reference,
+            Some(kind)
+        );
+    }
+    let d = log_with(&[
+        ("wheels.csv", WHEELS),
+        (
+            "meta.toml",
+            "track_width = 1.1\npose_reference = \"lidar\"\n",
+        ),
+    ]);
+    let (file, line, reason) = parse_err(d.path());
+    assert_eq!((file.as_str(), line), ("meta.toml", 2));
+    assert!(
+        reason.contains("lidar") && reason.contains("localiser"),
+        "{reason}"
+    );
+}
+
+#[test]
 fn write_then_read_round_trips() {
     let log = DriveLog {
         wheels: vec![

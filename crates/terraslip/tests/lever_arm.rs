@@ -391,6 +391,23 @@ mod recorded {
     }
 
     #[test]
+    fn a_localiser_stated_in_the_topics_file_reaches_meta_toml_and_the_estimate() {
+        let m = run(true, Some("[meta]\npose_reference = \"localiser\"\n"));
+        let localiser = Some(terraslip_io::PoseReference::Localiser);
+        assert_eq!(m.meta.pose_reference, localiser);
+        assert_eq!(m.summary["pose_noise"]["reference"], "localiser");
+        assert_eq!(m.summary["pose_noise"]["correlated_std_m"], 0.0);
+        // Unstated: a GNSS-like wander is carried.
+        let m = run(true, None);
+        assert_eq!(m.meta.pose_reference, None);
+        assert!(m.summary["pose_noise"]["reference"].is_null());
+        let wander = m.summary["pose_noise"]["correlated_std_m"]
+            .as_f64()
+            .unwrap();
+        assert!(wander > 0.0, "{wander}");
+    }
+
+    #[test]
     fn with_no_transform_the_antenna_is_taken_at_the_axle_and_said_so() {
         let m = run(false, None);
         assert_eq!(m.meta.pose, None);

@@ -20,7 +20,8 @@ pub struct MeasurementConfig {
     /// errors wander over tens of seconds, RTK fixes with multipath, a lidar
     /// localiser with the local error of its map; read as motion, a
     /// wandering error would drag the speed factor and make the position
-    /// std over-confident.
+    /// std over-confident. A log whose meta.toml states
+    /// `pose_reference = "localiser"` runs with 0.
     pub correlated_fraction: f64,
     /// Correlation time of the wandering part, s.
     pub correlation_time: f64,

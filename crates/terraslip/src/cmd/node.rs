@@ -206,8 +206,11 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
 
     let (name_ref, cfg_ref) = (label.as_str(), &cfg);
     let (lag, span, gyro_delay) = (args.lag, args.warmup, args.gyro_delay);
+    // What the topics file's `[meta]` states the pose reference is, as
+    // `import` writes it into a log's meta.toml.
+    let pose_reference = topics_cfg.meta.pose_reference;
     let warm_up = move |track_width: f64, start: Option<ParamsFile>| {
-        WarmUp::new(
+        let mut w = WarmUp::new(
             name_ref,
             cfg_ref,
             track_width,
@@ -216,7 +219,9 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
             span,
             gyro_delay,
             recalled_delay,
-        )
+        )?;
+        w.set_pose_reference(pose_reference);
+        Ok::<_, terraslip::pipeline::PipelineError>(w)
     };
     // Built once the streams are known (with no topics file, at the end
     // of the window, from what it settled).

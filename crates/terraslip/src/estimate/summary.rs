@@ -59,8 +59,11 @@ pub fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) ->
             "std_k_spread_speed": est.centripetal.1.k_spread_speed,
             "learned": est.centripetal.2,
         },
-        // The pose noise the filter ended with, and whether pose.csv stated it.
+        // The pose noise the filter ended with, whether pose.csv stated it,
+        // and what meta.toml states the pose reference is ("gnss",
+        // "localiser": no wandering part, `correlated_std_m` 0; or null).
         "pose_noise": {
+            "reference": log.meta.pose_reference,
             "std_xy_m": est.noise.std_xy,
             "std_yaw_rad": est.noise.std_yaw,
             "correlated_std_m": est.noise.correlated_std,

@@ -1,11 +1,13 @@
 //! What a run decides before its first row, from the drive's start: how
 //! late the wheels are stamped against the gyro (and whether the gyro is
-//! the body's yaw rate at all), and which slip parameters the sensors can
-//! teach (positions, headings, a gyro). `estimate` decides from the log's
+//! the body's yaw rate at all), which slip parameters the sensors can
+//! teach (positions, headings, a gyro), and, from what the log states its
+//! pose reference is, whether the fixes' error wanders. `estimate` decides from the log's
 //! first [`super::gyro_delay::SPAN`] s, `node` from the same span of live
 //! samples held back as its warm-up, both with this code.
 
 use terraslip_core::filter::SlipHold;
+use terraslip_io::PoseReference;
 
 use super::GyroClock;
 use crate::config::EstimatorConfig;
@@ -21,6 +23,9 @@ pub struct Seen {
     pub headings: bool,
     /// Gyro samples came.
     pub gyro: bool,
+    /// What the log states its pose reference is (meta.toml's
+    /// `pose_reference`; a bag's topics file `[meta]`).
+    pub pose_reference: Option<PoseReference>,
 }
 
 /// The run's decisions.
@@ -38,6 +43,9 @@ pub struct Decisions {
     /// The gyro's scale is held (nothing shows the true turn: no
     /// positions, no headings).
     pub hold_gyro_scale: bool,
+    /// The pose reference as stated: a localiser's fixes carry no
+    /// wandering error (`measurement.correlated_fraction` 0).
+    pub pose_reference: Option<PoseReference>,
 }
 
 impl Decisions {
@@ -92,16 +100,21 @@ impl Decisions {
             // Only positions or headings show the true turn the gyro's
             // scale is measured against.
             hold_gyro_scale: !(seen.positions || seen.headings),
+            pose_reference: seen.pose_reference,
         };
         (d, warning)
     }
 
     /// The configuration the filter is built with: `cfg` with the slip
-    /// parameters and gyro scale held as decided.
+    /// parameters and gyro scale held as decided, and no wandering error
+    /// in a localiser's fixes.
     pub fn filter_config(&self, cfg: &EstimatorConfig) -> EstimatorConfig {
         let mut held = cfg.clone();
         held.filter.hold = self.hold;
         held.filter.hold_gyro_scale = self.hold_gyro_scale;
+        if self.pose_reference == Some(PoseReference::Localiser) {
+            held.measurement.correlated_fraction = 0.0;
+        }
         held
     }
 
@@ -143,7 +156,12 @@ impl Decisions {
         } else {
             "the gyro's scale learned against the positions and headings"
         };
-        vec![gyro, hold.to_string(), scale.to_string()]
+        let mut out = vec![gyro, hold.to_string(), scale.to_string()];
+        out.extend(self.pose_reference.map(|r| match r {
+            PoseReference::Localiser => "the pose reference is a localiser (stated): its fixes' error taken as white, with no slowly wandering part".to_string(),
+            PoseReference::Gnss => "the pose reference is a GNSS receiver (stated): part of its fixes' error wanders (measurement.correlated_fraction)".to_string(),
+        }));
+        out
     }
 
     /// The decisions as a parameters file keeps them (`decided`).
@@ -159,6 +177,7 @@ impl Decisions {
             "gyro_delay_s": self.gyro_delay,
             "hold": format!("{:?}", self.hold),
             "hold_gyro_scale": self.hold_gyro_scale,
+            "pose_reference": self.pose_reference.map(PoseReference::name),
         })
     }
 }

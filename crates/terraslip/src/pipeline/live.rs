@@ -251,6 +251,7 @@ impl<'a> Live<'a> {
             gyro_delay: if fuse_gyro { gyro_delay } else { 0.0 },
             hold: cfg.filter.hold,
             hold_gyro_scale: cfg.filter.hold_gyro_scale,
+            pose_reference: None,
         };
         Self::decided(
             name,

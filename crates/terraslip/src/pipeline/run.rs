@@ -129,6 +129,7 @@ pub fn run_streams(
         positions,
         headings,
         gyro: gyro.peek().is_some(),
+        pose_reference: log.meta.pose_reference,
     };
     let (decided, gyro_warning) = decide::Decisions::new(&dir, cfg, seen);
     let mut warnings: Vec<String> = gyro_warning.into_iter().collect();

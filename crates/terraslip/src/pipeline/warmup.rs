@@ -5,7 +5,7 @@
 //! the estimator runs over the held samples in their arrival order, so no
 //! row is lost, and goes on live.
 
-use terraslip_io::{ParamsFile, PoseMount};
+use terraslip_io::{ParamsFile, PoseMount, PoseReference};
 
 use super::decide::{Decisions, Seen};
 use super::gyro_delay::{self, GyroClock, MAX_DELAY};
@@ -32,6 +32,7 @@ pub struct WarmUp<'a> {
     live: Option<Live<'a>>,
     decided: Option<Decisions>,
     pose_mount: Option<PoseMount>,
+    pose_reference: Option<PoseReference>,
 }
 
 impl<'a> WarmUp<'a> {
@@ -68,6 +69,7 @@ impl<'a> WarmUp<'a> {
             live: None,
             decided: None,
             pose_mount: None,
+            pose_reference: None,
         })
     }
 
@@ -132,6 +134,12 @@ impl<'a> WarmUp<'a> {
     /// estimator the warm-up builds; taken until the warm-up ends.
     pub fn set_pose_mount(&mut self, mount: Option<PoseMount>) {
         self.pose_mount = mount;
+    }
+
+    /// What the pose reference is, as a log's meta.toml `pose_reference`
+    /// states it (a topics file's `[meta]`), for the decisions.
+    pub fn set_pose_reference(&mut self, reference: Option<PoseReference>) {
+        self.pose_reference = reference;
     }
 
     /// The decisions, once made.
@@ -204,6 +212,7 @@ impl<'a> WarmUp<'a> {
             positions: pose().any(|p| p.east.is_some() && p.north.is_some()),
             headings: pose().any(|p| p.yaw.is_some()),
             gyro: !gyro.is_empty(),
+            pose_reference: self.pose_reference,
         };
         let (mut d, warning) = Decisions::new(self.name, self.cfg, seen);
         let unknown = d.gyro_clock == GyroClock::Unknown;

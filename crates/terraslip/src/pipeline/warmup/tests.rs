@@ -3,7 +3,7 @@ use crate::pipeline::{run, EstimateRow, TerrainEvidence, DECISION_SPAN};
 use crate::testkit::{drive, SynthSpec};
 use terraslip_core::filter::SlipHold;
 use terraslip_core::IcrParams;
-use terraslip_io::DriveLog;
+use terraslip_io::{DriveLog, PoseReference};
 
 /// A drive longer than the warm-up whose wheels are stamped `late` s late
 /// against its 100 Hz gyro (the gyro's stamps moved earlier).
@@ -120,4 +120,41 @@ fn a_given_delay_replaces_the_one_found() {
     }
     assert_eq!(decided.unwrap().gyro_delay, 0.1);
     assert!(decided.unwrap().lines()[0].contains("0.100 s late against it (given"));
+}
+
+#[test]
+fn a_stated_localiser_is_decided_live_as_offline() {
+    let mut log = late_wheels(DECISION_SPAN + 60.0, 0.35);
+    let cfg = EstimatorConfig::default();
+    let unstated = run(&log, &cfg, &TerrainEvidence::None, None).unwrap();
+    log.meta.pose_reference = Some(PoseReference::Localiser);
+    let offline = run(&log, &cfg, &TerrainEvidence::None, None).unwrap();
+    // A localiser's fixes carry no wandering error: the run differs.
+    assert!(unstated.noise.correlated_std > 0.0);
+    assert_eq!(offline.noise.correlated_std, 0.0);
+    assert!(offline.rows != unstated.rows);
+
+    let live = |reference| {
+        let mut w = WarmUp::new("live", &cfg, 0.5, None, 0.3, DECISION_SPAN, None, None).unwrap();
+        w.set_pose_reference(reference);
+        let mut rows: Vec<EstimateRow> = Vec::new();
+        for s in played(&log) {
+            w.push(s, &mut rows).unwrap();
+        }
+        w.flush(&mut rows).unwrap();
+        (rows, *w.decisions().unwrap())
+    };
+    let (rows, d) = live(Some(PoseReference::Localiser));
+    assert_eq!(d.pose_reference, Some(PoseReference::Localiser));
+    assert!(
+        d.lines().iter().any(|l| l.contains("localiser")),
+        "{:?}",
+        d.lines()
+    );
+    assert!(
+        rows == offline.rows,
+        "the live localiser differs from estimate's"
+    );
+    let (rows, _) = live(None);
+    assert!(rows == unstated.rows && rows != offline.rows);
 }

@@ -13,7 +13,7 @@ use crate::log::check_pose;
 
 /// The online estimator, one event at a time: the filter `terraslip
 /// estimate` runs. `track_width` in m; `config`, `init`, `preset` as for
-/// `estimate`. Feed each wheels row after the pose fixes stamped at or
+/// `estimate`; `pose_reference` as meta.toml's (`"gnss"`, `"localiser"`). Feed each wheels row after the pose fixes stamped at or
 /// before it; `state()` then equals `estimate`'s row (unrounded).
 #[pyclass(module = "terraslip")]
 pub struct Estimator {
@@ -30,12 +30,13 @@ pub struct Estimator {
 #[pymethods]
 impl Estimator {
     #[new]
-    #[pyo3(signature = (track_width, config=None, init=None, *, preset=None))]
+    #[pyo3(signature = (track_width, config=None, init=None, *, preset=None, pose_reference=None))]
     fn new(
         track_width: f64,
         config: Option<&Bound<'_, PyAny>>,
         init: Option<&Bound<'_, PyAny>>,
         preset: Option<&str>,
+        pose_reference: Option<&str>,
     ) -> PyResult<Self> {
         guard(|| {
             if !(track_width.is_finite() && track_width > 0.0) {
@@ -43,7 +44,14 @@ impl Estimator {
                     "track_width = {track_width}: expected a positive number of metres"
                 )));
             }
-            let cfg = load_config(config, preset)?;
+            let reference = pose_reference
+                .map(|r| serde_json::from_value(serde_json::json!(r)))
+                .transpose()
+                .map_err(|e| PyValueError::new_err(format!("pose_reference: {e}")))?;
+            let cfg = terraslip::pipeline::decide::for_pose_reference(
+                &load_config(config, preset)?,
+                reference,
+            );
             let init = init.map(|i| load_params(i, "--init")).transpose()?;
             let (est, init_source, warnings) =
                 terraslip::pipeline::estimator(&cfg, track_width, init.as_ref())

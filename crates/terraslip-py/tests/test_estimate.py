@@ -152,6 +152,23 @@ DIGITS = dict(
 )
 
 
+def stream(est, wheels, pose, terrain=None):
+    """Feeds `est` the rows of wheels.csv, each after the pose fixes stamped
+    at or before it (and the terrain, when given): its state after each."""
+    states, pi = [], 0
+    for w in wheels:
+        t = float(w["t"])
+        if terrain is not None:
+            est.on_terrain(terrain)
+        while pi < len(pose) and float(pose[pi]["t"]) <= t:
+            p = pose[pi]
+            est.on_pose(float(p["t"]), east=float(p["east"]), north=float(p["north"]), yaw=float(p["yaw"]))
+            pi += 1
+        est.on_wheels(t, float(w["v_left"]), float(w["v_right"]))
+        states.append(est.state())
+    return states
+
+
 @pytest.mark.parametrize("calibrated", [False, True])
 def test_streaming_equals_batch(calibrated):
     # Calibrated per terrain: the set of `gravel`, recalled on entering it.
@@ -163,17 +180,8 @@ def test_streaming_equals_batch(calibrated):
     pose = read_csv(DRIVE / "pose.csv")
     est = terraslip.Estimator(track_width=1.10, init=init)
     assert est.init_source == batch["summary"]["init"]
-    states, pi = [], 0
-    for w in wheels:
-        t = float(w["t"])
-        # The terrain.csv of this drive: gravel from the start.
-        est.on_terrain("gravel")
-        while pi < len(pose) and float(pose[pi]["t"]) <= t:
-            p = pose[pi]
-            est.on_pose(float(p["t"]), east=float(p["east"]), north=float(p["north"]), yaw=float(p["yaw"]))
-            pi += 1
-        est.on_wheels(t, float(w["v_left"]), float(w["v_right"]))
-        states.append(est.state())
+    # The terrain.csv of this drive: gravel from the start.
+    states = stream(est, wheels, pose, terrain="gravel")
     assert len(states) == len(batch["t"])
     for name in terraslip.COLUMNS:
         got = [s[name] for s in states]
@@ -183,6 +191,29 @@ def test_streaming_equals_batch(calibrated):
         else:
             assert list(got) == list(batch[name]), name
     assert est.terrains == ["gravel"]
+
+
+def test_a_localiser_streams_as_its_log_estimates():
+    # meta.toml's pose_reference and the Estimator's keyword are one decision.
+    wheels = read_csv(DRIVE / "wheels.csv")
+    pose = read_csv(DRIVE / "pose.csv")
+    col = lambda rows, k: np.array([float(r[k]) for r in rows])
+    log = {
+        "wheels": {k: col(wheels, k) for k in ("t", "v_left", "v_right")},
+        "pose": {k: col(pose, k) for k in ("t", "east", "north", "yaw")},
+        "meta": {"track_width": 1.10, "pose_reference": "localiser"},
+    }
+    batch = terraslip.estimate(log)
+    assert batch["summary"]["pose_noise"]["reference"] == "localiser"
+    assert batch["summary"]["pose_noise"]["correlated_std_m"] == 0.0
+    est = terraslip.Estimator(track_width=1.10, pose_reference="localiser")
+    states = stream(est, wheels, pose)
+    east = np.array([s["east"] for s in states])
+    assert np.max(np.abs(as_written(east, DIGITS["east"]) - batch["east"])) <= 1e-12
+    # Unstated, the fixes' error wanders: another estimate.
+    assert np.max(np.abs(terraslip.estimate(DRIVE)["east"] - batch["east"])) > 1e-3
+    with pytest.raises(ValueError, match="pose_reference"):
+        terraslip.Estimator(track_width=1.10, pose_reference="lidar")
 
 
 def test_runs_in_threads_give_the_same_numbers():

@@ -101,9 +101,13 @@ class Estimator:
         init: Union[None, _PathLike, Mapping[str, Any]] = None,
         *,
         preset: Optional[str] = None,
+        pose_reference: Optional[str] = None,
     ) -> "Estimator":
         """``track_width``: distance between the tread centre lines, m.
-        ``config``, ``init`` and ``preset`` as for ``estimate``. With
+        ``config``, ``init`` and ``preset`` as for ``estimate``;
+        ``pose_reference`` as meta.toml's: ``"localiser"`` (a lidar or visual
+        localiser, motion capture: the fixes' error does not wander) or
+        ``"gnss"`` (the default: part of it wanders). With
         ``init``, the filter starts from its pooled set (or its only set);
         per-terrain sets are recalled when ``on_terrain`` names them."""
     def on_wheels(self, t: float, v_left: float, v_right: float) -> None:

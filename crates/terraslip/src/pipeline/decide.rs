@@ -109,12 +109,9 @@ impl Decisions {
     /// parameters and gyro scale held as decided, and no wandering error
     /// in a localiser's fixes.
     pub fn filter_config(&self, cfg: &EstimatorConfig) -> EstimatorConfig {
-        let mut held = cfg.clone();
+        let mut held = for_pose_reference(cfg, self.pose_reference);
         held.filter.hold = self.hold;
         held.filter.hold_gyro_scale = self.hold_gyro_scale;
-        if self.pose_reference == Some(PoseReference::Localiser) {
-            held.measurement.correlated_fraction = 0.0;
-        }
         held
     }
 
@@ -180,6 +177,21 @@ impl Decisions {
             "pose_reference": self.pose_reference.map(PoseReference::name),
         })
     }
+}
+
+/// `cfg` for a pose reference of kind `reference` (meta.toml's
+/// `pose_reference`): a localiser's fixes carry no wandering error
+/// (`measurement.correlated_fraction` 0); a GNSS's, or an unstated one's,
+/// as configured.
+pub fn for_pose_reference(
+    cfg: &EstimatorConfig,
+    reference: Option<PoseReference>,
+) -> EstimatorConfig {
+    let mut out = cfg.clone();
+    if reference == Some(PoseReference::Localiser) {
+        out.measurement.correlated_fraction = 0.0;
+    }
+    out
 }
 
 /// The warnings that depend on the decisions and the set-up: a gyro whose

@@ -84,13 +84,19 @@ impl SimRun {
                 );
             },
         )?;
-        let mut meta = toml::to_string(&self.log.meta).unwrap_or_default();
-        let _ = write!(
-            meta,
-            "\n# simulated by terraslip-sim {}\nscenario = {:?}\nseed = {}\n",
+        // The scenario and seed as top-level keys (written before any
+        // table, such as `[pose]`, that would otherwise take them in).
+        let mut table = toml::Table::try_from(&self.log.meta).unwrap_or_default();
+        table.insert("scenario".into(), self.scenario.name.clone().into());
+        // A seed over i64's range is written as the string of its digits.
+        table.insert(
+            "seed".into(),
+            i64::try_from(self.seed).map_or_else(|_| self.seed.to_string().into(), Into::into),
+        );
+        let meta = format!(
+            "# simulated by terraslip-sim {}\n{}",
             env!("CARGO_PKG_VERSION"),
-            self.scenario.name,
-            self.seed
+            toml::to_string(&table).unwrap_or_default()
         );
         write_atomic(dir.join("meta.toml"), meta.as_bytes())?;
         let scen = toml::to_string(&self.scenario).map_err(|e| SimError::Scenario {

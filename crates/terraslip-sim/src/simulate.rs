@@ -97,10 +97,13 @@ pub(crate) fn log_meta(sc: &Scenario) -> Meta {
         wheel_radius: Some(robot.wheel_radius),
         length: Some(robot.length),
         ticks_per_rev: Some(sc.wheels.ticks_per_rev),
-        pose: (sc.gnss.lever_arm != [0.0; 2]).then_some(terraslip_io::PoseMount {
+        // The receiver's mount and kind are known: stated, as a user with
+        // the robot's drawings states them.
+        pose: (sc.gnss.rate > 0.0).then_some(terraslip_io::PoseMount {
             lever_arm_x: sc.gnss.lever_arm[0],
             lever_arm_y: sc.gnss.lever_arm[1],
         }),
+        pose_reference: (sc.gnss.rate > 0.0).then_some(terraslip_io::PoseReference::Gnss),
         ..Default::default()
     }
 }

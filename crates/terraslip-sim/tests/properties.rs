@@ -385,6 +385,25 @@ fn a_sensor_draw_keeps_the_drive_and_redraws_the_noise() {
 }
 
 #[test]
+fn the_antenna_s_mount_and_the_run_s_seed_are_read_back_from_meta_toml() {
+    let mut s = Scenario::builtin("papers").unwrap();
+    s.segments.truncate(1);
+    s.segments[0].duration = 5.0;
+    s.gnss.lever_arm = [0.3, -0.1];
+    let d = tempfile::tempdir().unwrap();
+    simulate(&s, 4).unwrap().write(d.path()).unwrap();
+    let meta = terraslip_io::read_meta(&d.path().join("meta.toml")).unwrap();
+    let pose = meta.pose.expect("[pose]");
+    assert_eq!((pose.lever_arm_x, pose.lever_arm_y), (0.3, -0.1));
+    let table: toml::Table = std::fs::read_to_string(d.path().join("meta.toml"))
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert_eq!(table["seed"].as_integer(), Some(4));
+    assert_eq!(table["scenario"].as_str(), Some("papers"));
+}
+
+#[test]
 fn written_logs_are_identical_and_readable() {
     let mut s = Scenario::builtin("papers").unwrap();
     s.segments.truncate(1);
@@ -415,6 +434,10 @@ fn written_logs_are_identical_and_readable() {
     assert_eq!(log.truth.len(), run.truth.len());
     assert_eq!(log.images.len(), 5);
     assert_eq!(log.meta.ticks_per_rev, Some(540.0));
+    assert_eq!(
+        log.meta.pose_reference,
+        Some(terraslip_io::PoseReference::Gnss)
+    );
     assert!(log.warnings.is_empty(), "{:?}", log.warnings);
     let img = image::open(log.image_path(&log.images[2])).unwrap();
     assert_eq!((img.width(), img.height()), (64, 48));

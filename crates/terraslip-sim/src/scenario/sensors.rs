@@ -67,7 +67,8 @@ pub struct Gnss {
     pub outages: Vec<Window>,
     /// Where the antenna sits on the robot, `[x, y]` m, body frame
     /// (REP-103: forward, left of the wheel axle's centre): its fixes are
-    /// of that point. Recorded in meta.toml's `[pose]` when not zero.
+    /// of that point. Recorded in meta.toml's `[pose]` (with
+    /// `pose_reference = "gnss"`) when the receiver is on.
     pub lever_arm: [f64; 2],
 }
 

@@ -140,28 +140,33 @@ impl BandCounts {
         }
     }
 
-    /// Warnings for slip parameters that sat on an edge of the physical
-    /// band for more than 5 % of the `rows` rows (a learned parameter at a
-    /// clamp is a model or data problem the user must hear about).
+    /// The warning (one, or none) for slip parameters that sat on an edge
+    /// of the physical band for more than 5 % of the `rows` rows (a learned
+    /// parameter at a clamp is a model or data problem the user must hear
+    /// about), naming each such edge and its share.
     pub fn warnings(&self, rows: usize) -> Vec<String> {
         if rows == 0 {
             return Vec::new();
         }
         let n = rows as f64;
-        EDGES
+        let edges: Vec<String> = EDGES
             .iter()
             .zip(self.at)
-            .filter_map(|(what, count)| {
-                let frac = count as f64 / n;
-                (frac > 0.05).then(|| {
-                    format!(
-                        "{what} for {:.0} % of the run: the data pull the model beyond what is physical \
-                         (clock offset, wrong track width in meta.toml, or a model that does not fit)",
-                        100.0 * frac
-                    )
-                })
+            .filter(|&(_, count)| count as f64 / n > 0.05)
+            .enumerate()
+            .map(|(k, (what, count))| {
+                let of = if k == 0 { " of the run" } else { "" };
+                format!("{what} for {:.0} %{of}", 100.0 * count as f64 / n)
             })
-            .collect()
+            .collect();
+        if edges.is_empty() {
+            return Vec::new();
+        }
+        vec![format!(
+            "{}: the data pull the model beyond what is physical \
+             (clock offset, wrong track width in meta.toml, or a model that does not fit)",
+            edges.join(", ")
+        )]
     }
 }
 
@@ -185,4 +190,25 @@ pub(super) fn off_axle_hint(
             band.max_x_c
         )
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_edges_a_run_sat_on_are_one_warning() {
+        let counts = BandCounts {
+            at: [0, 0, 3, 0, 31, 10],
+        };
+        let w = counts.warnings(100);
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(
+            w[0].starts_with(
+                "x_c at its limit for 31 % of the run, the ICR centre at its limit for 10 %: "
+            ),
+            "{w:?}"
+        );
+        assert!(BandCounts::default().warnings(100).is_empty());
+    }
 }

@@ -398,7 +398,8 @@ fn report_draws_an_estimate() {
         html.contains("2 s prediction error against the pose reference (summary.json's prediction"),
         "{html}"
     );
-    for svg in ["track.svg", "slip.svg", "prediction.svg"] {
+    assert!(html.contains("Dead reckoning through a pose outage (summary.json"));
+    for svg in ["track.svg", "slip.svg", "prediction.svg", "outage.svg"] {
         let text = fs::read_to_string(out.join(svg)).unwrap();
         assert!(text.contains("<svg") && text.contains("polyline"), "{svg}");
     }

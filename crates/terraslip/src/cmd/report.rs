@@ -13,8 +13,9 @@ use terraslip::bag::Topics;
 /// prediction error is summary.json's, start by start), reads the log or
 /// bag named in summary.json (or --log; a bag with the topics the estimate
 /// used, unless --topics is given) for the pose reference (truth.csv, when
-/// the log is simulated), and writes report.html with track.svg, slip.svg
-/// and prediction.svg into --out (default EST_DIR).
+/// the log is simulated), and writes report.html with track.svg, slip.svg,
+/// prediction.svg and outage.svg (the dead reckoning through pose outages,
+/// summary.json's outage) into --out (default EST_DIR).
 ///
 /// Examples:
 ///   terraslip estimate data/warthog_gravel --out est
@@ -36,7 +37,13 @@ pub struct Args {
 }
 
 /// The files `report` writes into its output directory.
-const OUTPUTS: [&str; 4] = ["report.html", "track.svg", "slip.svg", "prediction.svg"];
+const OUTPUTS: [&str; 5] = [
+    "report.html",
+    "track.svg",
+    "slip.svg",
+    "prediction.svg",
+    "outage.svg",
+];
 
 pub fn run(a: Args) -> Result<()> {
     let csv = a.estimate.join("estimate.csv");

@@ -1,7 +1,10 @@
 //! What `terraslip report EST_DIR` draws from an estimate and its log: the
 //! track against the pose reference, the ICRs and speed factors with 2σ
-//! bands and the terrain, and the 2 s prediction error over time (the
-//! segments `estimate` scored for `summary.json`'s `prediction`).
+//! bands and the terrain, the 2 s prediction error over time (the
+//! segments `estimate` scored for `summary.json`'s `prediction`), and the
+//! dead reckoning through pose outages (`summary.json`'s `outage`).
+
+mod outage;
 
 use std::path::{Path, PathBuf};
 
@@ -74,7 +77,7 @@ pub fn prediction_score(segments: &[PredictionRecord]) -> Option<PredictionScore
 /// `prediction.csv`; `None` when the estimate directory has none) and
 /// `summary` (its `summary.json`: the final ICRs, what was learned, the
 /// whole drive's recommendation, the warnings) into `out`: `report.html`
-/// and up to three SVG plots.
+/// and up to four SVG plots.
 pub fn write(
     rows: &[EstimateRecord],
     log: Option<&DriveLog>,
@@ -136,7 +139,7 @@ pub fn write(
     }
     let path = out.join("track.svg");
     track.write_svg(&path)?;
-    plots.push(path);
+    plots.push((path, track_caption));
 
     // The slip parameters with 2σ bands and the terrain.
     let band = |f: &dyn Fn(&EstimateRecord) -> (f64, f64)| -> Vec<(f64, f64, f64)> {
@@ -168,7 +171,10 @@ pub fn write(
     }
     let path = out.join("slip.svg");
     Figure::new(vec![spread, factors]).write_svg(&path)?;
-    plots.push(path);
+    plots.push((
+        path,
+        "ICRs in effect and speed factors, with 2σ bands; vertical lines: terrain changes".into(),
+    ));
 
     // The 2 s prediction error over time: the segments behind
     // summary.json's `prediction`, as `estimate` scored them.
@@ -198,7 +204,10 @@ pub fn write(
             }
             let path = out.join("prediction.svg");
             plot.write_svg(&path)?;
-            plots.push(path);
+            plots.push((
+                path,
+                "2 s prediction error per start: learned ICRs against the no-slip model".into(),
+            ));
             format!(
                 "2 s prediction error against the pose reference (summary.json's prediction: each start predicted with the model the estimator had then, the pose read with the clock offset it had learned) over {} segments: mean {:.3} m, p90 {:.3} m with the learned ICRs; mean {:.3} m, p90 {:.3} m with the no-slip model.",
                 p.segments.len(),
@@ -225,22 +234,24 @@ pub fn write(
         sections.extend(warnings.into_iter().map(Section::Paragraph));
     }
     sections.push(Section::Paragraph(prediction_text));
-    for (p, caption) in plots.iter().zip([
-        track_caption.as_str(),
-        "ICRs in effect and speed factors, with 2σ bands; vertical lines: terrain changes",
-        "2 s prediction error per start: learned ICRs against the no-slip model",
-    ]) {
+    let outage = outage::section(summary.and_then(|s| s.get("outage")), out)?;
+    sections.extend(outage.text);
+    plots.extend(outage.plot);
+    for (p, caption) in &plots {
         sections.push(Section::Image {
             src: p
                 .file_name()
                 .map_or(String::new(), |n| n.to_string_lossy().into()),
-            caption: caption.into(),
+            caption: caption.clone(),
         });
     }
     let page = out.join("report.html");
     let html = terraslip_report::html_page(title, &sections);
     terraslip_io::write_atomic(&page, html.as_bytes())?;
-    Ok(Written { page, plots })
+    Ok(Written {
+        page,
+        plots: plots.into_iter().map(|(p, _)| p).collect(),
+    })
 }
 
 /// Whether `summary.json` says every slip parameter was held.

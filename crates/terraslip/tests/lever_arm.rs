@@ -397,10 +397,24 @@ mod recorded {
         assert_eq!(m.meta.pose_reference, localiser);
         assert_eq!(m.summary["pose_noise"]["reference"], "localiser");
         assert_eq!(m.summary["pose_noise"]["correlated_std_m"], 0.0);
-        // Unstated: a GNSS-like wander is carried.
+        assert!(
+            m.said
+                .contains("is a localiser, as the topics file's [meta] states"),
+            "{}",
+            m.said
+        );
+        // Unstated, a NavSatFix is a GNSS receiver: its wander is carried.
         let m = run(true, None);
-        assert_eq!(m.meta.pose_reference, None);
-        assert!(m.summary["pose_noise"]["reference"].is_null());
+        assert_eq!(
+            m.meta.pose_reference,
+            Some(terraslip_io::PoseReference::Gnss)
+        );
+        assert_eq!(m.summary["pose_noise"]["reference"], "gnss");
+        assert!(
+            m.said.contains("is a GNSS receiver (a NavSatFix)"),
+            "{}",
+            m.said
+        );
         let wander = m.summary["pose_noise"]["correlated_std_m"]
             .as_f64()
             .unwrap();

@@ -217,6 +217,15 @@ fn a_jackal_with_a_filtered_odometry_beside_the_controllers() {
         "{}",
         r.said
     );
+    // An Odometry as the pose reference: its kind is not told by its type,
+    // and the line says how to state it.
+    assert!(
+        r.said.contains("of a kind not stated")
+            && r.said.contains("[meta] pose_reference = \"localiser\""),
+        "{}",
+        r.said
+    );
+    assert!(r.summary["pose_noise"]["reference"].is_null());
 }
 
 /// A two-wheel base whose driver's `/odom` sits beside another node's

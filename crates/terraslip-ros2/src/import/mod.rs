@@ -24,6 +24,7 @@ pub mod mount;
 mod no_wheels;
 mod odom_scale;
 mod prior;
+mod reference;
 mod report;
 pub mod revisit;
 mod role;
@@ -339,6 +340,7 @@ pub fn import_bag(
         &mut log.meta,
         &mut report,
     );
+    reference::apply(&bag, chosen.pose, &mut log.meta, &mut report);
     let heading_kept = match heading {
         Some(h) if cfg.heading.topic.is_none() => {
             course::check_heading(&mut log.pose, &bag.topics[h].name, &mut report)

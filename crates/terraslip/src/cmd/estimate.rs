@@ -243,6 +243,10 @@ pub fn run(args: Args) -> Result<()> {
         super::ros2out::write_mcap(p, log_dir, &log, &est)?;
     }
 
+    // What the run decided before its first row, as the node says it.
+    for line in est.decided.lines() {
+        eprintln!("{}: decided: {line}", log_dir.display());
+    }
     for w in log.warnings.iter().chain(&est.warnings) {
         eprintln!("warning: {w}");
     }

@@ -39,6 +39,10 @@ pub fn summary_json(log: &DriveLog, est: &EstimateRun, cfg: &EstimatorConfig) ->
         "controller": controller_json(&log.meta, &icr, est.drive.as_ref(), &learning),
         "variant": cfg.filter.variant,
         "init": est.init_source,
+        // What the run decided before its first row (the gyro and its
+        // delay, the slip parameters held, the pose reference's kind), as
+        // the node's parameters file keeps it.
+        "decided": est.decided.to_json(),
         "clock_offset_s": {"value": est.clock_offset.0, "std": est.clock_offset.1},
         // Where the pose reference sits on the robot (body frame, m), apart
         // from x_c: "stated" (meta.toml's [pose]) or "config".

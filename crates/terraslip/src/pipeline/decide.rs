@@ -153,11 +153,15 @@ impl Decisions {
         } else {
             "the gyro's scale learned against the positions and headings"
         };
-        let mut out = vec![gyro, hold.to_string(), scale.to_string()];
-        out.extend(self.pose_reference.map(|r| match r {
-            PoseReference::Localiser => "the pose reference is a localiser (stated): its fixes' error taken as white, with no slowly wandering part".to_string(),
-            PoseReference::Gnss => "the pose reference is a GNSS receiver (stated): part of its fixes' error wanders (measurement.correlated_fraction)".to_string(),
-        }));
+        let mut out = vec![gyro, hold.to_string()];
+        if self.fuse_gyro {
+            out.push(scale.to_string());
+        }
+        // A GNSS receiver's is the default, said by `import` where a bag's
+        // message type tells it.
+        if self.pose_reference == Some(PoseReference::Localiser) {
+            out.push("the pose reference is a localiser (pose_reference in meta.toml or a topics file's [meta]): its fixes' error taken as white, with no slowly wandering part".into());
+        }
         out
     }
 
@@ -236,5 +240,35 @@ fn hold_warning(dir: &str, hold: SlipHold, has_pose: bool, start: &str) -> Optio
         SlipHold::All => Some(format!(
             "{dir}: {what} and no yaw-rate gyro: nothing measures the motion, so every slip parameter stays at its starting value ({start}) and none is learned"
         )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn decided(gyro: bool, pose_reference: Option<PoseReference>) -> Decisions {
+        let seen = Seen {
+            gyro_clock: GyroClock::Unknown,
+            positions: true,
+            headings: true,
+            gyro,
+            pose_reference,
+        };
+        Decisions::new("log", &EstimatorConfig::default(), seen).0
+    }
+
+    #[test]
+    fn the_lines_speak_of_a_gyro_only_when_one_is_fused_and_of_a_stated_localiser() {
+        let scale = |d: &Decisions| d.lines().iter().any(|l| l.contains("gyro's scale"));
+        assert!(scale(&decided(true, None)));
+        assert!(!scale(&decided(false, None)));
+        assert_eq!(decided(false, None).lines()[0], "no gyro fused");
+        let localiser = decided(false, Some(PoseReference::Localiser)).lines();
+        assert!(
+            localiser.last().unwrap().contains("is a localiser"),
+            "{localiser:?}"
+        );
+        assert_eq!(decided(false, Some(PoseReference::Gnss)).lines().len(), 2);
     }
 }

@@ -109,6 +109,9 @@ pub struct EstimateRun {
     pub gyro: terraslip_core::filter::GyroNoise,
     /// How late the wheels are stamped against the gyro, s.
     pub gyro_delay: f64,
+    /// What the run decided before its first row (the gyro, the holds,
+    /// the pose reference's kind): `decided:` lines, as the node gives them.
+    pub decided: super::decide::Decisions,
     /// The measurement noise in the end.
     pub noise: NoiseUsed,
     /// Counters.

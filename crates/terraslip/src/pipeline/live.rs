@@ -316,7 +316,7 @@ impl<'a> Live<'a> {
                 track_width: s.track_width,
                 init_source: s.init_source,
                 warnings,
-                gyro_delay,
+                decided: *decided,
             },
             fuse_gyro: decided.fuse_gyro,
         })

@@ -180,7 +180,7 @@ pub fn run_streams(
             track_width,
             init_source,
             warnings,
-            gyro_delay: delay,
+            decided,
         },
     ))
 }
@@ -196,7 +196,7 @@ pub(super) struct RunInfo {
     pub(super) track_width: f64,
     pub(super) init_source: String,
     pub(super) warnings: Vec<String>,
-    pub(super) gyro_delay: f64,
+    pub(super) decided: decide::Decisions,
 }
 
 /// The run's result: the learned noise, the warnings the whole run
@@ -242,7 +242,7 @@ pub(super) fn finish(
         track_width,
         init_source,
         mut warnings,
-        gyro_delay,
+        decided,
     } = setup;
     let dir = log.dir.display().to_string();
     let f = estimator.filter();
@@ -303,7 +303,8 @@ pub(super) fn finish(
         clock_offset: f.clock_offset(),
         lever_arm: LeverArm::of(f, log.meta.pose.is_some()),
         gyro: f.gyro_noise(),
-        gyro_delay,
+        gyro_delay: decided.gyro_delay,
+        decided,
         noise: NoiseUsed {
             std_xy,
             std_yaw,

@@ -131,6 +131,21 @@ pub enum PoseReference {
     Localiser,
 }
 
+impl std::str::FromStr for PoseReference {
+    type Err = String;
+
+    /// `gnss`, `localiser` (or `localizer`), as meta.toml writes them.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "gnss" => Ok(Self::Gnss),
+            "localiser" | "localizer" => Ok(Self::Localiser),
+            _ => Err(format!(
+                "`{s}` is not a kind of pose reference: `gnss` (a satellite receiver) or `localiser` (lidar or visual localisation, motion capture, tags)"
+            )),
+        }
+    }
+}
+
 impl PoseReference {
     /// The name meta.toml gives it.
     pub fn name(self) -> &'static str {

@@ -45,7 +45,7 @@ impl Estimator {
                 )));
             }
             let reference = pose_reference
-                .map(|r| serde_json::from_value(serde_json::json!(r)))
+                .map(str::parse::<terraslip_io::PoseReference>)
                 .transpose()
                 .map_err(|e| PyValueError::new_err(format!("pose_reference: {e}")))?;
             let cfg = terraslip::pipeline::decide::for_pose_reference(

@@ -206,9 +206,10 @@ pub fn run(mut args: Args, ros_args: &[String]) -> Result<()> {
 
     let (name_ref, cfg_ref) = (label.as_str(), &cfg);
     let (lag, span, gyro_delay) = (args.lag, args.warmup, args.gyro_delay);
-    // What the topics file's `[meta]` states the pose reference is, as
-    // `import` writes it into a log's meta.toml.
-    let pose_reference = topics_cfg.meta.pose_reference;
+    // What the pose reference is: the flag (or `-p pose_reference:=`),
+    // else the topics file's `[meta]`, as `import` writes it into a log's
+    // meta.toml.
+    let pose_reference = args.pose_reference.or(topics_cfg.meta.pose_reference);
     let warm_up = move |track_width: f64, start: Option<ParamsFile>| {
         let mut w = WarmUp::new(
             name_ref,

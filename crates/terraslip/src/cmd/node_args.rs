@@ -64,6 +64,12 @@ pub struct Args {
     /// `estimate` reports it as `gyro.wheels_late_by_s`).
     #[arg(long, value_name = "S")]
     pub gyro_delay: Option<f64>,
+    /// What the pose reference is: `gnss` (part of its error wanders
+    /// slowly) or `localiser` (lidar or visual localisation, motion
+    /// capture: no wandering error); else the topics file's `[meta]
+    /// pose_reference`, else taken to wander as a GNSS's does.
+    #[arg(long, value_name = "KIND")]
+    pub pose_reference: Option<terraslip_io::PoseReference>,
     /// Do not publish odom -> base_link on /tf (when another node does).
     #[arg(long)]
     pub no_tf: bool,
@@ -95,8 +101,8 @@ ROS 2 conventions: --ros-args after the node's own flags takes -r from:=to
 (remaps of the topics named in --topics, a remap matching none of them is
 warned of; and __node:=, __ns:=), -p name:=value
 and --params-file FILE.yaml (`ros__parameters` of /** or of the node). The
-parameters lag, save_every, track_width, gyro_delay, odom_frame, base_frame,
-publish_tf (bool) and those of --compensate (compensate, max_speed,
+parameters lag, save_every, track_width, gyro_delay, pose_reference,
+odom_frame, base_frame, publish_tf (bool) and those of --compensate (compensate, max_speed,
 wheel_separation, ...) set the flags of the same name; any other is a key of
 the TOML configuration (`filter.still_speed` is [filter] still_speed).
 The node's own parameters are also served to `ros2 param list/get/set`:
@@ -119,11 +125,12 @@ docs/user-guide.md \"Live on the robot\" has a launch file, a systemd unit and
 the Foxglove view.";
 
 /// Parameters of the node itself (the rest are configuration keys).
-pub const NODE_PARAMS: [&str; 7] = [
+pub const NODE_PARAMS: [&str; 8] = [
     "lag",
     "save_every",
     "track_width",
     "gyro_delay",
+    "pose_reference",
     "publish_tf",
     "odom_frame",
     "base_frame",
@@ -143,6 +150,15 @@ pub fn apply_node_params(args: &mut Args, table: &mut toml::Table) -> Result<()>
             "save_every" => args.save_every = num()?,
             "track_width" => args.track_width = Some(num()?),
             "gyro_delay" => args.gyro_delay = Some(num()?),
+            "pose_reference" => {
+                let kind = v.as_str().with_context(|| {
+                    format!("--ros-args parameter pose_reference = {v}: expected gnss or localiser")
+                })?;
+                args.pose_reference =
+                    Some(kind.parse().map_err(|e| {
+                        anyhow::anyhow!("--ros-args parameter pose_reference: {e}")
+                    })?);
+            }
             "odom_frame" | "base_frame" => {
                 let frame = v
                     .as_str()

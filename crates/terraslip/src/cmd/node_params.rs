@@ -77,7 +77,7 @@ fn names() -> impl Iterator<Item = &'static str> {
 fn kind(name: &str) -> Option<Kind> {
     Some(match name {
         "publish_tf" | "compensate" | "cmd_in_stamped" | "cmd_out_stamped" => Kind::Bool,
-        "odom_frame" | "base_frame" => Kind::String,
+        "odom_frame" | "base_frame" | "pose_reference" => Kind::String,
         "thread_priority" => Kind::Integer,
         n if names().any(|p| p == n) => Kind::Double,
         _ => return None,
@@ -94,6 +94,7 @@ pub fn value(args: &Args, name: &str) -> Option<toml::Value> {
         "save_every" => Float(args.save_every),
         "track_width" => Float(args.track_width?),
         "gyro_delay" => Float(args.gyro_delay?),
+        "pose_reference" => String(args.pose_reference?.name().into()),
         "publish_tf" => Boolean(!args.no_tf),
         "odom_frame" => String(args.odom_frame.clone()),
         "base_frame" => String(args.base_frame.clone()),
@@ -168,7 +169,7 @@ fn made_from(name: &str) -> &'static str {
     match name {
         "lag" => "the warm-up window and the reorder buffer are sized from it",
         "track_width" => "the model starts from it",
-        "gyro_delay" => "the warm-up decides from it",
+        "gyro_delay" | "pose_reference" => "the warm-up decides from it",
         _ => "the command path is made from it",
     }
 }
@@ -333,6 +334,25 @@ mod tests {
         // The value in use is no change, live or not.
         check(&a, "lag", Some(&Float(0.5))).unwrap();
         check(&a, "max_speed", None).unwrap();
+    }
+
+    #[test]
+    fn the_pose_reference_is_a_string_read_at_start() {
+        let mut a = args();
+        assert_eq!(value(&a, "pose_reference"), None);
+        set(&mut a, "pose_reference", &String("localizer".into())).unwrap();
+        assert_eq!(
+            a.pose_reference,
+            Some(terraslip_io::PoseReference::Localiser)
+        );
+        assert_eq!(
+            value(&a, "pose_reference"),
+            Some(String("localiser".into()))
+        );
+        let e = set(&mut a, "pose_reference", &String("lidar".into())).unwrap_err();
+        assert!(format!("{e:#}").contains("`lidar` is not a kind"), "{e:#}");
+        let e = check(&a, "pose_reference", Some(&String("gnss".into()))).unwrap_err();
+        assert!(e.contains("start only") && e.contains("warm-up"), "{e}");
     }
 
     #[test]

@@ -5,9 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use terraslip_report::{LegendPosition, LinePlot, Section, Series, SeriesStyle};
-
-use super::ReportError;
+use terraslip_report::{LegendPosition, LinePlot, ReportError, Section, Series, SeriesStyle};
 
 /// The models as `summary.json` names them, in the order shown, with the
 /// label shown, the plot's colour and whether its line is dashed.

@@ -23,7 +23,7 @@ mod progress;
   terraslip simulate papers-rtk --out out/log --no-camera   # the papers' drive with an RTK-grade reference and ground truth
   terraslip calibrate out/log --out out/params.json   # ICR parameters per terrain (needs a precise pose reference)
   terraslip estimate out/log --out out/est --init out/params.json --terrain-labels
-  terraslip report out/est                            # out/est/report.html: track, ICRs, prediction error
+  terraslip report out/est                            # out/est/report.html: track, ICRs, prediction error, outages
 Each command's --help has more examples; docs/ has the method and the figures."
 )]
 pub(crate) struct Cli {
@@ -47,7 +47,7 @@ enum Command {
     Simulate(cmd::simulate::Args),
     /// Run the online ICR estimator over a drive log.
     Estimate(cmd::estimate::Args),
-    /// Draw an estimate: track, ICRs with 2σ bands, prediction error (report.html).
+    /// Draw an estimate: track, ICRs with 2σ bands, prediction error, dead reckoning through outages (report.html).
     Report(cmd::report::Args),
     /// Train and evaluate terrain classifiers.
     Terrain(cmd::terrain::Args),

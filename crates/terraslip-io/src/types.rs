@@ -119,16 +119,29 @@ pub struct Meta {
 /// What kind of source the pose reference is: whether its error wanders
 /// slowly (a GNSS receiver's multipath and atmosphere, over tens of
 /// seconds) or is white from fix to fix (a localiser matching each scan
-/// against a map). `meta.toml`'s `pose_reference`.
+/// against a map). `meta.toml`'s `pose_reference`, read and written by
+/// its name ([`PoseReference::name`], [`str::parse`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
+#[serde(try_from = "String", into = "&'static str")]
 pub enum PoseReference {
     /// A satellite receiver, RTK included: part of its error wanders.
     Gnss,
     /// A lidar or visual localisation against a map, motion capture, ceiling
     /// tags: an error that does not wander. `localizer` is read as well.
-    #[serde(alias = "localizer")]
     Localiser,
+}
+
+impl TryFrom<String> for PoseReference {
+    type Error = String;
+    fn try_from(s: String) -> Result<Self, String> {
+        s.parse()
+    }
+}
+
+impl From<PoseReference> for &'static str {
+    fn from(r: PoseReference) -> Self {
+        r.name()
+    }
 }
 
 impl std::str::FromStr for PoseReference {
@@ -152,6 +165,22 @@ impl PoseReference {
         match self {
             Self::Gnss => "gnss",
             Self::Localiser => "localiser",
+        }
+    }
+
+    /// What it is, in words.
+    pub fn noun(self) -> &'static str {
+        match self {
+            Self::Gnss => "GNSS receiver",
+            Self::Localiser => "localiser",
+        }
+    }
+
+    /// How a run takes its fixes' error.
+    pub fn error_taken(self) -> &'static str {
+        match self {
+            Self::Gnss => "part of its error is taken to wander slowly",
+            Self::Localiser => "its error is taken as white, with no slowly wandering part",
         }
     }
 }

@@ -20,18 +20,21 @@ pub(super) fn apply(bag: &Bag, pose: Option<usize>, meta: &mut Meta, report: &mu
     let Some(pose) = pose else { return };
     let topic = &bag.topics[pose];
     let line = match meta.pose_reference {
-        Some(r) => {
-            let (what, so) = kind(r);
-            format!(
-                "pose reference {} is a {what}, as the topics file's [meta] states: {so}",
-                topic.name
-            )
-        }
+        Some(r) => format!(
+            "pose reference {} is a {}, as the topics file's [meta] states: {}",
+            topic.name,
+            r.noun(),
+            r.error_taken()
+        ),
         None if short_type(&topic.ty) == "sensor_msgs/NavSatFix" => {
-            meta.pose_reference = Some(PoseReference::Gnss);
+            let gnss = PoseReference::Gnss;
+            meta.pose_reference = Some(gnss);
             format!(
-                "pose reference {} is a GNSS receiver (a NavSatFix): part of its error is taken to wander slowly; written to meta.toml as pose_reference = \"gnss\"",
-                topic.name
+                "pose reference {} is a {} (a NavSatFix): {}; written to meta.toml as pose_reference = \"{}\"",
+                topic.name,
+                gnss.noun(),
+                gnss.error_taken(),
+                gnss.name()
             )
         }
         None => format!(
@@ -41,18 +44,4 @@ pub(super) fn apply(bag: &Bag, pose: Option<usize>, meta: &mut Meta, report: &mu
         ),
     };
     report.decisions.push(line);
-}
-
-/// What a kind is, and what the run takes its error as.
-fn kind(r: PoseReference) -> (&'static str, &'static str) {
-    match r {
-        PoseReference::Gnss => (
-            "GNSS receiver",
-            "part of its error is taken to wander slowly",
-        ),
-        PoseReference::Localiser => (
-            "localiser",
-            "its error is taken as white, with no slowly wandering part",
-        ),
-    }
 }

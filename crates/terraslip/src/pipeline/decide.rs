@@ -159,8 +159,12 @@ impl Decisions {
         }
         // A GNSS receiver's is the default, said by `import` where a bag's
         // message type tells it.
-        if self.pose_reference == Some(PoseReference::Localiser) {
-            out.push("the pose reference is a localiser (pose_reference in meta.toml or a topics file's [meta]): its fixes' error taken as white, with no slowly wandering part".into());
+        if let Some(r @ PoseReference::Localiser) = self.pose_reference {
+            out.push(format!(
+                "the pose reference is a {} (pose_reference in meta.toml or a topics file's [meta]): {}",
+                r.noun(),
+                r.error_taken()
+            ));
         }
         out
     }
